@@ -1,0 +1,621 @@
+// FitsFile implementation: every CFITSIO call goes through here, and every non-zero CFITSIO status
+// becomes a FitsError naming the file and HDU (see fits_file.hpp).
+#include "io/fits_file.hpp"
+
+#include <fitsio.h>
+
+#include <algorithm>
+#include <cctype>
+#include <climits>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <string_view>
+#include <utility>
+
+namespace stampede::io {
+namespace {
+
+fitsfile* as_fits(void* p) { return static_cast<fitsfile*>(p); }
+
+// CFITSIO's short text for `status`. Also empties CFITSIO's global error-message stack, which
+// would otherwise keep growing (and leak stale messages into later reports).
+std::string status_text(int status) {
+  char text[FLEN_STATUS] = {};
+  fits_get_errstatus(status, text);
+  fits_clear_errmsg();
+  return std::string(text) + " (CFITSIO status " + std::to_string(status) + ")";
+}
+
+// The file part of a CFITSIO path ("a.fits[CASES]" -> "a.fits", "!a.fits" -> "a.fits"), so error
+// messages name the file as it is on disk. Falls back to the path itself.
+std::string root_name(const std::string& path) {
+  if (path.empty() || path.size() >= FLEN_FILENAME) return path;  // ffrtnm's buffers are fixed
+  std::string url = path;  // ffrtnm takes a non-const char*
+  char root[FLEN_FILENAME] = {};
+  int status = 0;
+  fits_parse_rootname(url.data(), root, &status);
+  if (status != 0 || root[0] == '\0') {
+    fits_clear_errmsg();
+    return path;
+  }
+  return root;
+}
+
+bool iequals(std::string_view a, std::string_view b) {
+  return std::ranges::equal(a, b, [](unsigned char x, unsigned char y) {
+    return std::toupper(x) == std::toupper(y);
+  });
+}
+
+// Moves back to 1-based HDU `hdunum` after a failed move, so a caught FitsError leaves the file
+// where it was; CFITSIO may have stopped part-way.
+void restore_hdu(fitsfile* f, int hdunum) {
+  int status = 0;
+  fits_movabs_hdu(f, hdunum, nullptr, &status);
+  if (status != 0) fits_clear_errmsg();
+}
+
+bool is_numeric_column_type(int type) {
+  switch (type) {
+    case TBYTE: case TSBYTE: case TSHORT: case TUSHORT: case TINT: case TUINT:
+    case TLONG: case TULONG: case TLONGLONG: case TULONGLONG: case TFLOAT: case TDOUBLE:
+      return true;
+    default:
+      return false;  // strings, logicals, bits, complex
+  }
+}
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+}  // namespace
+
+// --- lifetime -------------------------------------------------------------------------------------
+
+FitsFile::FitsFile(void* fptr, std::string path, bool auto_image)
+    : fptr_(fptr), path_(std::move(path)), root_(root_name(path_)), auto_image_(auto_image) {}
+
+FitsFile FitsFile::open_read(const std::string& path) {
+  fitsfile* f = nullptr;
+  int status = 0;
+  fits_open_file(&f, path.c_str(), READONLY, &status);
+  if (status != 0) {
+    // CFITSIO frees the half-opened file itself on failure.
+    throw FitsError("cannot open FITS file '" + path + "': " + status_text(status));
+  }
+  return FitsFile(f, path, /*auto_image=*/true);
+}
+
+FitsFile FitsFile::create(const std::string& path, bool overwrite) {
+  // CFITSIO's "!" prefix means "replace an existing file".
+  const std::string name = (overwrite && !path.starts_with('!')) ? "!" + path : path;
+  fitsfile* f = nullptr;
+  int status = 0;
+  fits_create_file(&f, name.c_str(), &status);
+  if (status != 0) {
+    std::string msg = "cannot create FITS file '" + path + "': " + status_text(status);
+    std::error_code ec;
+    if (!overwrite && std::filesystem::exists(root_name(path), ec)) {
+      msg += " (the file exists and overwrite is false)";
+    }
+    throw FitsError(msg);
+  }
+  return FitsFile(f, path, /*auto_image=*/false);
+}
+
+FitsFile::FitsFile(FitsFile&& other) noexcept
+    : fptr_(std::exchange(other.fptr_, nullptr)),
+      path_(std::move(other.path_)),
+      root_(std::move(other.root_)),
+      auto_image_(other.auto_image_) {}
+
+FitsFile& FitsFile::operator=(FitsFile&& other) noexcept {
+  if (this != &other) {
+    close_noexcept();
+    fptr_ = std::exchange(other.fptr_, nullptr);
+    path_ = std::move(other.path_);
+    root_ = std::move(other.root_);
+    auto_image_ = other.auto_image_;
+  }
+  return *this;
+}
+
+FitsFile::~FitsFile() { close_noexcept(); }
+
+void FitsFile::close_noexcept() noexcept {
+  if (fptr_ == nullptr) return;
+  int status = 0;
+  fits_close_file(as_fits(std::exchange(fptr_, nullptr)), &status);  // frees even on error
+  if (status != 0) fits_clear_errmsg();
+}
+
+void FitsFile::close() {
+  if (fptr_ == nullptr) return;
+  int status = 0;
+  fits_close_file(as_fits(std::exchange(fptr_, nullptr)), &status);
+  if (status != 0) {
+    throw FitsError("cannot close FITS file '" + path_ + "': " + status_text(status));
+  }
+}
+
+const std::string& FitsFile::path() const { return path_; }
+
+void* FitsFile::handle() {
+  if (fptr_ == nullptr) {
+    throw FitsError(path_.empty() ? std::string("FitsFile was moved from or closed")
+                                  : "FITS file '" + path_ + "' is closed");
+  }
+  return fptr_;
+}
+
+// --- error reporting ------------------------------------------------------------------------------
+
+std::string FitsFile::describe() {
+  if (fptr_ == nullptr) return root_ + "[closed]";
+  fitsfile* f = as_fits(fptr_);
+  int hdunum = 1;
+  fits_get_hdu_num(f, &hdunum);
+  std::string out = root_ + "[HDU " + std::to_string(hdunum - 1);
+  char extname[FLEN_VALUE] = {};
+  int status = 0;
+  fits_read_key(f, TSTRING, "EXTNAME", extname, nullptr, &status);
+  if (status == 0 && extname[0] != '\0') {
+    out += " '" + std::string(extname) + "'";
+  } else if (status != 0) {
+    fits_clear_errmsg();  // no EXTNAME is normal (e.g. the primary HDU)
+  }
+  return out + "]";
+}
+
+void FitsFile::fail(const std::string& what) { throw FitsError(describe() + ": " + what); }
+
+void FitsFile::fail_status(int status, const std::string& what) {
+  const std::string text = status_text(status);  // before describe(), which touches CFITSIO again
+  fail(what + ": " + text);
+}
+
+// --- HDU navigation -------------------------------------------------------------------------------
+
+int FitsFile::hdu_count() {
+  int n = 0;
+  int status = 0;
+  fits_get_num_hdus(as_fits(handle()), &n, &status);
+  if (status != 0) fail_status(status, "cannot count HDUs");
+  return n;
+}
+
+void FitsFile::move_to(int hdu_index) {
+  fitsfile* f = as_fits(handle());
+  if (hdu_index < 0 || hdu_index == INT_MAX) {
+    fail("no HDU " + std::to_string(hdu_index) + " (HDU indices start at 0)");
+  }
+  int before = 1;
+  fits_get_hdu_num(f, &before);
+  int status = 0;
+  fits_movabs_hdu(f, hdu_index + 1, nullptr, &status);
+  if (status != 0) {
+    const std::string text = status_text(status);
+    restore_hdu(f, before);
+    fail("cannot move to HDU " + std::to_string(hdu_index) + ": " + text);
+  }
+  auto_image_ = false;
+}
+
+void FitsFile::move_to(const std::string& extname) {
+  fitsfile* f = as_fits(handle());
+  int before = 1;
+  fits_get_hdu_num(f, &before);
+  std::string name = extname;  // ffmnhd takes a non-const char*
+  int status = 0;
+  fits_movnam_hdu(f, ANY_HDU, name.data(), 0, &status);
+  if (status != 0) {
+    const std::string text = status_text(status);
+    restore_hdu(f, before);
+    if (status == BAD_HDU_NUM) fail("no HDU with EXTNAME '" + extname + "'");
+    fail("cannot move to HDU '" + extname + "': " + text);
+  }
+  auto_image_ = false;
+}
+
+int FitsFile::hdu_index() {
+  int hdunum = 1;
+  fits_get_hdu_num(as_fits(handle()), &hdunum);
+  return hdunum - 1;
+}
+
+// --- header keywords ------------------------------------------------------------------------------
+
+// The keyword's value field as written (strings keep their quotes; "" = no value), or nullopt if
+// the keyword is absent from the current HDU.
+std::optional<std::string> FitsFile::raw_key(const std::string& key) {
+  fitsfile* f = as_fits(handle());
+  // CFITSIO treats these as wildcards in keyword lookups; FITS keywords never contain them.
+  if (key.empty() || key.find_first_of("*?#") != std::string::npos) {
+    fail("invalid header keyword name '" + key + "'");
+  }
+  char value[FLEN_VALUE] = {};
+  char comment[FLEN_COMMENT] = {};
+  int status = 0;
+  fits_read_keyword(f, key.c_str(), value, comment, &status);
+  if (status == KEY_NO_EXIST) {
+    fits_clear_errmsg();
+    return std::nullopt;
+  }
+  if (status != 0) fail_status(status, "cannot read header keyword '" + key + "'");
+  return std::string(value);
+}
+
+namespace {
+// CFITSIO's classification of a raw value: 'C' string, 'L' logical, 'I' integer, 'F' float,
+// 'X' complex; 0 if unparseable.
+char value_type(const std::string& raw) {
+  char dtype = 0;
+  int status = 0;
+  fits_get_keytype(raw.c_str(), &dtype, &status);
+  if (status != 0) {
+    fits_clear_errmsg();
+    return 0;
+  }
+  return dtype;
+}
+}  // namespace
+
+std::optional<double> FitsFile::read_key_double(const std::string& key) {
+  const auto raw = raw_key(key);
+  if (!raw || raw->empty()) return std::nullopt;
+  const char type = value_type(*raw);
+  if (type != 'I' && type != 'F') fail("keyword '" + key + "' is not a number (value " + *raw + ")");
+  double v = 0.0;
+  int status = 0;
+  fits_read_key(as_fits(handle()), TDOUBLE, key.c_str(), &v, nullptr, &status);
+  if (status != 0) fail_status(status, "cannot read keyword '" + key + "' as a number");
+  return v;
+}
+
+std::optional<long long> FitsFile::read_key_long(const std::string& key) {
+  const auto raw = raw_key(key);
+  if (!raw || raw->empty()) return std::nullopt;
+  const char type = value_type(*raw);
+  if (type == 'F') {
+    // Accept integral floats ("3.0", "3.9E1"): headers written by float-minded tools use them.
+    const double v = *read_key_double(key);
+    // 2^63 is exact in double; the range check keeps the conversion defined.
+    if (std::trunc(v) == v && v >= -9223372036854775808.0 && v < 9223372036854775808.0) {
+      return static_cast<long long>(v);
+    }
+    fail("keyword '" + key + "' is not an integer (value " + *raw + ")");
+  }
+  if (type != 'I') fail("keyword '" + key + "' is not a number (value " + *raw + ")");
+  LONGLONG v = 0;
+  int status = 0;
+  fits_read_key(as_fits(handle()), TLONGLONG, key.c_str(), &v, nullptr, &status);
+  if (status != 0) fail_status(status, "cannot read keyword '" + key + "' as an integer");
+  return static_cast<long long>(v);
+}
+
+std::optional<std::string> FitsFile::read_key_string(const std::string& key) {
+  const auto raw = raw_key(key);
+  if (!raw || raw->empty()) return std::nullopt;
+  if (raw->front() != '\'') return *raw;  // a number or logical, as written
+  // Quoted: let CFITSIO unquote it and follow any CONTINUE cards of a long string.
+  char* value = nullptr;
+  char comment[FLEN_COMMENT] = {};
+  int status = 0;
+  fits_read_key_longstr(as_fits(handle()), key.c_str(), &value, comment, &status);
+  if (status != 0) {
+    if (value != nullptr) {
+      int free_status = 0;
+      fits_free_memory(value, &free_status);
+    }
+    fail_status(status, "cannot read keyword '" + key + "' as a string");
+  }
+  std::string out = value != nullptr ? value : "";
+  int free_status = 0;
+  fits_free_memory(value, &free_status);
+  // FITS: trailing blanks in a string value are not significant.
+  out.erase(out.find_last_not_of(' ') + 1);
+  return out;
+}
+
+double FitsFile::key_double(const std::string& key) {
+  if (auto v = read_key_double(key)) return *v;
+  fail(raw_key(key) ? "header keyword '" + key + "' has no value"
+                    : "missing header keyword '" + key + "'");
+}
+
+long long FitsFile::key_long(const std::string& key) {
+  if (auto v = read_key_long(key)) return *v;
+  fail(raw_key(key) ? "header keyword '" + key + "' has no value"
+                    : "missing header keyword '" + key + "'");
+}
+
+std::string FitsFile::key_string(const std::string& key) {
+  if (auto v = read_key_string(key)) return *v;
+  fail(raw_key(key) ? "header keyword '" + key + "' has no value"
+                    : "missing header keyword '" + key + "'");
+}
+
+void FitsFile::require_writable(const std::string& what) {
+  int mode = READONLY;
+  int status = 0;
+  fits_file_mode(as_fits(handle()), &mode, &status);
+  if (status != 0) fail_status(status, "cannot query the file mode");
+  // CFITSIO does not reliably refuse writes itself: fits_create_img on a read-only file
+  // "succeeds" and the pixel write that follows crashes.
+  if (mode != READWRITE) fail(what + ": the file is open read-only");
+}
+
+void FitsFile::require_header(const std::string& what) {
+  // In a new file with no HDU yet CFITSIO would write the card anyway, leaving the file invalid
+  // (no SIMPLE card). Such a file's current header is empty. (fits_get_num_hdus is no help here:
+  // it still says 0 just after the first fits_create_img.)
+  int nkeys = 0;
+  int more = 0;
+  int status = 0;
+  fits_get_hdrspace(as_fits(handle()), &nkeys, &more, &status);
+  if (status != 0) fail_status(status, what);
+  if (nkeys == 0) fail(what + ": the file has no HDU yet (write an image first)");
+}
+
+void FitsFile::write_key(const std::string& key, double value, const std::string& comment) {
+  require_writable("cannot write header keyword '" + key + "'");
+  require_header("cannot write header keyword '" + key + "'");
+  fitsfile* f = as_fits(handle());
+  if (!std::isfinite(value)) fail("cannot write non-finite value to header keyword '" + key + "'");
+  int status = 0;
+  // -17: "%.17G", enough significant digits for any double to read back bitwise.
+  fits_update_key_dbl(f, key.c_str(), value, -17, comment.c_str(), &status);
+  if (status != 0) fail_status(status, "cannot write header keyword '" + key + "'");
+}
+
+void FitsFile::write_key(const std::string& key, long long value, const std::string& comment) {
+  require_writable("cannot write header keyword '" + key + "'");
+  require_header("cannot write header keyword '" + key + "'");
+  fitsfile* f = as_fits(handle());
+  int status = 0;
+  fits_update_key_lng(f, key.c_str(), static_cast<LONGLONG>(value), comment.c_str(), &status);
+  if (status != 0) fail_status(status, "cannot write header keyword '" + key + "'");
+}
+
+void FitsFile::write_key(const std::string& key, const std::string& value,
+                         const std::string& comment) {
+  require_writable("cannot write header keyword '" + key + "'");
+  require_header("cannot write header keyword '" + key + "'");
+  fitsfile* f = as_fits(handle());
+  int status = 0;
+  // The longstr form writes short values as ordinary cards and long ones with CONTINUE cards.
+  fits_update_key_longstr(f, key.c_str(), value.c_str(), comment.c_str(), &status);
+  if (status != 0) fail_status(status, "cannot write header keyword '" + key + "'");
+}
+
+// --- images ---------------------------------------------------------------------------------------
+
+void FitsFile::resolve_auto_image() {
+  if (!auto_image_) return;
+  auto_image_ = false;
+  fitsfile* f = as_fits(fptr_);
+  int start = 1;
+  fits_get_hdu_num(f, &start);
+  if (start != 1) return;  // opened with "[n]" / "[NAME]": respect it
+  int status = 0;
+  int naxis = 0;
+  fits_get_img_dim(f, &naxis, &status);
+  if (status != 0 || naxis != 0) {
+    if (status != 0) fits_clear_errmsg();  // image_shape() reports the real problem
+    return;
+  }
+  // Primary has no data (e.g. tile-compressed ".fz" files): take the first image HDU with pixels.
+  for (int hdunum = 2;; ++hdunum) {
+    int type = 0;
+    fits_movabs_hdu(f, hdunum, &type, &status);
+    if (status != 0) break;  // past the last HDU (or an unreadable one): none found
+    if (type != IMAGE_HDU) continue;
+    int n = 0;
+    fits_get_img_dim(f, &n, &status);
+    if (status != 0) break;
+    if (n <= 0 || n > 9) continue;
+    LONGLONG dims[9] = {};
+    fits_get_img_sizell(f, n, dims, &status);
+    if (status != 0) break;
+    if (std::all_of(dims, dims + n, [](LONGLONG d) { return d > 0; })) return;
+  }
+  if (status != 0) fits_clear_errmsg();
+  restore_hdu(f, start);
+}
+
+// What to pass CFITSIO as `nulval` when reading the current image as doubles. Integer images:
+// `nan`, so BLANK pixels come back as NaN. Float images: nullptr, which turns CFITSIO's null
+// checking off; with it on CFITSIO also flushes -0.0 and denormals to 0, breaking bitwise reads
+// (NaNs pass through unchanged either way).
+void* FitsFile::image_nulval(double* nan) {
+  int bitpix = 0;
+  int status = 0;
+  fits_get_img_type(as_fits(handle()), &bitpix, &status);  // raw BITPIX, before BSCALE
+  if (status != 0) fail_status(status, "cannot read BITPIX");
+  return bitpix > 0 ? nan : nullptr;
+}
+
+FitsFile::ImageShape FitsFile::image_shape() {
+  fitsfile* f = as_fits(handle());
+  resolve_auto_image();
+  int status = 0;
+  int type = 0;
+  fits_get_hdu_type(f, &type, &status);
+  if (status != 0) fail_status(status, "cannot read HDU type");
+  if (type != IMAGE_HDU) fail("not an image HDU (it is a table)");
+  int naxis = 0;
+  fits_get_img_dim(f, &naxis, &status);
+  if (status != 0) fail_status(status, "cannot read NAXIS");
+  if (naxis != 2) fail("not a 2-D image (NAXIS = " + std::to_string(naxis) + ")");
+  LONGLONG dims[2] = {};
+  fits_get_img_sizell(f, 2, dims, &status);
+  if (status != 0) fail_status(status, "cannot read image size");
+  if (!std::in_range<long>(dims[0]) || !std::in_range<long>(dims[1])) {
+    fail("image size " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) +
+         " is out of range");
+  }
+  return {static_cast<long>(dims[0]), static_cast<long>(dims[1])};
+}
+
+void FitsFile::read_image_rows(long y_begin, long n_rows, std::span<double> out) {
+  const ImageShape s = image_shape();
+  if (y_begin < 0 || n_rows < 0 || y_begin > s.ny - n_rows) {
+    fail("cannot read " + std::to_string(n_rows) + " rows from row " + std::to_string(y_begin) +
+         ": the image has rows 0.." + std::to_string(s.ny - 1) + " (" + std::to_string(s.nx) +
+         " x " + std::to_string(s.ny) + ")");
+  }
+  if (s.nx != 0 && n_rows > std::numeric_limits<long>::max() / s.nx) fail("image rows too large");
+  const long n = n_rows * s.nx;
+  if (out.size() != static_cast<std::size_t>(n)) {
+    fail("read_image_rows: output holds " + std::to_string(out.size()) + " values, " +
+         std::to_string(n_rows) + " rows need " + std::to_string(n));
+  }
+  if (n == 0) return;
+  // Full rows are contiguous on disk, so one read from (1, y_begin + 1) touches only those rows.
+  LONGLONG first[2] = {1, static_cast<LONGLONG>(y_begin) + 1};
+  double nulval = kNaN;
+  int anynul = 0;
+  int status = 0;
+  fits_read_pixll(as_fits(handle()), TDOUBLE, first, n, image_nulval(&nulval), out.data(), &anynul,
+                  &status);
+  if (status != 0) {
+    fail_status(status, "cannot read image rows " + std::to_string(y_begin) + ".." +
+                            std::to_string(y_begin + n_rows - 1));
+  }
+}
+
+std::vector<double> FitsFile::read_image() {
+  const ImageShape s = image_shape();
+  if (s.nx == 0 || s.ny == 0) return {};
+  if (s.ny > std::numeric_limits<long>::max() / s.nx) fail("image too large");
+  // Read the last pixel first: a header promising more data than the file holds (truncated or
+  // corrupt file) then fails here, before a possibly huge allocation.
+  LONGLONG last[2] = {s.nx, s.ny};
+  double probe = 0.0;
+  int anynul = 0;
+  int status = 0;
+  fits_read_pixll(as_fits(handle()), TDOUBLE, last, 1, nullptr, &probe, &anynul, &status);
+  if (status != 0) fail_status(status, "cannot read image data");
+  std::vector<double> pixels(static_cast<std::size_t>(s.nx) * static_cast<std::size_t>(s.ny));
+  read_image_rows(0, s.ny, pixels);
+  return pixels;
+}
+
+void FitsFile::write_image(long nx, long ny, std::span<const double> pixels,
+                           const std::string& extname) {
+  require_writable("cannot write an image");
+  fitsfile* f = as_fits(handle());
+  if (nx <= 0 || ny <= 0 || ny > std::numeric_limits<long>::max() / nx) {
+    fail("cannot write an image of " + std::to_string(nx) + " x " + std::to_string(ny) +
+         " pixels");
+  }
+  const auto total = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny);
+  if (pixels.size() != total) {
+    fail("write_image: got " + std::to_string(pixels.size()) + " pixels for a " +
+         std::to_string(nx) + " x " + std::to_string(ny) + " image");
+  }
+  long naxes[2] = {nx, ny};
+  int status = 0;
+  fits_create_img(f, DOUBLE_IMG, 2, naxes, &status);  // appended at the end, made current
+  if (status != 0) fail_status(status, "cannot append an image HDU");
+  auto_image_ = false;
+  if (!extname.empty()) write_key("EXTNAME", extname, "extension name");
+  // CFITSIO byte-swaps the array it is given in place while writing (its pointer is non-const), so
+  // write from a private copy, a chunk at a time to bound the extra memory.
+  constexpr std::size_t kChunk = std::size_t{1} << 16;
+  std::vector<double> buffer(std::min(kChunk, total));
+  for (std::size_t start = 0; start < total; start += kChunk) {
+    const std::size_t n = std::min(kChunk, total - start);
+    std::copy_n(pixels.begin() + static_cast<std::ptrdiff_t>(start), n, buffer.begin());
+    fits_write_img(f, TDOUBLE, static_cast<LONGLONG>(start) + 1, static_cast<LONGLONG>(n),
+                   buffer.data(), &status);
+    if (status != 0) fail_status(status, "cannot write image pixels");
+  }
+}
+
+// --- tables ---------------------------------------------------------------------------------------
+
+void FitsFile::require_table() {
+  int type = 0;
+  int status = 0;
+  fits_get_hdu_type(as_fits(handle()), &type, &status);
+  if (status != 0) fail_status(status, "cannot read HDU type");
+  if (type != BINARY_TBL && type != ASCII_TBL) fail("not a table HDU (it is an image)");
+}
+
+long long FitsFile::table_rows() {
+  require_table();
+  LONGLONG rows = 0;
+  int status = 0;
+  fits_get_num_rowsll(as_fits(handle()), &rows, &status);
+  if (status != 0) fail_status(status, "cannot read the number of table rows");
+  return static_cast<long long>(rows);
+}
+
+// 1-based column number of the first column whose TTYPE equals `name` ignoring case. Compared
+// here rather than with fits_get_colnum, which treats '*', '?' and '#' as wildcards.
+std::optional<int> FitsFile::find_column(const std::string& name) {
+  fitsfile* f = as_fits(handle());
+  int ncols = 0;
+  int status = 0;
+  fits_get_num_cols(f, &ncols, &status);
+  if (status != 0) fail_status(status, "cannot read the number of table columns");
+  for (int col = 1; col <= ncols; ++col) {
+    const std::string key = "TTYPE" + std::to_string(col);
+    char ttype[FLEN_VALUE] = {};
+    fits_read_key(f, TSTRING, key.c_str(), ttype, nullptr, &status);
+    if (status == KEY_NO_EXIST) {  // an unnamed column
+      fits_clear_errmsg();
+      status = 0;
+      continue;
+    }
+    if (status != 0) fail_status(status, "cannot read " + key);
+    if (iequals(ttype, name)) return col;
+  }
+  return std::nullopt;
+}
+
+bool FitsFile::has_column(const std::string& name) {
+  require_table();
+  return find_column(name).has_value();
+}
+
+std::vector<double> FitsFile::read_column(const std::string& name) {
+  require_table();
+  const auto col = find_column(name);
+  if (!col) fail("no column '" + name + "'");
+  fitsfile* f = as_fits(handle());
+  int type = 0;
+  LONGLONG repeat = 0;
+  LONGLONG width = 0;
+  int status = 0;
+  fits_get_eqcoltypell(f, *col, &type, &repeat, &width, &status);  // after TSCAL/TZERO
+  if (status != 0) fail_status(status, "cannot read the type of column '" + name + "'");
+  if (type < 0) fail("column '" + name + "' is variable-length; only scalar columns can be read");
+  if (!is_numeric_column_type(type)) fail("column '" + name + "' is not numeric");
+  if (repeat != 1) {
+    fail("column '" + name + "' has " + std::to_string(repeat) +
+         " values per row; only scalar columns can be read");
+  }
+  const long long rows = table_rows();
+  if (rows == 0) return {};
+  // Integer columns: TNULL values -> NaN. Float columns: no null checking, which would also flush
+  // -0.0 and denormals to 0 (see image_nulval).
+  int raw_type = 0;
+  fits_get_coltypell(f, *col, &raw_type, &repeat, &width, &status);
+  if (status != 0) fail_status(status, "cannot read the type of column '" + name + "'");
+  double nan = kNaN;
+  void* nulval = (raw_type == TFLOAT || raw_type == TDOUBLE) ? nullptr : &nan;
+  // Read the last row first so a table claiming more rows than the file holds fails before
+  // allocating for them.
+  double probe = 0.0;
+  int anynul = 0;
+  fits_read_col(f, TDOUBLE, *col, rows, 1, 1, nulval, &probe, &anynul, &status);
+  if (status != 0) fail_status(status, "cannot read column '" + name + "'");
+  std::vector<double> values(static_cast<std::size_t>(rows));
+  fits_read_col(f, TDOUBLE, *col, 1, 1, rows, nulval, values.data(), &anynul, &status);
+  if (status != 0) fail_status(status, "cannot read column '" + name + "'");
+  return values;
+}
+
+}  // namespace stampede::io

@@ -1,0 +1,134 @@
+// FitsFile: an owning RAII wrapper around a CFITSIO `fitsfile*`, covering what stampede reads and
+// writes: header keywords, 2-D images (read whole or by row range) and numeric binary-table columns.
+//
+// Every failure throws FitsError whose message starts with describe(), i.e. names the file and the
+// current HDU, e.g. "render_cases.fits[HDU 2 'CASE01']: missing header keyword 'GAIN'". CFITSIO's own
+// error stack is cleared after each failure, and nothing is printed to stderr.
+//
+// HDU indices are 0-based everywhere (0 = primary), unlike CFITSIO's 1-based ones.
+// A FitsFile is not safe to use from two threads at once; distinct FitsFile objects are.
+#pragma once
+
+#include <concepts>
+#include <optional>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "io/fits_error.hpp"
+
+namespace stampede::io {
+
+class FitsFile {
+ public:
+  // Opens for reading. `path` may use CFITSIO extended syntax: "f.fits[1]", "f.fits[CASES]",
+  // "f.fits.gz", "f.fits.fz". Throws FitsError "cannot open FITS file 'PATH': <cfitsio text>".
+  static FitsFile open_read(const std::string& path);
+  // Creates a new, empty file for writing; with `overwrite` an existing file is replaced.
+  // A name ending in ".gz" is written gzip-compressed when the file is closed.
+  static FitsFile create(const std::string& path, bool overwrite);
+
+  FitsFile(FitsFile&& other) noexcept;
+  FitsFile& operator=(FitsFile&& other) noexcept;
+  FitsFile(const FitsFile&) = delete;
+  FitsFile& operator=(const FitsFile&) = delete;
+  // Closes the file, swallowing errors; call close() first where a failed flush must be seen.
+  ~FitsFile();
+
+  // Closes now and reports a failure to flush (e.g. compressing a ".gz" output). Idempotent.
+  // Any other call on a closed (or moved-from) FitsFile throws FitsError.
+  void close();
+
+  // The path exactly as given to open_read/create.
+  const std::string& path() const;
+
+  // --- HDU navigation -------------------------------------------------------------------------
+  int hdu_count();
+  void move_to(int hdu_index);               // 0-based
+  void move_to(const std::string& extname);  // EXTNAME (or HDUNAME), case-insensitive
+  int hdu_index();                           // 0-based current HDU
+  // "FILE[HDU n 'EXTNAME']" ("FILE[HDU n]" when there is no EXTNAME); FILE is the path without
+  // CFITSIO's bracketed extended syntax. Never throws.
+  std::string describe();
+
+  // --- Header keywords of the current HDU ------------------------------------------------------
+  // The optional forms return nullopt if the keyword is absent or has no value; all forms throw
+  // FitsError "...: keyword 'KEY' is not a number" (or "... is not an integer") on a wrong type.
+  std::optional<double> read_key_double(const std::string& key);
+  std::optional<long long> read_key_long(const std::string& key);  // accepts integral floats, 3.0
+  std::optional<std::string> read_key_string(const std::string& key);  // non-strings as written
+  // The required forms throw "PATH[HDU n 'NAME']: missing header keyword 'KEY'" when absent.
+  double key_double(const std::string& key);
+  long long key_long(const std::string& key);
+  std::string key_string(const std::string& key);
+  // Adds the keyword or replaces its value and comment. Doubles are written with 17 significant
+  // digits so they read back bitwise; long strings use the CONTINUE convention.
+  void write_key(const std::string& key, double value, const std::string& comment);
+  void write_key(const std::string& key, long long value, const std::string& comment);
+  void write_key(const std::string& key, const std::string& value, const std::string& comment);
+  // Any other integer type (int, long, unsigned, ...): without this, write_key("N", 3, "") would
+  // be ambiguous between the double and long long overloads. bool stays ambiguous on purpose.
+  template <std::integral T>
+    requires(!std::same_as<T, bool> && !std::same_as<T, long long>)
+  void write_key(const std::string& key, T value, const std::string& comment) {
+    if (!std::in_range<long long>(value)) {
+      fail("value of header keyword '" + key + "' does not fit in a 64-bit integer");
+    }
+    write_key(key, static_cast<long long>(value), comment);
+  }
+
+  // --- 2-D image HDUs ---------------------------------------------------------------------------
+  // nx = NAXIS1 (columns, the fast axis), ny = NAXIS2 (rows).
+  // Image functions on a file from open_read that is still on an empty primary HDU (NAXIS = 0)
+  // and on which move_to was never called first move to the first image HDU holding data, as
+  // for tile-compressed ".fz" files; hdu_index() then reports that HDU.
+  struct ImageShape {
+    long nx = 0;
+    long ny = 0;
+  };
+  // Throws FitsError if the current HDU is not a 2-D image.
+  ImageShape image_shape();
+  // Reads rows [y_begin, y_begin + n_rows) (0-based) into `out`, which must hold exactly
+  // n_rows * nx values; row-major, x fastest. Any BITPIX is converted to double, BSCALE/BZERO
+  // applied, BLANK pixels become NaN. Only those rows are read from disk (a ".gz" file, though,
+  // is decompressed into memory as a whole when opened: CFITSIO cannot seek in gzip streams).
+  void read_image_rows(long y_begin, long n_rows, std::span<double> out);
+  std::vector<double> read_image();  // the whole image, row-major
+  // Appends an image HDU (BITPIX -64) of nx * ny pixels (row-major) and makes it current; the
+  // first one in a new file becomes the primary. A non-empty `extname` is written as EXTNAME.
+  void write_image(long nx, long ny, std::span<const double> pixels,
+                   const std::string& extname = "");
+
+  // --- Table HDUs (binary or ASCII) --------------------------------------------------------------
+  long long table_rows();
+  // Column names match case-insensitively and literally (no CFITSIO wildcards).
+  bool has_column(const std::string& name);
+  // A whole scalar numeric column converted to double (TNULL values become NaN). Throws
+  // "PATH[HDU n 'TRUTH']: no column 'NAME'" if absent, or if the column is not scalar numeric.
+  std::vector<double> read_column(const std::string& name);
+
+ private:
+  FitsFile(void* fptr, std::string path, bool auto_image);
+
+  // `void*` rather than `fitsfile*`: CFITSIO's fitsfile is an anonymous-struct typedef that cannot
+  // be forward-declared, and including fitsio.h here would leak its macros into every includer.
+  void* handle();
+  void close_noexcept() noexcept;
+  [[noreturn]] void fail(const std::string& what);
+  [[noreturn]] void fail_status(int status, const std::string& what);
+  std::optional<std::string> raw_key(const std::string& key);
+  void resolve_auto_image();
+  void* image_nulval(double* nan);
+  void require_writable(const std::string& what);
+  void require_header(const std::string& what);
+  void require_table();
+  std::optional<int> find_column(const std::string& name);
+
+  void* fptr_ = nullptr;
+  std::string path_;
+  std::string root_;          // path_ without extended syntax, for messages
+  bool auto_image_ = false;   // the lazy move to the first image HDU is still pending
+};
+
+}  // namespace stampede::io

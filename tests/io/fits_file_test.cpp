@@ -1,0 +1,516 @@
+// Tests for io/fits_file: reading the shared GalSim reference files (images, headers, tables),
+// CFITSIO extended syntax and gzip input, bitwise write/read round trips, and that every failure
+// is a FitsError naming the file, HDU and keyword or column.
+#include "io/fits_file.hpp"
+
+#include <gtest/gtest.h>
+#include <stdlib.h>  // mkdtemp
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <numeric>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace stampede::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kData = STAMPEDE_DATA_DIR;
+const std::string kSet0 = kData + "/galsim-great08-mini/nf/set_0.fits";
+const std::string kTruth0 = kData + "/galsim-great08-mini/nf/truth_0.fits";
+const std::string kCases = kData + "/galsim-reference/render_cases.fits";
+
+::testing::AssertionResult Contains(const std::string& text, const std::string& part) {
+  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "'" << text << "' does not contain '" << part << "'";
+}
+
+// Runs `body`, expecting a FitsError; returns its message ("" and a test failure otherwise).
+std::string fits_error_of(const std::function<void()>& body) {
+  try {
+    body();
+  } catch (const FitsError& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "expected FitsError, got another exception: " << e.what();
+    return "";
+  }
+  ADD_FAILURE() << "expected FitsError, nothing was thrown";
+  return "";
+}
+
+bool bitwise_equal(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() &&
+         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
+}
+
+// A fresh private directory per test, removed afterwards, so parallel ctest runs cannot collide.
+class FitsFileTmp : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::string tmpl = (fs::temp_directory_path() / "stampede_io_XXXXXX").string();
+    ASSERT_NE(mkdtemp(tmpl.data()), nullptr) << "cannot create a temporary directory";
+    dir_ = tmpl;
+  }
+  void TearDown() override {
+    std::error_code ec;
+    if (!dir_.empty()) fs::remove_all(dir_, ec);
+  }
+  std::string tmp(const std::string& name) const { return (dir_ / name).string(); }
+
+  fs::path dir_;
+};
+
+// --- reading the reference data ------------------------------------------------------------------
+
+TEST(FitsFileRead, Great08SetShapeAndHeader) {
+  FitsFile f = FitsFile::open_read(kSet0);
+  EXPECT_EQ(f.path(), kSet0);
+  EXPECT_EQ(f.hdu_count(), 1);
+  EXPECT_EQ(f.hdu_index(), 0);
+  const auto shape = f.image_shape();
+  EXPECT_EQ(shape.nx, 780);
+  EXPECT_EQ(shape.ny, 780);
+  EXPECT_EQ(f.hdu_index(), 0);  // the primary holds the image: no automatic move
+  EXPECT_EQ(f.key_long("STAMPSZ"), 39);
+  EXPECT_EQ(f.key_long("GRIDNX"), 20);
+  EXPECT_EQ(f.key_long("GRIDNY"), 20);
+  EXPECT_DOUBLE_EQ(f.key_double("PSFBETA"), 3.0);
+  EXPECT_DOUBLE_EQ(f.key_double("PSFE2"), 0.05);
+  EXPECT_DOUBLE_EQ(f.key_double("PSFFWHM"), 2.85);
+  EXPECT_DOUBLE_EQ(f.key_double("STAMPSZ"), 39.0);  // integer value read as a double
+  EXPECT_EQ(f.key_long("PSFBETA"), 3);              // integral float read as an integer
+  EXPECT_EQ(f.key_long("stampsz"), 39);             // keyword names are case-insensitive
+  EXPECT_EQ(f.key_string("SIZEDEF"), "fwhm");       // trailing blanks dropped
+  EXPECT_EQ(f.key_string("STAMPSZ"), "39");         // non-strings as written
+  EXPECT_EQ(f.read_key_double("NOSUCHKY"), std::nullopt);
+  EXPECT_EQ(f.read_key_long("NOSUCHKY"), std::nullopt);
+  EXPECT_EQ(f.read_key_string("NOSUCHKY"), std::nullopt);
+  EXPECT_EQ(f.read_key_long("GRIDNY"), 20);
+}
+
+TEST(FitsFileRead, Great08PixelsAndRowStrips) {
+  FitsFile f = FitsFile::open_read(kSet0);
+  const std::vector<double> image = f.read_image();
+  ASSERT_EQ(image.size(), 780u * 780u);
+  // float32 pixels, exactly as astropy reads them: row-major, x fastest.
+  EXPECT_EQ(image[0], 0.009204968810081482);
+  EXPECT_EQ(image[1], 0.010613192804157734);                // (x, y) = (1, 0)
+  EXPECT_EQ(image[780], 0.009376173838973045);              // (x, y) = (0, 1)
+  EXPECT_EQ(image[100 * 780 + 5], 0.03425123915076256);     // (x, y) = (5, 100)
+  EXPECT_EQ(image[5 * 780 + 100], 0.00138541916385293);     // (x, y) = (100, 5)
+  EXPECT_EQ(image[19 * 780 + 19], 10.731636047363281);      // centre of stamp (0, 0)
+  EXPECT_EQ(*std::max_element(image.begin(), image.end()), 12.630799293518066);
+
+  // Stamp row iy = 10 (rows 390..428), the last stamp row, and a single row.
+  for (const auto& [y0, rows] : {std::pair{390L, 39L}, std::pair{741L, 39L}, std::pair{5L, 1L}}) {
+    std::vector<double> strip(static_cast<std::size_t>(rows * 780));
+    f.read_image_rows(y0, rows, strip);
+    const std::vector<double> expected(image.begin() + y0 * 780, image.begin() + (y0 + rows) * 780);
+    EXPECT_TRUE(bitwise_equal(strip, expected)) << "rows from " << y0;
+  }
+  std::vector<double> none;
+  EXPECT_NO_THROW(f.read_image_rows(780, 0, none));  // empty range at the end is valid
+}
+
+TEST(FitsFileRead, RenderCasesTableAndImages) {
+  FitsFile f = FitsFile::open_read(kCases);
+  EXPECT_EQ(f.hdu_count(), 24);
+  f.move_to("CASES");
+  EXPECT_EQ(f.hdu_index(), 23);
+  EXPECT_TRUE(Contains(f.describe(), "render_cases.fits[HDU 23 'CASES']"));
+  EXPECT_EQ(f.table_rows(), 22);
+  EXPECT_TRUE(f.has_column("hlr"));
+  EXPECT_TRUE(f.has_column("HLR"));  // case-insensitive, as CFITSIO
+  EXPECT_FALSE(f.has_column("hl*"));  // no wildcard matching
+  EXPECT_FALSE(f.has_column("radius"));
+
+  const std::vector<double> hlr = f.read_column("hlr");
+  ASSERT_EQ(hlr.size(), 22u);
+  EXPECT_DOUBLE_EQ(hlr[0], 0.8);
+  EXPECT_DOUBLE_EQ(hlr[4], 3.0);
+  EXPECT_DOUBLE_EQ(hlr[18], 1.2);
+  EXPECT_DOUBLE_EQ(hlr[21], 0.3);
+  const std::vector<double> stamp = f.read_column("stamp");  // TFORM J, converted to double
+  ASSERT_EQ(stamp.size(), 22u);
+  EXPECT_EQ(stamp[0], 39.0);
+  EXPECT_EQ(stamp[18], 25.0);
+  EXPECT_EQ(stamp[19], 48.0);
+  const std::vector<double> cases = f.read_column("case");
+  for (std::size_t i = 0; i < cases.size(); ++i) EXPECT_EQ(cases[i], static_cast<double>(i));
+  const double stamp_sum0 = f.read_column("stamp_sum")[0];
+
+  f.move_to("CASE19");
+  EXPECT_EQ(f.hdu_index(), 20);
+  EXPECT_TRUE(Contains(f.describe(), "render_cases.fits[HDU 20 'CASE19']"));
+  auto shape = f.image_shape();
+  EXPECT_EQ(shape.nx, 48);
+  EXPECT_EQ(shape.ny, 48);
+  f.move_to(19);  // by index: CASE18, the 25-pixel stamp
+  shape = f.image_shape();
+  EXPECT_EQ(shape.nx, 25);
+  EXPECT_EQ(shape.ny, 25);
+
+  f.move_to("case00");  // EXTNAME matching is case-insensitive
+  EXPECT_EQ(f.hdu_index(), 1);
+  const std::vector<double> pixels = f.read_image();
+  ASSERT_EQ(pixels.size(), 39u * 39u);
+  const double sum = std::accumulate(pixels.begin(), pixels.end(), 0.0);
+  EXPECT_NEAR(sum, stamp_sum0, 1e-9 * std::abs(stamp_sum0));
+  EXPECT_NEAR(stamp_sum0, 999.7091394507572, 1e-9);
+}
+
+TEST(FitsFileRead, AutoMovesToFirstImageOnlyUntilMovedExplicitly) {
+  {
+    // The primary of render_cases.fits is empty: image functions go to CASE00 (HDU 1).
+    FitsFile f = FitsFile::open_read(kCases);
+    EXPECT_EQ(f.hdu_index(), 0);
+    EXPECT_EQ(f.key_string("SIMPLE"), "T");  // header reads stay on the primary
+    const auto shape = f.image_shape();
+    EXPECT_EQ(shape.nx, 39);
+    EXPECT_EQ(f.hdu_index(), 1);
+    EXPECT_EQ(f.key_string("EXTNAME"), "CASE00");
+  }
+  {
+    // CFITSIO's "[n]" syntax selects the HDU itself; it must not be overridden.
+    FitsFile f = FitsFile::open_read(kCases + "[19]");
+    EXPECT_EQ(f.hdu_index(), 19);
+    EXPECT_EQ(f.image_shape().nx, 25);
+    EXPECT_EQ(f.hdu_index(), 19);
+  }
+  {
+    // An explicit move to the empty primary is respected, so image functions fail there.
+    FitsFile f = FitsFile::open_read(kCases);
+    f.move_to(0);
+    const std::string msg = fits_error_of([&] { f.image_shape(); });
+    EXPECT_TRUE(Contains(msg, "render_cases.fits[HDU 0]"));
+    EXPECT_TRUE(Contains(msg, "not a 2-D image"));
+  }
+}
+
+TEST(FitsFileRead, TruthHeaderAndTable) {
+  FitsFile f = FitsFile::open_read(kTruth0);
+  EXPECT_DOUBLE_EQ(f.key_double("SHEAR1"), 0.02978591868433564);
+  EXPECT_TRUE(f.read_key_double("SHEAR2").has_value());
+  f.move_to("TRUTH");
+  EXPECT_EQ(f.hdu_index(), 1);
+  EXPECT_EQ(f.table_rows(), 400);
+  EXPECT_TRUE(f.has_column("e1_obs"));
+  const std::vector<double> e1 = f.read_column("e1_obs");
+  ASSERT_EQ(e1.size(), 400u);
+  for (double e : e1) EXPECT_LT(std::abs(e), 1.0);
+  const std::vector<double> index = f.read_column("index");
+  ASSERT_EQ(index.size(), 400u);
+  EXPECT_EQ(index[0], 0.0);
+  EXPECT_EQ(index[399], 399.0);
+}
+
+TEST(FitsFileRead, ExtendedSyntaxOpensOnTable) {
+  const std::string path = kCases + "[CASES]";
+  FitsFile f = FitsFile::open_read(path);
+  EXPECT_EQ(f.path(), path);
+  EXPECT_EQ(f.hdu_index(), 23);
+  EXPECT_EQ(f.table_rows(), 22);
+  EXPECT_EQ(f.read_column("hlr")[18], 1.2);
+  // Messages name the file without the bracketed selector.
+  EXPECT_TRUE(Contains(f.describe(), "render_cases.fits[HDU 23 'CASES']"));
+  EXPECT_FALSE(Contains(f.describe(), "[CASES]"));
+}
+
+TEST_F(FitsFileTmp, GzipCopyReadsTheSamePixels) {
+  const std::string gz = tmp("set_0.fits.gz");
+  const std::string cmd = "gzip -c '" + kSet0 + "' > '" + gz + "'";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  FitsFile plain = FitsFile::open_read(kSet0);
+  FitsFile packed = FitsFile::open_read(gz);
+  EXPECT_EQ(packed.key_long("STAMPSZ"), 39);
+  EXPECT_TRUE(bitwise_equal(packed.read_image(), plain.read_image()));
+  std::vector<double> a(780 * 3);
+  std::vector<double> b(780 * 3);
+  packed.read_image_rows(400, 3, a);
+  plain.read_image_rows(400, 3, b);
+  EXPECT_TRUE(bitwise_equal(a, b));
+}
+
+// --- writing ---------------------------------------------------------------------------------------
+
+TEST_F(FitsFileTmp, RoundTripIsBitwise) {
+  const std::string path = tmp("round_trip.fits");
+  const long nx = 7;
+  const long ny = 5;
+  std::vector<double> pixels(nx * ny);
+  for (std::size_t i = 0; i < pixels.size(); ++i) pixels[i] = std::sin(0.37 * i) / 3.0;
+  pixels[3] = -0.0;
+  pixels[4] = std::numeric_limits<double>::denorm_min();
+  pixels[5] = std::numeric_limits<double>::max();
+  pixels[6] = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<double> second = {1.0, 2.0, 3.0, 4.0, 5.0, 6.0};
+  const std::string long_text(150, 'x');
+  {
+    FitsFile f = FitsFile::create(path, /*overwrite=*/false);
+    f.write_image(nx, ny, pixels, "STAMP");
+    f.write_key("GAIN", 0.1, "a value with no short decimal form");
+    f.write_key("TINY", 1e-300, "");
+    f.write_key("BIGINT", 9007199254740993LL, "2^53 + 1, not representable as a double");
+    f.write_key("NEG", -42, "via the integral-type overload");
+    f.write_key("OBJECT", std::string("it's a test"), "quote inside");
+    f.write_key("LONGTXT", long_text, "needs CONTINUE cards");
+    f.write_key("GAIN", 1.0 / 3.0, "updated in place");
+    f.write_image(3, 2, second, "SECOND");
+    EXPECT_EQ(f.hdu_index(), 1);
+    f.close();
+  }
+  FitsFile f = FitsFile::open_read(path);
+  EXPECT_EQ(f.hdu_count(), 2);
+  f.move_to("STAMP");
+  EXPECT_EQ(f.hdu_index(), 0);  // the first image of a new file is the primary
+  EXPECT_EQ(std::bit_cast<std::uint64_t>(f.key_double("GAIN")),
+            std::bit_cast<std::uint64_t>(1.0 / 3.0));
+  EXPECT_EQ(std::bit_cast<std::uint64_t>(f.key_double("TINY")),
+            std::bit_cast<std::uint64_t>(1e-300));
+  EXPECT_EQ(f.key_long("BIGINT"), 9007199254740993LL);
+  EXPECT_EQ(f.key_long("NEG"), -42);
+  EXPECT_EQ(f.key_string("OBJECT"), "it's a test");
+  EXPECT_EQ(f.key_string("LONGTXT"), long_text);
+  EXPECT_EQ(f.key_long("BITPIX"), -64);
+  const auto shape = f.image_shape();
+  EXPECT_EQ(shape.nx, nx);
+  EXPECT_EQ(shape.ny, ny);
+  EXPECT_TRUE(bitwise_equal(f.read_image(), pixels));
+  std::vector<double> row(nx);
+  f.read_image_rows(4, 1, row);
+  EXPECT_TRUE(bitwise_equal(row, std::vector<double>(pixels.end() - nx, pixels.end())));
+  f.move_to("SECOND");
+  EXPECT_EQ(f.image_shape().nx, 3);
+  EXPECT_EQ(f.image_shape().ny, 2);
+  EXPECT_TRUE(bitwise_equal(f.read_image(), second));
+}
+
+TEST_F(FitsFileTmp, CreateRespectsOverwrite) {
+  const std::string path = tmp("exists.fits");
+  const std::vector<double> one = {1.0};
+  const std::vector<double> two = {2.0};
+  {
+    FitsFile f = FitsFile::create(path, false);
+    f.write_image(1, 1, one);
+  }
+  const std::string msg = fits_error_of([&] { FitsFile::create(path, false); });
+  EXPECT_TRUE(Contains(msg, "cannot create FITS file '" + path + "'"));
+  {
+    FitsFile f = FitsFile::create(path, true);
+    f.write_image(1, 1, two);
+  }
+  EXPECT_EQ(FitsFile::open_read(path).read_image(), two);
+}
+
+TEST_F(FitsFileTmp, CfitsioWrittenGzipRoundTrip) {
+  const std::string path = tmp("written.fits.gz");
+  std::vector<double> pixels(40 * 30);
+  for (std::size_t i = 0; i < pixels.size(); ++i) pixels[i] = std::exp(-0.01 * i);
+  {
+    FitsFile f = FitsFile::create(path, true);
+    f.write_image(40, 30, pixels, "IMG");
+    f.close();  // compression happens here
+  }
+  std::ifstream in(path, std::ios::binary);
+  unsigned char magic[2] = {};
+  in.read(reinterpret_cast<char*>(magic), 2);
+  EXPECT_EQ(magic[0], 0x1f);  // gzip magic number: the file really is compressed
+  EXPECT_EQ(magic[1], 0x8b);
+  FitsFile f = FitsFile::open_read(path);
+  EXPECT_EQ(f.image_shape().nx, 40);
+  EXPECT_TRUE(bitwise_equal(f.read_image(), pixels));
+}
+
+TEST_F(FitsFileTmp, TileCompressedFzAutoMovesToImage) {
+  // CFITSIO's "[compress ...]" output syntax writes a tile-compressed ".fz" file; "q 0" turns off
+  // float quantisation so the round trip is lossless. Its primary HDU is empty, so open_read must
+  // find the image in HDU 1 by itself.
+  const std::string path = tmp("tiles.fits.fz");
+  std::vector<double> pixels(40 * 30);
+  for (std::size_t i = 0; i < pixels.size(); ++i) pixels[i] = std::exp(-0.01 * i);
+  {
+    FitsFile f = FitsFile::create(path + "[compress GZIP; q 0]", true);
+    f.write_image(40, 30, pixels, "IMG");
+    f.write_key("STAMPSZ", 39, "");
+    f.close();
+  }
+  FitsFile f = FitsFile::open_read(path);
+  EXPECT_EQ(f.hdu_count(), 2);
+  EXPECT_EQ(f.hdu_index(), 0);
+  const auto shape = f.image_shape();
+  EXPECT_EQ(shape.nx, 40);
+  EXPECT_EQ(shape.ny, 30);
+  EXPECT_EQ(f.hdu_index(), 1);
+  EXPECT_TRUE(Contains(f.describe(), "tiles.fits.fz[HDU 1 'IMG']"));
+  EXPECT_EQ(f.key_long("STAMPSZ"), 39);
+  EXPECT_TRUE(bitwise_equal(f.read_image(), pixels));
+  std::vector<double> rows(40 * 2);
+  f.read_image_rows(28, 2, rows);
+  EXPECT_TRUE(bitwise_equal(rows, std::vector<double>(pixels.end() - 80, pixels.end())));
+}
+
+TEST_F(FitsFileTmp, MoveTransfersOwnership) {
+  FitsFile a = FitsFile::open_read(kCases);
+  a.move_to("CASES");
+  FitsFile b = std::move(a);
+  EXPECT_EQ(b.hdu_index(), 23);
+  EXPECT_EQ(b.path(), kCases);
+  EXPECT_THROW(a.hdu_index(), FitsError);  // NOLINT(bugprone-use-after-move): tested on purpose
+  FitsFile c = FitsFile::open_read(kSet0);
+  c = std::move(b);  // closes set_0.fits, takes render_cases.fits
+  EXPECT_EQ(c.table_rows(), 22);
+  c.close();
+  c.close();  // idempotent
+  EXPECT_THROW(c.table_rows(), FitsError);
+}
+
+// --- errors ----------------------------------------------------------------------------------------
+
+TEST_F(FitsFileTmp, NonExistentFile) {
+  const std::string path = tmp("no_such_file.fits");
+  const std::string msg = fits_error_of([&] { FitsFile::open_read(path); });
+  EXPECT_TRUE(Contains(msg, "cannot open FITS file '" + path + "'"));
+}
+
+TEST_F(FitsFileTmp, CorruptFile) {
+  const std::string path = tmp("garbage.fits");
+  {
+    std::ofstream out(path, std::ios::binary);
+    for (int i = 0; i < 1000; ++i) out << "this is not a FITS file \x01\x02\xff";
+  }
+  const std::string msg = fits_error_of([&] { FitsFile::open_read(path); });
+  EXPECT_TRUE(Contains(msg, "cannot open FITS file '" + path + "'"));
+
+  const std::string empty = tmp("empty.fits");
+  std::ofstream{empty};
+  EXPECT_TRUE(Contains(fits_error_of([&] { FitsFile::open_read(empty); }), empty));
+}
+
+TEST_F(FitsFileTmp, TruncatedFile) {
+  // A valid header whose data stops early: opening may succeed, reading must fail cleanly.
+  const std::string path = tmp("truncated.fits");
+  {
+    std::ifstream in(kSet0, std::ios::binary);
+    std::vector<char> head(2880 * 2 + 1000);
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    std::ofstream out(path, std::ios::binary);
+    out.write(head.data(), static_cast<std::streamsize>(head.size()));
+  }
+  const std::string msg = fits_error_of([&] {
+    FitsFile f = FitsFile::open_read(path);
+    f.read_image();
+  });
+  EXPECT_TRUE(Contains(msg, "truncated.fits"));
+  const std::string rows_msg = fits_error_of([&] {
+    FitsFile f = FitsFile::open_read(path);
+    std::vector<double> strip(780 * 10);
+    f.read_image_rows(700, 10, strip);
+  });
+  EXPECT_TRUE(Contains(rows_msg, "truncated.fits"));
+}
+
+TEST(FitsFileErrors, MissingKeyword) {
+  FitsFile f = FitsFile::open_read(kSet0);
+  std::string msg = fits_error_of([&] { f.key_double("NOSUCHKY"); });
+  EXPECT_TRUE(Contains(msg, "set_0.fits[HDU 0]: missing header keyword 'NOSUCHKY'"));
+  msg = fits_error_of([&] { f.key_long("NOSUCHKY"); });
+  EXPECT_TRUE(Contains(msg, "missing header keyword 'NOSUCHKY'"));
+  msg = fits_error_of([&] { f.key_string("NOSUCHKY"); });
+  EXPECT_TRUE(Contains(msg, "set_0.fits"));
+  EXPECT_TRUE(Contains(msg, "'NOSUCHKY'"));
+}
+
+TEST(FitsFileErrors, KeywordOfWrongType) {
+  FitsFile f = FitsFile::open_read(kSet0);
+  std::string msg = fits_error_of([&] { f.key_double("SIZEDEF"); });
+  EXPECT_TRUE(Contains(msg, "set_0.fits"));
+  EXPECT_TRUE(Contains(msg, "keyword 'SIZEDEF' is not a number"));
+  msg = fits_error_of([&] { f.read_key_long("PSFE2"); });
+  EXPECT_TRUE(Contains(msg, "keyword 'PSFE2' is not an integer"));
+}
+
+TEST(FitsFileErrors, MissingColumn) {
+  FitsFile f = FitsFile::open_read(kTruth0);
+  f.move_to("TRUTH");
+  const std::string msg = fits_error_of([&] { f.read_column("e1_observed"); });
+  EXPECT_TRUE(Contains(msg, "truth_0.fits[HDU 1 'TRUTH']: no column 'e1_observed'"));
+}
+
+TEST(FitsFileErrors, MoveToUnknownHdu) {
+  FitsFile f = FitsFile::open_read(kCases);
+  f.move_to("CASE03");
+  std::string msg = fits_error_of([&] { f.move_to("CASE99"); });
+  EXPECT_TRUE(Contains(msg, "render_cases.fits"));
+  EXPECT_TRUE(Contains(msg, "no HDU with EXTNAME 'CASE99'"));
+  EXPECT_EQ(f.hdu_index(), 4);  // a failed move leaves the file where it was
+  msg = fits_error_of([&] { f.move_to(99); });
+  EXPECT_TRUE(Contains(msg, "render_cases.fits"));
+  EXPECT_TRUE(Contains(msg, "HDU 99"));
+  EXPECT_EQ(f.hdu_index(), 4);
+  msg = fits_error_of([&] { f.move_to(-1); });
+  EXPECT_TRUE(Contains(msg, "HDU -1"));
+}
+
+TEST(FitsFileErrors, ImageFunctionsOnTable) {
+  FitsFile f = FitsFile::open_read(kCases);
+  f.move_to("CASES");
+  std::string msg = fits_error_of([&] { f.image_shape(); });
+  EXPECT_TRUE(Contains(msg, "render_cases.fits[HDU 23 'CASES']"));
+  EXPECT_TRUE(Contains(msg, "not an image"));
+  msg = fits_error_of([&] { f.read_image(); });
+  EXPECT_TRUE(Contains(msg, "'CASES'"));
+}
+
+TEST(FitsFileErrors, TableFunctionsOnImage) {
+  FitsFile f = FitsFile::open_read(kCases);
+  f.move_to("CASE01");
+  const std::string msg = fits_error_of([&] { f.read_column("hlr"); });
+  EXPECT_TRUE(Contains(msg, "render_cases.fits[HDU 2 'CASE01']"));
+  EXPECT_TRUE(Contains(msg, "not a table"));
+}
+
+TEST(FitsFileErrors, ReadImageRowsOutOfRange) {
+  FitsFile f = FitsFile::open_read(kSet0);
+  std::vector<double> strip(780 * 20);
+  std::string msg = fits_error_of([&] { f.read_image_rows(770, 20, strip); });
+  EXPECT_TRUE(Contains(msg, "set_0.fits[HDU 0]"));
+  EXPECT_TRUE(Contains(msg, "770"));
+  msg = fits_error_of([&] { f.read_image_rows(-1, 20, strip); });
+  EXPECT_TRUE(Contains(msg, "set_0.fits"));
+  msg = fits_error_of([&] { f.read_image_rows(0, 19, strip); });  // span too large for 19 rows
+  EXPECT_TRUE(Contains(msg, "set_0.fits"));
+}
+
+TEST_F(FitsFileTmp, WriteErrors) {
+  FitsFile read_only = FitsFile::open_read(kSet0);
+  const std::vector<double> pixels(4, 1.0);
+  std::string msg = fits_error_of([&] { read_only.write_image(2, 2, pixels); });
+  EXPECT_TRUE(Contains(msg, "set_0.fits"));
+  msg = fits_error_of([&] { read_only.write_key("NEWKEY", 1.0, ""); });
+  EXPECT_TRUE(Contains(msg, "'NEWKEY'"));
+
+  FitsFile f = FitsFile::create(tmp("bad.fits"), true);
+  msg = fits_error_of([&] { f.write_key("EARLY", 1.0, ""); });  // no header to write into yet
+  EXPECT_TRUE(Contains(msg, "bad.fits"));
+  EXPECT_TRUE(Contains(msg, "'EARLY'"));
+  msg = fits_error_of([&] { f.write_image(3, 2, pixels); });  // 4 pixels for a 3 x 2 image
+  EXPECT_TRUE(Contains(msg, "bad.fits"));
+  f.write_image(2, 2, pixels);
+  msg = fits_error_of([&] { f.write_key("NAN", std::nan(""), ""); });
+  EXPECT_TRUE(Contains(msg, "'NAN'"));
+}
+
+}  // namespace
+}  // namespace stampede::io

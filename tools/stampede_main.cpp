@@ -1,0 +1,40 @@
+// The `stampede` command: dispatches to sub-commands.
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <string>
+
+#include "tools/demo_command.hpp"
+
+namespace {
+
+void print_usage(std::FILE* out) {
+  std::fprintf(out,
+               "stampede: galaxy shape measurement for weak lensing (the im3shape method)\n"
+               "\n"
+               "usage: stampede <command> [options]\n"
+               "\n"
+               "commands:\n"
+               "  demo     fit the bundled noise-free GREAT08-like set and print true vs recovered e\n"
+               "\n"
+               "Run 'stampede <command> --help' for a command's options.\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
+    print_usage(argc < 2 ? stderr : stdout);
+    return argc < 2 ? 2 : 0;
+  }
+  const std::string command = argv[1];
+  try {
+    if (command == "demo") return run_demo_command(argc - 1, argv + 1);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "stampede %s: error: %s\n", command.c_str(), e.what());
+    return 1;
+  }
+  std::fprintf(stderr, "stampede: unknown command '%s'\n\n", command.c_str());
+  print_usage(stderr);
+  return 2;
+}
