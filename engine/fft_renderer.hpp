@@ -41,6 +41,7 @@ class FftRenderer final : public Renderer {
   std::array<kernels::GridRegion, 5> partition(double x0, double y0) const;
   double* image(int k) { return static_cast<double*>(grid_images_[k].data()); }
   void convolve_and_downsample(double* grid_image, double* out);
+  void set_floor(kernels::SersicDerivativeBlock* c, int supersample, double, const ModelComponents& comp) const;
 
   RenderOptions options_;
   GridGeometry geometry_;

@@ -133,7 +133,11 @@ FitStatus Fitter::prepare_weights(std::span<const double> pixels, std::span<cons
 
 ParamVector Fitter::starting_point(std::span<const double> pixels, std::span<const double> weight,
                                    std::uint32_t* flags) {
-  (void)weight;  // weight_ is already prepared
+  if (prepare_weights(pixels, weight, flags) != FitStatus::kOk) *flags |= kFlagDefaultStart;
+  return start_from_prepared(pixels, flags);
+}
+
+ParamVector Fitter::start_from_prepared(std::span<const double> pixels, std::uint32_t* flags) {
   const int s = options_.render.stamp_size;
   const ParameterSet& ps = options_.params;
   ParamVector p;
@@ -217,7 +221,7 @@ FitResult Fitter::fit(std::span<const double> pixels, std::span<const double> we
     r.flags = flags;
     return r;
   }
-  const ParamVector start = starting_point(pixels, weight, &flags);
+  const ParamVector start = start_from_prepared(pixels, &flags);
   return run(pixels, start, flags);
 }
 

@@ -52,6 +52,7 @@ class Fitter {
   // Fills weight_ from the inputs; returns a status other than kOk when nothing can be fitted.
   FitStatus prepare_weights(std::span<const double> pixels, std::span<const double> weight, std::uint32_t* flags);
   FitResult run(std::span<const double> pixels, const ParamVector& start, std::uint32_t flags);
+  ParamVector start_from_prepared(std::span<const double> pixels, std::uint32_t* flags);
   void solve_start_amplitudes(std::span<const double> pixels, ParamVector* p);
 
   FitterOptions options_;

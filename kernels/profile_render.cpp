@@ -2,6 +2,7 @@
 // pixel loops carry no branch on the Sérsic index.
 #include "kernels/profile_render.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace stampede::kernels {
@@ -43,7 +44,7 @@ void accumulate_value_impl(const SubpixelGrid& grid, const GridRegion& region, i
         const double dy = yc + off.d[b];
         for (int a = 0; a < off.n; ++a) {
           const double dx = xc + off.d[a];
-          sum += std::exp(-block.b * root_of<R>(q(dx, dy), block.inv_2n));
+          sum += std::exp(-block.b * root_of<R>(std::max(q(dx, dy), block.u_floor), block.inv_2n));
         }
       }
       row[i] += scale * sum;
@@ -62,6 +63,7 @@ void accumulate_derivatives_impl(const SubpixelGrid& grid, const GridRegion& reg
   const EllipseQuadratic q2 = block.dq_de2;
   const double b = block.shape.b;
   const double inv_2n = block.shape.inv_2n;
+  const double u_floor = block.shape.u_floor;
   // d value / du = -b value (du^(1/2n)/du) = -b value t inv_2n / u; the amplitude folds in here.
   const double g_scale = -block.amplitude * b * inv_2n;
   for (int j = region.y_begin; j < region.y_end; ++j) {
@@ -74,16 +76,19 @@ void accumulate_derivatives_impl(const SubpixelGrid& grid, const GridRegion& reg
         const double dy = yc + off.d[bb];
         for (int a = 0; a < off.n; ++a) {
           const double dx = xc + off.d[a];
-          const double u = q(dx, dy);
+          const double u_raw = q(dx, dy);
+          const double u = std::max(u_raw, u_floor);
           const double t = root_of<R>(u, inv_2n);
           const double v = std::exp(-b * t);
           // The profile's gradient is singular at u = 0 (a set of measure zero); take it as 0 there.
           const double g = u > 0.0 ? g_scale * v * t / u : 0.0;
+          // Under the floor the value depends only on r (through u_floor), not on position or shape.
+          const double gs = u_raw >= u_floor ? g : 0.0;
           v_sum += v;
-          sx += g * (q.xx * dx + q.xy * dy);
-          sy += g * (q.xy * dx + q.yy * dy);
-          s1 += g * q1(dx, dy);
-          s2 += g * q2(dx, dy);
+          sx += gs * (q.xx * dx + q.xy * dy);
+          sy += gs * (q.xy * dx + q.yy * dy);
+          s1 += gs * q1(dx, dy);
+          s2 += gs * q2(dx, dy);
           sr += g * u;
         }
       }
@@ -107,7 +112,7 @@ SersicRoot sersic_root_for(double n) {
 }
 
 double sersic_value(const SersicBlock& block, double x, double y) {
-  const double u = block.q(x - block.x0, y - block.y0);
+  const double u = std::max(block.q(x - block.x0, y - block.y0), block.u_floor);
   return std::exp(-block.b * std::pow(u, block.inv_2n));
 }
 

@@ -38,6 +38,11 @@ enum class SersicRoot {
 struct SersicBlock {
   double x0 = 0, y0 = 0;
   EllipseQuadratic q;
+  // Samples nearer the centre than the radius of a disc with their cell's area, h / sqrt(pi), take
+  // the profile's value at that radius (close to the cell mean of the cusp; a sample on r = 0 would
+  // return the central intensity, ~15x the mean for n = 4). Set per region by the renderer as
+  // u_floor = h^2 / (pi r_e^2), h the sample spacing in pixels; 0 disables.
+  double u_floor = 0;
   double b = 1;
   double inv_2n = 0.5;
   SersicRoot root = SersicRoot::kSquareRoot;
@@ -50,7 +55,7 @@ struct SersicDerivativeBlock {
   double amplitude = 0;
   EllipseQuadratic dq_de1;  // du/de1 = dq_de1(dx, dy)
   EllipseQuadratic dq_de2;  // du/de2 = dq_de2(dx, dy)
-  double du_dr_over_u = 0;  // du/dr = du_dr_over_u * u
+  double du_dr_over_u = 0;  // du/dr = du_dr_over_u * u (also for u_floor, which scales as 1/r^2)
 };
 
 // Indices of the shape derivative images.

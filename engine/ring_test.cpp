@@ -1,0 +1,124 @@
+// Ring tests and size calibration; see ring_test.hpp.
+#include "engine/ring_test.hpp"
+
+#include <cmath>
+#include <complex>
+#include <stdexcept>
+#include <vector>
+
+#include "engine/fft_renderer.hpp"
+#include "kernels/sersic.hpp"
+
+namespace stampede {
+namespace {
+
+ParamVector base_params() {
+  ParamVector p;
+  for (int k = 0; k < kNumParams; ++k) p[k] = ParameterSet::defaults()[k].start;
+  return p;
+}
+
+double psf_fwhm(const PsfOptions& psf) {
+  if (psf.type == PsfType::kMoffat) return psf.moffat.fwhm;
+  if (psf.type == PsfType::kAiry) return 1.028993969962188 * psf.airy.lambda_over_d;  // unobscured
+  throw std::invalid_argument("size ratio needs an analytic PSF");
+}
+
+}  // namespace
+
+double convolved_fwhm(double n, double half_light_radius, const PsfOptions& psf_in, FftPlanCache& plans) {
+  // Draw in units of 1/10 pixel so the output "pixels" hardly blur the profile; the centre sits on
+  // a pixel centre and the FWHM comes from the profile along +x.
+  constexpr double kScale = 10.0;
+  PsfOptions psf = psf_in;
+  psf.moffat.e1 = psf.moffat.e2 = 0.0;  // the definition uses round profiles
+  psf.moffat.fwhm *= kScale;
+  psf.moffat.truncation *= kScale;
+  psf.airy.lambda_over_d *= kScale;
+  const double extent = 4.0 * (psf_fwhm(psf_in) + 6.0 * half_light_radius) * kScale;
+  RenderOptions ro;
+  ro.stamp_size = 2 * static_cast<int>(extent / 2) + 1;
+  ro.upsampling = 1;
+  ro.n_central_pixels_to_upsample = 9;
+  ro.n_central_pixel_upsampling = 25;
+  std::string err;
+  auto kernel = PsfKernel::build(psf, GridGeometry(ro), plans, &err);
+  if (!kernel) throw std::invalid_argument(err);
+  FftRenderer renderer(ro, ModelOptions{}, kernel, plans);
+  ParamVector p = base_params();
+  const int c = ro.stamp_size / 2;
+  p[index(Param::kX0)] = p[index(Param::kY0)] = c;
+  p[index(Param::kE1)] = p[index(Param::kE2)] = 0.0;
+  p[index(Param::kRadius)] = half_light_radius * kScale;
+  p[index(Param::kBulgeIndex)] = n;
+  p[index(Param::kBulgeA)] = 1.0;
+  p[index(Param::kDiscA)] = 0.0;
+  std::vector<double> img(static_cast<std::size_t>(ro.stamp_size) * ro.stamp_size);
+  renderer.render(p, img);
+  const double* row = img.data() + static_cast<std::size_t>(c) * ro.stamp_size;
+  const double half = 0.5 * row[c];
+  for (int i = c; i + 1 < ro.stamp_size; ++i)
+    if (row[i + 1] < half) return 2.0 * (i - c + (row[i] - half) / (row[i] - row[i + 1])) / kScale;
+  throw std::runtime_error("convolved_fwhm: profile does not fall to half maximum on the grid");
+}
+
+double half_light_radius_for_size_ratio(double n, double ratio, const PsfOptions& psf, FftPlanCache& plans) {
+  const double target = ratio * psf_fwhm(psf);
+  double lo = 0.01, hi = 20.0;
+  for (int it = 0; it < 40; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (convolved_fwhm(n, mid, psf, plans) < target ? lo : hi) = mid;
+    if (hi - lo < 1e-4 * lo) break;
+  }
+  return 0.5 * (lo + hi);
+}
+
+RingTestResult run_ring_test(const RingTestConfig& cfg, FftPlanCache& plans) {
+  const int s = cfg.fit.render.stamp_size;
+  RenderOptions truth_ro;
+  truth_ro.stamp_size = s;
+  truth_ro.upsampling = cfg.truth_upsampling;
+  truth_ro.n_central_pixels_to_upsample = cfg.truth_central;
+  truth_ro.n_central_pixel_upsampling = cfg.truth_central_upsampling;
+  truth_ro.padding = cfg.truth_padding;
+  std::string err;
+  auto truth_psf = PsfKernel::build(cfg.psf, GridGeometry(truth_ro), plans, &err);
+  auto fit_psf = PsfKernel::build(cfg.psf, GridGeometry(cfg.fit.render), plans, &err);
+  if (!truth_psf || !fit_psf) throw std::invalid_argument("ring test PSF: " + err);
+  FftRenderer truth(truth_ro, ModelOptions{}, truth_psf, plans);
+  Fitter fitter(cfg.fit, fit_psf, plans);
+  std::vector<double> image(static_cast<std::size_t>(s) * s);
+  const double r = cfg.half_light_radius;
+  const double ab = cfg.flux * cfg.bulge_fraction / kernels::sersic_flux_per_amplitude(r, 4.0);
+  const double ad = cfg.flux * (1 - cfg.bulge_fraction) / kernels::sersic_flux_per_amplitude(r, 1.0);
+  RingTestResult res;
+  std::complex<double> mean[2] = {0, 0};
+  for (int sign = 0; sign < 2; ++sign) {
+    const std::complex<double> g(sign == 0 ? cfg.shear1 : -cfg.shear1, sign == 0 ? cfg.shear2 : -cfg.shear2);
+    for (int a = 0; a < cfg.n_angles; ++a) {
+      const double theta = M_PI * a / cfg.n_angles;
+      const std::complex<double> e_int = std::polar(cfg.intrinsic_e, 2.0 * theta);
+      const std::complex<double> e = (e_int + g) / (1.0 + std::conj(g) * e_int);
+      ParamVector p = base_params();
+      p[index(Param::kX0)] = p[index(Param::kY0)] = 0.5 * (s - 1);
+      p[index(Param::kE1)] = e.real();
+      p[index(Param::kE2)] = e.imag();
+      p[index(Param::kRadius)] = r;
+      p[index(Param::kBulgeA)] = ab;
+      p[index(Param::kDiscA)] = ad;
+      truth.render(p, image);
+      const FitResult f = fitter.fit(image);
+      ++res.fits;
+      if (f.status != FitStatus::kOk) ++res.failed;
+      mean[sign] += std::complex<double>(f.params[index(Param::kE1)], f.params[index(Param::kE2)]) / double(cfg.n_angles);
+    }
+  }
+  const std::complex<double> diff = mean[0] - mean[1], sum = mean[0] + mean[1];
+  res.m1 = diff.real() / (2 * cfg.shear1) - 1;
+  res.m2 = diff.imag() / (2 * cfg.shear2) - 1;
+  res.c1 = sum.real() / 2;
+  res.c2 = sum.imag() / 2;
+  return res;
+}
+
+}  // namespace stampede
