@@ -275,6 +275,11 @@ FitResult Fitter::run(std::span<const double> pixels, const ParamVector& start, 
     problem_->chi2(sum.x, &chi2);  // leaves the optimum's model in the buffer
     ++r.evaluations;
   }
+  if (!std::isfinite(chi2)) {
+    r.status = FitStatus::kSolverFailure;
+    r.flags = flags;
+    return r;
+  }
   ParamVector p;
   problem_->expand(sum.x, &p);
   // Errors from the inverse of J^T W J.

@@ -89,6 +89,7 @@ LmSummary levenberg_marquardt(LeastSquaresProblem& problem, const LmVector& x0, 
     s.stop_threshold = threshold;
   };
   bool have_jacobian = true;
+  int small_steps = 0;  // consecutive accepted steps with relative chi2 change below eps4 / n
   while (true) {
     if (!have_jacobian) {
       if (s.iterations >= options.max_iterations) {
@@ -164,9 +165,11 @@ LmSummary levenberg_marquardt(LeastSquaresProblem& problem, const LmVector& x0, 
           break;
         }
         const double rel = (prev - chi2) / prev;
-        // A heavily damped step can gain little far from the optimum; only stop when the
-        // Gauss-Newton model agrees that little is left to gain.
-        if (options.eps4 > 0 && rel < options.eps4 / npix && gn_decrease / prev < options.eps4 / npix) {
+        small_steps = rel < options.eps4 / npix ? small_steps + 1 : 0;
+        // A heavily damped step can gain little far from the optimum: stop when the Gauss-Newton
+        // model agrees that little is left to gain, or when three steps in a row gained little
+        // (the model is only piecewise smooth, so near a seam the quadratic model may never agree).
+        if (options.eps4 > 0 && small_steps > 0 && (gn_decrease / prev < options.eps4 / npix || small_steps >= 3)) {
           stop(StopReason::kRelativeChi2Change, rel, options.eps4 / npix);
           break;
         }

@@ -7,8 +7,9 @@
 //   eps1: max_k |beta_k| <= eps1, beta = J^T W (d - m) = -(1/2) d chi2 / dp     (0 disables)
 //   eps2: |dp|^2 <= eps2^2 |p|^2 for the proposed step                          (0 disables)
 //   eps3: chi2 <= eps3                                                          (0 disables)
-//   eps4: |chi2_prev - chi2| / chi2_prev < eps4 / n_pixels after an accepted step, and the undamped
-//         Gauss-Newton step predicts no more than that either (0 disables)
+//   eps4: |chi2_prev - chi2| / chi2_prev < eps4 / n_pixels after an accepted step, and either the
+//         undamped Gauss-Newton step predicts no more than that, or it is the third such step in a
+//         row (0 disables)
 //   max_iterations: Jacobian evaluations.
 // A step to parameters where no model exists is rejected like an uphill step (the paper's
 // "chi2 = 2 per pixel" convention would be accepted by an unweighted fit of bright data).

@@ -8,6 +8,7 @@ namespace stampede::kernels {
 double weighted_chi2(std::span<const double> data, std::span<const double> model, std::span<const double> weight) {
   double chi2 = 0.0;
   for (std::size_t i = 0; i < data.size(); ++i) {
+    if (weight[i] == 0.0) continue;  // masked: its data may be NaN
     const double r = data[i] - model[i];
     chi2 += weight[i] * r * r;
   }

@@ -6,7 +6,7 @@
 
 namespace stampede::kernels {
 
-// chi2 = sum_i w_i (d_i - m_i)^2.
+// chi2 = sum_i w_i (d_i - m_i)^2 over pixels with w_i != 0 (masked pixels may hold NaN).
 double weighted_chi2(std::span<const double> data, std::span<const double> model, std::span<const double> weight);
 
 // Normal equations of the linearised problem in the Numerical Recipes convention:

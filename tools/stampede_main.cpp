@@ -5,6 +5,7 @@
 #include <string>
 
 #include "tools/demo_command.hpp"
+#include "tools/figure2_command.hpp"
 
 namespace {
 
@@ -16,6 +17,7 @@ void print_usage(std::FILE* out) {
                "\n"
                "commands:\n"
                "  demo     fit the bundled noise-free GREAT08-like set and print true vs recovered e\n"
+               "  figure2  noise-free ring-test m against upsampling (im3shape paper, figure 2)\n"
                "\n"
                "Run 'stampede <command> --help' for a command's options.\n");
 }
@@ -30,6 +32,7 @@ int main(int argc, char** argv) {
   const std::string command = argv[1];
   try {
     if (command == "demo") return run_demo_command(argc - 1, argv + 1);
+    if (command == "figure2") return run_figure2_command(argc - 1, argv + 1);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "stampede %s: error: %s\n", command.c_str(), e.what());
     return 1;

@@ -97,6 +97,10 @@ TEST_F(FitterBadInput, NanAndInfPixelsGiveBadPixels) {
   const FitResult r = fitter.fit(img, w);
   EXPECT_EQ(r.status, FitStatus::kOk);
   EXPECT_TRUE(r.flags & kFlagMaskedPixels);
+  EXPECT_TRUE(std::isfinite(r.chi2));
+  // Losing one pixel of a noise-free stamp must not move the answer.
+  EXPECT_NEAR(r.params[index(Param::kE1)], c.e1, 2e-3);
+  EXPECT_NEAR(r.params[index(Param::kE2)], c.e2, 2e-3);
 }
 
 TEST_F(FitterBadInput, AllZeroOrZeroWeightGiveNoData) {

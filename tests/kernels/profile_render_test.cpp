@@ -181,15 +181,19 @@ TEST(AccumulateSersic, FineGridSumIsAnalyticFlux) {
 
 // Central finite differences of amplitude * (supersampled) value with respect to one parameter.
 // p: 0 x0, 1 y0, 2 e1, 3 e2, 4 r.
-std::vector<double> finite_difference(const Shape& s, int p, double amplitude, int ss, double h) {
+// floor_c > 0 sets u_floor = floor_c / r^2, which follows r as the renderer's h^2 / (pi r_e^2) does.
+std::vector<double> finite_difference(const Shape& s, int p, double amplitude, int ss, double h, double floor_c = 0.0) {
   Shape plus = s, minus = s;
   double* fields_plus[] = {&plus.x0, &plus.y0, &plus.e1, &plus.e2, &plus.r};
   double* fields_minus[] = {&minus.x0, &minus.y0, &minus.e1, &minus.e2, &minus.r};
   *fields_plus[p] += h;
   *fields_minus[p] -= h;
+  SersicBlock bp = make_block(plus), bm = make_block(minus);
+  bp.u_floor = floor_c / (plus.r * plus.r);
+  bm.u_floor = floor_c / (minus.r * minus.r);
   std::vector<double> vp(kGrid.size * kGrid.size, 0.0), vm(vp.size(), 0.0);
-  accumulate_sersic(kGrid, kFull, ss, make_block(plus), amplitude, vp.data());
-  accumulate_sersic(kGrid, kFull, ss, make_block(minus), amplitude, vm.data());
+  accumulate_sersic(kGrid, kFull, ss, bp, amplitude, vp.data());
+  accumulate_sersic(kGrid, kFull, ss, bm, amplitude, vm.data());
   for (std::size_t k = 0; k < vp.size(); ++k) vp[k] = (vp[k] - vm[k]) / (2 * h);
   return vp;
 }
@@ -283,6 +287,85 @@ TEST(AccumulateSersicDerivatives, DerivativesAccumulateAndRespectRegion) {
         }
       }
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The cusp floor: samples with u < u_floor take the value at u_floor.
+
+TEST(AccumulateSersic, FloorClampsSamplesInsideIt) {
+  for (const Shape& s : kShapes) {
+    SersicBlock block = make_block(s);
+    block.u_floor = 0.08;
+    const double floored = std::exp(-block.b * std::pow(0.08, block.inv_2n));
+    // sersic_value: constant inside the floor, unchanged outside it.
+    EXPECT_NEAR(sersic_value(block, s.x0, s.y0), floored, 1e-15);
+    EXPECT_NEAR(sersic_value(block, s.x0 + 0.01, s.y0 - 0.02), floored, 1e-15);
+    const SersicBlock unfloored = make_block(s);
+    EXPECT_EQ(sersic_value(block, s.x0 + 1.0, s.y0 + 0.5), sersic_value(unfloored, s.x0 + 1.0, s.y0 + 0.5));
+    // The grid kernel applies the same rule at every sample (and agrees with sersic_value).
+    std::vector<double> out(kGrid.size * kGrid.size, 0.0);
+    accumulate_sersic(kGrid, kFull, 3, block, 2.0, out.data());
+    int inside = 0;
+    for (int j = 0; j < kGrid.size; ++j)
+      for (int i = 0; i < kGrid.size; ++i) {
+        const double expected = 2.0 * reference_mean(kGrid, block, i, j, 3);
+        EXPECT_NEAR(out[j * kGrid.size + i], expected, 1e-12 * expected) << "n = " << s.n << " (" << i << ", " << j << ")";
+        inside += block.q(centre(kGrid, i) - s.x0, centre(kGrid, j) - s.y0) < 0.08 ? 1 : 0;
+      }
+    EXPECT_GT(inside, 0) << "no sub-pixel centre fell inside the floor; the test tests nothing";
+  }
+}
+
+TEST(AccumulateSersicDerivatives, FloorFreezesShapeDerivativesAndFollowsRadius) {
+  // supersample 1, so each sub-pixel is one sample and can be classified against the floor. Inside
+  // it the value depends on r only (u_floor = c / r^2), so d/dx0, d/dy0, d/de1, d/de2 are exactly 0
+  // and d/dr matches finite differences of the floored render; outside it nothing changes. Samples
+  // within 20% of the floor's edge are skipped (the kink spoils the central difference there).
+  // Tolerances as in MatchFiniteDifferences.
+  const double amplitude = 50.0, h = 1e-5, floor_c = 0.3;
+  const char* names[] = {"x0", "y0", "e1", "e2", "r"};
+  for (const Shape& s : kShapes) {
+    SersicDerivativeBlock d = make_derivative_block(s, amplitude);
+    d.shape.u_floor = floor_c / (s.r * s.r);
+    std::vector<std::vector<double>> deriv(kNumShapeDerivatives, std::vector<double>(kGrid.size * kGrid.size, 0.0));
+    std::array<double*, kNumShapeDerivatives> ptr;
+    for (int p = 0; p < kNumShapeDerivatives; ++p) ptr[p] = deriv[p].data();
+    std::vector<double> value(kGrid.size * kGrid.size, 0.0);
+    accumulate_sersic_derivatives(kGrid, kFull, 1, d, value.data(), ptr);
+    int inside = 0, outside = 0;
+    for (int p = 0; p < kNumShapeDerivatives; ++p) {
+      const std::vector<double> fd = finite_difference(s, p, amplitude, 1, h, floor_c);
+      for (int j = 0; j < kGrid.size; ++j)
+        for (int i = 0; i < kGrid.size; ++i) {
+          const int k = j * kGrid.size + i;
+          const double ratio = d.shape.q(centre(kGrid, i) - s.x0, centre(kGrid, j) - s.y0) / d.shape.u_floor;
+          if (ratio > 0.8 && ratio < 1.2) continue;
+          if (ratio < 1.0) {
+            ++inside;
+            if (p != kDr) {
+              EXPECT_EQ(deriv[p][k], 0.0) << "d/d" << names[p] << " inside the floor, n = " << s.n;
+              EXPECT_EQ(fd[k], 0.0) << "the floored render still moves with " << names[p];
+            } else {
+              EXPECT_GT(deriv[p][k], 0.0) << "a larger r lowers u_floor and raises the floored value";
+            }
+          } else {
+            ++outside;
+          }
+          // Away from the cusp (u >= 0.1), or frozen inside the floor: a smooth function of each
+          // parameter, so the central difference applies.
+          if (ratio < 1.0 || ratio * d.shape.u_floor >= 0.1) {
+            EXPECT_NEAR(deriv[p][k], fd[k], 1e-6 * std::abs(fd[k]) + 1e-7 * amplitude)
+                << "d/d" << names[p] << " n = " << s.n << " (" << i << ", " << j << ") u/u_floor = " << ratio;
+          }
+        }
+    }
+    EXPECT_GT(inside, 0) << "n = " << s.n;
+    EXPECT_GT(outside, 0) << "n = " << s.n;
+    // The value image is the floored unit-amplitude render.
+    std::vector<double> ref(value.size(), 0.0);
+    accumulate_sersic(kGrid, kFull, 1, d.shape, 1.0, ref.data());
+    for (std::size_t k = 0; k < ref.size(); ++k) EXPECT_NEAR(value[k], ref[k], 1e-14 * ref[k]);
+  }
 }
 
 }  // namespace
