@@ -47,9 +47,15 @@ class Fitter::Problem final : public LeastSquaresProblem {
     }
     return true;
   }
+  // The paper's convention: a model that cannot be made scores chi2 = 2 per pixel. The solver also
+  // gets `false` and rejects the step outright, since 2 per pixel would look like an improvement
+  // to an unweighted fit of bright data.
   bool chi2(const LmVector& x, double* chi2) override {
     ParamVector p;
-    if (!expand(x, &p) || f_.renderer_->render(p, model_) != RenderStatus::kOk) return false;
+    if (!expand(x, &p) || f_.renderer_->render(p, model_) != RenderStatus::kOk) {
+      *chi2 = 2.0 * npix_used_;
+      return false;
+    }
     *chi2 = kernels::weighted_chi2(data_, model_, f_.weight_);
     return std::isfinite(*chi2);
   }
@@ -58,8 +64,10 @@ class Fitter::Problem final : public LeastSquaresProblem {
     const int nf = f_.num_free_;
     if (!expand(x, &p) ||
         f_.renderer_->render_with_jacobian(p, std::span<const Param>(f_.free_.data(), nf), model_,
-                                           std::span<double* const>(column_ptr_.data(), nf)) != RenderStatus::kOk)
+                                           std::span<double* const>(column_ptr_.data(), nf)) != RenderStatus::kOk) {
+      *chi2 = 2.0 * npix_used_;
       return false;
+    }
     alpha->resize(nf, nf);
     beta->resize(nf);
     *chi2 = kernels::accumulate_normal_equations(data_, model_, f_.weight_, column_ptr_.data(), nf, alpha->data(),
@@ -257,6 +265,8 @@ FitResult Fitter::run(std::span<const double> pixels, const ParamVector& start, 
   r.n_pixels = used;
   if (sum.reason == StopReason::kInvalidStart) {
     r.status = FitStatus::kModelFailure;
+    r.chi2 = 2.0 * used;
+    r.likelihood = -0.5 * r.chi2;
     r.flags = flags;
     return r;
   }

@@ -134,7 +134,9 @@ TEST_F(FitterBadInput, StartWithoutAModelGivesModelFailure) {
   Fitter fitter(fo, kernel_for(fo, testing::case_psf(c), plans), plans);
   ParamVector start = testing::case_truth(c);
   start[index(Param::kRadiusRatio)] = NAN;
-  EXPECT_EQ(fitter.fit_from(c.image, {}, start).status, FitStatus::kModelFailure);
+  const FitResult r = fitter.fit_from(c.image, {}, start);
+  EXPECT_EQ(r.status, FitStatus::kModelFailure);
+  EXPECT_EQ(r.chi2, 2.0 * c.stamp * c.stamp);  // the paper's "chi2 = 2 per pixel"
 }
 
 // Invalid options are rejected up front with the option's name, its value and the constraint.
