@@ -15,6 +15,16 @@ std::mutex& fftw_planner_mutex() {
   return mutex;
 }
 
+bool load_fftw_wisdom(const std::string& path) {
+  std::lock_guard<std::mutex> lock(fftw_planner_mutex());
+  return fftw_import_wisdom_from_filename(path.c_str()) != 0;
+}
+
+bool save_fftw_wisdom(const std::string& path) {
+  std::lock_guard<std::mutex> lock(fftw_planner_mutex());
+  return fftw_export_wisdom_to_filename(path.c_str()) != 0;
+}
+
 AlignedBuffer::AlignedBuffer(std::size_t bytes) : data_(fftw_malloc(bytes)) {
   if (!data_) throw std::bad_alloc();
   std::memset(data_, 0, bytes);

@@ -12,11 +12,18 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <string>
 
 namespace stampede {
 
 // The one lock around every FFTW planner call in the process.
 std::mutex& fftw_planner_mutex();
+
+// FFTW wisdom: plans made with kMeasure are recorded, and a later run that loads the same wisdom
+// makes the same plans (so its results are bitwise identical). False when the file is missing or
+// unreadable (load) or cannot be written (save).
+bool load_fftw_wisdom(const std::string& path);
+bool save_fftw_wisdom(const std::string& path);
 
 // fftw_malloc'd storage: SIMD-aligned as the plans expect.
 class AlignedBuffer {

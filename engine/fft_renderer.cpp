@@ -23,6 +23,11 @@ FftRenderer::FftRenderer(const RenderOptions& options, const ModelOptions& model
   for (auto& s : stamp_images_) s.assign(npix, 0.0);
 }
 
+void FftRenderer::set_psf(std::shared_ptr<const PsfKernel> psf) {
+  if (!psf || !(psf->geometry() == geometry_)) throw std::invalid_argument("PSF kernel built for another model grid");
+  psf_ = std::move(psf);
+}
+
 kernels::GridRegion FftRenderer::central_region(double x0, double y0) const {
   const kernels::SubpixelGrid g = geometry_.subpixel_grid();
   const int nu = options_.n_central_pixels_to_upsample;

@@ -31,6 +31,8 @@ class FftRenderer final : public Renderer {
                                     std::span<double* const> jacobian) override;
 
   const GalaxyModel& galaxy_model() const { return model_; }
+  // Swaps the PSF (same grid); for per-object PSFs.
+  void set_psf(std::shared_ptr<const PsfKernel> psf);
   const GridGeometry& geometry() const { return geometry_; }
 
   // The sub-pixel block integrated at U2 for a galaxy centred at (x0, y0) (exposed for tests).

@@ -87,7 +87,7 @@ class Fitter::Problem final : public LeastSquaresProblem {
 };
 
 Fitter::Fitter(const FitterOptions& options, std::shared_ptr<const PsfKernel> psf, FftPlanCache& plans)
-    : options_(options), psf_(std::move(psf)) {
+    : options_(options), psf_(std::move(psf)), plans_(plans) {
   std::string why;
   if (!options_.IsValid(&why)) throw std::invalid_argument(why);
   const int s = options_.render.stamp_size;
@@ -113,6 +113,15 @@ Fitter::Fitter(const FitterOptions& options, std::shared_ptr<const PsfKernel> ps
 }
 
 Fitter::~Fitter() = default;
+
+void Fitter::set_psf(std::shared_ptr<const PsfKernel> psf) {
+  psf_ = std::move(psf);
+  if (!psf_) return;
+  if (renderer_)
+    renderer_->set_psf(psf_);
+  else
+    renderer_ = std::make_unique<FftRenderer>(options_.render, options_.model, psf_, plans_);
+}
 
 FitStatus Fitter::prepare_weights(std::span<const double> pixels, std::span<const double> weight, std::uint32_t* flags) {
   const std::size_t npix = weight_.size();

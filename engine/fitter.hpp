@@ -33,6 +33,7 @@ class Fitter {
  public:
   // options must be valid. psf may be null (it could not be built): every fit then reports kPsfFailure.
   Fitter(const FitterOptions& options, std::shared_ptr<const PsfKernel> psf, FftPlanCache& plans);
+  
   ~Fitter();
 
   // pixels: stamp_size^2, row-major. weight: empty (use noise_sigma) or inverse variance per pixel,
@@ -43,6 +44,10 @@ class Fitter {
 
   // The starting point fit() would use (exposed for tests and diagnostics); flags may gain kFlagDefaultStart.
   ParamVector starting_point(std::span<const double> pixels, std::span<const double> weight, std::uint32_t* flags);
+
+  // Swaps the PSF for the following fits (null: they report kPsfFailure). Allocates nothing once
+  // the first PSF has been set.
+  void set_psf(std::shared_ptr<const PsfKernel> psf);
 
   Renderer& renderer() { return *renderer_; }
   const FitterOptions& options() const { return options_; }
@@ -57,6 +62,7 @@ class Fitter {
 
   FitterOptions options_;
   std::shared_ptr<const PsfKernel> psf_;
+  FftPlanCache& plans_;
   std::unique_ptr<FftRenderer> renderer_;
   std::unique_ptr<Problem> problem_;
   std::vector<double> weight_;

@@ -580,7 +580,7 @@ bool FitsFile::has_column(const std::string& name) {
   return find_column(name).has_value();
 }
 
-std::vector<double> FitsFile::read_column(const std::string& name) {
+int FitsFile::numeric_column(const std::string& name, void** nulval_if_integer) {
   require_table();
   const auto col = find_column(name);
   if (!col) fail("no column '" + name + "'");
@@ -597,25 +597,59 @@ std::vector<double> FitsFile::read_column(const std::string& name) {
     fail("column '" + name + "' has " + std::to_string(repeat) +
          " values per row; only scalar columns can be read");
   }
-  const long long rows = table_rows();
-  if (rows == 0) return {};
   // Integer columns: TNULL values -> NaN. Float columns: no null checking, which would also flush
   // -0.0 and denormals to 0 (see image_nulval).
   int raw_type = 0;
   fits_get_coltypell(f, *col, &raw_type, &repeat, &width, &status);
   if (status != 0) fail_status(status, "cannot read the type of column '" + name + "'");
-  double nan = kNaN;
-  void* nulval = (raw_type == TFLOAT || raw_type == TDOUBLE) ? nullptr : &nan;
+  *nulval_if_integer = (raw_type == TFLOAT || raw_type == TDOUBLE) ? nullptr : nulval_if_integer;
+  return *col;
+}
+
+std::vector<double> FitsFile::read_column(const std::string& name) {
+  void* nulval = nullptr;
+  numeric_column(name, &nulval);
+  const long long rows = table_rows();
+  if (rows == 0) return {};
   // Read the last row first so a table claiming more rows than the file holds fails before
   // allocating for them.
   double probe = 0.0;
-  int anynul = 0;
-  fits_read_col(f, TDOUBLE, *col, rows, 1, 1, nulval, &probe, &anynul, &status);
-  if (status != 0) fail_status(status, "cannot read column '" + name + "'");
+  read_column_rows(name, rows - 1, std::span<double>(&probe, 1));
   std::vector<double> values(static_cast<std::size_t>(rows));
-  fits_read_col(f, TDOUBLE, *col, 1, 1, rows, nulval, values.data(), &anynul, &status);
-  if (status != 0) fail_status(status, "cannot read column '" + name + "'");
+  read_column_rows(name, 0, values);
   return values;
+}
+
+void FitsFile::read_column_rows(const std::string& name, long long first_row, std::span<double> out) {
+  void* nulval = nullptr;
+  const int col = numeric_column(name, &nulval);
+  const long long rows = table_rows();
+  if (first_row < 0 || static_cast<long long>(out.size()) > rows - first_row)
+    fail("cannot read rows " + std::to_string(first_row) + ".." + std::to_string(first_row + out.size() - 1) +
+         " of column '" + name + "': the table has " + std::to_string(rows) + " rows");
+  if (out.empty()) return;
+  double nan = kNaN;
+  int anynul = 0, status = 0;
+  fits_read_col(as_fits(handle()), TDOUBLE, col, first_row + 1, 1, static_cast<LONGLONG>(out.size()),
+                nulval ? &nan : nullptr, out.data(), &anynul, &status);
+  if (status != 0) fail_status(status, "cannot read column '" + name + "'");
+}
+
+void FitsFile::read_image_region(long x_begin, long y_begin, long nx, long ny, std::span<double> out) {
+  const ImageShape s = image_shape();
+  if (x_begin < 0 || y_begin < 0 || nx <= 0 || ny <= 0 || x_begin > s.nx - nx || y_begin > s.ny - ny)
+    fail("cannot read the " + std::to_string(nx) + " x " + std::to_string(ny) + " region at (" +
+         std::to_string(x_begin) + ", " + std::to_string(y_begin) + "): the image is " + std::to_string(s.nx) +
+         " x " + std::to_string(s.ny));
+  if (out.size() != static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny))
+    fail("read_image_region: output holds " + std::to_string(out.size()) + " values");
+  long first[2] = {x_begin + 1, y_begin + 1};
+  long last[2] = {x_begin + nx, y_begin + ny};
+  long inc[2] = {1, 1};
+  double nulval = kNaN;
+  int anynul = 0, status = 0;
+  fits_read_subset(as_fits(handle()), TDOUBLE, first, last, inc, image_nulval(&nulval), out.data(), &anynul, &status);
+  if (status != 0) fail_status(status, "cannot read an image region");
 }
 
 }  // namespace stampede::io

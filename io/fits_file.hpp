@@ -107,6 +107,11 @@ class FitsFile {
   // A whole scalar numeric column converted to double (TNULL values become NaN). Throws
   // "PATH[HDU n 'TRUTH']: no column 'NAME'" if absent, or if the column is not scalar numeric.
   std::vector<double> read_column(const std::string& name);
+  // Rows [first_row, first_row + out.size()) (0-based) of a scalar numeric column, so a catalogue
+  // can be streamed in chunks.
+  void read_column_rows(const std::string& name, long long first_row, std::span<double> out);
+  // The nx x ny pixels whose lower-left pixel is (x_begin, y_begin), 0-based, row-major.
+  void read_image_region(long x_begin, long y_begin, long nx, long ny, std::span<double> out);
 
  private:
   FitsFile(void* fptr, std::string path, bool auto_image);
@@ -114,6 +119,9 @@ class FitsFile {
   // `void*` rather than `fitsfile*`: CFITSIO's fitsfile is an anonymous-struct typedef that cannot
   // be forward-declared, and including fitsio.h here would leak its macros into every includer.
   void* handle();
+  // Column number of a scalar numeric column (throws otherwise); *nulval_if_integer is left
+  // non-null for integer columns, whose TNULL values must read as NaN.
+  int numeric_column(const std::string& name, void** nulval_if_integer);
   void close_noexcept() noexcept;
   [[noreturn]] void fail(const std::string& what);
   [[noreturn]] void fail_status(int status, const std::string& what);

@@ -1,0 +1,115 @@
+// CatalogWriter: the output catalogue of `stampede fit`, written batch by batch so that a run
+// killed at any moment (even kill -9 or a power cut) resumes without refitting committed objects.
+//
+// Outputs: a FITS binary table (EXTNAME 'RESULTS', one row per object) and optionally a whitespace
+// text table with the same columns. While a run is in progress they live at `PATH.partial` (and
+// `TEXT_PATH.partial`), with a small checkpoint `PATH.checkpoint` recording how many rows are
+// committed. Each append() is one commit:
+//   1. rows written to both partials (FITS: fits_write_col per column per chunk of rows);
+//   2. both partials flushed and fsync'd (FITS: fits_flush_file, which also rewrites NAXIS2);
+//   3. the checkpoint replaced atomically (write PATH.checkpoint.tmp, fsync, rename, fsync dir).
+// So the checkpoint never counts a row that is not on disk; bytes past it are discarded on resume.
+// finish() renames the partials to their final names and removes the checkpoint.
+//
+// Columns (catalog_columns() gives the names in order; units and descriptions are in the header as
+// TUNITn / TCOMMn):
+//   positions   grid: id (K), ix, iy (J), the stamp's grid indices;
+//               catalogue: id (K), x_image, y_image (D), FITS 1-based image pixels
+//   x0 y0       fitted centroid in 0-based pixel coordinates *of the stamp* (pixel centres at
+//               integers), as fitted; the stamp's origin is the caller's (grid: ix, iy times the
+//               stamp size; catalogue: the cutout around x_image, y_image)
+//   e1 e2 radius bulge_A disc_A   effective fitted values (FitResult::params)
+//   bulge_flux disc_flux flux e1_err e2_err snr chi2 likelihood   (D)
+//   n_iter n_eval stop_reason status (J)   stop_reason: StopReason value; status: FitStatus value,
+//               named by the header keys STATUS0..STATUS6
+//   flags (1V: unsigned 32-bit, stored as J with TZERO = 2^31)   bits listed in COMMENT cards
+//   time_us psf_e1 psf_e2 psf_fwhm (D)
+// NaN means "not computed" in every D column, as in FitResult; it is written as IEEE NaN in FITS
+// and as "nan" in the text file (doubles are printed with 17 significant digits: they read back
+// bitwise).
+//
+// Not thread-safe: one writer is driven by the pipeline's serial output stage.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "engine/object_record.hpp"
+
+namespace stampede::io {
+
+// Every failure of the writer: I/O errors, unwritable paths, nothing or the wrong run to resume.
+// The message names the file concerned.
+class CatalogError : public std::runtime_error {
+ public:
+  using runtime_error::runtime_error;
+};
+
+enum class PositionColumns {
+  kGrid,       // id ix iy
+  kCatalogue,  // id x_image y_image
+};
+
+struct CatalogWriterOptions {
+  std::string path;         // final FITS path, e.g. out.fits (uncompressed: no .gz / .fz)
+  std::string text_path;    // optional text catalogue with the same columns; "" = none
+  PositionColumns positions = PositionColumns::kGrid;
+  // Written as string-valued header keys of the table HDU in this order (a repeated key keeps its
+  // last value); keys longer than 8 characters or outside [A-Z0-9_-] use the HIERARCH convention,
+  // long values CONTINUE cards. Keys are stored upper-case (FITS lookups ignore case). Structural
+  // keys (NAXIS2, TTYPE3, EXTNAME, STATUS0, ...) are refused. Ignored by resume(): the partial
+  // file already has them, and the fingerprint vouches that they are unchanged.
+  std::vector<std::pair<std::string, std::string>> header;
+  // Identifies the run (input path + configuration): resume() refuses a checkpoint written with a
+  // different fingerprint, positions layout or text output.
+  std::string fingerprint;
+};
+
+class CatalogWriter {
+ public:
+  // Starts a new run: creates PATH.partial (and TEXT_PATH.partial), replacing stale ones and any
+  // stale checkpoint, and commits zero rows. Throws CatalogError naming the path if it cannot be
+  // created (e.g. the directory does not exist or is not writable), before any fitting is done.
+  static std::unique_ptr<CatalogWriter> create(const CatalogWriterOptions& options);
+
+  // Continues an interrupted run: reopens the partials, cuts them back to the rows recorded in the
+  // checkpoint and stores that count in *rows_committed (if not null); the caller then appends
+  // from that row on. Throws CatalogError:
+  //   "nothing to resume at PATH: ..."  no checkpoint or no partial output;
+  //   "PATH.checkpoint was written by a different run (input or configuration changed)";
+  //   "... is corrupt: ..."  the checkpoint or a partial cannot be what this writer left there.
+  static std::unique_ptr<CatalogWriter> resume(const CatalogWriterOptions& options,
+                                               long long* rows_committed);
+
+  CatalogWriter(const CatalogWriter&) = delete;
+  CatalogWriter& operator=(const CatalogWriter&) = delete;
+  // Without finish(): closes the files, leaving the partials and checkpoint for resume(). Rows of
+  // an append() that threw are not committed and will be cut on resume.
+  ~CatalogWriter();
+
+  // Appends `rows` after those already written and commits them (see the file comment). Memory
+  // use is bounded by a fixed chunk, not by the batch or the table. After a throw the writer is
+  // unusable (every later call throws); the outputs stay resumable at the last commit.
+  void append(std::span<const ObjectRecord> rows);
+
+  // Closes the outputs, renames the partials to PATH (and TEXT_PATH), replacing existing files,
+  // and removes the checkpoint. Further calls other than rows() throw.
+  void finish();
+
+  // Committed rows.
+  long long rows() const;
+
+ private:
+  struct State;
+  explicit CatalogWriter(std::unique_ptr<State> state);
+  std::unique_ptr<State> s_;
+};
+
+// Column names in table order, for documentation and tests.
+std::vector<std::string> catalog_columns(PositionColumns positions);
+
+}  // namespace stampede::io

@@ -1,0 +1,749 @@
+// Tests for io/catalog_writer: exact round trips of every column through the FITS table and the
+// text file (NaN, -0, inf, 64-bit ids, unsigned flags), header contents, the partial/checkpoint
+// life cycle, resume after simulated and real (SIGKILL) crashes compared byte for byte with an
+// uninterrupted run, and the CatalogError cases (nothing to resume, different run, corrupt
+// partials, unwritable paths, reserved header keys).
+#include "io/catalog_writer.hpp"
+
+#include <fcntl.h>
+#include <fitsio.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <stdlib.h>  // mkdtemp
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iterator>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "io/fits_file.hpp"
+
+namespace stampede::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+::testing::AssertionResult Contains(const std::string& text, const std::string& part) {
+  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "'" << text << "' does not contain '" << part << "'";
+}
+
+// Runs `body`, expecting a CatalogError; returns its message ("" and a test failure otherwise).
+std::string catalog_error_of(const std::function<void()>& body) {
+  try {
+    body();
+  } catch (const CatalogError& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "expected CatalogError, got another exception: " << e.what();
+    return "";
+  }
+  ADD_FAILURE() << "expected CatalogError, nothing was thrown";
+  return "";
+}
+
+// Deterministic rows exercising every column: NaN where a fit produced nothing, -0, inf, values
+// that need all 17 digits, ids beyond 2^53 (exact in K, not in double), flags with bit 31 set.
+ObjectRecord make_record(long long i, PositionColumns positions) {
+  ObjectRecord r;
+  if (positions == PositionColumns::kGrid) {
+    r.id = i;
+    r.ix = static_cast<std::int32_t>(i % 17);
+    r.iy = static_cast<std::int32_t>(i / 17);
+  } else {
+    r.id = (1LL << 53) + 1 + 3 * i;
+    r.x_image = 1.0 + i / 3.0;
+    r.y_image = 4096.25 - 0.1 * static_cast<double>(i);
+  }
+  r.fit.status = static_cast<FitStatus>(i % 7);
+  r.fit.stop_reason = static_cast<StopReason>(i % 9);
+  if (IsUsable(r.fit.status)) {
+    const double t = static_cast<double>(i);
+    r.fit.params[index(Param::kX0)] = 19.0 + 0.01 * std::sin(t);
+    r.fit.params[index(Param::kY0)] = 19.0 - 0.01 * std::cos(t);
+    r.fit.params[index(Param::kE1)] = i % 10 == 0 ? -0.0 : 0.3 * std::sin(0.7 * t);
+    r.fit.params[index(Param::kE2)] = 0.3 * std::cos(0.7 * t);
+    r.fit.params[index(Param::kRadius)] = 1.5 + 1.0 / (t + 3.0);
+    r.fit.params[index(Param::kBulgeA)] = i % 4 == 0 ? 0.0 : 1e-3 * t;
+    r.fit.params[index(Param::kDiscA)] = 0.1 / 7.0 + t;
+    r.fit.e1_err = i % 8 == 0 ? kNaN : 1e-300 * t;  // kFlagNoErrors
+    r.fit.e2_err = 2.5e-2 / (t + 1.0);
+    r.fit.bulge_flux = 12.0 * t;
+    r.fit.disc_flux = 1e10 / 3.0;
+    r.fit.flux = r.fit.bulge_flux + r.fit.disc_flux;
+    r.fit.snr = i % 13 == 0 ? kInf : 20.0 + t;
+    r.fit.chi2 = 1521.0 + 1.0 / 3.0;
+    r.fit.likelihood = -r.fit.chi2 / 2;
+  }
+  r.fit.iterations = static_cast<int>(i % 200);
+  r.fit.evaluations = static_cast<int>((3 * i) % 500);
+  r.flags = (i % 3 == 0 ? std::uint32_t{kFlagMaskedPixels} : 0u) |
+            (i % 11 == 0 ? std::uint32_t{kFlagEdge} : 0u) | (i % 5 == 0 ? 1u << 31 : 0u);
+  r.time_us = i % 6 == 0 ? kNaN : 1234.5678 + i / 7.0;
+  r.psf_e1 = -0.01 * static_cast<double>(i % 5);
+  r.psf_e2 = 0.02;
+  r.psf_fwhm = 2.85;
+  return r;
+}
+
+std::vector<ObjectRecord> make_records(long long n, PositionColumns positions) {
+  std::vector<ObjectRecord> rows;
+  for (long long i = 0; i < n; ++i) rows.push_back(make_record(i, positions));
+  return rows;
+}
+
+// One table cell: integer columns compare as integers, D columns bitwise.
+struct Cell {
+  bool integer = false;
+  long long i = 0;
+  double d = 0;
+};
+
+// The expected row, restated here independently of the writer's column table.
+std::vector<Cell> expected_row(const ObjectRecord& r, PositionColumns positions) {
+  std::vector<Cell> v;
+  auto I = [&](long long x) { v.push_back({true, x, 0}); };
+  auto D = [&](double x) { v.push_back({false, 0, x}); };
+  I(r.id);
+  if (positions == PositionColumns::kGrid) {
+    I(r.ix);
+    I(r.iy);
+  } else {
+    D(r.x_image);
+    D(r.y_image);
+  }
+  for (Param p : {Param::kX0, Param::kY0, Param::kE1, Param::kE2, Param::kRadius, Param::kBulgeA,
+                  Param::kDiscA}) {
+    D(r.fit.params[index(p)]);
+  }
+  for (double x : {r.fit.bulge_flux, r.fit.disc_flux, r.fit.flux, r.fit.e1_err, r.fit.e2_err,
+                   r.fit.snr, r.fit.chi2, r.fit.likelihood}) {
+    D(x);
+  }
+  I(r.fit.iterations);
+  I(r.fit.evaluations);
+  I(static_cast<int>(r.fit.stop_reason));
+  I(static_cast<int>(r.fit.status));
+  I(r.flags);
+  for (double x : {r.time_us, r.psf_e1, r.psf_e2, r.psf_fwhm}) D(x);
+  return v;
+}
+
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+// The RESULTS table as names plus rows of cells, read with CFITSIO in each column's own type.
+struct Table {
+  std::vector<std::string> names;
+  std::vector<std::vector<Cell>> rows;
+};
+
+Table read_table(const std::string& path) {
+  Table t;
+  fitsfile* f = nullptr;
+  int status = 0;
+  fits_open_diskfile(&f, path.c_str(), READONLY, &status);
+  fits_movnam_hdu(f, BINARY_TBL, const_cast<char*>("RESULTS"), 0, &status);
+  int ncols = 0;
+  LONGLONG nrows = 0;
+  fits_get_num_cols(f, &ncols, &status);
+  fits_get_num_rowsll(f, &nrows, &status);
+  EXPECT_EQ(status, 0) << "cannot read the RESULTS table of " << path;
+  if (status != 0) return t;
+  t.rows.assign(static_cast<std::size_t>(nrows), std::vector<Cell>(ncols));
+  for (int c = 1; c <= ncols; ++c) {
+    char name[FLEN_VALUE] = {};
+    const std::string key = "TTYPE" + std::to_string(c);
+    fits_read_key(f, TSTRING, key.c_str(), name, nullptr, &status);
+    t.names.emplace_back(name);
+    int typecode = 0;
+    long repeat = 0, width = 0;
+    fits_get_coltype(f, c, &typecode, &repeat, &width, &status);
+    if (typecode == TDOUBLE) {
+      std::vector<double> v(static_cast<std::size_t>(nrows));
+      fits_read_col(f, TDOUBLE, c, 1, 1, nrows, nullptr, v.data(), nullptr, &status);
+      for (LONGLONG r = 0; r < nrows; ++r) t.rows[r][c - 1] = {false, 0, v[r]};
+    } else {
+      std::vector<LONGLONG> v(static_cast<std::size_t>(nrows));
+      fits_read_col(f, TLONGLONG, c, 1, 1, nrows, nullptr, v.data(), nullptr, &status);
+      for (LONGLONG r = 0; r < nrows; ++r) t.rows[r][c - 1] = {true, v[r], 0};
+    }
+  }
+  EXPECT_EQ(status, 0) << "cannot read the columns of " << path;
+  int close_status = 0;
+  fits_close_file(f, &close_status);
+  return t;
+}
+
+void expect_table(const std::string& path, const std::vector<ObjectRecord>& records,
+                  PositionColumns positions) {
+  const Table t = read_table(path);
+  EXPECT_EQ(t.names, catalog_columns(positions));
+  ASSERT_EQ(t.rows.size(), records.size());
+  for (std::size_t r = 0; r < records.size(); ++r) {
+    const std::vector<Cell> want = expected_row(records[r], positions);
+    ASSERT_EQ(t.rows[r].size(), want.size());
+    for (std::size_t c = 0; c < want.size(); ++c) {
+      const Cell& got = t.rows[r][c];
+      ASSERT_EQ(got.integer, want[c].integer) << "column " << t.names[c];
+      if (want[c].integer) {
+        ASSERT_EQ(got.i, want[c].i) << "row " << r << " column " << t.names[c];
+      } else {
+        ASSERT_TRUE(same_bits(got.d, want[c].d))
+            << "row " << r << " column " << t.names[c] << ": " << got.d << " != " << want[c].d;
+      }
+    }
+  }
+}
+
+std::string read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  EXPECT_TRUE(in.good()) << "cannot open " << path;
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+void append_bytes(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::app);
+  out << bytes;
+  ASSERT_TRUE(out.good());
+}
+
+void expect_text(const std::string& path, const std::vector<ObjectRecord>& records,
+                 PositionColumns positions) {
+  std::istringstream in(read_bytes(path));
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  std::string header = "#";
+  for (const std::string& name : catalog_columns(positions)) header += " " + name;
+  EXPECT_EQ(line, header);
+  std::size_t r = 0;
+  for (; std::getline(in, line); ++r) {
+    ASSERT_LT(r, records.size()) << "extra line: " << line;
+    const std::vector<Cell> want = expected_row(records[r], positions);
+    std::istringstream tokens(line);
+    std::string token;
+    std::size_t c = 0;
+    for (; tokens >> token; ++c) {
+      ASSERT_LT(c, want.size()) << "extra field in line " << r;
+      if (want[c].integer) {
+        EXPECT_EQ(std::stoll(token), want[c].i) << "line " << r << " field " << c;
+        EXPECT_EQ(token.find_first_not_of("-0123456789"), std::string::npos) << token;
+      } else {
+        const double got = std::strtod(token.c_str(), nullptr);
+        if (std::isnan(want[c].d)) {
+          EXPECT_TRUE(std::isnan(got)) << "line " << r << " field " << c << ": " << token;
+        } else {
+          EXPECT_TRUE(same_bits(got, want[c].d))
+              << "line " << r << " field " << c << ": " << token << " vs " << want[c].d;
+        }
+      }
+    }
+    EXPECT_EQ(c, want.size()) << "line " << r;
+  }
+  EXPECT_EQ(r, records.size());
+}
+
+// Appends records[first, first + sizes[0]), then the next sizes[1], ...
+long long append_batches(CatalogWriter& w, const std::vector<ObjectRecord>& records,
+                         long long first, const std::vector<long long>& sizes) {
+  for (long long n : sizes) {
+    w.append(std::span(records).subspan(static_cast<std::size_t>(first),
+                                        static_cast<std::size_t>(n)));
+    first += n;
+  }
+  return first;
+}
+
+class CatalogWriterTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::string templ = (fs::temp_directory_path() / "catalog_writer_test.XXXXXX").string();
+    ASSERT_NE(::mkdtemp(templ.data()), nullptr);
+    dir_ = templ;
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+
+  CatalogWriterOptions options(const std::string& subdir = "") const {
+    const fs::path d = subdir.empty() ? fs::path(dir_) : fs::path(dir_) / subdir;
+    fs::create_directories(d);
+    CatalogWriterOptions o;
+    o.path = (d / "out.fits").string();
+    o.text_path = (d / "out.txt").string();
+    o.fingerprint = "input=/data/set_0.fits\nstamp_size=39\nnoise_sigma=0.001";
+    o.header = {{"stamp_size", "39"}, {"noise_sigma", "0.001"}, {"psf_input", "moffat"}};
+    return o;
+  }
+
+  // The outputs of an uninterrupted run writing `records` in one batch.
+  std::pair<std::string, std::string> reference(const std::vector<ObjectRecord>& records) {
+    const CatalogWriterOptions o = options("reference");
+    auto w = CatalogWriter::create(o);
+    w->append(records);
+    w->finish();
+    return {read_bytes(o.path), read_bytes(o.text_path)};
+  }
+
+  std::string dir_;
+};
+
+TEST(CatalogColumns, NamesInTableOrder) {
+  const std::vector<std::string> fit = {
+      "x0",     "y0",     "e1",     "e2",          "radius", "bulge_A", "disc_A",  "bulge_flux",
+      "disc_flux", "flux", "e1_err", "e2_err",     "snr",    "chi2",    "likelihood", "n_iter",
+      "n_eval", "stop_reason", "status", "flags", "time_us", "psf_e1", "psf_e2", "psf_fwhm"};
+  std::vector<std::string> grid = {"id", "ix", "iy"};
+  grid.insert(grid.end(), fit.begin(), fit.end());
+  std::vector<std::string> cat = {"id", "x_image", "y_image"};
+  cat.insert(cat.end(), fit.begin(), fit.end());
+  EXPECT_EQ(catalog_columns(PositionColumns::kGrid), grid);
+  EXPECT_EQ(catalog_columns(PositionColumns::kCatalogue), cat);
+}
+
+TEST_F(CatalogWriterTest, WritesAllRowsInOrderWithHeaderAndText) {
+  CatalogWriterOptions o = options();
+  const std::string long_value(150, 'v');
+  const std::string quoted = "it's a 'quoted' value, long enough to need CONTINUE cards: " +
+                             std::string(40, 'q') + "'" + std::string(30, 'z');
+  o.header.emplace_back("INPUT", long_value);
+  o.header.emplace_back("a_very_long_configuration_key_name_for_hierarch", quoted);
+  o.header.emplace_back("padding", "3");
+  o.header.emplace_back("PADDING", "4");  // repeated: the last value wins
+  o.header.emplace_back("empty_value", "");
+  const auto records = make_records(708, PositionColumns::kGrid);
+
+  auto w = CatalogWriter::create(o);
+  EXPECT_TRUE(fs::exists(o.path + ".partial"));
+  EXPECT_TRUE(fs::exists(o.text_path + ".partial"));
+  EXPECT_TRUE(fs::exists(o.path + ".checkpoint"));
+  EXPECT_FALSE(fs::exists(o.path));
+  // 700 rows: more than one internal chunk of 256.
+  append_batches(*w, records, 0, {5, 700, 3});
+  EXPECT_EQ(w->rows(), 708);
+  w->finish();
+  EXPECT_EQ(w->rows(), 708);
+
+  EXPECT_TRUE(fs::exists(o.path));
+  EXPECT_TRUE(fs::exists(o.text_path));
+  EXPECT_FALSE(fs::exists(o.path + ".partial"));
+  EXPECT_FALSE(fs::exists(o.text_path + ".partial"));
+  EXPECT_FALSE(fs::exists(o.path + ".checkpoint"));
+  EXPECT_FALSE(fs::exists(o.path + ".checkpoint.tmp"));
+
+  expect_table(o.path, records, PositionColumns::kGrid);
+  expect_text(o.text_path, records, PositionColumns::kGrid);
+
+  // Through the project's own reader too: doubles bitwise, NaN as NaN.
+  FitsFile f = FitsFile::open_read(o.path);
+  f.move_to("RESULTS");
+  EXPECT_EQ(f.table_rows(), 708);
+  const std::vector<double> e1_err = f.read_column("e1_err");
+  const std::vector<double> flags = f.read_column("flags");
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    ASSERT_TRUE(same_bits(e1_err[i], records[i].fit.e1_err) ||
+                (std::isnan(e1_err[i]) && std::isnan(records[i].fit.e1_err)))
+        << i;
+    ASSERT_EQ(flags[i], static_cast<double>(records[i].flags)) << i;  // TZERO applied
+  }
+
+  // Configuration keys, with long and HIERARCH values intact.
+  EXPECT_EQ(f.key_string("stamp_size"), "39");
+  EXPECT_EQ(f.key_string("NOISE_SIGMA"), "0.001");
+  EXPECT_EQ(f.key_string("psf_input"), "moffat");
+  EXPECT_EQ(f.key_string("INPUT"), long_value);
+  EXPECT_EQ(f.key_string("a_very_long_configuration_key_name_for_hierarch"), quoted);
+  EXPECT_EQ(f.key_string("padding"), "4");
+  EXPECT_EQ(f.key_string("empty_value"), "");
+  // Status names, units, descriptions, unsigned flags.
+  const char* const statuses[] = {"ok", "max_iterations", "bad_pixels", "no_data",
+                                  "model_failure", "solver_failure", "psf_failure"};
+  for (int s = 0; s < 7; ++s) {
+    EXPECT_EQ(f.key_string("STATUS" + std::to_string(s)), statuses[s]);
+  }
+  EXPECT_EQ(f.key_string("EXTNAME"), "RESULTS");
+  const auto names = catalog_columns(PositionColumns::kGrid);
+  for (std::size_t c = 0; c < names.size(); ++c) {
+    EXPECT_FALSE(f.key_string("TCOMM" + std::to_string(c + 1)).empty()) << names[c];
+  }
+  EXPECT_EQ(f.key_string("TUNIT4"), "pixel");   // x0
+  EXPECT_EQ(f.key_string("TUNIT24"), "us");     // time_us
+  EXPECT_EQ(f.key_string("TFORM23"), "1J");     // flags, unsigned through TZERO
+  EXPECT_EQ(f.key_long("TZERO23"), 2147483648LL);
+}
+
+TEST_F(CatalogWriterTest, CatalogueColumnsWithoutTextFile) {
+  CatalogWriterOptions o = options();
+  o.positions = PositionColumns::kCatalogue;
+  o.text_path.clear();
+  const auto records = make_records(40, PositionColumns::kCatalogue);
+  auto w = CatalogWriter::create(o);
+  append_batches(*w, records, 0, {1, 39});
+  w->finish();
+  expect_table(o.path, records, PositionColumns::kCatalogue);  // ids beyond 2^53 exact
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 1)
+      << "only out.fits should be left";
+}
+
+TEST_F(CatalogWriterTest, EmptyAppendAndEmptyRun) {
+  CatalogWriterOptions o = options();
+  auto w = CatalogWriter::create(o);
+  w->append({});
+  EXPECT_EQ(w->rows(), 0);
+  w->finish();
+  expect_table(o.path, {}, PositionColumns::kGrid);
+  expect_text(o.text_path, {}, PositionColumns::kGrid);
+}
+
+TEST_F(CatalogWriterTest, ResumeCutsUncommittedRowsAndMatchesUninterruptedRun) {
+  const auto records = make_records(300, PositionColumns::kGrid);
+  const auto [ref_fits, ref_text] = reference(records);
+  CatalogWriterOptions o = options("run");
+  {
+    auto w = CatalogWriter::create(o);
+    append_batches(*w, records, 0, {120, 80});
+  }  // destroyed without finish: a crash after the second commit
+  EXPECT_FALSE(fs::exists(o.path));
+  ASSERT_TRUE(fs::exists(o.path + ".partial"));
+  ASSERT_TRUE(fs::exists(o.path + ".checkpoint"));
+
+  // What a crash in the middle of the third batch can leave: rows past the checkpoint, in the
+  // table (NAXIS2 already counting them) and as raw bytes past the table's end; a torn text line.
+  {
+    fitsfile* f = nullptr;
+    int status = 0;
+    fits_open_diskfile(&f, (o.path + ".partial").c_str(), READWRITE, &status);
+    fits_movnam_hdu(f, BINARY_TBL, const_cast<char*>("RESULTS"), 0, &status);
+    std::vector<LONGLONG> ids(10, 777);
+    std::vector<double> junk(10, 1.25);
+    fits_write_col(f, TLONGLONG, 1, 201, 1, 10, ids.data(), &status);
+    fits_write_col(f, TDOUBLE, 4, 201, 1, 10, junk.data(), &status);
+    fits_close_file(f, &status);
+    ASSERT_EQ(status, 0);
+    ASSERT_EQ(read_table(o.path + ".partial").rows.size(), 210u);
+  }
+  append_bytes(o.path + ".partial", std::string(5000, '\xab'));
+  append_bytes(o.text_path + ".partial", "200 13 11 19.5 19.5 0.1\n201 14 11 19.25 1");
+
+  long long committed = -1;
+  auto w = CatalogWriter::resume(o, &committed);
+  EXPECT_EQ(committed, 200);
+  EXPECT_EQ(w->rows(), 200);
+  append_batches(*w, records, committed, {60, 40});
+  w->finish();
+  EXPECT_FALSE(fs::exists(o.path + ".checkpoint"));
+
+  expect_table(o.path, records, PositionColumns::kGrid);
+  expect_text(o.text_path, records, PositionColumns::kGrid);
+  EXPECT_TRUE(read_bytes(o.path) == ref_fits) << "FITS differs from the uninterrupted run";
+  EXPECT_EQ(read_bytes(o.text_path), ref_text);
+}
+
+TEST_F(CatalogWriterTest, ResumeThenFinishKeepsOnlyCommittedRows) {
+  // More uncommitted rows than are appended after resuming (here none): the appends cannot hide
+  // leftovers by overwriting them.
+  const auto records = make_records(20, PositionColumns::kGrid);
+  const auto [ref_fits, ref_text] = reference(records);
+  CatalogWriterOptions o = options("run");
+  {
+    auto w = CatalogWriter::create(o);
+    w->append(records);
+  }
+  {
+    fitsfile* f = nullptr;
+    int status = 0;
+    fits_open_diskfile(&f, (o.path + ".partial").c_str(), READWRITE, &status);
+    fits_movnam_hdu(f, BINARY_TBL, const_cast<char*>("RESULTS"), 0, &status);
+    std::vector<LONGLONG> ids(30, 777);
+    fits_write_col(f, TLONGLONG, 1, 21, 1, 30, ids.data(), &status);
+    fits_close_file(f, &status);
+    ASSERT_EQ(status, 0);
+  }
+  append_bytes(o.text_path + ".partial", "20 3 1 nan nan\n");
+  long long committed = -1;
+  CatalogWriter::resume(o, &committed)->finish();
+  EXPECT_EQ(committed, 20);
+  expect_table(o.path, records, PositionColumns::kGrid);
+  EXPECT_TRUE(read_bytes(o.path) == ref_fits) << "FITS differs from the uninterrupted run";
+  EXPECT_EQ(read_bytes(o.text_path), ref_text);
+}
+
+TEST_F(CatalogWriterTest, ResumeZeroesRowsThatReachedDiskBeyondNaxis2) {
+  // CFITSIO may evict buffers holding new rows before it rewrites NAXIS2: the bytes sit in the
+  // last block's fill and beyond, while NAXIS2 still equals the committed count.
+  const auto records = make_records(50, PositionColumns::kGrid);
+  const auto [ref_fits, ref_text] = reference(records);
+  CatalogWriterOptions o = options("run");
+  {
+    auto w = CatalogWriter::create(o);
+    append_batches(*w, records, 0, {7});
+  }
+  const std::string partial = o.path + ".partial";
+  const auto size = static_cast<long long>(fs::file_size(partial));
+  {
+    const int fd = ::open(partial.c_str(), O_WRONLY);
+    ASSERT_GE(fd, 0);
+    const std::string junk(6000, '\x5a');
+    // The table's 7 rows of 188 bytes start one block before the end; scribble after them.
+    ASSERT_EQ(::pwrite(fd, junk.data(), junk.size(), size - 2880 + 7 * 188),
+              static_cast<ssize_t>(junk.size()));
+    ::close(fd);
+  }
+  long long committed = -1;
+  auto w = CatalogWriter::resume(o, &committed);
+  EXPECT_EQ(committed, 7);
+  append_batches(*w, records, committed, {43});
+  w->finish();
+  expect_table(o.path, records, PositionColumns::kGrid);
+  EXPECT_TRUE(read_bytes(o.path) == ref_fits) << "FITS differs from the uninterrupted run";
+  EXPECT_EQ(read_bytes(o.text_path), ref_text);
+}
+
+TEST_F(CatalogWriterTest, ResumeRightAfterCreateAndTwice) {
+  const auto records = make_records(30, PositionColumns::kGrid);
+  const auto [ref_fits, ref_text] = reference(records);
+  CatalogWriterOptions o = options("run");
+  CatalogWriter::create(o).reset();
+  long long committed = -1;
+  CatalogWriter::resume(o, &committed).reset();
+  EXPECT_EQ(committed, 0);
+  {
+    auto w = CatalogWriter::resume(o, &committed);
+    append_batches(*w, records, 0, {10});
+  }
+  auto w = CatalogWriter::resume(o, &committed);
+  EXPECT_EQ(committed, 10);
+  append_batches(*w, records, committed, {20});
+  w->finish();
+  EXPECT_TRUE(read_bytes(o.path) == ref_fits);
+  EXPECT_EQ(read_bytes(o.text_path), ref_text);
+}
+
+TEST_F(CatalogWriterTest, CreateStartsOverAndDropsAStaleRun) {
+  const auto records = make_records(20, PositionColumns::kGrid);
+  const auto [ref_fits, ref_text] = reference(records);
+  CatalogWriterOptions o = options("run");
+  {
+    auto w = CatalogWriter::create(o);
+    w->append(make_records(5, PositionColumns::kCatalogue));  // other rows
+  }
+  auto w = CatalogWriter::create(o);
+  EXPECT_EQ(w->rows(), 0);
+  w->append(records);
+  w->finish();
+  EXPECT_TRUE(read_bytes(o.path) == ref_fits);
+  EXPECT_EQ(read_bytes(o.text_path), ref_text);
+}
+
+TEST_F(CatalogWriterTest, ResumeRefusesADifferentRun) {
+  const auto records = make_records(10, PositionColumns::kGrid);
+  CatalogWriterOptions o = options();
+  {
+    auto w = CatalogWriter::create(o);
+    w->append(records);
+  }
+  const std::string expected =
+      o.path + ".checkpoint was written by a different run (input or configuration changed)";
+  CatalogWriterOptions other = o;
+  other.fingerprint += "x";
+  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::resume(other, nullptr); }), expected));
+  other = o;
+  other.positions = PositionColumns::kCatalogue;
+  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::resume(other, nullptr); }), expected));
+  other = o;
+  other.text_path.clear();
+  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::resume(other, nullptr); }), expected));
+  // A refusal leaves the run resumable.
+  long long committed = -1;
+  CatalogWriter::resume(o, &committed);
+  EXPECT_EQ(committed, 10);
+}
+
+TEST_F(CatalogWriterTest, ResumeWithNothingThereThrows) {
+  CatalogWriterOptions o = options();
+  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::resume(o, nullptr); }),
+                       "nothing to resume at " + o.path));
+  // A finished run has nothing left to resume either.
+  auto w = CatalogWriter::create(o);
+  w->finish();
+  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::resume(o, nullptr); }),
+                       "nothing to resume at " + o.path));
+  // Nor does a checkpoint whose partial output is gone.
+  CatalogWriter::create(o).reset();
+  fs::remove(o.text_path + ".partial");
+  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::resume(o, nullptr); }),
+                       "nothing to resume at " + o.path));
+}
+
+TEST_F(CatalogWriterTest, ResumeReportsCorruptFiles) {
+  const auto records = make_records(10, PositionColumns::kGrid);
+  CatalogWriterOptions o = options();
+  auto start = [&] {
+    auto w = CatalogWriter::create(o);
+    w->append(records);
+  };
+  auto overwrite = [](const std::string& path, long long offset, const std::string& bytes) {
+    const int fd = ::open(path.c_str(), O_WRONLY);
+    ASSERT_GE(fd, 0);
+    ASSERT_EQ(::pwrite(fd, bytes.data(), bytes.size(), offset), static_cast<ssize_t>(bytes.size()));
+    ::close(fd);
+  };
+  std::string msg;
+
+  start();
+  overwrite(o.path + ".partial", 0, "garbage garbage garbage");
+  msg = catalog_error_of([&] { CatalogWriter::resume(o, nullptr); });
+  EXPECT_TRUE(Contains(msg, o.path + ".partial is corrupt"));
+
+  start();
+  // The last block, holding the committed rows, lost; the header intact.
+  fs::resize_file(o.path + ".partial", fs::file_size(o.path + ".partial") - 2880);
+  msg = catalog_error_of([&] { CatalogWriter::resume(o, nullptr); });
+  EXPECT_TRUE(Contains(msg, o.path + ".partial is corrupt"));
+
+  start();
+  fs::resize_file(o.text_path + ".partial", 100);
+  msg = catalog_error_of([&] { CatalogWriter::resume(o, nullptr); });
+  EXPECT_TRUE(Contains(msg, o.text_path + ".partial is corrupt"));
+
+  start();
+  overwrite(o.text_path + ".partial", 0, "% not our header");
+  msg = catalog_error_of([&] { CatalogWriter::resume(o, nullptr); });
+  EXPECT_TRUE(Contains(msg, o.text_path + ".partial is corrupt"));
+
+  start();  // the committed text must end a line
+  overwrite(o.text_path + ".partial",
+            static_cast<long long>(fs::file_size(o.text_path + ".partial")) - 1, "X");
+  msg = catalog_error_of([&] { CatalogWriter::resume(o, nullptr); });
+  EXPECT_TRUE(Contains(msg, o.text_path + ".partial is corrupt"));
+
+  start();
+  overwrite(o.path + ".checkpoint", 0, "stampede catalogue checkpoint 2");
+  msg = catalog_error_of([&] { CatalogWriter::resume(o, nullptr); });
+  EXPECT_TRUE(Contains(msg, o.path + ".checkpoint is corrupt"));
+
+  // A different layout (here: another writer's positions) in the partial itself.
+  start();
+  CatalogWriterOptions cat = o;
+  cat.path = (fs::path(dir_) / "cat.fits").string();
+  cat.text_path.clear();
+  cat.positions = PositionColumns::kCatalogue;
+  CatalogWriter::create(cat).reset();
+  fs::copy_file(cat.path + ".partial", o.path + ".partial", fs::copy_options::overwrite_existing);
+  msg = catalog_error_of([&] { CatalogWriter::resume(o, nullptr); });
+  EXPECT_TRUE(Contains(msg, o.path + ".partial is corrupt"));
+}
+
+TEST_F(CatalogWriterTest, CreateFailsUpFrontNamingThePath) {
+  CatalogWriterOptions o = options();
+  o.path = "/nonexistent/dir/out.fits";
+  o.text_path.clear();
+  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::create(o); }),
+                       "/nonexistent/dir/out.fits"));
+  o = options();
+  o.text_path = "/nonexistent/dir/out.txt";
+  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::create(o); }),
+                       "/nonexistent/dir/out.txt"));
+  EXPECT_FALSE(fs::exists(options().path + ".partial")) << "a failed create leaves nothing";
+  EXPECT_FALSE(fs::exists(options().path + ".checkpoint"));
+  // Not even a stale run it was meant to replace.
+  CatalogWriter::create(options()).reset();
+  EXPECT_FALSE(catalog_error_of([&] { CatalogWriter::create(o); }).empty());
+  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::resume(options(), nullptr); }),
+                       "nothing to resume"));
+  o = options();
+  o.path += ".gz";
+  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::create(o); }), "compressed"));
+}
+
+TEST_F(CatalogWriterTest, RefusesReservedOrInvalidHeaderKeys) {
+  for (const auto& [key, value] : std::vector<std::pair<std::string, std::string>>{
+           {"NAXIS2", "5"}, {"ttype1", "x"}, {"STATUS3", "x"}, {"EXTNAME", "X"},
+           {"bad=key", "x"}, {"", "x"}, {"plain", "caf\xc3\xa9"}, {std::string(70, 'k'), "x"}}) {
+    CatalogWriterOptions o = options();
+    o.header.emplace_back(key, value);
+    EXPECT_FALSE(catalog_error_of([&] { CatalogWriter::create(o); }).empty()) << key;
+    EXPECT_FALSE(fs::exists(o.path + ".partial")) << key;
+  }
+}
+
+TEST_F(CatalogWriterTest, WriterIsUnusableAfterFinish) {
+  CatalogWriterOptions o = options();
+  auto w = CatalogWriter::create(o);
+  w->append(make_records(3, PositionColumns::kGrid));
+  w->finish();
+  const auto records = make_records(3, PositionColumns::kGrid);
+  EXPECT_TRUE(Contains(catalog_error_of([&] { w->append(records); }), "already finished"));
+  EXPECT_TRUE(Contains(catalog_error_of([&] { w->finish(); }), "already finished"));
+  EXPECT_EQ(w->rows(), 3);
+}
+
+// A real crash: a child process is killed with SIGKILL while it writes its third batch; the
+// parent resumes from whatever was committed. Repeated at several moments into the batch.
+TEST_F(CatalogWriterTest, SurvivesSigkillMidBatch) {
+  const long long n1 = 100, n2 = 57, n3 = 20000, n4 = 500;
+  const auto records = make_records(n1 + n2 + n3 + n4, PositionColumns::kGrid);
+  const auto [ref_fits, ref_text] = reference(records);
+  int interrupted_mid_batch = 0;
+  const int delays_us[] = {0, 100, 500, 2000, 10000};
+  for (int delay_us : delays_us) {
+    SCOPED_TRACE("kill " + std::to_string(delay_us) + " us into the third batch");
+    const CatalogWriterOptions o = options("kill" + std::to_string(delay_us));
+    int pipe_fds[2];
+    ASSERT_EQ(::pipe(pipe_fds), 0);
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      // Child: no gtest assertions here; its fate is reported through its exit status.
+      ::close(pipe_fds[0]);
+      try {
+        auto w = CatalogWriter::create(o);
+        append_batches(*w, records, 0, {n1, n2});
+        const char go = 'g';
+        if (::write(pipe_fds[1], &go, 1) != 1) ::_exit(3);
+        append_batches(*w, records, n1 + n2, {n3});
+        for (;;) ::pause();  // finished before the kill arrived: wait for it
+      } catch (...) {
+        ::_exit(2);
+      }
+    }
+    ::close(pipe_fds[1]);
+    char go = 0;
+    ASSERT_EQ(::read(pipe_fds[0], &go, 1), 1) << "child failed before its third batch";
+    ::close(pipe_fds[0]);
+    if (delay_us > 0) ::usleep(static_cast<useconds_t>(delay_us));
+    ASSERT_EQ(::kill(pid, SIGKILL), 0);
+    int wstatus = 0;
+    ASSERT_EQ(::waitpid(pid, &wstatus, 0), pid);
+    ASSERT_TRUE(WIFSIGNALED(wstatus) && WTERMSIG(wstatus) == SIGKILL) << "status " << wstatus;
+
+    long long committed = -1;
+    auto w = CatalogWriter::resume(o, &committed);
+    ASSERT_TRUE(committed == n1 + n2 || committed == n1 + n2 + n3) << committed;
+    if (committed == n1 + n2) ++interrupted_mid_batch;
+    const long long left = static_cast<long long>(records.size()) - committed;
+    append_batches(*w, records, committed, {left / 2, left - left / 2});
+    w->finish();
+    EXPECT_TRUE(read_bytes(o.path) == ref_fits) << "FITS differs from the uninterrupted run";
+    EXPECT_TRUE(read_bytes(o.text_path) == ref_text) << "text differs from the uninterrupted run";
+  }
+  expect_table(options("kill0").path, records, PositionColumns::kGrid);
+  // The third batch takes milliseconds, so at least the immediate kill lands inside it.
+  EXPECT_GT(interrupted_mid_batch, 0);
+}
+
+}  // namespace
+}  // namespace stampede::io

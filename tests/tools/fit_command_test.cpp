@@ -1,0 +1,235 @@
+// End-to-end tests of `stampede fit`, running the real binary: the GREAT08-mini sets, identical
+// output for any thread count, kill -9 and --resume, memory bounded by the batch, bad input.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "io/fits_file.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string data(const std::string& rel) { return std::string(STAMPEDE_DATA_DIR) + "/" + rel; }
+
+struct RunResult {
+  int exit_code = -1;
+  long max_rss_kb = 0;
+  std::string err;
+};
+
+pid_t spawn(const std::vector<std::string>& args, const std::string& err_path) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    FILE* e = std::fopen(err_path.c_str(), "w");
+    if (e) dup2(fileno(e), 2);
+    std::vector<char*> argv;
+    std::string bin = STAMPEDE_BINARY;
+    argv.push_back(bin.data());
+    std::string sub = "fit";
+    argv.push_back(sub.data());
+    std::vector<std::string> copy = args;
+    for (auto& a : copy) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execv(bin.c_str(), argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+RunResult finish(pid_t pid, const std::string& err_path) {
+  RunResult r;
+  int status = 0;
+  rusage usage{};
+  wait4(pid, &status, 0, &usage);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  r.max_rss_kb = usage.ru_maxrss;
+  std::ifstream in(err_path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  r.err = ss.str();
+  return r;
+}
+
+class FitCommand : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir = fs::temp_directory_path() / ("stampede_fit_" + std::to_string(getpid()) + "_" +
+                                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  void TearDown() override { fs::remove_all(dir); }
+  std::string path(const std::string& name) const { return (dir / name).string(); }
+  RunResult run(std::vector<std::string> args) { return finish(spawn(args, path("stderr.txt")), path("stderr.txt")); }
+  fs::path dir;
+};
+
+const std::vector<std::string> kGreat08Psf = {"--set", "psf_beta=3", "--set", "psf_fwhm=2.85", "--set", "psf_e1=0",
+                                             "--set", "psf_e2=0.05"};
+// A cheap configuration for the engine-level tests (results need not be accurate, only identical).
+const std::vector<std::string> kCheap = {"--set", "upsampling=2", "--set", "n_central_pixels_to_upsample=1", "--set",
+                                        "padding=0", "--set", "minimizer_max_iterations=20"};
+
+std::vector<std::string> operator+(std::vector<std::string> a, const std::vector<std::string>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+std::vector<double> column(const std::string& file, const std::string& name) {
+  auto f = stampede::io::FitsFile::open_read(file);
+  f.move_to("RESULTS");
+  return f.read_column(name);
+}
+
+void expect_tables_equal(const std::string& a, const std::string& b) {
+  auto fa = stampede::io::FitsFile::open_read(a);
+  fa.move_to("RESULTS");
+  ASSERT_EQ(fa.table_rows(), stampede::io::FitsFile::open_read(b + "[RESULTS]").table_rows());
+  for (const char* name : {"id", "ix", "iy", "x0", "y0", "e1", "e2", "radius", "bulge_A", "disc_A", "bulge_flux", "disc_flux",
+                           "flux", "e1_err", "e2_err", "snr", "chi2", "likelihood", "n_iter", "n_eval", "stop_reason",
+                           "status", "flags", "psf_e1", "psf_e2", "psf_fwhm"}) {
+    const auto x = column(a, name), y = column(b, name);
+    ASSERT_EQ(x.size(), y.size()) << name;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      const bool same = (std::isnan(x[i]) && std::isnan(y[i])) || std::memcmp(&x[i], &y[i], sizeof(double)) == 0;
+      ASSERT_TRUE(same) << name << " row " << i << ": " << x[i] << " vs " << y[i];
+    }
+  }
+}
+
+// Must-show 1: both GREAT08-mini sets give 400 rows; the noise-free mean e matches the truth.
+TEST_F(FitCommand, Great08MiniSetsEndToEnd) {
+  for (const std::string set : {"nf", "snr40"}) {
+    const std::string out = path(set + ".fits");
+    std::vector<std::string> args = {data("galsim-great08-mini/" + set + "/set_0.fits"), "-o", out, "--threads", "2"};
+    if (set == "snr40") args = args + std::vector<std::string>{"--set", "noise_sigma=1"};
+    const RunResult r = run(args + kGreat08Psf);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("400 objects"), std::string::npos) << r.err;
+    const auto e1 = column(out, "e1"), e2 = column(out, "e2"), status = column(out, "status"), id = column(out, "id");
+    ASSERT_EQ(e1.size(), 400u);
+    for (int i = 0; i < 400; ++i) EXPECT_EQ(id[i], i);
+    auto truth = stampede::io::FitsFile::open_read(data("galsim-great08-mini/" + set + "/truth_0.fits"));
+    truth.move_to("TRUTH");
+    const auto t1 = truth.read_column("e1_obs"), t2 = truth.read_column("e2_obs");
+    double m1 = 0, m2 = 0, mt1 = 0, mt2 = 0;
+    int ok = 0;
+    for (int i = 0; i < 400; ++i) {
+      ok += status[i] == 0;
+      m1 += e1[i] / 400, m2 += e2[i] / 400, mt1 += t1[i] / 400, mt2 += t2[i] / 400;
+    }
+    std::printf("%s: %d ok, mean e (%+.5f, %+.5f), truth (%+.5f, %+.5f)\n", set.c_str(), ok, m1, m2, mt1, mt2);
+    if (set == "nf") {
+      EXPECT_EQ(ok, 400);
+      EXPECT_LT(std::abs(m1 - mt1), 1e-3);
+      EXPECT_LT(std::abs(m2 - mt2), 1e-3);
+    } else {
+      EXPECT_GE(ok, 390);  // noisy fits may hit the iteration limit; they are flagged rows, never missing
+    }
+  }
+}
+
+// Must-show 2: identical tables (bitwise, all columns but time_us) for --threads 1 and 2.
+TEST_F(FitCommand, IdenticalOutputForAnyThreadCount) {
+  const std::string in = data("galsim-great08-mini/snr40/set_0.fits");
+  const std::vector<std::string> opts = kCheap + kGreat08Psf + std::vector<std::string>{"--set", "noise_sigma=1", "--set", "batch_size=7"};
+  ASSERT_EQ(run(std::vector<std::string>{in, "-o", path("t1.fits"), "--threads", "1", "--quiet"} + opts).exit_code, 0);
+  ASSERT_EQ(run(std::vector<std::string>{in, "-o", path("t2.fits"), "--threads", "2", "--quiet"} + opts).exit_code, 0);
+  expect_tables_equal(path("t1.fits"), path("t2.fits"));
+}
+
+// Must-show 3: kill -9 in the middle of a run, then --resume, equals an uninterrupted run.
+TEST_F(FitCommand, KillNineThenResumeEqualsUninterruptedRun) {
+  const std::string in = data("galsim-great08-mini/snr40/set_0.fits");
+  const std::vector<std::string> opts = kGreat08Psf + std::vector<std::string>{"--set", "noise_sigma=1", "--set", "batch_size=10", "--threads", "2", "--quiet"};
+  ASSERT_EQ(run(std::vector<std::string>{in, "-o", path("full.fits")} + opts).exit_code, 0);
+  const std::string out = path("resumed.fits");
+  const pid_t pid = spawn(std::vector<std::string>{in, "-o", out} + opts, path("stderr.txt"));
+  // Wait until some batches are committed, then kill without warning.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!fs::exists(out + ".checkpoint") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  ASSERT_EQ(kill(pid, SIGKILL), 0);
+  const RunResult killed = finish(pid, path("stderr.txt"));
+  ASSERT_EQ(killed.exit_code, 128 + SIGKILL) << "the run finished before it could be killed";
+  ASSERT_FALSE(fs::exists(out));
+  const RunResult resumed = run(std::vector<std::string>{in, "-o", out, "--resume"} + opts);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  expect_tables_equal(path("full.fits"), out);
+}
+
+// Writes an nx x ny grid of s x s stamps, each a round Gaussian blob (cheap to make and fit).
+void write_grid(const std::string& file, int nx, int ny, int s) {
+  std::vector<double> img(static_cast<std::size_t>(nx) * s * ny * s);
+  for (int iy = 0; iy < ny * s; ++iy)
+    for (int ix = 0; ix < nx * s; ++ix) {
+      const double dx = ix % s - (s - 1) / 2.0 - 0.1, dy = iy % s - (s - 1) / 2.0 + 0.2;
+      img[static_cast<std::size_t>(iy) * nx * s + ix] = 100.0 * std::exp(-(dx * dx + 0.8 * dy * dy) / 4.0);
+    }
+  auto f = stampede::io::FitsFile::create(file, true);
+  f.write_image(static_cast<long>(nx) * s, static_cast<long>(ny) * s, img);
+  f.write_key("STAMPSZ", s, "stamp size");
+}
+
+// Must-show 4: peak RSS over 40,000 stamps within 20 MB of the run over 4,000. Cheap configuration:
+// 9 px stamps, upsampling 1, no central integration, no padding, at most 3 iterations.
+TEST_F(FitCommand, MemoryIsBoundedByTheBatchNotTheCatalogue) {
+  write_grid(path("small.fits"), 200, 20, 9);
+  write_grid(path("large.fits"), 200, 200, 9);
+  const std::vector<std::string> cheap = {"--set", "upsampling=1", "--set", "n_central_pixels_to_upsample=0", "--set",
+                                         "padding=0", "--set", "minimizer_max_iterations=3", "--threads", "2", "--quiet"};
+  const RunResult small = run(std::vector<std::string>{path("small.fits"), "-o", path("small_out.fits")} + cheap);
+  const RunResult large = run(std::vector<std::string>{path("large.fits"), "-o", path("large_out.fits")} + cheap);
+  ASSERT_EQ(small.exit_code, 0) << small.err;
+  ASSERT_EQ(large.exit_code, 0) << large.err;
+  EXPECT_EQ(column(path("large_out.fits"), "id").size(), 40000u);
+  std::printf("peak RSS: 4,000 stamps %ld kB, 40,000 stamps %ld kB\n", small.max_rss_kb, large.max_rss_kb);
+  EXPECT_LT(large.max_rss_kb - small.max_rss_kb, 20 * 1024);
+}
+
+TEST_F(FitCommand, BadInputGivesAClearErrorBeforeFitting) {
+  struct Case {
+    std::vector<std::string> args;
+    std::string expect;
+  };
+  std::ofstream(path("bad.fits")) << "this is not FITS";
+  std::ofstream(path("cat.txt")) << "# id x\n1 10.5\n";
+  const std::string grid = data("galsim-great08-mini/nf/set_0.fits");
+  const Case cases[] = {
+      {{path("missing.fits"), "-o", path("o.fits")}, "missing.fits"},
+      {{path("bad.fits"), "-o", path("o.fits")}, "bad.fits"},
+      {{grid, "-o", path("o.fits"), "--set", "stamp_size=40"}, "does not divide"},
+      {{grid, "-o", path("o.fits"), "--catalog", path("cat.txt"), "--set", "stamp_size=39"}, "cat.txt:2"},
+      {{grid, "-o", path("o.fits"), "--set", "upsampling=-1"}, "upsampling"},
+      {{grid, "-o", path("o.fits"), "--set", "nonsense=1"}, "nonsense"},
+      {{grid, "-o", path("o.fits"), "--set", "psf_input=image", "--set", "psf_image=" + path("missing_psf.fits")}, "missing_psf.fits"},
+      {{grid, "-o", "/nonexistent/dir/o.fits"}, "/nonexistent/dir/o.fits"},
+      {{grid, "-o", path("o.fits"), "--weight", data("galsim-great08-mini/nf/psf_0.fits")}, "weight"},
+      {{grid, "-o", path("o.fits"), "--resume"}, "nothing to resume"},
+  };
+  for (const Case& c : cases) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const RunResult r = run(c.args);
+    EXPECT_NE(r.exit_code, 0) << c.expect;
+    EXPECT_NE(r.err.find(c.expect), std::string::npos) << "stderr '" << r.err << "' lacks '" << c.expect << "'";
+    // Before any fitting: 400 fits would take seconds.
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0) << c.expect;
+  }
+}
+
+}  // namespace

@@ -1,0 +1,5 @@
+// `stampede fit`: fits every object of a stamp grid or an image + catalogue and writes one row
+// per object to a FITS table, with crash-safe resume.
+#pragma once
+
+int run_fit_command(int argc, char** argv);
