@@ -1,19 +1,52 @@
 // The batch pipeline; see pipeline.hpp.
 #include "engine/pipeline.hpp"
 
-#include <tbb/concurrent_queue.h>
+#include "engine/mpsc_stack.hpp"
+#include "engine/tsan_annotations.hpp"
+
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 #include <tbb/parallel_pipeline.h>
 
 #include <atomic>
+#include <condition_variable>
 #include <exception>
 #include <mutex>
 #include <thread>
 #include <vector>
 
 namespace stampede {
+
+namespace {
+
+// The pool of free batches: the reader takes one (blocking while all are in flight), the writer
+// gives it back once written. Its size bounds memory and the batches in flight.
+class BatchPool {
+ public:
+  void put(StampBatch* b) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      free_.push_back(b);
+    }
+    ready_.notify_one();
+  }
+  StampBatch* take() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    ready_.wait(lock, [&] { return !free_.empty(); });
+    StampBatch* b = free_.back();
+    free_.pop_back();
+    return b;
+  }
+  void reserve(std::size_t n) { free_.reserve(n); }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable ready_;
+  std::vector<StampBatch*> free_;
+};
+
+}  // namespace
 
 PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
                              const std::function<std::unique_ptr<BatchFitter>()>& make_fitter,
@@ -22,14 +55,14 @@ PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
   const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
   const int pool_size = std::max(2, options.batches_per_thread * threads);
-  std::vector<std::unique_ptr<StampBatch>> pool;
-  tbb::concurrent_bounded_queue<StampBatch*> free_batches;
+  std::vector<std::unique_ptr<StampBatch>> batches;
+  BatchPool pool;
+  pool.reserve(pool_size);
   for (int i = 0; i < pool_size; ++i) {
-    pool.push_back(std::make_unique<StampBatch>(options.batch_size, options.stamp_size, options.per_object_psf));
-    free_batches.push(pool.back().get());
+    batches.push_back(std::make_unique<StampBatch>(options.batch_size, options.stamp_size, options.per_object_psf));
+    pool.put(batches.back().get());
   }
-  tbb::concurrent_queue<StampBatch*> finished;  // fit tasks -> writer
-  std::atomic<long long> finished_signal{0};
+  MpscStack<StampBatch> finished;  // fit tasks -> writer, lock-free
   std::atomic<bool> reader_done{false}, cancelled{false};
   std::atomic<long long> batches_read{0};
   std::exception_ptr writer_error;
@@ -44,9 +77,12 @@ PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
     PipelineProgress p;
     p.objects_total = total;
     while (true) {
-      const long long seen = finished_signal.load(std::memory_order_acquire);
-      StampBatch* b = nullptr;
-      while (finished.try_pop(b)) reorder[b->sequence % pool_size] = b;
+      const unsigned long long seen = finished.signal();
+      for (StampBatch* b = finished.take_all(); b;) {
+        StampBatch* following = b->next;
+        reorder[b->sequence % pool_size] = b;
+        b = following;
+      }
       while (StampBatch* ready = reorder[next % pool_size]) {
         if (ready->sequence != next) break;
         reorder[next % pool_size] = nullptr;
@@ -60,14 +96,14 @@ PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
         }
         p.objects_done += ready->count;
         ++next;
-        free_batches.push(ready);
+        pool.put(ready);
         if (progress && !cancelled.load()) {
           p.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
           progress(p);
         }
       }
       if (reader_done.load(std::memory_order_acquire) && (next == batches_read.load() || cancelled.load())) break;
-      finished_signal.wait(seen, std::memory_order_acquire);  // sleep until a batch arrives
+      finished.wait(seen);  // sleep until a batch arrives
     }
     summary.objects = p.objects_done;
     summary.batches = next;
@@ -76,46 +112,63 @@ PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
   tbb::enumerable_thread_specific<std::unique_ptr<BatchFitter>> fitters;
   std::exception_ptr pipeline_error;
   long long sequence = 0;
+  // TSan tokens (tsan_annotations.hpp): start of the run, the serial reader's and hand-off's turns,
+  // and the end of every fit (for the main thread that destroys the per-thread fitters).
+  int start_token = 0, reader_token = 0, handoff_token = 0, fit_token = 0;
   try {
-    tbb::parallel_pipeline(
-        static_cast<std::size_t>(pool_size),
+    const auto filters =
         tbb::make_filter<void, StampBatch*>(tbb::filter_mode::serial_in_order,
                                             [&](tbb::flow_control& fc) -> StampBatch* {
+                                              STAMPEDE_TSAN_ACQUIRE(&start_token);
+                                              STAMPEDE_TSAN_ACQUIRE(&reader_token);
+                                              struct TurnEnd {
+                                                int* token;
+                                                ~TurnEnd() { STAMPEDE_TSAN_RELEASE(token); }
+                                              } turn_end{&reader_token};
                                               if (cancelled.load()) {
                                                 fc.stop();
                                                 return nullptr;
                                               }
-                                              StampBatch* b = nullptr;
-                                              free_batches.pop(b);  // blocks while all batches are in flight
+                                              StampBatch* b = pool.take();  // blocks while all are in flight
                                               b->sequence = sequence;
                                               if (!source.fill(*b) || b->count == 0) {
-                                                free_batches.push(b);
+                                                pool.put(b);
                                                 fc.stop();
                                                 return nullptr;
                                               }
                                               ++sequence;
                                               batches_read.fetch_add(1);
+                                              STAMPEDE_TSAN_RELEASE(b);
                                               return b;
                                             }) &
             tbb::make_filter<StampBatch*, StampBatch*>(tbb::filter_mode::parallel,
                                                        [&](StampBatch* b) {
+                                                         STAMPEDE_TSAN_ACQUIRE(&start_token);
+                                                         STAMPEDE_TSAN_ACQUIRE(b);
                                                          auto& f = fitters.local();
                                                          if (!f) f = make_fitter();
                                                          if (!cancelled.load()) f->fit(*b);
+                                                         STAMPEDE_TSAN_RELEASE(b);
+                                                         STAMPEDE_TSAN_RELEASE(&fit_token);
                                                          return b;
                                                        }) &
-            tbb::make_filter<StampBatch*, void>(tbb::filter_mode::serial_out_of_order, [&](StampBatch* b) {
-              finished.push(b);
-              finished_signal.fetch_add(1, std::memory_order_release);
-              finished_signal.notify_one();
-            }));
+            tbb::make_filter<StampBatch*, void>(tbb::filter_mode::serial_out_of_order,
+                                                [&](StampBatch* b) {
+                                                  STAMPEDE_TSAN_ACQUIRE(&handoff_token);
+                                                  STAMPEDE_TSAN_ACQUIRE(b);
+                                                  finished.push(b);
+                                                  STAMPEDE_TSAN_RELEASE(&handoff_token);
+                                                });
+    STAMPEDE_TSAN_RELEASE(&start_token);  // after the filters exist: workers read them
+    tbb::parallel_pipeline(static_cast<std::size_t>(pool_size), filters);
   } catch (...) {
     pipeline_error = std::current_exception();
     cancelled.store(true);
   }
+  STAMPEDE_TSAN_ACQUIRE(&fit_token);
+  STAMPEDE_TSAN_ACQUIRE(&reader_token);
   reader_done.store(true, std::memory_order_release);
-  finished_signal.fetch_add(1, std::memory_order_release);
-  finished_signal.notify_one();
+  finished.poke();
   writer.join();
   if (pipeline_error) std::rethrow_exception(pipeline_error);
   if (writer_error) std::rethrow_exception(writer_error);

@@ -1,7 +1,7 @@
 // The throughput engine: a thin serial reader, parallel fit tasks, a thin serial writer.
 //
 //   reader (serial, in order) -> fit (parallel) -> hand-off (serial, any order)
-//     -> lock-free queue -> writer thread (reorder buffer) -> sink, batch back to the pool
+//     -> lock-free MPSC stack -> writer thread (reorder buffer) -> sink, batch back to the pool
 //
 // oneTBB's parallel_pipeline runs the first three stages with at most `pool size` batches in flight;
 // the writer is a dedicated thread so a slow disk never blocks a fit task, and it restores input

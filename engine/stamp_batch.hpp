@@ -20,6 +20,7 @@ struct StampBatch {
   std::vector<double> weights;  // same layout when has_weights
   std::vector<kernels::MoffatProfile> psf;  // per-object PSF (psf_input = moffat_catalog)
   std::vector<ObjectRecord> records;        // input identity, then fit results
+  StampBatch* next = nullptr;               // intrusive link for the writer hand-off
 
   StampBatch(int capacity, int stamp, bool per_object_psf)
       : stamp_size(stamp),

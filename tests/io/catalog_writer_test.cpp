@@ -8,6 +8,8 @@
 #include <fcntl.h>
 #include <fitsio.h>
 #include <gtest/gtest.h>
+
+#include "support/error_assertions.hpp"
 #include <signal.h>
 #include <stdlib.h>  // mkdtemp
 #include <sys/wait.h>
@@ -31,29 +33,13 @@
 namespace stampede::io {
 namespace {
 
+using stampede::testing::Contains;
+using stampede::testing::error_of;
+
 namespace fs = std::filesystem;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-::testing::AssertionResult Contains(const std::string& text, const std::string& part) {
-  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
-  return ::testing::AssertionFailure() << "'" << text << "' does not contain '" << part << "'";
-}
-
-// Runs `body`, expecting a CatalogError; returns its message ("" and a test failure otherwise).
-std::string catalog_error_of(const std::function<void()>& body) {
-  try {
-    body();
-  } catch (const CatalogError& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "expected CatalogError, got another exception: " << e.what();
-    return "";
-  }
-  ADD_FAILURE() << "expected CatalogError, nothing was thrown";
-  return "";
-}
 
 // Deterministic rows exercising every column: NaN where a fit produced nothing, -0, inf, values
 // that need all 17 digits, ids beyond 2^53 (exact in K, not in double), flags with bit 31 set.
@@ -559,13 +545,13 @@ TEST_F(CatalogWriterTest, ResumeRefusesADifferentRun) {
       o.path + ".checkpoint was written by a different run (input or configuration changed)";
   CatalogWriterOptions other = o;
   other.fingerprint += "x";
-  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::resume(other, nullptr); }), expected));
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(other, nullptr); }), expected));
   other = o;
   other.positions = PositionColumns::kCatalogue;
-  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::resume(other, nullptr); }), expected));
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(other, nullptr); }), expected));
   other = o;
   other.text_path.clear();
-  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::resume(other, nullptr); }), expected));
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(other, nullptr); }), expected));
   // A refusal leaves the run resumable.
   long long committed = -1;
   CatalogWriter::resume(o, &committed);
@@ -574,17 +560,17 @@ TEST_F(CatalogWriterTest, ResumeRefusesADifferentRun) {
 
 TEST_F(CatalogWriterTest, ResumeWithNothingThereThrows) {
   CatalogWriterOptions o = options();
-  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::resume(o, nullptr); }),
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); }),
                        "nothing to resume at " + o.path));
   // A finished run has nothing left to resume either.
   auto w = CatalogWriter::create(o);
   w->finish();
-  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::resume(o, nullptr); }),
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); }),
                        "nothing to resume at " + o.path));
   // Nor does a checkpoint whose partial output is gone.
   CatalogWriter::create(o).reset();
   fs::remove(o.text_path + ".partial");
-  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::resume(o, nullptr); }),
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); }),
                        "nothing to resume at " + o.path));
 }
 
@@ -605,34 +591,34 @@ TEST_F(CatalogWriterTest, ResumeReportsCorruptFiles) {
 
   start();
   overwrite(o.path + ".partial", 0, "garbage garbage garbage");
-  msg = catalog_error_of([&] { CatalogWriter::resume(o, nullptr); });
+  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); });
   EXPECT_TRUE(Contains(msg, o.path + ".partial is corrupt"));
 
   start();
   // The last block, holding the committed rows, lost; the header intact.
   fs::resize_file(o.path + ".partial", fs::file_size(o.path + ".partial") - 2880);
-  msg = catalog_error_of([&] { CatalogWriter::resume(o, nullptr); });
+  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); });
   EXPECT_TRUE(Contains(msg, o.path + ".partial is corrupt"));
 
   start();
   fs::resize_file(o.text_path + ".partial", 100);
-  msg = catalog_error_of([&] { CatalogWriter::resume(o, nullptr); });
+  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); });
   EXPECT_TRUE(Contains(msg, o.text_path + ".partial is corrupt"));
 
   start();
   overwrite(o.text_path + ".partial", 0, "% not our header");
-  msg = catalog_error_of([&] { CatalogWriter::resume(o, nullptr); });
+  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); });
   EXPECT_TRUE(Contains(msg, o.text_path + ".partial is corrupt"));
 
   start();  // the committed text must end a line
   overwrite(o.text_path + ".partial",
             static_cast<long long>(fs::file_size(o.text_path + ".partial")) - 1, "X");
-  msg = catalog_error_of([&] { CatalogWriter::resume(o, nullptr); });
+  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); });
   EXPECT_TRUE(Contains(msg, o.text_path + ".partial is corrupt"));
 
   start();
   overwrite(o.path + ".checkpoint", 0, "stampede catalogue checkpoint 2");
-  msg = catalog_error_of([&] { CatalogWriter::resume(o, nullptr); });
+  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); });
   EXPECT_TRUE(Contains(msg, o.path + ".checkpoint is corrupt"));
 
   // A different layout (here: another writer's positions) in the partial itself.
@@ -643,7 +629,7 @@ TEST_F(CatalogWriterTest, ResumeReportsCorruptFiles) {
   cat.positions = PositionColumns::kCatalogue;
   CatalogWriter::create(cat).reset();
   fs::copy_file(cat.path + ".partial", o.path + ".partial", fs::copy_options::overwrite_existing);
-  msg = catalog_error_of([&] { CatalogWriter::resume(o, nullptr); });
+  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); });
   EXPECT_TRUE(Contains(msg, o.path + ".partial is corrupt"));
 }
 
@@ -651,22 +637,22 @@ TEST_F(CatalogWriterTest, CreateFailsUpFrontNamingThePath) {
   CatalogWriterOptions o = options();
   o.path = "/nonexistent/dir/out.fits";
   o.text_path.clear();
-  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::create(o); }),
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::create(o); }),
                        "/nonexistent/dir/out.fits"));
   o = options();
   o.text_path = "/nonexistent/dir/out.txt";
-  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::create(o); }),
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::create(o); }),
                        "/nonexistent/dir/out.txt"));
   EXPECT_FALSE(fs::exists(options().path + ".partial")) << "a failed create leaves nothing";
   EXPECT_FALSE(fs::exists(options().path + ".checkpoint"));
   // Not even a stale run it was meant to replace.
   CatalogWriter::create(options()).reset();
-  EXPECT_FALSE(catalog_error_of([&] { CatalogWriter::create(o); }).empty());
-  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::resume(options(), nullptr); }),
+  EXPECT_FALSE(error_of<CatalogError>([&] { CatalogWriter::create(o); }).empty());
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(options(), nullptr); }),
                        "nothing to resume"));
   o = options();
   o.path += ".gz";
-  EXPECT_TRUE(Contains(catalog_error_of([&] { CatalogWriter::create(o); }), "compressed"));
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::create(o); }), "compressed"));
 }
 
 TEST_F(CatalogWriterTest, RefusesReservedOrInvalidHeaderKeys) {
@@ -675,7 +661,7 @@ TEST_F(CatalogWriterTest, RefusesReservedOrInvalidHeaderKeys) {
            {"bad=key", "x"}, {"", "x"}, {"plain", "caf\xc3\xa9"}, {std::string(70, 'k'), "x"}}) {
     CatalogWriterOptions o = options();
     o.header.emplace_back(key, value);
-    EXPECT_FALSE(catalog_error_of([&] { CatalogWriter::create(o); }).empty()) << key;
+    EXPECT_FALSE(error_of<CatalogError>([&] { CatalogWriter::create(o); }).empty()) << key;
     EXPECT_FALSE(fs::exists(o.path + ".partial")) << key;
   }
 }
@@ -686,8 +672,8 @@ TEST_F(CatalogWriterTest, WriterIsUnusableAfterFinish) {
   w->append(make_records(3, PositionColumns::kGrid));
   w->finish();
   const auto records = make_records(3, PositionColumns::kGrid);
-  EXPECT_TRUE(Contains(catalog_error_of([&] { w->append(records); }), "already finished"));
-  EXPECT_TRUE(Contains(catalog_error_of([&] { w->finish(); }), "already finished"));
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { w->append(records); }), "already finished"));
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { w->finish(); }), "already finished"));
   EXPECT_EQ(w->rows(), 3);
 }
 

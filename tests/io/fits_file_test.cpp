@@ -4,6 +4,8 @@
 #include "io/fits_file.hpp"
 
 #include <gtest/gtest.h>
+
+#include "support/error_assertions.hpp"
 #include <stdlib.h>  // mkdtemp
 
 #include <algorithm>
@@ -24,31 +26,15 @@
 namespace stampede::io {
 namespace {
 
+using stampede::testing::Contains;
+using stampede::testing::error_of;
+
 namespace fs = std::filesystem;
 
 const std::string kData = STAMPEDE_DATA_DIR;
 const std::string kSet0 = kData + "/galsim-great08-mini/nf/set_0.fits";
 const std::string kTruth0 = kData + "/galsim-great08-mini/nf/truth_0.fits";
 const std::string kCases = kData + "/galsim-reference/render_cases.fits";
-
-::testing::AssertionResult Contains(const std::string& text, const std::string& part) {
-  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
-  return ::testing::AssertionFailure() << "'" << text << "' does not contain '" << part << "'";
-}
-
-// Runs `body`, expecting a FitsError; returns its message ("" and a test failure otherwise).
-std::string fits_error_of(const std::function<void()>& body) {
-  try {
-    body();
-  } catch (const FitsError& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "expected FitsError, got another exception: " << e.what();
-    return "";
-  }
-  ADD_FAILURE() << "expected FitsError, nothing was thrown";
-  return "";
-}
 
 bool bitwise_equal(const std::vector<double>& a, const std::vector<double>& b) {
   return a.size() == b.size() &&
@@ -193,7 +179,7 @@ TEST(FitsFileRead, AutoMovesToFirstImageOnlyUntilMovedExplicitly) {
     // An explicit move to the empty primary is respected, so image functions fail there.
     FitsFile f = FitsFile::open_read(kCases);
     f.move_to(0);
-    const std::string msg = fits_error_of([&] { f.image_shape(); });
+    const std::string msg = error_of<FitsError>([&] { f.image_shape(); });
     EXPECT_TRUE(Contains(msg, "render_cases.fits[HDU 0]"));
     EXPECT_TRUE(Contains(msg, "not a 2-D image"));
   }
@@ -305,7 +291,7 @@ TEST_F(FitsFileTmp, CreateRespectsOverwrite) {
     FitsFile f = FitsFile::create(path, false);
     f.write_image(1, 1, one);
   }
-  const std::string msg = fits_error_of([&] { FitsFile::create(path, false); });
+  const std::string msg = error_of<FitsError>([&] { FitsFile::create(path, false); });
   EXPECT_TRUE(Contains(msg, "cannot create FITS file '" + path + "'"));
   {
     FitsFile f = FitsFile::create(path, true);
@@ -380,7 +366,7 @@ TEST_F(FitsFileTmp, MoveTransfersOwnership) {
 
 TEST_F(FitsFileTmp, NonExistentFile) {
   const std::string path = tmp("no_such_file.fits");
-  const std::string msg = fits_error_of([&] { FitsFile::open_read(path); });
+  const std::string msg = error_of<FitsError>([&] { FitsFile::open_read(path); });
   EXPECT_TRUE(Contains(msg, "cannot open FITS file '" + path + "'"));
 }
 
@@ -390,12 +376,12 @@ TEST_F(FitsFileTmp, CorruptFile) {
     std::ofstream out(path, std::ios::binary);
     for (int i = 0; i < 1000; ++i) out << "this is not a FITS file \x01\x02\xff";
   }
-  const std::string msg = fits_error_of([&] { FitsFile::open_read(path); });
+  const std::string msg = error_of<FitsError>([&] { FitsFile::open_read(path); });
   EXPECT_TRUE(Contains(msg, "cannot open FITS file '" + path + "'"));
 
   const std::string empty = tmp("empty.fits");
   std::ofstream{empty};
-  EXPECT_TRUE(Contains(fits_error_of([&] { FitsFile::open_read(empty); }), empty));
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { FitsFile::open_read(empty); }), empty));
 }
 
 TEST_F(FitsFileTmp, TruncatedFile) {
@@ -408,12 +394,12 @@ TEST_F(FitsFileTmp, TruncatedFile) {
     std::ofstream out(path, std::ios::binary);
     out.write(head.data(), static_cast<std::streamsize>(head.size()));
   }
-  const std::string msg = fits_error_of([&] {
+  const std::string msg = error_of<FitsError>([&] {
     FitsFile f = FitsFile::open_read(path);
     f.read_image();
   });
   EXPECT_TRUE(Contains(msg, "truncated.fits"));
-  const std::string rows_msg = fits_error_of([&] {
+  const std::string rows_msg = error_of<FitsError>([&] {
     FitsFile f = FitsFile::open_read(path);
     std::vector<double> strip(780 * 10);
     f.read_image_rows(700, 10, strip);
@@ -423,60 +409,60 @@ TEST_F(FitsFileTmp, TruncatedFile) {
 
 TEST(FitsFileErrors, MissingKeyword) {
   FitsFile f = FitsFile::open_read(kSet0);
-  std::string msg = fits_error_of([&] { f.key_double("NOSUCHKY"); });
+  std::string msg = error_of<FitsError>([&] { f.key_double("NOSUCHKY"); });
   EXPECT_TRUE(Contains(msg, "set_0.fits[HDU 0]: missing header keyword 'NOSUCHKY'"));
-  msg = fits_error_of([&] { f.key_long("NOSUCHKY"); });
+  msg = error_of<FitsError>([&] { f.key_long("NOSUCHKY"); });
   EXPECT_TRUE(Contains(msg, "missing header keyword 'NOSUCHKY'"));
-  msg = fits_error_of([&] { f.key_string("NOSUCHKY"); });
+  msg = error_of<FitsError>([&] { f.key_string("NOSUCHKY"); });
   EXPECT_TRUE(Contains(msg, "set_0.fits"));
   EXPECT_TRUE(Contains(msg, "'NOSUCHKY'"));
 }
 
 TEST(FitsFileErrors, KeywordOfWrongType) {
   FitsFile f = FitsFile::open_read(kSet0);
-  std::string msg = fits_error_of([&] { f.key_double("SIZEDEF"); });
+  std::string msg = error_of<FitsError>([&] { f.key_double("SIZEDEF"); });
   EXPECT_TRUE(Contains(msg, "set_0.fits"));
   EXPECT_TRUE(Contains(msg, "keyword 'SIZEDEF' is not a number"));
-  msg = fits_error_of([&] { f.read_key_long("PSFE2"); });
+  msg = error_of<FitsError>([&] { f.read_key_long("PSFE2"); });
   EXPECT_TRUE(Contains(msg, "keyword 'PSFE2' is not an integer"));
 }
 
 TEST(FitsFileErrors, MissingColumn) {
   FitsFile f = FitsFile::open_read(kTruth0);
   f.move_to("TRUTH");
-  const std::string msg = fits_error_of([&] { f.read_column("e1_observed"); });
+  const std::string msg = error_of<FitsError>([&] { f.read_column("e1_observed"); });
   EXPECT_TRUE(Contains(msg, "truth_0.fits[HDU 1 'TRUTH']: no column 'e1_observed'"));
 }
 
 TEST(FitsFileErrors, MoveToUnknownHdu) {
   FitsFile f = FitsFile::open_read(kCases);
   f.move_to("CASE03");
-  std::string msg = fits_error_of([&] { f.move_to("CASE99"); });
+  std::string msg = error_of<FitsError>([&] { f.move_to("CASE99"); });
   EXPECT_TRUE(Contains(msg, "render_cases.fits"));
   EXPECT_TRUE(Contains(msg, "no HDU with EXTNAME 'CASE99'"));
   EXPECT_EQ(f.hdu_index(), 4);  // a failed move leaves the file where it was
-  msg = fits_error_of([&] { f.move_to(99); });
+  msg = error_of<FitsError>([&] { f.move_to(99); });
   EXPECT_TRUE(Contains(msg, "render_cases.fits"));
   EXPECT_TRUE(Contains(msg, "HDU 99"));
   EXPECT_EQ(f.hdu_index(), 4);
-  msg = fits_error_of([&] { f.move_to(-1); });
+  msg = error_of<FitsError>([&] { f.move_to(-1); });
   EXPECT_TRUE(Contains(msg, "HDU -1"));
 }
 
 TEST(FitsFileErrors, ImageFunctionsOnTable) {
   FitsFile f = FitsFile::open_read(kCases);
   f.move_to("CASES");
-  std::string msg = fits_error_of([&] { f.image_shape(); });
+  std::string msg = error_of<FitsError>([&] { f.image_shape(); });
   EXPECT_TRUE(Contains(msg, "render_cases.fits[HDU 23 'CASES']"));
   EXPECT_TRUE(Contains(msg, "not an image"));
-  msg = fits_error_of([&] { f.read_image(); });
+  msg = error_of<FitsError>([&] { f.read_image(); });
   EXPECT_TRUE(Contains(msg, "'CASES'"));
 }
 
 TEST(FitsFileErrors, TableFunctionsOnImage) {
   FitsFile f = FitsFile::open_read(kCases);
   f.move_to("CASE01");
-  const std::string msg = fits_error_of([&] { f.read_column("hlr"); });
+  const std::string msg = error_of<FitsError>([&] { f.read_column("hlr"); });
   EXPECT_TRUE(Contains(msg, "render_cases.fits[HDU 2 'CASE01']"));
   EXPECT_TRUE(Contains(msg, "not a table"));
 }
@@ -484,31 +470,31 @@ TEST(FitsFileErrors, TableFunctionsOnImage) {
 TEST(FitsFileErrors, ReadImageRowsOutOfRange) {
   FitsFile f = FitsFile::open_read(kSet0);
   std::vector<double> strip(780 * 20);
-  std::string msg = fits_error_of([&] { f.read_image_rows(770, 20, strip); });
+  std::string msg = error_of<FitsError>([&] { f.read_image_rows(770, 20, strip); });
   EXPECT_TRUE(Contains(msg, "set_0.fits[HDU 0]"));
   EXPECT_TRUE(Contains(msg, "770"));
-  msg = fits_error_of([&] { f.read_image_rows(-1, 20, strip); });
+  msg = error_of<FitsError>([&] { f.read_image_rows(-1, 20, strip); });
   EXPECT_TRUE(Contains(msg, "set_0.fits"));
-  msg = fits_error_of([&] { f.read_image_rows(0, 19, strip); });  // span too large for 19 rows
+  msg = error_of<FitsError>([&] { f.read_image_rows(0, 19, strip); });  // span too large for 19 rows
   EXPECT_TRUE(Contains(msg, "set_0.fits"));
 }
 
 TEST_F(FitsFileTmp, WriteErrors) {
   FitsFile read_only = FitsFile::open_read(kSet0);
   const std::vector<double> pixels(4, 1.0);
-  std::string msg = fits_error_of([&] { read_only.write_image(2, 2, pixels); });
+  std::string msg = error_of<FitsError>([&] { read_only.write_image(2, 2, pixels); });
   EXPECT_TRUE(Contains(msg, "set_0.fits"));
-  msg = fits_error_of([&] { read_only.write_key("NEWKEY", 1.0, ""); });
+  msg = error_of<FitsError>([&] { read_only.write_key("NEWKEY", 1.0, ""); });
   EXPECT_TRUE(Contains(msg, "'NEWKEY'"));
 
   FitsFile f = FitsFile::create(tmp("bad.fits"), true);
-  msg = fits_error_of([&] { f.write_key("EARLY", 1.0, ""); });  // no header to write into yet
+  msg = error_of<FitsError>([&] { f.write_key("EARLY", 1.0, ""); });  // no header to write into yet
   EXPECT_TRUE(Contains(msg, "bad.fits"));
   EXPECT_TRUE(Contains(msg, "'EARLY'"));
-  msg = fits_error_of([&] { f.write_image(3, 2, pixels); });  // 4 pixels for a 3 x 2 image
+  msg = error_of<FitsError>([&] { f.write_image(3, 2, pixels); });  // 4 pixels for a 3 x 2 image
   EXPECT_TRUE(Contains(msg, "bad.fits"));
   f.write_image(2, 2, pixels);
-  msg = fits_error_of([&] { f.write_key("NAN", std::nan(""), ""); });
+  msg = error_of<FitsError>([&] { f.write_key("NAN", std::nan(""), ""); });
   EXPECT_TRUE(Contains(msg, "'NAN'"));
 }
 

@@ -4,6 +4,8 @@
 #include "io/run_config.hpp"
 
 #include <gtest/gtest.h>
+
+#include "support/error_assertions.hpp"
 #include <stdlib.h>  // mkdtemp
 
 #include <cmath>
@@ -21,26 +23,10 @@
 namespace stampede::io {
 namespace {
 
+using stampede::testing::Contains;
+using stampede::testing::error_of;
+
 namespace fs = std::filesystem;
-
-::testing::AssertionResult Contains(const std::string& text, const std::string& part) {
-  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
-  return ::testing::AssertionFailure() << "'" << text << "' does not contain '" << part << "'";
-}
-
-// Runs `body`, expecting a ConfigError; returns its message ("" and a test failure otherwise).
-std::string config_error_of(const std::function<void()>& body) {
-  try {
-    body();
-  } catch (const ConfigError& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "expected ConfigError, got another exception: " << e.what();
-    return "";
-  }
-  ADD_FAILURE() << "expected ConfigError, nothing was thrown";
-  return "";
-}
 
 // NaN == NaN and -0 != +0: "the same value" as a round trip must preserve it.
 bool same_double(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0 || (std::isnan(a) && std::isnan(b)); }
@@ -66,7 +52,7 @@ class RunConfigFile : public ::testing::Test {
   // The ConfigError message of loading `text` into a default config (which must stay unchanged).
   std::string load_error(const std::string& text) const {
     RunConfig c;
-    const std::string msg = config_error_of([&] { load_ini(c, write_ini(text)); });
+    const std::string msg = error_of<ConfigError>([&] { load_ini(c, write_ini(text)); });
     EXPECT_TRUE(c.explicitly_set.empty()) << "a failed load changed the config";
     return msg;
   }
@@ -270,7 +256,7 @@ TEST(RunConfigSet, RejectsBadValuesAndLeavesTheConfigUnchanged) {
   for (const Case& k : cases) {
     RunConfig c;
     const std::string before = get_option(c, k.key);
-    const std::string msg = config_error_of([&] { set_option(c, k.key, k.value); });
+    const std::string msg = error_of<ConfigError>([&] { set_option(c, k.key, k.value); });
     EXPECT_TRUE(Contains(msg, std::string("option '") + k.key + "' = '" + k.value + "': ")) << msg;
     EXPECT_TRUE(Contains(msg, k.why));
     EXPECT_EQ(get_option(c, k.key), before) << k.key;
@@ -280,10 +266,10 @@ TEST(RunConfigSet, RejectsBadValuesAndLeavesTheConfigUnchanged) {
 
 TEST(RunConfigSet, UnknownKeysAreRejectedWithASuggestion) {
   RunConfig c;
-  EXPECT_EQ(config_error_of([&] { set_option(c, "frobnicate", "1"); }), "unknown option 'frobnicate'");
-  EXPECT_TRUE(Contains(config_error_of([&] { set_option(c, "upsamplng", "1"); }),
+  EXPECT_EQ(error_of<ConfigError>([&] { set_option(c, "frobnicate", "1"); }), "unknown option 'frobnicate'");
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { set_option(c, "upsamplng", "1"); }),
                        "unknown option 'upsamplng' (did you mean 'upsampling'?)"));
-  EXPECT_TRUE(Contains(config_error_of([&] { (void)get_option(c, "nope"); }), "unknown option 'nope'"));
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { (void)get_option(c, "nope"); }), "unknown option 'nope'"));
 }
 
 TEST(RunConfigSet, ApplySetOverridesAndNamesTheAssignment) {
@@ -293,11 +279,11 @@ TEST(RunConfigSet, ApplySetOverridesAndNamesTheAssignment) {
   EXPECT_EQ(c.explicitly_set.at("padding"), "--set");
   apply_set(c, "psf_image=a=b.fits");  // split at the first '='
   EXPECT_EQ(c.psf_image, "a=b.fits");
-  EXPECT_EQ(config_error_of([&] { apply_set(c, "padding=abc"); }),
+  EXPECT_EQ(error_of<ConfigError>([&] { apply_set(c, "padding=abc"); }),
             "--set padding=abc: option 'padding' = 'abc': expected an integer");
-  EXPECT_EQ(config_error_of([&] { apply_set(c, "padding"); }), "--set padding: expected key=value");
-  EXPECT_EQ(config_error_of([&] { apply_set(c, "=3"); }), "--set =3: expected key=value");
-  EXPECT_TRUE(Contains(config_error_of([&] { apply_set(c, "nokey=3"); }), "--set nokey=3: unknown option 'nokey'"));
+  EXPECT_EQ(error_of<ConfigError>([&] { apply_set(c, "padding"); }), "--set padding: expected key=value");
+  EXPECT_EQ(error_of<ConfigError>([&] { apply_set(c, "=3"); }), "--set =3: expected key=value");
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { apply_set(c, "nokey=3"); }), "--set nokey=3: unknown option 'nokey'"));
 }
 
 // --- ini files -----------------------------------------------------------------------------------
@@ -382,20 +368,20 @@ TEST_F(RunConfigFile, ErrorsNameTheFileLineAndKey) {
 TEST_F(RunConfigFile, UnreadableFilesAreConfigErrors) {
   RunConfig c;
   const std::string missing = (dir_ / "x.ini").string();
-  EXPECT_EQ(config_error_of([&] { load_ini(c, missing); }), "cannot read config file '" + missing + "'");
-  EXPECT_EQ(config_error_of([&] { load_ini(c, dir_.string()); }), "cannot read config file '" + dir_.string() + "'");
+  EXPECT_EQ(error_of<ConfigError>([&] { load_ini(c, missing); }), "cannot read config file '" + missing + "'");
+  EXPECT_EQ(error_of<ConfigError>([&] { load_ini(c, dir_.string()); }), "cannot read config file '" + dir_.string() + "'");
 }
 
 TEST_F(RunConfigFile, OutOfRangeValuesFailValidationNamingKeyAndLine) {
   RunConfig c;
   load_ini(c, write_ini("padding = 4\nupsampling = 0\n"));  // parses: the range is validate()'s job
-  const std::string msg = config_error_of([&] { validate(c); });
+  const std::string msg = error_of<ConfigError>([&] { validate(c); });
   EXPECT_TRUE(Contains(msg, "upsampling = 0"));
   EXPECT_TRUE(Contains(msg, "run.ini:2: upsampling = 0"));
 
   RunConfig d;
   set_option(d, "upsampling", "0");
-  EXPECT_TRUE(Contains(config_error_of([&] { validate(d); }), "upsampling = 0: must be"));
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(d); }), "upsampling = 0: must be"));
 }
 
 // --- validation ----------------------------------------------------------------------------------
@@ -403,24 +389,24 @@ TEST_F(RunConfigFile, OutOfRangeValuesFailValidationNamingKeyAndLine) {
 TEST(RunConfigValidate, FixedOnlyParameterCannotBeFree) {
   RunConfig c;
   set_option(c, "radius_ratio_free", "true");
-  EXPECT_TRUE(Contains(config_error_of([&] { validate(c); }), "parameter 'radius_ratio' cannot be free"));
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }), "parameter 'radius_ratio' cannot be free"));
 }
 
 TEST(RunConfigValidate, ImagePsfNeedsAnImage) {
   RunConfig c;
   set_option(c, "psf_input", "image");
-  EXPECT_TRUE(Contains(config_error_of([&] { validate(c); }), "psf_input = image needs psf_image"));
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }), "psf_input = image needs psf_image"));
   set_option(c, "psf_image", "psf.fits");
   EXPECT_NO_THROW(validate(c));
   set_option(c, "psf_upsampling", "0");
-  EXPECT_TRUE(Contains(config_error_of([&] { validate(c); }), "psf_upsampling = 0: must be >= 1"));
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }), "psf_upsampling = 0: must be >= 1"));
 }
 
 TEST(RunConfigValidate, RunAndPsfOptions) {
   const auto error_with = [](const char* key, const char* value) {
     RunConfig c;
     set_option(c, key, value);
-    return config_error_of([&] { validate(c); });
+    return error_of<ConfigError>([&] { validate(c); });
   };
   EXPECT_TRUE(Contains(error_with("batch_size", "0"), "batch_size = 0: must be in [1, 100000]"));
   EXPECT_TRUE(Contains(error_with("batch_size", "100001"), "batch_size = 100001"));
@@ -439,9 +425,9 @@ TEST(RunConfigValidate, RunAndPsfOptions) {
   set_option(c, "psf_input", "airy");
   EXPECT_NO_THROW(validate(c));
   set_option(c, "airy_obscuration", "1");
-  EXPECT_TRUE(Contains(config_error_of([&] { validate(c); }), "airy_obscuration = 1"));
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }), "airy_obscuration = 1"));
   set_option(c, "psf_input", "moffat_catalog");
-  EXPECT_TRUE(Contains(config_error_of([&] { validate(c); }), "psf_beta = 0.5"));
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }), "psf_beta = 0.5"));
 
   RunConfig centroid;
   set_option(centroid, "x0_min", "auto");  // the default: the stamp's edge
