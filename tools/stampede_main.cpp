@@ -7,6 +7,7 @@
 #include "tools/demo_command.hpp"
 #include "tools/figure2_command.hpp"
 #include "tools/fit_command.hpp"
+#include "tools/metrics_command.hpp"
 
 namespace {
 
@@ -18,6 +19,7 @@ void print_usage(std::FILE* out) {
                "\n"
                "commands:\n"
                "  fit      fit every object of a stamp grid or image + catalogue; write a FITS table\n"
+               "  metrics  shear biases m, c and the GREAT08 Q from fit tables and truth files\n"
                "  demo     fit the bundled noise-free GREAT08-like set and print true vs recovered e\n"
                "  figure2  noise-free ring-test m against upsampling (im3shape paper, figure 2)\n"
                "\n"
@@ -34,6 +36,7 @@ int main(int argc, char** argv) {
   const std::string command = argv[1];
   try {
     if (command == "fit") return run_fit_command(argc - 1, argv + 1);
+    if (command == "metrics") return run_metrics_command(argc - 1, argv + 1);
     if (command == "demo") return run_demo_command(argc - 1, argv + 1);
     if (command == "figure2") return run_figure2_command(argc - 1, argv + 1);
   } catch (const std::exception& e) {

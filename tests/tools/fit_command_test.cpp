@@ -31,15 +31,18 @@ struct RunResult {
   std::string err;
 };
 
-pid_t spawn(const std::vector<std::string>& args, const std::string& err_path) {
+pid_t spawn(const std::vector<std::string>& args, const std::string& err_path, const std::string& command = "fit",
+            const std::string& out_path = "/dev/null") {
   const pid_t pid = fork();
   if (pid == 0) {
     FILE* e = std::fopen(err_path.c_str(), "w");
     if (e) dup2(fileno(e), 2);
+    FILE* o = std::fopen(out_path.c_str(), "w");
+    if (o) dup2(fileno(o), 1);
     std::vector<char*> argv;
     std::string bin = STAMPEDE_BINARY;
     argv.push_back(bin.data());
-    std::string sub = "fit";
+    std::string sub = command;
     argv.push_back(sub.data());
     std::vector<std::string> copy = args;
     for (auto& a : copy) argv.push_back(a.data());
@@ -171,6 +174,38 @@ TEST_F(FitCommand, KillNineThenResumeEqualsUninterruptedRun) {
   const RunResult resumed = run(std::vector<std::string>{in, "-o", out, "--resume"} + opts);
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
   expect_tables_equal(path("full.fits"), out);
+}
+
+// Issue 4, must-show 5: `stampede fit` then `stampede metrics` on both noise-free sets recovers
+// each set's shear to 1e-3.
+TEST_F(FitCommand, MetricsRecoverTheGreat08MiniShears) {
+  std::vector<std::string> metrics_args;
+  for (int set : {0, 1}) {
+    const std::string out = path("nf" + std::to_string(set) + ".fits");
+    const RunResult r = run(std::vector<std::string>{data("galsim-great08-mini/nf/set_" + std::to_string(set) + ".fits"),
+                                                     "-o", out, "--quiet"} + kGreat08Psf);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    metrics_args = metrics_args + std::vector<std::string>{"--fit", out, "--truth",
+                                                           data("galsim-great08-mini/nf/truth_" + std::to_string(set) + ".fits")};
+  }
+  metrics_args = metrics_args + std::vector<std::string>{"--json", path("m.json")};
+  const RunResult m = finish(spawn(metrics_args, path("stderr.txt"), "metrics", path("report.txt")), path("stderr.txt"));
+  ASSERT_EQ(m.exit_code, 0) << m.err;
+  std::ifstream report(path("report.txt"));
+  std::string line;
+  int sets = 0;
+  while (std::getline(report, line)) {
+    std::istringstream in(line);
+    int set;
+    double g1t, g1, d1, e1, g2t, g2;
+    if (!(in >> set >> g1t >> g1 >> d1 >> e1 >> g2t >> g2)) continue;
+    std::printf("set %d: g1 %+.6f (true %+.6f), g2 %+.6f (true %+.6f)\n", set, g1, g1t, g2, g2t);
+    EXPECT_LT(std::abs(g1 - g1t), 1e-3) << line;
+    EXPECT_LT(std::abs(g2 - g2t), 1e-3) << line;
+    ++sets;
+  }
+  EXPECT_EQ(sets, 2);
+  EXPECT_TRUE(fs::exists(path("m.json")));
 }
 
 // Writes an nx x ny grid of s x s stamps, each a round Gaussian blob (cheap to make and fit).

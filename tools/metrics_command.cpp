@@ -1,0 +1,149 @@
+// `stampede metrics`; see metrics_command.hpp.
+#include "tools/metrics_command.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "engine/fit_result.hpp"
+#include "engine/object_record.hpp"
+#include "engine/shear_metrics.hpp"
+#include "io/fits_error.hpp"
+#include "io/fits_file.hpp"
+
+namespace {
+
+using namespace stampede;
+
+// Rows excluded from the shear estimate: not converged, or a flag that makes e doubtful.
+constexpr std::uint32_t kExcludingFlags =
+    kFlagAtBound | kFlagNoErrors | kFlagNotConverged | kFlagEdge | kFlagPsfFailure;
+
+void print_help() {
+  std::printf(
+      "usage: stampede metrics --fit FIT.fits --truth TRUTH.fits [--fit ... --truth ...]\n"
+      "                        [--json OUT.json] [--bootstrap N] [--seed S]\n"
+      "\n"
+      "Per set (a `stampede fit` table and the truth file of the same set, in the GREAT08-mini\n"
+      "layout: SHEAR1 SHEAR2 in the primary header, a TRUTH table with `index` and `pair`):\n"
+      "the mean fitted e over usable objects estimates the set's shear, ring pairs averaged first,\n"
+      "errors by bootstrap over pairs (default 200 resamples). Excluded: status != ok or flags\n"
+      "4/16/32/65536/131072 (at bound, no errors, not converged, edge, PSF failure), with the\n"
+      "partner of an excluded ring member. Across sets: a weighted fit g_est = (1 + m) g + c per\n"
+      "component, c rotated into the PSF frame (c+ along the PSF), and the GREAT08 quality factor\n"
+      "  Q = 1e-4 / mean over sets and both components of (g_est - g_true)^2.\n");
+}
+
+SetShear read_set(const std::string& fit_path, const std::string& truth_path, int bootstrap, std::uint64_t seed,
+                  double* psf_e1, double* psf_e2) {
+  io::FitsFile fit = io::FitsFile::open_read(fit_path);
+  fit.move_to("RESULTS");
+  const auto id = fit.read_column("id"), e1 = fit.read_column("e1"), e2 = fit.read_column("e2"),
+             status = fit.read_column("status"), flags = fit.read_column("flags"), pe1 = fit.read_column("psf_e1"),
+             pe2 = fit.read_column("psf_e2");
+  io::FitsFile truth = io::FitsFile::open_read(truth_path);
+  const double g1 = truth.key_double("SHEAR1"), g2 = truth.key_double("SHEAR2");
+  truth.move_to("TRUTH");
+  const auto index = truth.read_column("index");
+  std::vector<double> pair_col;
+  if (truth.has_column("pair")) pair_col = truth.read_column("pair");
+  if (index.size() != id.size())
+    throw std::runtime_error(fit.describe() + " has " + std::to_string(id.size()) + " rows, " + truth.describe() +
+                             " has " + std::to_string(index.size()));
+  std::vector<int> usable(id.size());
+  std::vector<long long> pair(pair_col.empty() ? 0 : id.size());
+  for (std::size_t i = 0; i < id.size(); ++i) {
+    if (id[i] != index[i])
+      throw std::runtime_error(fit.describe() + ": row " + std::to_string(i) + " is object " + std::to_string(id[i]) +
+                               " but the truth row is object " + std::to_string(index[i]));
+    usable[i] = status[i] == static_cast<double>(FitStatus::kOk) &&
+                !(static_cast<std::uint32_t>(flags[i]) & kExcludingFlags);
+    if (!pair.empty()) pair[i] = static_cast<long long>(pair_col[i]);
+  }
+  if (!pe1.empty() && std::isfinite(pe1[0])) {
+    *psf_e1 = pe1[0];
+    *psf_e2 = pe2[0];
+  }
+  return estimate_set_shear(e1, e2, usable, pair, g1, g2, bootstrap, seed);
+}
+
+}  // namespace
+
+int run_metrics_command(int argc, char** argv) {
+  std::vector<std::string> fits, truths;
+  std::string json;
+  int bootstrap = 200;
+  std::uint64_t seed = 1;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument("option " + a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "--help" || a == "-h") {
+      print_help();
+      return 0;
+    } else if (a == "--fit") {
+      fits.push_back(value());
+    } else if (a == "--truth") {
+      truths.push_back(value());
+    } else if (a == "--json") {
+      json = value();
+    } else if (a == "--bootstrap") {
+      bootstrap = std::stoi(value());
+      if (bootstrap < 0) throw std::invalid_argument("--bootstrap must be >= 0");
+    } else if (a == "--seed") {
+      seed = std::stoull(value());
+    } else {
+      throw std::invalid_argument("unknown option '" + a + "' (see stampede metrics --help)");
+    }
+  }
+  if (fits.empty() || fits.size() != truths.size())
+    throw std::invalid_argument("give one --truth for each --fit (got " + std::to_string(fits.size()) + " and " +
+                                std::to_string(truths.size()) + ")");
+  double psf_e1 = 0, psf_e2 = 0;
+  std::vector<SetShear> sets;
+  for (std::size_t k = 0; k < fits.size(); ++k)
+    sets.push_back(read_set(fits[k], truths[k], bootstrap, seed + k, &psf_e1, &psf_e2));
+  const ShearMetrics m = combine_sets(sets, psf_e1, psf_e2);
+  std::printf("%-4s %10s %10s %10s %9s %10s %10s %9s %6s %8s\n", "set", "g1_true", "g1", "g1-g1_t", "err1", "g2_true", "g2",
+              "err2", "used", "excluded");
+  for (std::size_t k = 0; k < m.sets.size(); ++k) {
+    const SetShear& s = m.sets[k];
+    std::printf("%-4zu %+10.6f %+10.6f %+10.2e %9.2e %+10.6f %+10.6f %9.2e %6lld %8lld\n", k, s.g1_true, s.g1,
+                s.g1 - s.g1_true, s.err1, s.g2_true, s.g2, s.err2, s.used, s.excluded);
+  }
+  if (m.sets.size() >= 2) {
+    std::printf("m1 = %+.3e +- %.1e   c1 = %+.3e +- %.1e\n", m.component[0].m, m.component[0].m_err, m.component[0].c,
+                m.component[0].c_err);
+    std::printf("m2 = %+.3e +- %.1e   c2 = %+.3e +- %.1e\n", m.component[1].m, m.component[1].m_err, m.component[1].c,
+                m.component[1].c_err);
+    std::printf("PSF frame (e = %.3f, %.3f): c+ = %+.3e  cx = %+.3e\n", psf_e1, psf_e2, m.c_plus, m.c_cross);
+  } else {
+    std::printf("m, c: need at least two sets with different shears\n");
+  }
+  std::printf("Q = %.1f  (1e-4 / mean over sets and components of (g_est - g_true)^2)\n", m.q);
+  if (!json.empty()) {
+    std::ofstream out(json);
+    if (!out) throw std::runtime_error("cannot write '" + json + "'");
+    out.precision(17);
+    out << "{\n  \"sets\": [\n";
+    for (std::size_t k = 0; k < m.sets.size(); ++k) {
+      const SetShear& s = m.sets[k];
+      out << "    {\"fit\": \"" << fits[k] << "\", \"g1_true\": " << s.g1_true << ", \"g2_true\": " << s.g2_true
+          << ", \"g1\": " << s.g1 << ", \"g2\": " << s.g2 << ", \"err1\": " << s.err1 << ", \"err2\": " << s.err2
+          << ", \"used\": " << s.used << ", \"excluded\": " << s.excluded << "}" << (k + 1 < m.sets.size() ? "," : "")
+          << "\n";
+    }
+    auto num = [](double v) { return std::isfinite(v) ? std::to_string(v) : std::string("null"); };
+    out << "  ],\n  \"m1\": " << num(m.component[0].m) << ", \"m1_err\": " << num(m.component[0].m_err)
+        << ", \"c1\": " << num(m.component[0].c) << ", \"c1_err\": " << num(m.component[0].c_err) << ",\n  \"m2\": "
+        << num(m.component[1].m) << ", \"m2_err\": " << num(m.component[1].m_err) << ", \"c2\": " << num(m.component[1].c)
+        << ", \"c2_err\": " << num(m.component[1].c_err) << ",\n  \"c_plus\": " << num(m.c_plus)
+        << ", \"c_cross\": " << num(m.c_cross) << ", \"q\": " << num(m.q) << "\n}\n";
+  }
+  return 0;
+}
