@@ -1,6 +1,7 @@
 // Ring tests and size calibration; see ring_test.hpp.
 #include "engine/ring_test.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <stdexcept>
@@ -26,7 +27,7 @@ double psf_fwhm(const PsfOptions& psf) {
 
 }  // namespace
 
-double convolved_fwhm(double n, double half_light_radius, const PsfOptions& psf_in, FftPlanCache& plans) {
+double convolved_fwhm(const RingGalaxy& galaxy, const PsfOptions& psf_in, FftPlanCache& plans) {
   // Draw in units of 1/10 pixel so the output "pixels" hardly blur the profile; the centre sits on
   // a pixel centre and the FWHM comes from the profile along +x.
   constexpr double kScale = 10.0;
@@ -35,25 +36,30 @@ double convolved_fwhm(double n, double half_light_radius, const PsfOptions& psf_
   psf.moffat.fwhm *= kScale;
   psf.moffat.truncation *= kScale;
   psf.airy.lambda_over_d *= kScale;
+  const double largest = galaxy.disc_radius * std::max(1.0, galaxy.radius_ratio);
   // Light beyond ~8 r_e of the centre adds nothing measurable to the core's FWHM.
-  const double extent = 2.0 * (psf_fwhm(psf_in) + 8.0 * half_light_radius) * kScale;
+  const double extent = 2.0 * (psf_fwhm(psf_in) + 8.0 * largest) * kScale;
   RenderOptions ro;
   ro.stamp_size = 2 * static_cast<int>(extent / 2) + 1;
   ro.upsampling = 1;
   ro.n_central_pixels_to_upsample = 9;
   ro.n_central_pixel_upsampling = 25;
+  ro.padding = 0;
   std::string err;
   auto kernel = PsfKernel::build(psf, GridGeometry(ro), plans, &err);
   if (!kernel) throw std::invalid_argument(err);
   FftRenderer renderer(ro, ModelOptions{}, kernel, plans);
   ParamVector p = base_params();
   const int c = ro.stamp_size / 2;
+  const double rd = galaxy.disc_radius * kScale, rb = rd * galaxy.radius_ratio;
   p[index(Param::kX0)] = p[index(Param::kY0)] = c;
   p[index(Param::kE1)] = p[index(Param::kE2)] = 0.0;
-  p[index(Param::kRadius)] = half_light_radius * kScale;
-  p[index(Param::kBulgeIndex)] = n;
-  p[index(Param::kBulgeA)] = 1.0;
-  p[index(Param::kDiscA)] = 0.0;
+  p[index(Param::kRadius)] = rd;
+  p[index(Param::kRadiusRatio)] = galaxy.radius_ratio;
+  p[index(Param::kBulgeIndex)] = galaxy.bulge_index;
+  p[index(Param::kDiscIndex)] = galaxy.disc_index;
+  p[index(Param::kBulgeA)] = galaxy.bulge_fraction / kernels::sersic_flux_per_amplitude(rb, galaxy.bulge_index);
+  p[index(Param::kDiscA)] = (1 - galaxy.bulge_fraction) / kernels::sersic_flux_per_amplitude(rd, galaxy.disc_index);
   std::vector<double> img(static_cast<std::size_t>(ro.stamp_size) * ro.stamp_size);
   renderer.render(p, img);
   const double* row = img.data() + static_cast<std::size_t>(c) * ro.stamp_size;
@@ -63,15 +69,22 @@ double convolved_fwhm(double n, double half_light_radius, const PsfOptions& psf_
   throw std::runtime_error("convolved_fwhm: profile does not fall to half maximum on the grid");
 }
 
-double half_light_radius_for_size_ratio(double n, double ratio, const PsfOptions& psf, FftPlanCache& plans) {
+double disc_radius_for_size_ratio(RingGalaxy galaxy, double ratio, const PsfOptions& psf, FftPlanCache& plans) {
   const double target = ratio * psf_fwhm(psf);
   double lo = 0.01, hi = 20.0;
   for (int it = 0; it < 40; ++it) {
-    const double mid = 0.5 * (lo + hi);
-    (convolved_fwhm(n, mid, psf, plans) < target ? lo : hi) = mid;
+    galaxy.disc_radius = 0.5 * (lo + hi);
+    (convolved_fwhm(galaxy, psf, plans) < target ? lo : hi) = galaxy.disc_radius;
     if (hi - lo < 1e-4 * lo) break;
   }
   return 0.5 * (lo + hi);
+}
+
+double half_light_radius_for_size_ratio(double n, double ratio, const PsfOptions& psf, FftPlanCache& plans) {
+  RingGalaxy g;
+  g.bulge_fraction = 1.0;
+  g.bulge_index = n;
+  return disc_radius_for_size_ratio(g, ratio, psf, plans);
 }
 
 RingTestResult run_ring_test(const RingTestConfig& cfg, FftPlanCache& plans) {
@@ -88,26 +101,40 @@ RingTestResult run_ring_test(const RingTestConfig& cfg, FftPlanCache& plans) {
   if (!truth_psf || !fit_psf) throw std::invalid_argument("ring test PSF: " + err);
   FftRenderer truth(truth_ro, ModelOptions{}, truth_psf, plans);
   Fitter fitter(cfg.fit, fit_psf, plans);
-  std::vector<double> image(static_cast<std::size_t>(s) * s);
-  const double r = cfg.half_light_radius;
-  const double ab = cfg.flux * cfg.bulge_fraction / kernels::sersic_flux_per_amplitude(r, 4.0);
-  const double ad = cfg.flux * (1 - cfg.bulge_fraction) / kernels::sersic_flux_per_amplitude(r, 1.0);
+  const std::size_t npix = static_cast<std::size_t>(s) * s;
+  std::vector<double> image(npix), part(npix);
+  const RingGalaxy& g = cfg.galaxy;
+  const double rd = g.disc_radius, rb = rd * g.radius_ratio;
+  const double ab = g.flux * g.bulge_fraction / kernels::sersic_flux_per_amplitude(rb, g.bulge_index);
+  const double ad = g.flux * (1 - g.bulge_fraction) / kernels::sersic_flux_per_amplitude(rd, g.disc_index);
   RingTestResult res;
   std::complex<double> mean[2] = {0, 0};
   for (int sign = 0; sign < 2; ++sign) {
-    const std::complex<double> g(sign == 0 ? cfg.shear1 : -cfg.shear1, sign == 0 ? cfg.shear2 : -cfg.shear2);
+    const std::complex<double> shear(sign == 0 ? cfg.shear1 : -cfg.shear1, sign == 0 ? cfg.shear2 : -cfg.shear2);
     for (int a = 0; a < cfg.n_angles; ++a) {
       const double theta = M_PI * a / cfg.n_angles;
-      const std::complex<double> e_int = std::polar(cfg.intrinsic_e, 2.0 * theta);
-      const std::complex<double> e = (e_int + g) / (1.0 + std::conj(g) * e_int);
-      ParamVector p = base_params();
-      p[index(Param::kX0)] = p[index(Param::kY0)] = 0.5 * (s - 1);
-      p[index(Param::kE1)] = e.real();
-      p[index(Param::kE2)] = e.imag();
-      p[index(Param::kRadius)] = r;
-      p[index(Param::kBulgeA)] = ab;
-      p[index(Param::kDiscA)] = ad;
-      truth.render(p, image);
+      auto sheared = [&](double magnitude) {
+        const std::complex<double> e_int = std::polar(magnitude, 2.0 * theta);
+        return (e_int + shear) / (1.0 + std::conj(shear) * e_int);
+      };
+      // Each component drawn alone (the other's amplitude 0), then summed.
+      std::fill(image.begin(), image.end(), 0.0);
+      for (int component = 0; component < 2; ++component) {
+        const bool bulge = component == 0;
+        if ((bulge ? ab : ad) == 0.0) continue;
+        const std::complex<double> e = sheared(bulge ? g.disc_e + g.delta_e : g.disc_e);
+        ParamVector p = base_params();
+        p[index(Param::kX0)] = p[index(Param::kY0)] = 0.5 * (s - 1);
+        p[index(Param::kE1)] = e.real();
+        p[index(Param::kE2)] = e.imag();
+        p[index(Param::kRadius)] = bulge ? rb : rd;
+        p[index(Param::kBulgeIndex)] = g.bulge_index;
+        p[index(Param::kDiscIndex)] = g.disc_index;
+        p[index(Param::kBulgeA)] = bulge ? ab : 0.0;
+        p[index(Param::kDiscA)] = bulge ? 0.0 : ad;
+        truth.render(p, part);
+        for (std::size_t i = 0; i < npix; ++i) image[i] += part[i];
+      }
       const FitResult f = fitter.fit(image);
       ++res.fits;
       if (f.status != FitStatus::kOk) ++res.failed;

@@ -10,6 +10,8 @@ double regularized_gamma_p(double a, double x);
 // b_n such that r_e encloses half the flux of the infinite profile: P(2n, b_n) = 1/2.
 // Valid for 0.2 <= n <= 10 (b_1 = 1.678347.., b_4 = 7.669249..).
 double sersic_b(double n);
+// The same, always solved (sersic_b caches n = 1 and n = 4).
+double solve_sersic_b(double n);
 
 // Total flux of the infinite profile with central intensity `amplitude` (flux / pixel^2).
 // An area-preserving shear does not change it.

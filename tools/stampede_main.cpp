@@ -5,7 +5,7 @@
 #include <string>
 
 #include "tools/demo_command.hpp"
-#include "tools/figure2_command.hpp"
+#include "tools/ring_command.hpp"
 #include "tools/fit_command.hpp"
 #include "tools/metrics_command.hpp"
 
@@ -21,7 +21,7 @@ void print_usage(std::FILE* out) {
                "  fit      fit every object of a stamp grid or image + catalogue; write a FITS table\n"
                "  metrics  shear biases m, c and the GREAT08 Q from fit tables and truth files\n"
                "  demo     fit the bundled noise-free GREAT08-like set and print true vs recovered e\n"
-               "  figure2  noise-free ring-test m against upsampling (im3shape paper, figure 2)\n"
+               "  ring     noise-free ring-test studies of the im3shape paper (figures 2, 4, 5, 6)\n"
                "\n"
                "Run 'stampede <command> --help' for a command's options.\n");
 }
@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
     if (command == "fit") return run_fit_command(argc - 1, argv + 1);
     if (command == "metrics") return run_metrics_command(argc - 1, argv + 1);
     if (command == "demo") return run_demo_command(argc - 1, argv + 1);
-    if (command == "figure2") return run_figure2_command(argc - 1, argv + 1);
+    if (command == "ring") return run_ring_command(argc - 1, argv + 1);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "stampede %s: error: %s\n", command.c_str(), e.what());
     return 1;

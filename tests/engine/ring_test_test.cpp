@@ -37,12 +37,12 @@ TEST(RingTest, Figure2RequirementsHoldAtDefaults) {
                           Galaxy{0.5, 1.0, 1.4}}) {
     RingTestConfig cfg;
     cfg.psf = psf;
-    cfg.bulge_fraction = g.bulge_fraction;
-    cfg.half_light_radius = half_light_radius_for_size_ratio(g.n, g.size, psf, plans);
+    cfg.galaxy.bulge_fraction = g.bulge_fraction;
+    cfg.galaxy.disc_radius = half_light_radius_for_size_ratio(g.n, g.size, psf, plans);
     cfg.fit.render.stamp_size = 25;
     const RingTestResult r = run_ring_test(cfg, plans);
     std::printf("B/T %.1f size %.2f hlr %.3f: m1 %+.2e m2 %+.2e c1 %+.1e c2 %+.1e\n", g.bulge_fraction, g.size,
-                cfg.half_light_radius, r.m1, r.m2, r.c1, r.c2);
+                cfg.galaxy.disc_radius, r.m1, r.m2, r.c1, r.c2);
     EXPECT_EQ(r.failed, 0);
     EXPECT_LT(std::abs(r.m1), 4e-3) << "B/T " << g.bulge_fraction << " size " << g.size;
     EXPECT_LT(std::abs(r.m2), 4e-3) << "B/T " << g.bulge_fraction << " size " << g.size;
