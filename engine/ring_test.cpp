@@ -72,6 +72,9 @@ double convolved_fwhm(const RingGalaxy& galaxy, const PsfOptions& psf_in, FftPla
 double disc_radius_for_size_ratio(RingGalaxy galaxy, double ratio, const PsfOptions& psf, FftPlanCache& plans) {
   const double target = ratio * psf_fwhm(psf);
   double lo = 0.01, hi = 20.0;
+  galaxy.disc_radius = hi;
+  if (convolved_fwhm(galaxy, psf, plans) < target)
+    throw std::invalid_argument("size ratio " + std::to_string(ratio) + " needs a disc radius above 20 px");
   for (int it = 0; it < 40; ++it) {
     galaxy.disc_radius = 0.5 * (lo + hi);
     (convolved_fwhm(galaxy, psf, plans) < target ? lo : hi) = galaxy.disc_radius;

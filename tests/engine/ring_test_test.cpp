@@ -52,5 +52,35 @@ TEST(RingTest, Figure2RequirementsHoldAtDefaults) {
   }
 }
 
+// Issue 4, must-show 4 (the paper's figure 4): a single Sérsic component fitted with the bulge + disc
+// model is unbiased exactly where the model contains it, n = 1 and n = 4 (|m| < 1e-3), and biased
+// between them; m changes sign across both. Size 1.2, Moffat beta 3 FWHM 2.85 e = (0.03, 0.03).
+TEST(RingTest, Figure4BiasVanishesAtTheModelsIndices) {
+  FftPlanCache plans(FftPlanning::kEstimate);
+  PsfOptions psf;
+  psf.moffat = {3.0, 2.85, 0.03, 0.03, 0.0};
+  auto m_at = [&](double n) {
+    RingTestConfig cfg;
+    cfg.psf = psf;
+    cfg.fit.render.stamp_size = 39;
+    cfg.galaxy.bulge_fraction = 1.0;
+    cfg.galaxy.bulge_index = n;
+    cfg.galaxy.disc_radius = disc_radius_for_size_ratio(cfg.galaxy, 1.2, psf, plans);
+    const RingTestResult r = run_ring_test(cfg, plans);
+    EXPECT_EQ(r.failed, 0) << "n = " << n;
+    std::printf("n %.2f: m1 %+.2e m2 %+.2e\n", n, r.m1, r.m2);
+    return r;
+  };
+  for (double n : {1.0, 4.0}) {
+    const RingTestResult r = m_at(n);
+    EXPECT_LT(std::abs(r.m1), 1e-3) << "n = " << n;
+    EXPECT_LT(std::abs(r.m2), 1e-3) << "n = " << n;
+  }
+  const RingTestResult below1 = m_at(0.75), between = m_at(2.5), above4 = m_at(4.5);
+  EXPECT_LT(below1.m1, -3e-4);   // negative below n = 1 ...
+  EXPECT_GT(between.m1, 3e-3);   // ... positive between the two indices ...
+  EXPECT_LT(above4.m1, -3e-3);   // ... negative beyond n = 4
+}
+
 }  // namespace
 }  // namespace stampede
