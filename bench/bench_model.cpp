@@ -21,7 +21,7 @@ struct Setup {
     std::string err;
     psf = PsfKernel::build(o, GridGeometry(ro), plans, &err);
     renderer = std::make_unique<FftRenderer>(ro, ModelOptions{}, psf, plans);
-    for (int k = 0; k < kNumParams; ++k) p[k] = ParameterSet::defaults()[k].start;
+    p = ParameterSet::default_values();
     p[index(Param::kX0)] = 19.2;
     p[index(Param::kY0)] = 18.7;
     p[index(Param::kE1)] = 0.2;

@@ -46,6 +46,13 @@ std::array<ParamSpec, kNumParams> ParameterSet::defaults() {
   return s;
 }
 
+ParamVector ParameterSet::default_values() {
+  ParamVector p;
+  const auto spec = defaults();
+  for (int k = 0; k < kNumParams; ++k) p[k] = spec[k].start;
+  return p;
+}
+
 int ParameterSet::num_free() const {
   int n = 0;
   for (const auto& s : spec) n += s.free ? 1 : 0;

@@ -46,6 +46,8 @@ struct ParameterSet {
   std::array<ParamSpec, kNumParams> spec = defaults();
 
   static std::array<ParamSpec, kNumParams> defaults();
+  // The default start of every parameter (NaN where the moments decide).
+  static ParamVector default_values();
   ParamSpec& operator[](Param p) { return spec[index(p)]; }
   const ParamSpec& operator[](Param p) const { return spec[index(p)]; }
 

@@ -14,8 +14,7 @@ namespace stampede {
 namespace {
 
 ParamVector base_params() {
-  ParamVector p;
-  for (int k = 0; k < kNumParams; ++k) p[k] = ParameterSet::defaults()[k].start;
+  ParamVector p = ParameterSet::default_values();
   return p;
 }
 

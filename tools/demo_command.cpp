@@ -1,4 +1,5 @@
 // `stampede demo`; see demo_command.hpp.
+#include "tools/arguments.hpp"
 #include "tools/demo_command.hpp"
 
 #include <tbb/enumerable_thread_specific.h>
@@ -46,10 +47,7 @@ int run_demo_command(int argc, char** argv) {
   int set = 0, rows = 12, threads = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    auto value = [&](const char* name) -> std::string {
-      if (i + 1 >= argc) throw std::invalid_argument(std::string("option ") + name + " needs a value");
-      return argv[++i];
-    };
+    auto value = [&](const char*) { return tools::option_value(argc, argv, &i); };
     if (a == "--help" || a == "-h") {
       print_help();
       return 0;

@@ -1,4 +1,5 @@
 // `stampede fit`; see fit_command.hpp.
+#include "tools/arguments.hpp"
 #include "tools/fit_command.hpp"
 
 #include <unistd.h>
@@ -136,10 +137,7 @@ int run_fit_command(int argc, char** argv) {
   Args a;
   for (int i = 1; i < argc; ++i) {
     const std::string s = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw std::invalid_argument("option " + s + " needs a value");
-      return argv[++i];
-    };
+    auto value = [&] { return tools::option_value(argc, argv, &i); };
     if (s == "--help" || s == "-h") {
       print_help();
       return 0;

@@ -1,4 +1,5 @@
 // `stampede metrics`; see metrics_command.hpp.
+#include "tools/arguments.hpp"
 #include "tools/metrics_command.hpp"
 
 #include <cmath>
@@ -79,10 +80,7 @@ int run_metrics_command(int argc, char** argv) {
   std::uint64_t seed = 1;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw std::invalid_argument("option " + a + " needs a value");
-      return argv[++i];
-    };
+    auto value = [&] { return tools::option_value(argc, argv, &i); };
     if (a == "--help" || a == "-h") {
       print_help();
       return 0;

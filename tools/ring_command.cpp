@@ -1,4 +1,5 @@
 // `stampede ring`; see ring_command.hpp.
+#include "tools/arguments.hpp"
 #include "tools/ring_command.hpp"
 
 #include <tbb/parallel_for.h>
@@ -131,10 +132,7 @@ int run_ring_command(int argc, char** argv) {
   std::string csv;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw std::invalid_argument("option " + a + " needs a value");
-      return argv[++i];
-    };
+    auto value = [&] { return tools::option_value(argc, argv, &i); };
     if (a == "--help" || a == "-h") {
       print_help();
       return 0;

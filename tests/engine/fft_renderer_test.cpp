@@ -15,8 +15,7 @@ namespace stampede {
 namespace {
 
 ParamVector default_params() {
-  ParamVector p;
-  for (int k = 0; k < kNumParams; ++k) p[k] = ParameterSet::defaults()[k].start;
+  ParamVector p = ParameterSet::default_values();
   return p;
 }
 

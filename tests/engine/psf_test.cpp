@@ -19,8 +19,7 @@ std::vector<double> render_with(const PsfOptions& psf, const RenderOptions& ro, 
   auto kernel = PsfKernel::build(psf, GridGeometry(ro), plans, &err);
   EXPECT_TRUE(kernel) << err;
   FftRenderer renderer(ro, ModelOptions{}, kernel, plans);
-  ParamVector p;
-  for (int k = 0; k < kNumParams; ++k) p[k] = ParameterSet::defaults()[k].start;
+  ParamVector p = ParameterSet::default_values();
   p[index(Param::kX0)] = 19.3;
   p[index(Param::kY0)] = 18.8;
   p[index(Param::kE1)] = 0.2;
