@@ -59,11 +59,10 @@ void FftRenderer::convolve_and_downsample(double* grid_image, double* out) {
                          geometry_.stamp_size, out);
 }
 
-void FftRenderer::set_floor(kernels::SersicDerivativeBlock* c, int supersample, double, const ModelComponents& comp) const {
+void FftRenderer::set_floor(kernels::SersicDerivativeBlock* c, int supersample, double radius) const {
   // Sample spacing h in pixels; u is (distance / r_e)^2, so the floor is h^2 / (pi r_e^2).
   const double h = geometry_.step() / supersample;
-  const double re = c == &comp.bulge ? comp.bulge_radius : comp.disc_radius;
-  c->shape.u_floor = h * h / (M_PI * re * re);
+  c->shape.u_floor = h * h / (M_PI * radius * radius);
 }
 
 RenderStatus FftRenderer::render(const ParamVector& p, std::span<double> model) {
@@ -74,11 +73,12 @@ RenderStatus FftRenderer::render(const ParamVector& p, std::span<double> model) 
   std::memset(grid, 0, sizeof(double) * static_cast<std::size_t>(g.size) * g.size);
   const auto regions = partition(comp.disc.shape.x0, comp.disc.shape.y0);
   const int u2 = options_.n_central_pixel_upsampling;
-  for (auto* c : {&comp.bulge, &comp.disc}) {
+  for (auto [c, radius] : {std::pair{&comp.bulge, comp.bulge_radius}, std::pair{&comp.disc, comp.disc_radius}}) {
     if (c->amplitude == 0.0) continue;
     for (int r = 0; r < 5; ++r) {
-      set_floor(c, r == 0 ? u2 : 1, r == 0 ? comp.bulge_radius : 0, comp);
-      kernels::accumulate_sersic(g, regions[r], r == 0 ? u2 : 1, c->shape, c->amplitude, grid);
+      const int ss = r == 0 ? u2 : 1;
+      set_floor(c, ss, radius);
+      kernels::accumulate_sersic(g, regions[r], ss, c->shape, c->amplitude, grid);
     }
   }
   convolve_and_downsample(grid, model.data());
@@ -97,8 +97,8 @@ RenderStatus FftRenderer::render_with_jacobian(const ParamVector& p, std::span<c
   const int u2 = options_.n_central_pixel_upsampling;
   for (int r = 0; r < 5; ++r) {
     const int ss = r == 0 ? u2 : 1;
-    set_floor(&comp.bulge, ss, 0, comp);
-    set_floor(&comp.disc, ss, 0, comp);
+    set_floor(&comp.bulge, ss, comp.bulge_radius);
+    set_floor(&comp.disc, ss, comp.disc_radius);
     kernels::accumulate_sersic_derivatives(g, regions[r], ss, comp.bulge, image(0), deriv);
     kernels::accumulate_sersic_derivatives(g, regions[r], ss, comp.disc, image(1), deriv);
   }

@@ -43,7 +43,8 @@ class FftRenderer final : public Renderer {
   std::array<kernels::GridRegion, 5> partition(double x0, double y0) const;
   double* image(int k) { return static_cast<double*>(grid_images_[k].data()); }
   void convolve_and_downsample(double* grid_image, double* out);
-  void set_floor(kernels::SersicDerivativeBlock* c, int supersample, double, const ModelComponents& comp) const;
+  // The cusp floor (profile_render.hpp, SersicBlock::u_floor) for samples spaced step / supersample.
+  void set_floor(kernels::SersicDerivativeBlock* c, int supersample, double radius) const;
 
   RenderOptions options_;
   GridGeometry geometry_;

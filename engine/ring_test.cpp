@@ -13,11 +13,6 @@
 namespace stampede {
 namespace {
 
-ParamVector base_params() {
-  ParamVector p = ParameterSet::default_values();
-  return p;
-}
-
 double psf_fwhm(const PsfOptions& psf) {
   if (psf.type == PsfType::kMoffat) return psf.moffat.fwhm;
   if (psf.type == PsfType::kAiry) return 1.028993969962188 * psf.airy.lambda_over_d;  // unobscured
@@ -48,7 +43,7 @@ double convolved_fwhm(const RingGalaxy& galaxy, const PsfOptions& psf_in, FftPla
   auto kernel = PsfKernel::build(psf, GridGeometry(ro), plans, &err);
   if (!kernel) throw std::invalid_argument(err);
   FftRenderer renderer(ro, ModelOptions{}, kernel, plans);
-  ParamVector p = base_params();
+  ParamVector p = ParameterSet::default_values();
   const int c = ro.stamp_size / 2;
   const double rd = galaxy.disc_radius * kScale, rb = rd * galaxy.radius_ratio;
   p[index(Param::kX0)] = p[index(Param::kY0)] = c;
@@ -125,7 +120,7 @@ RingTestResult run_ring_test(const RingTestConfig& cfg, FftPlanCache& plans) {
         const bool bulge = component == 0;
         if ((bulge ? ab : ad) == 0.0) continue;
         const std::complex<double> e = sheared(bulge ? g.disc_e + g.delta_e : g.disc_e);
-        ParamVector p = base_params();
+        ParamVector p = ParameterSet::default_values();
         p[index(Param::kX0)] = p[index(Param::kY0)] = 0.5 * (s - 1);
         p[index(Param::kE1)] = e.real();
         p[index(Param::kE2)] = e.imag();
