@@ -5,18 +5,9 @@
 #include <map>
 #include <stdexcept>
 
+#include "engine/random_stream.hpp"
+
 namespace stampede {
-namespace {
-
-// splitmix64: small, fast and identical on every platform, so bootstrap errors are reproducible.
-std::uint64_t splitmix64(std::uint64_t& state) {
-  std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-  return z ^ (z >> 31);
-}
-
-}  // namespace
 
 SetShear estimate_set_shear(std::span<const double> e1, std::span<const double> e2, std::span<const int> usable,
                             std::span<const long long> pair, double g1_true, double g2_true, int bootstrap,
@@ -76,6 +67,7 @@ SetShear estimate_set_shear(std::span<const double> e1, std::span<const double> 
   s.used = used;
   // Bootstrap over units.
   if (bootstrap > 1 && units.size() > 1) {
+    // splitmix64 is identical on every platform, so bootstrap errors are reproducible.
     std::uint64_t state = seed;
     double a1 = 0, a2 = 0, q1 = 0, q2 = 0;
     for (int b = 0; b < bootstrap; ++b) {

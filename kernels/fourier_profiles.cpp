@@ -63,7 +63,8 @@ const GaussLegendre& gauss_legendre() {
 
 double exponential_fourier(double q) {
   const double s = q / sersic_b(1.0);
-  return std::pow(1.0 + s * s, -1.5);
+  const double t = 1.0 + s * s;
+  return 1.0 / (t * std::sqrt(t));
 }
 
 double sersic_mean_r2(double n) {
@@ -79,7 +80,7 @@ double sersic_fourier(double n, double q) {
   auto u_at_phase = [&](double p) { return b * std::pow(p / q, 1.0 / n); };
   const GaussLegendre& gl = gauss_legendre();
   constexpr double kMaxPanel = 0.5;  // resolves the Gamma density
-  constexpr double kTolerance = 1e-14;  // absolute, on F(0) = 1
+  constexpr double kTolerance = 1e-12;  // absolute, on F(0) = 1
   double sum = 0, u = 0;
   long long next_phase_step = 1;
   for (long long panel = 0; panel < 50'000'000; ++panel) {
@@ -132,15 +133,30 @@ double airy_fourier(double s) {
   return 2 / kPi * (std::acos(s) - s * std::sqrt(1 - s * s));
 }
 
-LogTable::LogTable(const std::function<double(double)>& f, double q_min, double q_max, int nodes_per_decade)
-    : q_min_(q_min), log_q_min_(std::log(q_min)) {
-  const double step = std::numbers::ln10 / nodes_per_decade;
-  const int count = std::max(kPoints, static_cast<int>(std::ceil((std::log(q_max) - log_q_min_) / step)) + 1);
-  inv_step_ = 1 / step;
-  values_.resize(static_cast<std::size_t>(count));
-  for (int i = 0; i < count; ++i) values_[static_cast<std::size_t>(i)] = f(std::exp(log_q_min_ + i * step));
-  q_max_ = std::exp(log_q_min_ + (count - 1) * step);
-  c2_ = (1 - values_[0]) / (q_min * q_min);
+LogGrid LogGrid::covering(double q_min, double q_max, int nodes_per_decade) {
+  LogGrid g;
+  g.q_min = q_min;
+  g.nodes_per_decade = nodes_per_decade;
+  g.count = std::max(6, static_cast<int>(std::ceil(std::log10(q_max / q_min) * nodes_per_decade)) + 1);
+  return g;
+}
+
+double LogGrid::node(int i) const { return q_min * std::pow(10.0, static_cast<double>(i) / nodes_per_decade); }
+
+LogTable::LogTable(const std::function<double(double)>& f, const LogGrid& grid)
+    : LogTable(grid, [&] {
+        std::vector<double> v(static_cast<std::size_t>(grid.count));
+        for (int i = 0; i < grid.count; ++i) v[static_cast<std::size_t>(i)] = f(grid.node(i));
+        return v;
+      }()) {}
+
+LogTable::LogTable(const LogGrid& grid, std::vector<double> values)
+    : q_min_(grid.q_min), log_q_min_(std::log(grid.q_min)), values_(std::move(values)) {
+  const int count = static_cast<int>(values_.size());
+  if (count < kPoints || count != grid.count) throw std::invalid_argument("LogTable: values do not match the grid");
+  inv_step_ = grid.nodes_per_decade / std::numbers::ln10;
+  q_max_ = grid.node(count - 1);
+  c2_ = (1 - values_[0]) / (q_min_ * q_min_);
   const double last = values_[count - 1], before = values_[count - 2];
   tail_value_ = 0;
   if (last != 0 && before != 0 && (last > 0) == (before > 0)) {
@@ -156,18 +172,19 @@ double LogTable::operator()(double q) const {
   const int last_start = static_cast<int>(values_.size()) - kPoints;
   const int i = std::clamp(static_cast<int>(t) - (kPoints / 2 - 1), 0, last_start);
   const double s = t - i;  // position among nodes i .. i + kPoints - 1 at 0 .. kPoints - 1
+  // Lagrange weights l_j = prod_{m != j} (s - m) / prod_{m != j} (j - m), by prefix and suffix
+  // products; the denominators are those of six equally spaced nodes.
+  static_assert(kPoints == 6);
+  constexpr double kInvDenominator[6] = {-1.0 / 120, 1.0 / 24, -1.0 / 12, 1.0 / 12, -1.0 / 24, 1.0 / 120};
+  double prefix[kPoints], suffix[kPoints];
+  prefix[0] = 1;
+  for (int j = 1; j < kPoints; ++j) prefix[j] = prefix[j - 1] * (s - (j - 1));
+  suffix[kPoints - 1] = 1;
+  for (int j = kPoints - 2; j >= 0; --j) suffix[j] = suffix[j + 1] * (s - (j + 1));
+  const double* v = values_.data() + i;
   double sum = 0;
-  for (int j = 0; j < kPoints; ++j) {
-    double l = 1;
-    for (int m = 0; m < kPoints; ++m)
-      if (m != j) l *= (s - m) / (j - m);
-    sum += l * values_[static_cast<std::size_t>(i + j)];
-  }
+  for (int j = 0; j < kPoints; ++j) sum += prefix[j] * suffix[j] * kInvDenominator[j] * v[j];
   return sum;
-}
-
-LogTable make_sersic_fourier_table(double n, double q_max) {
-  return LogTable([n](double q) { return sersic_fourier(n, q); }, 1e-4, q_max, 40);
 }
 
 }  // namespace stampede::kernels
