@@ -501,8 +501,16 @@ std::vector<double> FitsFile::read_image() {
   return pixels;
 }
 
+void FitsFile::write_empty_image() {
+  require_writable("cannot write an image");
+  int status = 0;
+  fits_create_img(as_fits(handle()), DOUBLE_IMG, 0, nullptr, &status);
+  if (status != 0) fail_status(status, "cannot append an empty image HDU");
+  auto_image_ = false;
+}
+
 void FitsFile::write_image(long nx, long ny, std::span<const double> pixels,
-                           const std::string& extname) {
+                           const std::string& extname, PixelType type) {
   require_writable("cannot write an image");
   fitsfile* f = as_fits(handle());
   if (nx <= 0 || ny <= 0 || ny > std::numeric_limits<long>::max() / nx) {
@@ -516,7 +524,8 @@ void FitsFile::write_image(long nx, long ny, std::span<const double> pixels,
   }
   long naxes[2] = {nx, ny};
   int status = 0;
-  fits_create_img(f, DOUBLE_IMG, 2, naxes, &status);  // appended at the end, made current
+  // Appended at the end and made current; CFITSIO converts the doubles to BITPIX on writing.
+  fits_create_img(f, type == PixelType::kFloat32 ? FLOAT_IMG : DOUBLE_IMG, 2, naxes, &status);
   if (status != 0) fail_status(status, "cannot append an image HDU");
   auto_image_ = false;
   if (!extname.empty()) write_key("EXTNAME", extname, "extension name");
@@ -633,6 +642,43 @@ void FitsFile::read_column_rows(const std::string& name, long long first_row, st
   fits_read_col(as_fits(handle()), TDOUBLE, col, first_row + 1, 1, static_cast<LONGLONG>(out.size()),
                 nulval ? &nan : nullptr, out.data(), &anynul, &status);
   if (status != 0) fail_status(status, "cannot read column '" + name + "'");
+}
+
+void FitsFile::write_table(const std::string& extname, const std::vector<OutputColumn>& columns) {
+  require_writable("cannot write table '" + extname + "'");
+  if (columns.empty()) fail("cannot write table '" + extname + "' without columns");
+  const std::size_t rows = columns.front().values.size();
+  std::vector<char*> ttype, tform;
+  std::vector<std::string> names, forms;
+  for (const OutputColumn& c : columns) {
+    if (c.values.size() != rows)
+      fail("table '" + extname + "': column '" + c.name + "' has " + std::to_string(c.values.size()) +
+           " rows, column '" + columns.front().name + "' " + std::to_string(rows));
+    names.push_back(c.name);
+    forms.push_back(c.integer ? "K" : "D");
+  }
+  for (std::size_t i = 0; i < columns.size(); ++i) {
+    ttype.push_back(names[i].data());
+    tform.push_back(forms[i].data());
+  }
+  fitsfile* f = as_fits(handle());
+  int status = 0;
+  fits_create_tbl(f, BINARY_TBL, static_cast<LONGLONG>(rows), static_cast<int>(columns.size()), ttype.data(),
+                  tform.data(), nullptr, extname.c_str(), &status);
+  if (status != 0) fail_status(status, "cannot create table '" + extname + "'");
+  auto_image_ = false;
+  for (std::size_t i = 0; i < columns.size() && rows > 0; ++i) {
+    // CFITSIO byte-swaps its input in place: write from copies.
+    if (columns[i].integer) {
+      std::vector<long long> v(rows);
+      for (std::size_t r = 0; r < rows; ++r) v[r] = std::llround(columns[i].values[r]);
+      fits_write_col(f, TLONGLONG, static_cast<int>(i) + 1, 1, 1, static_cast<LONGLONG>(rows), v.data(), &status);
+    } else {
+      std::vector<double> v = columns[i].values;
+      fits_write_col(f, TDOUBLE, static_cast<int>(i) + 1, 1, 1, static_cast<LONGLONG>(rows), v.data(), &status);
+    }
+    if (status != 0) fail_status(status, "cannot write column '" + columns[i].name + "'");
+  }
 }
 
 void FitsFile::read_image_region(long x_begin, long y_begin, long nx, long ny, std::span<double> out) {

@@ -97,8 +97,11 @@ class FitsFile {
   std::vector<double> read_image();  // the whole image, row-major
   // Appends an image HDU (BITPIX -64) of nx * ny pixels (row-major) and makes it current; the
   // first one in a new file becomes the primary. A non-empty `extname` is written as EXTNAME.
-  void write_image(long nx, long ny, std::span<const double> pixels,
-                   const std::string& extname = "");
+  enum class PixelType { kFloat64, kFloat32 };  // BITPIX -64 or -32 on disk
+  void write_image(long nx, long ny, std::span<const double> pixels, const std::string& extname = "",
+                   PixelType type = PixelType::kFloat64);
+  // Appends a header-only image HDU (NAXIS = 0): a primary that carries keywords only.
+  void write_empty_image();
 
   // --- Table HDUs (binary or ASCII) --------------------------------------------------------------
   long long table_rows();
@@ -112,6 +115,14 @@ class FitsFile {
   void read_column_rows(const std::string& name, long long first_row, std::span<double> out);
   // The nx x ny pixels whose lower-left pixel is (x_begin, y_begin), 0-based, row-major.
   void read_image_region(long x_begin, long y_begin, long nx, long ny, std::span<double> out);
+  // Appends a binary table of scalar columns (all of one length) and makes it current. Integer
+  // columns are stored as 64-bit integers ('K'), the others as doubles ('D').
+  struct OutputColumn {
+    std::string name;
+    bool integer = false;
+    std::vector<double> values;
+  };
+  void write_table(const std::string& extname, const std::vector<OutputColumn>& columns);
 
  private:
   FitsFile(void* fptr, std::string path, bool auto_image);

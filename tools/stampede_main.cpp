@@ -8,6 +8,7 @@
 #include "tools/ring_command.hpp"
 #include "tools/fit_command.hpp"
 #include "tools/metrics_command.hpp"
+#include "tools/sim_command.hpp"
 
 namespace {
 
@@ -22,6 +23,7 @@ void print_usage(std::FILE* out) {
                "  metrics  shear biases m, c and the GREAT08 Q from fit tables and truth files\n"
                "  demo     fit the bundled noise-free GREAT08-like set and print true vs recovered e\n"
                "  ring     noise-free ring-test studies of the im3shape paper (figures 2, 4, 5, 6)\n"
+               "  sim      GREAT08-like simulated sets (sim great08) in the GalSim-mini file layout\n"
                "\n"
                "Run 'stampede <command> --help' for a command's options.\n");
 }
@@ -39,6 +41,7 @@ int main(int argc, char** argv) {
     if (command == "metrics") return run_metrics_command(argc - 1, argv + 1);
     if (command == "demo") return run_demo_command(argc - 1, argv + 1);
     if (command == "ring") return run_ring_command(argc - 1, argv + 1);
+    if (command == "sim") return run_sim_command(argc - 1, argv + 1);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "stampede %s: error: %s\n", command.c_str(), e.what());
     return 1;
