@@ -93,14 +93,17 @@ FourierRenderer::FourierRenderer(const PsfOptions& psf, const Options& options) 
     psf_alpha_ = kernels::moffat_alpha(m.fwhm, m.beta);
     const double t = m.truncation > 0 ? m.truncation / psf_alpha_ : 0.0;
     // Largest x = k alpha above the floor: scan outwards (a truncated Moffat's transform rings
-    // slowly, so it is capped at three aliases of the pixel frequency).
-    const double x_cap = 6 * kPi * psf_alpha_;
+    // slowly, so it is capped at five aliases of the pixel frequency: 1e-6 of the peak for a
+    // truncation at 2.8 FWHM, 1e-5 at 1.4 FWHM).
+    const double x_cap = 10 * kPi * psf_alpha_;
     double x_limit = 1.0;
     for (double x = 0.25; x <= x_cap; x += 0.25)
       if (std::abs(kernels::moffat_fourier(m.beta, t, x)) > kPsfTransformFloor) x_limit = x + 0.25;
     x_limit = std::min(x_limit, x_cap);
+    // A truncated Moffat's transform oscillates with period ~2 pi / t in x: 400 nodes per decade
+    // keep >= 10 nodes per period out to the cap.
     moffat_table_ = kernels::LogTable([&](double x) { return kernels::moffat_fourier(m.beta, t, x); },
-                                      kernels::LogGrid::covering(1e-4, x_limit, 40));
+                                      kernels::LogGrid::covering(1e-4, x_limit, t > 0 ? 400 : 40));
     k_limit_ = x_limit / psf_alpha_;
     shear_matrix(m.e1, m.e2, psf_shear_);
     const double e = std::hypot(m.e1, m.e2);
@@ -113,8 +116,9 @@ FourierRenderer::FourierRenderer(const PsfOptions& psf, const Options& options) 
       throw std::invalid_argument("the simulator draws unobscured Airy discs only (obscuration = 0)");
     psf_alpha_ = psf.airy.lambda_over_d;
     k_limit_ = 2 * kPi / psf_alpha_;  // the pupil's cut-off: the transform is exactly 0 beyond
-    // The Airy envelope 8 L^3 / (pi^4 r^3) of the peak falls to 1e-5 at ~200 L.
-    psf_tail_radius_ = psf_alpha_ * std::cbrt(8.0 / (std::pow(kPi, 4) * 1e-5));
+    // The Airy envelope 8 L^3 / (pi^4 r^3) of the peak falls to 1e-6 at ~435 L: the r^-3 wings
+    // wrapped by a shorter period lift the stamp by ~1e-5 of the peak (1.4e-6 at this period).
+    psf_tail_radius_ = psf_alpha_ * std::cbrt(8.0 / (std::pow(kPi, 4) * 1e-6));
   }
   // Sérsic tables out to the largest q met where the PSF still passes light.
   const double max_stretch = std::sqrt((1 + options.max_e) / (1 - options.max_e));

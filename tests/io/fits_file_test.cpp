@@ -283,6 +283,37 @@ TEST_F(FitsFileTmp, RoundTripIsBitwise) {
   EXPECT_TRUE(bitwise_equal(f.read_image(), second));
 }
 
+TEST_F(FitsFileTmp, TablesFloat32ImagesAndHeaderOnlyPrimary) {
+  const std::string path = tmp("table.fits");
+  {
+    FitsFile f = FitsFile::create(path, false);
+    f.write_empty_image();
+    f.write_key("SHEAR1", 0.0123, "a key on a header-only primary");
+    f.write_table("TRUTH", {{"index", true, {0, 1, 2}}, {"e1", false, {0.1, -0.25, 1.0 / 3.0}}});
+    const std::vector<double> pixels = {1.0, 1.0 / 3.0, -2.5, 1e-30, 7.0, 0.0};
+    f.write_image(3, 2, pixels, "IMG32", FitsFile::PixelType::kFloat32);
+    f.close();
+  }
+  FitsFile f = FitsFile::open_read(path);
+  EXPECT_EQ(f.key_long("NAXIS"), 0);
+  EXPECT_EQ(f.key_double("SHEAR1"), 0.0123);
+  f.move_to("TRUTH");
+  EXPECT_EQ(f.read_column("index"), (std::vector<double>{0, 1, 2}));
+  EXPECT_EQ(f.read_column("e1"), (std::vector<double>{0.1, -0.25, 1.0 / 3.0}));  // doubles: bitwise
+  EXPECT_EQ(f.key_string("TFORM1"), "K");
+  f.move_to("IMG32");
+  EXPECT_EQ(f.key_long("BITPIX"), -32);
+  const auto img = f.read_image();
+  ASSERT_EQ(img.size(), 6u);
+  EXPECT_EQ(img[1], static_cast<double>(1.0f / 3.0f));  // rounded to float on writing
+  EXPECT_EQ(img[2], -2.5);
+  // Columns of different lengths are refused, naming both.
+  FitsFile g = FitsFile::create(tmp("bad.fits"), false);
+  g.write_empty_image();
+  const std::string msg = error_of<FitsError>([&] { g.write_table("T", {{"a", false, {1, 2}}, {"b", false, {1}}}); });
+  EXPECT_TRUE(Contains(msg, "column 'b' has 1 rows, column 'a' 2"));
+}
+
 TEST_F(FitsFileTmp, CreateRespectsOverwrite) {
   const std::string path = tmp("exists.fits");
   const std::vector<double> one = {1.0};
