@@ -16,7 +16,8 @@ FftRenderer::FftRenderer(const RenderOptions& options, const ModelOptions& model
       geometry_(options),
       model_(model, geometry_.step()),
       psf_(std::move(psf)),
-      fft_(plans.get(geometry_.grid_size())) {
+      fft_(plans.get(geometry_.grid_size())),
+      profile_kernels_(&kernels::profile_kernels(options.simd)) {
   if (!psf_ || !(psf_->geometry() == geometry_)) throw std::invalid_argument("PSF kernel built for another model grid");
   for (auto& g : grid_images_) g = fft_.make_real_buffer();
   const std::size_t npix = static_cast<std::size_t>(geometry_.stamp_size) * geometry_.stamp_size;
@@ -78,7 +79,7 @@ RenderStatus FftRenderer::render(const ParamVector& p, std::span<double> model) 
     for (int r = 0; r < 5; ++r) {
       const int ss = r == 0 ? u2 : 1;
       set_floor(c, ss, radius);
-      kernels::accumulate_sersic(g, regions[r], ss, c->shape, c->amplitude, grid);
+      profile_kernels_->accumulate_value(g, regions[r], ss, c->shape, c->amplitude, grid);
     }
   }
   convolve_and_downsample(grid, model.data());
@@ -99,8 +100,8 @@ RenderStatus FftRenderer::render_with_jacobian(const ParamVector& p, std::span<c
     const int ss = r == 0 ? u2 : 1;
     set_floor(&comp.bulge, ss, comp.bulge_radius);
     set_floor(&comp.disc, ss, comp.disc_radius);
-    kernels::accumulate_sersic_derivatives(g, regions[r], ss, comp.bulge, image(0), deriv);
-    kernels::accumulate_sersic_derivatives(g, regions[r], ss, comp.disc, image(1), deriv);
+    profile_kernels_->accumulate_derivatives(g, regions[r], ss, comp.bulge, image(0), deriv);
+    profile_kernels_->accumulate_derivatives(g, regions[r], ss, comp.disc, image(1), deriv);
   }
   // Which convolved images are needed: the two components always (the model), shape derivatives
   // only when their parameter is free.

@@ -51,6 +51,7 @@ class FftRenderer final : public Renderer {
   GalaxyModel model_;
   std::shared_ptr<const PsfKernel> psf_;
   FftConvolver& fft_;
+  const kernels::ProfileKernels* profile_kernels_;  // options_.simd's build
   // Grid images: 0 bulge, 1 disc, 2..6 shape derivatives (x0, y0, e1, e2, r).
   std::array<AlignedBuffer, 7> grid_images_;
   std::array<std::vector<double>, 7> stamp_images_;

@@ -31,6 +31,8 @@ bool RenderOptions::IsValid(std::string* why) const {
   else if (static_cast<long>(upsampling) * (stamp_size + 2L * padding) > 8192)
     msg << "upsampling * (stamp_size + 2 padding) = " << upsampling * (stamp_size + 2 * padding)
         << ": model grid larger than 8192 sub-pixels per side";
+  else if (!kernels::profile_kernels_for(simd))
+    msg << "simd = " << kernels::isa_name(simd) << ": this build or CPU does not support it";
   if (msg.str().empty()) return true;
   if (why) *why = msg.str();
   return false;

@@ -17,6 +17,9 @@ struct RenderOptions {
   // FFT: a de Vaucouleurs bulge with r_e = 3.2 px in a 25 px stamp then has m = -5.5e-3 / +5.4e-3;
   // 2 px of padding give 1.4e-3, 4 px 2e-4 (noise-free ring test, README "Accuracy").
   int padding = 4;
+  // Instruction set of the profile kernels: kBest picks the widest this CPU supports. Sets agree
+  // to a few ulp; name one to make fits bitwise identical across machines.
+  kernels::Isa simd = kernels::Isa::kBest;
 
   // Message names the option (as in the ini file), its value and the constraint.
   bool IsValid(std::string* why) const;

@@ -235,6 +235,14 @@ std::vector<Entry> make_registry() {
                         "data pixels of model grid added around the stamp (light scattered in from outside, "
                         "no FFT wrap-around)",
                         [](auto& c) -> auto& { return c.fitter.render.padding; }));
+  r.push_back({"simd",
+               "instruction set of the profile kernels: best (the widest this CPU supports), scalar, sse4.2, "
+               "avx2 or avx512; sets agree to a few ulp, so name one for bitwise-identical fits across machines",
+               render, [](const RunConfig& c) { return std::string(kernels::isa_name(c.fitter.render.simd)); },
+               [](RunConfig& c, const std::string& v) {
+                 if (kernels::parse_isa(v.c_str(), &c.fitter.render.simd)) return std::string();
+                 return std::string("expected best, scalar, sse4.2, avx2 or avx512");
+               }});
   r.push_back(double_entry(render, "noise_sigma",
                            "per-pixel noise sigma when no weight map is given; 0 = unweighted (noise-free data)",
                            DoubleKind::kFinite, [](auto& c) -> auto& { return c.fitter.noise_sigma; }));

@@ -63,15 +63,38 @@ enum ShapeDerivative : int { kDx0 = 0, kDy0 = 1, kDe1 = 2, kDe2 = 3, kDr = 4, kN
 
 SersicRoot sersic_root_for(double n);
 
-// Single-point evaluation (scalar reference for tests and the profile invariants).
+// Single-point evaluation (for tests and the profile invariants).
 double sersic_value(const SersicBlock& block, double x, double y);
 
-// out[j * size + i] += amplitude * value over the region (sub-pixel means when supersample > 1).
+// The pixel kernels, one build per instruction set from one source (profile_render_impl.hpp):
+// accumulate_value: out[j * size + i] += amplitude * value over the region (sub-pixel means when
+//   supersample > 1);
+// accumulate_derivatives: value[k] = unit-amplitude value (overwritten; skipped when null), and
+//   derivative[p][k] += amplitude * d value / d p for the five shape parameters.
+struct ProfileKernels {
+  const char* name = "";
+  int lanes = 1;  // doubles per vector
+  void (*accumulate_value)(const SubpixelGrid& grid, const GridRegion& region, int supersample,
+                           const SersicBlock& block, double amplitude, double* out) = nullptr;
+  void (*accumulate_derivatives)(const SubpixelGrid& grid, const GridRegion& region, int supersample,
+                                 const SersicDerivativeBlock& block, double* value,
+                                 const std::array<double*, kNumShapeDerivatives>& derivative) = nullptr;
+};
+
+// kBest: the widest set both compiled in and supported by this CPU. kScalar is the reference
+// (plain double, no vector instructions); results of different sets agree to a few ulp, so a
+// run that must be bitwise reproducible across machines names one set explicitly.
+enum class Isa { kBest, kScalar, kSse42, kAvx2, kAvx512 };
+const char* isa_name(Isa isa);  // "best", "scalar", "sse4.2", "avx2", "avx512"
+bool parse_isa(const char* name, Isa* out);
+// The kernels for a set; nullptr when it was not compiled in or this CPU lacks it.
+const ProfileKernels* profile_kernels_for(Isa isa);
+// profile_kernels_for(isa), or the scalar kernels when that set is unavailable.
+const ProfileKernels& profile_kernels(Isa isa = Isa::kBest);
+
+// Shorthands through profile_kernels().
 void accumulate_sersic(const SubpixelGrid& grid, const GridRegion& region, int supersample,
                        const SersicBlock& block, double amplitude, double* out);
-
-// Over the region: value[k] = unit-amplitude value (overwritten; skipped when null), and
-// derivative[p][k] += amplitude * d value / d p for the five shape parameters.
 void accumulate_sersic_derivatives(const SubpixelGrid& grid, const GridRegion& region, int supersample,
                                    const SersicDerivativeBlock& block, double* value,
                                    const std::array<double*, kNumShapeDerivatives>& derivative);

@@ -146,7 +146,7 @@ TEST(RunConfigRegistry, ListsEveryKeyOnceWithItsDefaultAndHelp) {
     for (const char* suffix : {"_start", "_min", "_max", "_free"})
       EXPECT_TRUE(names.contains(n + suffix)) << n + suffix;
   }
-  EXPECT_EQ(options.size(), 35u + 4u * kNumParams);
+  EXPECT_EQ(options.size(), 36u + 4u * kNumParams);
 }
 
 // --- get / set -----------------------------------------------------------------------------------
@@ -250,6 +250,7 @@ TEST(RunConfigSet, RejectsBadValuesAndLeavesTheConfigUnchanged) {
       {"psf_pixel_integrated", "maybe", "expected true/false"},
       {"psf_pixel_integrated", "", "expected true/false"},
       {"psf_input", "gaussian", "expected moffat, airy, moffat_catalog or image"},
+      {"simd", "avx3", "expected best, scalar, sse4.2, avx2 or avx512"},
       {"save_images", "3,,4", "comma-separated"},
       {"save_images", "3,x", "comma-separated"},
   };

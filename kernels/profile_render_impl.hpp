@@ -1,0 +1,214 @@
+// The Sérsic sub-pixel kernels written once over a lane type T: `double` (the scalar reference) or
+// xsimd::batch<double, Arch>. Included only by the per-ISA translation units
+// (profile_render_<isa>.cpp), each compiled with its instruction set's flags; never by headers.
+// Everything here has internal linkage, so no inline function compiled for one ISA can be picked
+// by the linker for another.
+#pragma once
+
+#include <xsimd/xsimd.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+
+#include "kernels/profile_render.hpp"
+
+namespace stampede::kernels {
+namespace {
+
+template <class T>
+struct Lanes {  // the scalar reference
+  static constexpr int size = 1;
+  static T load(const double* p) { return *p; }
+  static void store(double* p, T v) { *p = v; }
+  static T iota() { return 0.0; }
+  static T select(bool c, T a, T b) { return c ? a : b; }
+  static T max(T a, T b) { return std::max(a, b); }
+  static T exp(T x) { return std::exp(x); }
+  static T sqrt(T x) { return std::sqrt(x); }
+  static T pow(T x, double y) { return std::pow(x, y); }
+};
+
+template <class A>
+struct Lanes<xsimd::batch<double, A>> {
+  using B = xsimd::batch<double, A>;
+  static constexpr int size = static_cast<int>(B::size);
+  static B load(const double* p) { return B::load_unaligned(p); }
+  static void store(double* p, B v) { v.store_unaligned(p); }
+  static B iota() {
+    alignas(64) double v[B::size];
+    for (std::size_t k = 0; k < B::size; ++k) v[k] = static_cast<double>(k);
+    return B::load_aligned(v);
+  }
+  static B select(xsimd::batch_bool<double, A> c, B a, B b) { return xsimd::select(c, a, b); }
+  static B max(B a, B b) { return xsimd::max(a, b); }
+  static B exp(B x) { return xsimd::exp(x); }
+  static B sqrt(B x) { return xsimd::sqrt(x); }
+  static B pow(B x, double y) { return xsimd::pow(x, B(y)); }
+};
+
+template <class T, SersicRoot R>
+inline T root_of(T u, double inv_2n) {
+  using L = Lanes<T>;
+  if constexpr (R == SersicRoot::kSquareRoot) {
+    return L::sqrt(u);
+  } else if constexpr (R == SersicRoot::kEighthRoot) {
+    return L::sqrt(L::sqrt(L::sqrt(u)));  // no pow for n = 4
+  } else {
+    return L::pow(u, inv_2n);
+  }
+}
+
+struct SuperOffsets {
+  std::array<double, 64> d{};
+  int n = 1;
+  SuperOffsets(int supersample, double step) : n(supersample) {
+    for (int a = 0; a < n; ++a) d[a] = step * ((a + 0.5) / n - 0.5);
+  }
+};
+
+// Sub-pixels [i, i + lanes) of row j: value sum over the supersampling points.
+template <class T, SersicRoot R>
+inline T value_sum(T xc, double yc, const SuperOffsets& off, const SersicBlock& block) {
+  using L = Lanes<T>;
+  const EllipseQuadratic q = block.q;
+  T sum(0.0);
+  for (int bb = 0; bb < off.n; ++bb) {
+    const double dy = yc + off.d[bb];
+    const T cross = T(2.0 * q.xy * dy), yy = T(q.yy * dy * dy);
+    for (int a = 0; a < off.n; ++a) {
+      const T dx = xc + T(off.d[a]);
+      const T u = (T(q.xx) * dx + cross) * dx + yy;
+      sum += L::exp(T(-block.b) * root_of<T, R>(L::max(u, T(block.u_floor)), block.inv_2n));
+    }
+  }
+  return sum;
+}
+
+template <class T, SersicRoot R>
+void accumulate_value_rows(const SubpixelGrid& grid, const GridRegion& region, int supersample,
+                           const SersicBlock& block, double amplitude, double* out) {
+  using L = Lanes<T>;
+  constexpr int W = L::size;
+  const SuperOffsets off(supersample, grid.step);
+  const double scale = amplitude / (off.n * off.n);
+  const T lane_x = L::iota() * T(grid.step);
+  for (int j = region.y_begin; j < region.y_end; ++j) {
+    const double yc = grid.origin + grid.step * j - block.y0;
+    double* row = out + static_cast<std::ptrdiff_t>(j) * grid.size;
+    int i = region.x_begin;
+    for (; i + W <= region.x_end; i += W) {
+      const T xc = T(grid.origin + grid.step * i - block.x0) + lane_x;
+      L::store(row + i, L::load(row + i) + T(scale) * value_sum<T, R>(xc, yc, off, block));
+    }
+    for (; i < region.x_end; ++i) {  // the row's tail, one lane at a time
+      const double xc = grid.origin + grid.step * i - block.x0;
+      row[i] += scale * value_sum<double, R>(xc, yc, off, block);
+    }
+  }
+}
+
+template <class T>
+struct DerivativeSums {
+  T v = T(0.0), sx = T(0.0), sy = T(0.0), s1 = T(0.0), s2 = T(0.0), sr = T(0.0);
+};
+
+template <class T, SersicRoot R>
+inline DerivativeSums<T> derivative_sums(T xc, double yc, const SuperOffsets& off, const SersicDerivativeBlock& block) {
+  using L = Lanes<T>;
+  const EllipseQuadratic q = block.shape.q, q1 = block.dq_de1, q2 = block.dq_de2;
+  const double b = block.shape.b, inv_2n = block.shape.inv_2n;
+  const T u_floor(block.shape.u_floor), zero(0.0);
+  // d value / du = -b value (du^(1/2n)/du) = -b value t inv_2n / u; the amplitude folds in here.
+  const T g_scale(-block.amplitude * b * inv_2n);
+  DerivativeSums<T> s;
+  for (int bb = 0; bb < off.n; ++bb) {
+    const double dy = yc + off.d[bb];
+    for (int a = 0; a < off.n; ++a) {
+      const T dx = xc + T(off.d[a]);
+      const T u_raw = (T(q.xx) * dx + T(2.0 * q.xy * dy)) * dx + T(q.yy * dy * dy);
+      const T u = L::max(u_raw, u_floor);
+      const T t = root_of<T, R>(u, inv_2n);
+      const T v = L::exp(T(-b) * t);
+      // The gradient is singular at u = 0 (measure zero): 0 there. Under the floor the value
+      // depends only on r (through u_floor), not on position or shape.
+      const T g = L::select(u > zero, g_scale * v * t / L::max(u, T(1e-300)), zero);
+      const T gs = L::select(u_raw >= u_floor, g, zero);
+      s.v += v;
+      s.sx += gs * (T(q.xx) * dx + T(q.xy * dy));
+      s.sy += gs * (T(q.xy) * dx + T(q.yy * dy));
+      s.s1 += gs * ((T(q1.xx) * dx + T(2.0 * q1.xy * dy)) * dx + T(q1.yy * dy * dy));
+      s.s2 += gs * ((T(q2.xx) * dx + T(2.0 * q2.xy * dy)) * dx + T(q2.yy * dy * dy));
+      s.sr += g * u;
+    }
+  }
+  return s;
+}
+
+template <class T, SersicRoot R>
+void accumulate_derivative_rows(const SubpixelGrid& grid, const GridRegion& region, int supersample,
+                                const SersicDerivativeBlock& block, double* value,
+                                const std::array<double*, kNumShapeDerivatives>& derivative) {
+  using L = Lanes<T>;
+  constexpr int W = L::size;
+  const SuperOffsets off(supersample, grid.step);
+  const double mean = 1.0 / (off.n * off.n);
+  const T lane_x = L::iota() * T(grid.step);
+  // du/dx0 = -2 (xx dx + xy dy), du/dy0 = -2 (xy dx + yy dy).
+  const double cx = -2.0 * mean, cr = block.du_dr_over_u * mean;
+  auto emit = [&](auto s, std::ptrdiff_t k) {
+    using U = decltype(s.v);
+    using M = Lanes<U>;
+    if (value) M::store(value + k, s.v * U(mean));
+    M::store(derivative[kDx0] + k, M::load(derivative[kDx0] + k) + s.sx * U(cx));
+    M::store(derivative[kDy0] + k, M::load(derivative[kDy0] + k) + s.sy * U(cx));
+    M::store(derivative[kDe1] + k, M::load(derivative[kDe1] + k) + s.s1 * U(mean));
+    M::store(derivative[kDe2] + k, M::load(derivative[kDe2] + k) + s.s2 * U(mean));
+    M::store(derivative[kDr] + k, M::load(derivative[kDr] + k) + s.sr * U(cr));
+  };
+  for (int j = region.y_begin; j < region.y_end; ++j) {
+    const double yc = grid.origin + grid.step * j - block.shape.y0;
+    const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(j) * grid.size;
+    int i = region.x_begin;
+    for (; i + W <= region.x_end; i += W) {
+      const T xc = T(grid.origin + grid.step * i - block.shape.x0) + lane_x;
+      emit(derivative_sums<T, R>(xc, yc, off, block), row + i);
+    }
+    for (; i < region.x_end; ++i) {
+      const double xc = grid.origin + grid.step * i - block.shape.x0;
+      emit(derivative_sums<double, R>(xc, yc, off, block), row + i);
+    }
+  }
+}
+
+// The dispatch table entry for lane type T.
+template <class T>
+ProfileKernels make_profile_kernels(const char* name) {
+  ProfileKernels k;
+  k.name = name;
+  k.lanes = Lanes<T>::size;
+  k.accumulate_value = [](const SubpixelGrid& g, const GridRegion& r, int ss, const SersicBlock& b, double amp,
+                          double* out) {
+    switch (b.root) {
+      case SersicRoot::kSquareRoot: return accumulate_value_rows<T, SersicRoot::kSquareRoot>(g, r, ss, b, amp, out);
+      case SersicRoot::kEighthRoot: return accumulate_value_rows<T, SersicRoot::kEighthRoot>(g, r, ss, b, amp, out);
+      case SersicRoot::kGeneralPow: return accumulate_value_rows<T, SersicRoot::kGeneralPow>(g, r, ss, b, amp, out);
+    }
+  };
+  k.accumulate_derivatives = [](const SubpixelGrid& g, const GridRegion& r, int ss, const SersicDerivativeBlock& b,
+                                double* value, const std::array<double*, kNumShapeDerivatives>& d) {
+    switch (b.shape.root) {
+      case SersicRoot::kSquareRoot:
+        return accumulate_derivative_rows<T, SersicRoot::kSquareRoot>(g, r, ss, b, value, d);
+      case SersicRoot::kEighthRoot:
+        return accumulate_derivative_rows<T, SersicRoot::kEighthRoot>(g, r, ss, b, value, d);
+      case SersicRoot::kGeneralPow:
+        return accumulate_derivative_rows<T, SersicRoot::kGeneralPow>(g, r, ss, b, value, d);
+    }
+  };
+  return k;
+}
+
+}  // namespace
+}  // namespace stampede::kernels
