@@ -58,6 +58,9 @@ class FftConvolver {
 
   // spectrum (n x (n/2+1)) = DFT(image); image is preserved.
   void forward(const double* image, std::complex<double>* spectrum);
+  // The spectrum of image in this convolver's scratch buffer (valid until the next call). The
+  // image is used as scratch (FFTW_DESTROY_INPUT: no internal copy of the input).
+  const std::complex<double>* transform(double* image);
   // image = irfft(rfft(image) .* kernel); kernel already carries FFTW's 1/n^2.
   void convolve(double* image, const std::complex<double>* kernel);
 
@@ -65,6 +68,7 @@ class FftConvolver {
   int n_;
   void* forward_plan_ = nullptr;   // fftw_plan
   void* backward_plan_ = nullptr;  // fftw_plan
+  void* destroying_plan_ = nullptr;  // fftw_plan: r2c that may overwrite its input
   AlignedBuffer scratch_spectrum_;
   AlignedBuffer scratch_real_;
 };

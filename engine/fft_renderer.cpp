@@ -17,8 +17,10 @@ FftRenderer::FftRenderer(const RenderOptions& options, const ModelOptions& model
       model_(model, geometry_.step()),
       psf_(std::move(psf)),
       fft_(plans.get(geometry_.grid_size())),
-      profile_kernels_(&kernels::profile_kernels(options.simd)) {
+      profile_kernels_(&kernels::profile_kernels(options.simd)),
+      downsampler_(geometry_) {
   if (!psf_ || !(psf_->geometry() == geometry_)) throw std::invalid_argument("PSF kernel built for another model grid");
+  downsampler_.set_kernel(psf_->spectrum());
   for (auto& g : grid_images_) g = fft_.make_real_buffer();
   const std::size_t npix = static_cast<std::size_t>(geometry_.stamp_size) * geometry_.stamp_size;
   for (auto& s : stamp_images_) s.assign(npix, 0.0);
@@ -27,6 +29,7 @@ FftRenderer::FftRenderer(const RenderOptions& options, const ModelOptions& model
 void FftRenderer::set_psf(std::shared_ptr<const PsfKernel> psf) {
   if (!psf || !(psf->geometry() == geometry_)) throw std::invalid_argument("PSF kernel built for another model grid");
   psf_ = std::move(psf);
+  downsampler_.set_kernel(psf_->spectrum());
 }
 
 kernels::GridRegion FftRenderer::central_region(double x0, double y0) const {
@@ -55,9 +58,7 @@ std::array<kernels::GridRegion, 5> FftRenderer::partition(double x0, double y0) 
 }
 
 void FftRenderer::convolve_and_downsample(double* grid_image, double* out) {
-  fft_.convolve(grid_image, psf_->spectrum());
-  kernels::block_average(grid_image, geometry_.grid_size(), geometry_.upsampling, geometry_.data_offset(),
-                         geometry_.stamp_size, out);
+  downsampler_.apply(fft_.transform(grid_image), out);
 }
 
 void FftRenderer::set_floor(kernels::SersicDerivativeBlock* c, int supersample, double radius) const {
@@ -91,17 +92,17 @@ RenderStatus FftRenderer::render_with_jacobian(const ParamVector& p, std::span<c
   ModelComponents comp;
   if (!model_.components(p, &comp)) return RenderStatus::kInvalidModel;
   const kernels::SubpixelGrid g = geometry_.subpixel_grid();
-  const std::size_t bytes = sizeof(double) * static_cast<std::size_t>(g.size) * g.size;
   const std::array<double*, kernels::kNumShapeDerivatives> deriv = {image(2), image(3), image(4), image(5), image(6)};
-  for (double* d : deriv) std::memset(d, 0, bytes);
   const auto regions = partition(comp.disc.shape.x0, comp.disc.shape.y0);
   const int u2 = options_.n_central_pixel_upsampling;
   for (int r = 0; r < 5; ++r) {
     const int ss = r == 0 ? u2 : 1;
     set_floor(&comp.bulge, ss, comp.bulge_radius);
     set_floor(&comp.disc, ss, comp.disc_radius);
-    profile_kernels_->accumulate_derivatives(g, regions[r], ss, comp.bulge, image(0), deriv);
-    profile_kernels_->accumulate_derivatives(g, regions[r], ss, comp.disc, image(1), deriv);
+    // The regions partition the grid: the bulge's pass writes every derivative sub-pixel once (no
+    // clearing needed), the disc's adds to it.
+    profile_kernels_->accumulate_derivatives(g, regions[r], ss, comp.bulge, image(0), deriv, true);
+    profile_kernels_->accumulate_derivatives(g, regions[r], ss, comp.disc, image(1), deriv, false);
   }
   // Which convolved images are needed: the two components always (the model), shape derivatives
   // only when their parameter is free.

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "engine/fft_convolver.hpp"
+#include "engine/fourier_downsampler.hpp"
 #include "engine/galaxy_model.hpp"
 #include "engine/psf.hpp"
 #include "engine/render_options.hpp"
@@ -52,6 +53,7 @@ class FftRenderer final : public Renderer {
   std::shared_ptr<const PsfKernel> psf_;
   FftConvolver& fft_;
   const kernels::ProfileKernels* profile_kernels_;  // options_.simd's build
+  FourierDownsampler downsampler_;
   // Grid images: 0 bulge, 1 disc, 2..6 shape derivatives (x0, y0, e1, e2, r).
   std::array<AlignedBuffer, 7> grid_images_;
   std::array<std::vector<double>, 7> stamp_images_;

@@ -28,9 +28,9 @@ struct RenderOptions {
 // Smallest n' >= n whose only prime factors are 2, 3, 5 and 7 (FFTW's fast sizes).
 int fft_friendly_size(int n);
 
-// The upsampled model grid: at least (stamp_size + 2 padding) * upsampling sub-pixels per side,
-// rounded up to an FFT-friendly size; the stamp sits in the middle (the extra sub-pixels may make
-// the two margins differ by one sub-pixel).
+// The upsampled model grid: upsampling x M sub-pixels per side, M the FFT-friendly size at least
+// stamp_size + 2 padding (a whole number of data pixels, so the downsampling can be done in
+// Fourier space); the stamp sits in the middle (the margins may differ by one sub-pixel).
 struct GridGeometry {
   int stamp_size = 0;
   int upsampling = 1;
@@ -42,7 +42,7 @@ struct GridGeometry {
       : stamp_size(o.stamp_size),
         upsampling(o.upsampling),
         padding(o.padding),
-        size(fft_friendly_size(o.upsampling * (o.stamp_size + 2 * o.padding))),
+        size(o.upsampling * fft_friendly_size(o.stamp_size + 2 * o.padding)),
         offset((size - o.upsampling * o.stamp_size) / 2) {}
   int grid_size() const { return size; }
   double step() const { return 1.0 / upsampling; }

@@ -104,7 +104,7 @@ void accumulate_sersic(const SubpixelGrid& grid, const GridRegion& region, int s
 void accumulate_sersic_derivatives(const SubpixelGrid& grid, const GridRegion& region, int supersample,
                                    const SersicDerivativeBlock& block, double* value,
                                    const std::array<double*, kNumShapeDerivatives>& derivative) {
-  if (!region.empty()) profile_kernels().accumulate_derivatives(grid, region, supersample, block, value, derivative);
+  if (!region.empty()) profile_kernels().accumulate_derivatives(grid, region, supersample, block, value, derivative, false);
 }
 
 }  // namespace stampede::kernels

@@ -70,7 +70,8 @@ double sersic_value(const SersicBlock& block, double x, double y);
 // accumulate_value: out[j * size + i] += amplitude * value over the region (sub-pixel means when
 //   supersample > 1);
 // accumulate_derivatives: value[k] = unit-amplitude value (overwritten; skipped when null), and
-//   derivative[p][k] += amplitude * d value / d p for the five shape parameters.
+//   derivative[p][k] += amplitude * d value / d p for the five shape parameters (with overwrite:
+//   derivative[p][k] = ..., so a first pass over a partition of the grid needs no cleared images).
 struct ProfileKernels {
   const char* name = "";
   int lanes = 1;  // doubles per vector
@@ -78,7 +79,7 @@ struct ProfileKernels {
                            const SersicBlock& block, double amplitude, double* out) = nullptr;
   void (*accumulate_derivatives)(const SubpixelGrid& grid, const GridRegion& region, int supersample,
                                  const SersicDerivativeBlock& block, double* value,
-                                 const std::array<double*, kNumShapeDerivatives>& derivative) = nullptr;
+                                 const std::array<double*, kNumShapeDerivatives>& derivative, bool overwrite) = nullptr;
 };
 
 // kBest: the widest set both compiled in and supported by this CPU. kScalar is the reference

@@ -149,7 +149,7 @@ inline DerivativeSums<T> derivative_sums(T xc, double yc, const SuperOffsets& of
 template <class T, SersicRoot R>
 void accumulate_derivative_rows(const SubpixelGrid& grid, const GridRegion& region, int supersample,
                                 const SersicDerivativeBlock& block, double* value,
-                                const std::array<double*, kNumShapeDerivatives>& derivative) {
+                                const std::array<double*, kNumShapeDerivatives>& derivative, bool overwrite) {
   using L = Lanes<T>;
   constexpr int W = L::size;
   const SuperOffsets off(supersample, grid.step);
@@ -161,11 +161,9 @@ void accumulate_derivative_rows(const SubpixelGrid& grid, const GridRegion& regi
     using U = decltype(s.v);
     using M = Lanes<U>;
     if (value) M::store(value + k, s.v * U(mean));
-    M::store(derivative[kDx0] + k, M::load(derivative[kDx0] + k) + s.sx * U(cx));
-    M::store(derivative[kDy0] + k, M::load(derivative[kDy0] + k) + s.sy * U(cx));
-    M::store(derivative[kDe1] + k, M::load(derivative[kDe1] + k) + s.s1 * U(mean));
-    M::store(derivative[kDe2] + k, M::load(derivative[kDe2] + k) + s.s2 * U(mean));
-    M::store(derivative[kDr] + k, M::load(derivative[kDr] + k) + s.sr * U(cr));
+    const U terms[kNumShapeDerivatives] = {s.sx * U(cx), s.sy * U(cx), s.s1 * U(mean), s.s2 * U(mean), s.sr * U(cr)};
+    for (int p = 0; p < kNumShapeDerivatives; ++p)
+      M::store(derivative[p] + k, overwrite ? terms[p] : M::load(derivative[p] + k) + terms[p]);
   };
   for (int j = region.y_begin; j < region.y_end; ++j) {
     const double yc = grid.origin + grid.step * j - block.shape.y0;
@@ -197,14 +195,14 @@ ProfileKernels make_profile_kernels(const char* name) {
     }
   };
   k.accumulate_derivatives = [](const SubpixelGrid& g, const GridRegion& r, int ss, const SersicDerivativeBlock& b,
-                                double* value, const std::array<double*, kNumShapeDerivatives>& d) {
+                                double* value, const std::array<double*, kNumShapeDerivatives>& d, bool overwrite) {
     switch (b.shape.root) {
       case SersicRoot::kSquareRoot:
-        return accumulate_derivative_rows<T, SersicRoot::kSquareRoot>(g, r, ss, b, value, d);
+        return accumulate_derivative_rows<T, SersicRoot::kSquareRoot>(g, r, ss, b, value, d, overwrite);
       case SersicRoot::kEighthRoot:
-        return accumulate_derivative_rows<T, SersicRoot::kEighthRoot>(g, r, ss, b, value, d);
+        return accumulate_derivative_rows<T, SersicRoot::kEighthRoot>(g, r, ss, b, value, d, overwrite);
       case SersicRoot::kGeneralPow:
-        return accumulate_derivative_rows<T, SersicRoot::kGeneralPow>(g, r, ss, b, value, d);
+        return accumulate_derivative_rows<T, SersicRoot::kGeneralPow>(g, r, ss, b, value, d, overwrite);
     }
   };
   return k;

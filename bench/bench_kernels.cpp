@@ -1,0 +1,133 @@
+// Each profile kernel per instruction set, scalar reference first, on the paper-default model grid
+// (240 x 240 sub-pixels: 39 px stamp + 4 px padding at U1 = 5), fiducial bulge or disc (r_e 1.3 px,
+// e = (0.2, -0.1)). items_per_second counts sub-pixels (supersampling points for the central block).
+//   BM_Value/<isa>/<n>           unit-amplitude image, whole grid, one sample per sub-pixel
+//   BM_Derivatives/<isa>/<n>     value + five shape-derivative images, whole grid
+//   BM_CentralBlock/<isa>/<n>    the N_u x N_u = 3 x 3 central sub-pixels at U2 = 7 (value + derivatives)
+// Plus the scalar per-pixel work of every fit evaluation, for the cost model:
+//   BM_WeightedChi2, BM_NormalEquations (39^2 pixels, 7 parameters)
+#include <benchmark/benchmark.h>
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "kernels/ellipse.hpp"
+#include "kernels/least_squares.hpp"
+#include "kernels/profile_render.hpp"
+#include "kernels/sersic.hpp"
+
+namespace {
+
+using namespace stampede::kernels;
+
+constexpr int kGrid = 240;
+const SubpixelGrid kSubGrid{kGrid, -4.4, 0.2};  // sub-pixel 0 at data x = -4.4 (4.5 px of margin)
+
+SersicDerivativeBlock fiducial(double n) {
+  SersicDerivativeBlock d;
+  d.shape.x0 = 19.2;
+  d.shape.y0 = 18.7;
+  d.shape.q = ellipse_quadratic(0.2, -0.1, 1.3);
+  d.shape.b = sersic_b(n);
+  d.shape.inv_2n = 0.5 / n;
+  d.shape.root = sersic_root_for(n);
+  d.shape.u_floor = 0.04 / (3.14159 * 1.3 * 1.3);
+  d.amplitude = 10.0;
+  ellipse_quadratic_derivatives(0.2, -0.1, 1.3, &d.dq_de1, &d.dq_de2);
+  d.du_dr_over_u = -2.0 / 1.3;
+  return d;
+}
+
+const ProfileKernels* kernels_or_skip(benchmark::State& state, Isa isa) {
+  const ProfileKernels* k = profile_kernels_for(isa);
+  if (!k) state.SkipWithError("instruction set not available on this CPU or build");
+  return k;
+}
+
+void BM_Value(benchmark::State& state, Isa isa, double n) {
+  const ProfileKernels* k = kernels_or_skip(state, isa);
+  if (!k) return;
+  const SersicDerivativeBlock d = fiducial(n);
+  std::vector<double> out(kGrid * kGrid, 0.0);
+  const GridRegion all{0, kGrid, 0, kGrid};
+  for (auto _ : state) {
+    k->accumulate_value(kSubGrid, all, 1, d.shape, 1.0, out.data());
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(state.iterations() * kGrid * kGrid);
+}
+
+void BM_Derivatives(benchmark::State& state, Isa isa, double n) {
+  const ProfileKernels* k = kernels_or_skip(state, isa);
+  if (!k) return;
+  const SersicDerivativeBlock d = fiducial(n);
+  std::vector<std::vector<double>> img(6, std::vector<double>(kGrid * kGrid, 0.0));
+  const std::array<double*, kNumShapeDerivatives> deriv = {img[0].data(), img[1].data(), img[2].data(),
+                                                           img[3].data(), img[4].data()};
+  const GridRegion all{0, kGrid, 0, kGrid};
+  for (auto _ : state) {
+    k->accumulate_derivatives(kSubGrid, all, 1, d, img[5].data(), deriv, true);
+    benchmark::DoNotOptimize(img[5].data());
+  }
+  state.SetItemsProcessed(state.iterations() * kGrid * kGrid);
+}
+
+void BM_CentralBlock(benchmark::State& state, Isa isa, double n) {
+  const ProfileKernels* k = kernels_or_skip(state, isa);
+  if (!k) return;
+  const SersicDerivativeBlock d = fiducial(n);
+  std::vector<std::vector<double>> img(6, std::vector<double>(kGrid * kGrid, 0.0));
+  const std::array<double*, kNumShapeDerivatives> deriv = {img[0].data(), img[1].data(), img[2].data(),
+                                                           img[3].data(), img[4].data()};
+  const GridRegion block{117, 120, 115, 118};
+  for (auto _ : state) {
+    k->accumulate_derivatives(kSubGrid, block, 7, d, img[5].data(), deriv, false);
+    benchmark::DoNotOptimize(img[5].data());
+  }
+  state.SetItemsProcessed(state.iterations() * 9 * 49);
+}
+
+void register_profile_benchmarks() {
+  for (Isa isa : {Isa::kScalar, Isa::kSse42, Isa::kAvx2, Isa::kAvx512})
+    for (double n : {1.0, 4.0}) {
+      const std::string suffix = std::string("/") + isa_name(isa) + "/n" + (n == 1.0 ? "1" : "4");
+      benchmark::RegisterBenchmark(("BM_Value" + suffix).c_str(), BM_Value, isa, n)->Unit(benchmark::kMicrosecond);
+      benchmark::RegisterBenchmark(("BM_Derivatives" + suffix).c_str(), BM_Derivatives, isa, n)
+          ->Unit(benchmark::kMicrosecond);
+      benchmark::RegisterBenchmark(("BM_CentralBlock" + suffix).c_str(), BM_CentralBlock, isa, n)
+          ->Unit(benchmark::kMicrosecond);
+    }
+}
+
+void BM_WeightedChi2(benchmark::State& state) {
+  std::vector<double> data(39 * 39, 1.0), model(39 * 39, 0.9), weight(39 * 39, 1.0);
+  for (auto _ : state) benchmark::DoNotOptimize(weighted_chi2(data, model, weight));
+  state.SetItemsProcessed(state.iterations() * 39 * 39);
+}
+BENCHMARK(BM_WeightedChi2);
+
+void BM_NormalEquations(benchmark::State& state) {
+  std::vector<double> data(39 * 39, 1.0), model(39 * 39, 0.9), weight(39 * 39, 1.0);
+  std::vector<std::vector<double>> cols(7, std::vector<double>(39 * 39, 0.3));
+  const double* c[7];
+  for (int k = 0; k < 7; ++k) c[k] = cols[k].data();
+  double alpha[49], beta[7];
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(accumulate_normal_equations(data, model, weight, c, 7, alpha, beta));
+    benchmark::DoNotOptimize(alpha);
+  }
+  state.SetItemsProcessed(state.iterations() * 39 * 39);
+}
+BENCHMARK(BM_NormalEquations);
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  register_profile_benchmarks();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -1,0 +1,44 @@
+// Convolution and block-average downsampling finished in Fourier space, so the inverse transform
+// runs at data resolution (M x M) instead of model resolution (n x n = U M x U M).
+//
+// With X the model spectrum times the PSF kernel (r2c layout, FFTW's 1/n^2 included), the data
+// pixel q = (qy, qx) whose first sub-pixel is o + U q (o = offset mod U) is
+//   d[q] = sum_j Y[j] exp(+2 pi i j.q / M),   Y[j] = sum_{r in [0,U)^2} X[j + M r] P(jy + M ry) P(jx + M rx),
+//   P(k) = exp(2 pi i k o / n) (1/U) sum_{t<U} exp(2 pi i k t / n)
+// (the block mean is a product with a Dirichlet kernel; decimation by U is the alias sum over r),
+// an exact discrete identity with the real-space block average: results agree to rounding.
+// Columns kx > n/2 missing from the half spectrum are conjugates of X at -k.
+#pragma once
+
+#include <complex>
+#include <vector>
+
+#include "engine/fft_convolver.hpp"
+#include "engine/render_options.hpp"
+
+namespace stampede {
+
+class FourierDownsampler {
+ public:
+  // The grid must be a whole number of data pixels: geometry.size % geometry.upsampling == 0.
+  explicit FourierDownsampler(const GridGeometry& geometry);
+  ~FourierDownsampler();
+  FourierDownsampler(const FourierDownsampler&) = delete;
+  FourierDownsampler& operator=(const FourierDownsampler&) = delete;
+
+  // Folds the PSF kernel (r2c layout on the model grid) with the block average; once per PSF.
+  void set_kernel(const std::complex<double>* kernel);
+  // stamp (stamp_size^2, row-major) = block-averaged inverse transform of spectrum .* kernel.
+  void apply(const std::complex<double>* spectrum, double* stamp);
+
+ private:
+  int n_, u_, m_, first_pixel_;  // first_pixel_: lattice pixel of the stamp's pixel 0
+  int stamp_size_;
+  std::vector<std::complex<double>> phase_;  // P(k), k in [0, n)
+  std::vector<std::complex<double>> effective_kernel_;  // see set_kernel
+  AlignedBuffer folded_;                     // M x (M/2 + 1)
+  AlignedBuffer pixels_;                     // M x M
+  void* plan_ = nullptr;                     // fftw_plan, c2r M x M
+};
+
+}  // namespace stampede
