@@ -75,7 +75,7 @@ void FftConvolver::forward(const double* image, std::complex<double>* spectrum) 
 
 const std::complex<double>* FftConvolver::transform(double* image) {
   auto* spec = static_cast<std::complex<double>*>(scratch_spectrum_.data());
-  fftw_execute_dft_r2c(static_cast<fftw_plan>(forward_plan_), image, reinterpret_cast<fftw_complex*>(spec));
+  fftw_execute_dft_r2c(static_cast<fftw_plan>(destroying_plan_), image, reinterpret_cast<fftw_complex*>(spec));
   return spec;
 }
 

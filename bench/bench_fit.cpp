@@ -1,0 +1,86 @@
+// One galaxy fit at the paper's defaults (39 px stamps, U1 = 5, N_u = 3, U2 = 7, padding 4) on
+// fiducial GREAT08-like galaxies: the first 16 noise-free GalSim GREAT08-mini stamps (co-elliptical
+// bulge + disc, Rgp/Rp = 1.4, Moffat beta 3 FWHM 2.85 e = (0, 0.05)), single thread.
+//   BM_Fit/<simd>    time per fit with the profile kernels of that instruction set (scalar = the
+//                    reference build); counters: evaluations and Jacobians per fit
+//   BM_FitMeasured   the best set with FFTW_MEASURE plans (what `stampede fit` uses with fft_wisdom)
+#include <benchmark/benchmark.h>
+
+#include <string>
+#include <vector>
+
+#include "engine/fitter.hpp"
+#include "io/stamp_grid.hpp"
+
+namespace {
+
+using namespace stampede;
+
+constexpr int kStamps = 16;
+
+struct Stamps {
+  std::vector<double> pixels;
+  int size = 39;
+  Stamps() {
+    io::StampGridReader grid(std::string(STAMPEDE_DATA_DIR) + "/galsim-great08-mini/nf/set_0.fits");
+    size = grid.stamp_size();
+    const std::size_t npix = static_cast<std::size_t>(size) * size;
+    std::vector<double> row(grid.grid_nx() * npix);
+    grid.read_stamp_row(0, row);
+    pixels.assign(row.begin(), row.begin() + kStamps * npix);
+  }
+};
+
+const Stamps& stamps() {
+  static const Stamps s;
+  return s;
+}
+
+void run_fits(benchmark::State& state, kernels::Isa isa, FftPlanning planning) {
+  if (!kernels::profile_kernels_for(isa)) {
+    state.SkipWithError("instruction set not available");
+    return;
+  }
+  const Stamps& s = stamps();
+  FitterOptions options;
+  options.render.stamp_size = s.size;
+  options.render.simd = isa;
+  PsfOptions p;
+  p.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};
+  FftPlanCache plans(planning);
+  std::string err;
+  auto psf = PsfKernel::build(p, GridGeometry(options.render), plans, &err);
+  Fitter fitter(options, psf, plans);
+  const std::size_t npix = static_cast<std::size_t>(s.size) * s.size;
+  double evaluations = 0, iterations = 0;
+  long long fits = 0;
+  for (auto _ : state) {
+    for (int i = 0; i < kStamps; ++i) {
+      const FitResult r = fitter.fit(std::span<const double>(s.pixels).subspan(i * npix, npix));
+      evaluations += r.evaluations;
+      iterations += r.iterations;
+      ++fits;
+    }
+  }
+  state.SetItemsProcessed(fits);
+  state.counters["evals_per_fit"] = evaluations / fits;
+  state.counters["iters_per_fit"] = iterations / fits;
+  state.counters["ms_per_fit"] = benchmark::Counter(fits * 1e-3, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
+void BM_Fit(benchmark::State& state) {
+  run_fits(state, static_cast<kernels::Isa>(state.range(0)), FftPlanning::kEstimate);
+}
+BENCHMARK(BM_Fit)
+    ->ArgName("isa")
+    ->Arg(static_cast<int>(kernels::Isa::kScalar))
+    ->Arg(static_cast<int>(kernels::Isa::kBest))
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+void BM_FitMeasured(benchmark::State& state) { run_fits(state, kernels::Isa::kBest, FftPlanning::kMeasure); }
+BENCHMARK(BM_FitMeasured)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,95 @@
+"""Markdown summary of bench/run's JSON files: medians over repetitions, and the ratios the
+performance claims rest on (each ratio from variants measured side by side in one run)."""
+import json
+import os
+import re
+import sys
+
+
+def cpu_line():
+    model, flags = "unknown CPU", set()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name") and model == "unknown CPU":
+                    model = line.split(":", 1)[1].strip()
+                if line.startswith("flags"):
+                    flags = set(line.split(":", 1)[1].split())
+    except OSError:
+        pass
+    isa = [name for name, flag in [("avx512f", "avx512f"), ("avx2", "avx2"), ("fma", "fma"), ("sse4.2", "sse4_2")] if flag in flags]
+    return model, " ".join(isa) or "unknown"
+
+
+def medians(path):
+    with open(path) as f:
+        data = json.load(f)
+    out = {}
+    for b in data["benchmarks"]:
+        if b.get("run_type") == "aggregate" and b.get("aggregate_name") == "median":
+            out[b["run_name"]] = b
+    return data.get("context", {}), out
+
+
+def fmt_time(b):
+    return f"{b['real_time']:.4g} {b.get('time_unit', 'ns')}"
+
+
+def seconds(b):
+    scale = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}[b.get("time_unit", "ns")]
+    return b["real_time"] * scale
+
+
+def main():
+    out_dir, targets = sys.argv[1], sys.argv[2:]
+    model, isa = cpu_line()
+    print("# Benchmark medians\n")
+    print(f"CPU: {model}; instruction sets: {isa}; {os.cpu_count()} logical CPUs\n")
+    all_runs = {}
+    for t in targets:
+        path = os.path.join(out_dir, t + ".json")
+        if not os.path.exists(path):
+            continue
+        context, runs = medians(path)
+        all_runs.update(runs)
+        print(f"## {t}\n")
+        print("| benchmark | median time | items/s | counters |")
+        print("|---|---|---|---|")
+        skip = {"name", "run_name", "run_type", "repetitions", "threads", "aggregate_name", "aggregate_unit",
+                "iterations", "real_time", "cpu_time", "time_unit", "family_index", "per_family_instance_index",
+                "repetition_index", "items_per_second", "error_occurred", "error_message"}
+        for name, b in runs.items():
+            counters = ", ".join(f"{k} {v:.4g}" for k, v in b.items() if k not in skip and isinstance(v, (int, float)))
+            ips = f"{b['items_per_second']:.4g}" if "items_per_second" in b else ""
+            print(f"| {name} | {fmt_time(b)} | {ips} | {counters} |")
+        print()
+    print("## Ratios (same run)\n")
+    for name, b in sorted(all_runs.items()):
+        m = re.match(r"(BM_\w+)/(sse4\.2|avx2|avx512)/(n\d)", name)
+        if m:
+            ref = all_runs.get(f"{m.group(1)}/scalar/{m.group(3)}")
+            if ref:
+                width = {"sse4.2": 2, "avx2": 4, "avx512": 8}[m.group(2)]
+                speed = seconds(ref) / seconds(b)
+                verdict = "meets" if speed >= 0.7 * width else "below"
+                print(f"- {name}: {speed:.2f}x the scalar reference ({verdict} 0.7 x {width} = {0.7 * width:.1f})")
+    fit_scalar = all_runs.get("BM_Fit/isa:1/real_time")
+    fit_best = all_runs.get("BM_Fit/isa:0/real_time")
+    if fit_scalar and fit_best:
+        print(f"- fit, best instruction set vs scalar kernels: {seconds(fit_scalar) / seconds(fit_best):.2f}x")
+    full = {k.split(":")[-1]: v for k, v in all_runs.items() if k.startswith("BM_ConvolveFullInverse")}
+    folded = {k.split(":")[-1]: v for k, v in all_runs.items() if k.startswith("BM_ConvolveFolded")}
+    for stamp in sorted(set(full) & set(folded)):
+        print(f"- convolution + downsampling, stamp {stamp}: folded inverse {seconds(full[stamp]) / seconds(folded[stamp]):.2f}x faster than full inverse")
+    plain = next((v for k, v in all_runs.items() if k.startswith("BM_PlainLoop")), None)
+    e1 = next((v for k, v in all_runs.items() if k.startswith("BM_Engine/threads:1")), None)
+    e2 = next((v for k, v in all_runs.items() if k.startswith("BM_Engine/threads:2")), None)
+    if plain and e1:
+        print(f"- engine overhead at 1 thread: {100 * (1 - e1['items_per_second'] / plain['items_per_second']):+.1f} % "
+              f"(plain loop {plain['items_per_second']:.2f}, engine {e1['items_per_second']:.2f} stamps/s)")
+    if e1 and e2:
+        print(f"- engine 2-thread speed-up: {e2['items_per_second'] / e1['items_per_second']:.2f}x")
+
+
+if __name__ == "__main__":
+    main()
