@@ -28,6 +28,7 @@ struct Lanes {  // the scalar reference
   static T exp(T x) { return std::exp(x); }
   static T sqrt(T x) { return std::sqrt(x); }
   static T pow(T x, double y) { return std::pow(x, y); }
+  static double sum(T x) { return x; }
 };
 
 template <class A>
@@ -46,6 +47,7 @@ struct Lanes<xsimd::batch<double, A>> {
   static B exp(B x) { return xsimd::exp(x); }
   static B sqrt(B x) { return xsimd::sqrt(x); }
   static B pow(B x, double y) { return xsimd::pow(x, B(y)); }
+  static double sum(B x) { return xsimd::hadd(x); }
 };
 
 template <class T, SersicRoot R>
@@ -68,22 +70,117 @@ struct SuperOffsets {
   }
 };
 
+// The profile at offsets (dx, dy) from the centre (one per lane).
+template <class T, SersicRoot R>
+inline T value_at(T dx, T dy, const SersicBlock& block) {
+  using L = Lanes<T>;
+  const EllipseQuadratic q = block.q;
+  const T u = (T(q.xx) * dx + T(2.0 * q.xy) * dy) * dx + T(q.yy) * dy * dy;
+  return L::exp(T(-block.b) * root_of<T, R>(L::max(u, T(block.u_floor)), block.inv_2n));
+}
+
 // Sub-pixels [i, i + lanes) of row j: value sum over the supersampling points.
 template <class T, SersicRoot R>
 inline T value_sum(T xc, double yc, const SuperOffsets& off, const SersicBlock& block) {
-  using L = Lanes<T>;
-  const EllipseQuadratic q = block.q;
   T sum(0.0);
   for (int bb = 0; bb < off.n; ++bb) {
-    const double dy = yc + off.d[bb];
-    const T cross = T(2.0 * q.xy * dy), yy = T(q.yy * dy * dy);
-    for (int a = 0; a < off.n; ++a) {
-      const T dx = xc + T(off.d[a]);
-      const T u = (T(q.xx) * dx + cross) * dx + yy;
-      sum += L::exp(T(-block.b) * root_of<T, R>(L::max(u, T(block.u_floor)), block.inv_2n));
-    }
+    const T dy(yc + off.d[bb]);
+    for (int a = 0; a < off.n; ++a) sum += value_at<T, R>(xc + T(off.d[a]), dy, block);
   }
   return sum;
+}
+
+template <class T>
+struct DerivativeSums {
+  T v = T(0.0), sx = T(0.0), sy = T(0.0), s1 = T(0.0), s2 = T(0.0), sr = T(0.0);
+};
+
+// Adds the value and gradient terms at offsets (dx, dy) from the centre (one per lane).
+template <class T, SersicRoot R>
+inline void add_derivative_terms(T dx, T dy, const SersicDerivativeBlock& block, DerivativeSums<T>& s) {
+  using L = Lanes<T>;
+  const EllipseQuadratic q = block.shape.q, q1 = block.dq_de1, q2 = block.dq_de2;
+  const double b = block.shape.b, inv_2n = block.shape.inv_2n;
+  const T u_floor(block.shape.u_floor), zero(0.0);
+  // d value / du = -b value (du^(1/2n)/du) = -b value t inv_2n / u; the amplitude folds in here.
+  const T g_scale(-block.amplitude * b * inv_2n);
+  const T u_raw = (T(q.xx) * dx + T(2.0 * q.xy) * dy) * dx + T(q.yy) * dy * dy;
+  const T u = L::max(u_raw, u_floor);
+  const T t = root_of<T, R>(u, inv_2n);
+  const T v = L::exp(T(-b) * t);
+  // The gradient is singular at u = 0 (measure zero): 0 there. Under the floor the value
+  // depends only on r (through u_floor), not on position or shape.
+  const T g = L::select(u > zero, g_scale * v * t / L::max(u, T(1e-300)), zero);
+  const T gs = L::select(u_raw >= u_floor, g, zero);
+  s.v += v;
+  s.sx += gs * (T(q.xx) * dx + T(q.xy) * dy);
+  s.sy += gs * (T(q.xy) * dx + T(q.yy) * dy);
+  s.s1 += gs * ((T(q1.xx) * dx + T(2.0 * q1.xy) * dy) * dx + T(q1.yy) * dy * dy);
+  s.s2 += gs * ((T(q2.xx) * dx + T(2.0 * q2.xy) * dy) * dx + T(q2.yy) * dy * dy);
+  s.sr += g * u;
+}
+
+template <class T, SersicRoot R>
+inline DerivativeSums<T> derivative_sums(T xc, double yc, const SuperOffsets& off, const SersicDerivativeBlock& block) {
+  DerivativeSums<T> s;
+  for (int bb = 0; bb < off.n; ++bb) {
+    const T dy(yc + off.d[bb]);
+    for (int a = 0; a < off.n; ++a) add_derivative_terms<T, R>(xc + T(off.d[a]), dy, block, s);
+  }
+  return s;
+}
+
+// The supersampling points of one sub-pixel as flat offset lists, so that a region narrower than a
+// vector (the N_u x N_u central block) is vectorised over its U2 x U2 points instead.
+struct PointOffsets {
+  std::array<double, 64 * 64> x{}, y{};
+  int count = 0;
+  explicit PointOffsets(const SuperOffsets& off) : count(off.n * off.n) {
+    for (int k = 0; k < count; ++k) {
+      x[static_cast<std::size_t>(k)] = off.d[static_cast<std::size_t>(k % off.n)];
+      y[static_cast<std::size_t>(k)] = off.d[static_cast<std::size_t>(k / off.n)];
+    }
+  }
+};
+
+template <class T, SersicRoot R>
+double point_value_sum(double xc, double yc, const PointOffsets& p, const SersicBlock& block) {
+  using L = Lanes<T>;
+  constexpr int W = L::size;
+  T acc(0.0);
+  int k = 0;
+  for (; k + W <= p.count; k += W) acc += value_at<T, R>(T(xc) + L::load(&p.x[k]), T(yc) + L::load(&p.y[k]), block);
+  double sum = L::sum(acc);
+  for (; k < p.count; ++k) sum += value_at<double, R>(xc + p.x[k], yc + p.y[k], block);
+  return sum;
+}
+
+template <class T, SersicRoot R>
+DerivativeSums<double> point_derivative_sums(double xc, double yc, const PointOffsets& p,
+                                             const SersicDerivativeBlock& block) {
+  using L = Lanes<T>;
+  constexpr int W = L::size;
+  DerivativeSums<T> acc;
+  int k = 0;
+  for (; k + W <= p.count; k += W)
+    add_derivative_terms<T, R>(T(xc) + L::load(&p.x[k]), T(yc) + L::load(&p.y[k]), block, acc);
+  DerivativeSums<double> s;
+  s.v = L::sum(acc.v);
+  s.sx = L::sum(acc.sx);
+  s.sy = L::sum(acc.sy);
+  s.s1 = L::sum(acc.s1);
+  s.s2 = L::sum(acc.s2);
+  s.sr = L::sum(acc.sr);
+  for (; k < p.count; ++k) add_derivative_terms<double, R>(xc + p.x[k], yc + p.y[k], block, s);
+  return s;
+}
+
+// A region is vectorised over points when its rows are narrower than a vector and each sub-pixel
+// has at least a vector's worth of points.
+template <class T>
+bool vectorise_over_points(const GridRegion& region, int supersample) {
+  constexpr int W = Lanes<T>::size;
+  return W > 1 && region.x_end - region.x_begin < W && supersample * supersample >= W;
 }
 
 template <class T, SersicRoot R>
@@ -94,6 +191,16 @@ void accumulate_value_rows(const SubpixelGrid& grid, const GridRegion& region, i
   const SuperOffsets off(supersample, grid.step);
   const double scale = amplitude / (off.n * off.n);
   const T lane_x = L::iota() * T(grid.step);
+  if (vectorise_over_points<T>(region, supersample)) {
+    const PointOffsets points(off);
+    for (int j = region.y_begin; j < region.y_end; ++j) {
+      const double yc = grid.origin + grid.step * j - block.y0;
+      double* row = out + static_cast<std::ptrdiff_t>(j) * grid.size;
+      for (int i = region.x_begin; i < region.x_end; ++i)
+        row[i] += scale * point_value_sum<T, R>(grid.origin + grid.step * i - block.x0, yc, points, block);
+    }
+    return;
+  }
   for (int j = region.y_begin; j < region.y_end; ++j) {
     const double yc = grid.origin + grid.step * j - block.y0;
     double* row = out + static_cast<std::ptrdiff_t>(j) * grid.size;
@@ -107,43 +214,6 @@ void accumulate_value_rows(const SubpixelGrid& grid, const GridRegion& region, i
       row[i] += scale * value_sum<double, R>(xc, yc, off, block);
     }
   }
-}
-
-template <class T>
-struct DerivativeSums {
-  T v = T(0.0), sx = T(0.0), sy = T(0.0), s1 = T(0.0), s2 = T(0.0), sr = T(0.0);
-};
-
-template <class T, SersicRoot R>
-inline DerivativeSums<T> derivative_sums(T xc, double yc, const SuperOffsets& off, const SersicDerivativeBlock& block) {
-  using L = Lanes<T>;
-  const EllipseQuadratic q = block.shape.q, q1 = block.dq_de1, q2 = block.dq_de2;
-  const double b = block.shape.b, inv_2n = block.shape.inv_2n;
-  const T u_floor(block.shape.u_floor), zero(0.0);
-  // d value / du = -b value (du^(1/2n)/du) = -b value t inv_2n / u; the amplitude folds in here.
-  const T g_scale(-block.amplitude * b * inv_2n);
-  DerivativeSums<T> s;
-  for (int bb = 0; bb < off.n; ++bb) {
-    const double dy = yc + off.d[bb];
-    for (int a = 0; a < off.n; ++a) {
-      const T dx = xc + T(off.d[a]);
-      const T u_raw = (T(q.xx) * dx + T(2.0 * q.xy * dy)) * dx + T(q.yy * dy * dy);
-      const T u = L::max(u_raw, u_floor);
-      const T t = root_of<T, R>(u, inv_2n);
-      const T v = L::exp(T(-b) * t);
-      // The gradient is singular at u = 0 (measure zero): 0 there. Under the floor the value
-      // depends only on r (through u_floor), not on position or shape.
-      const T g = L::select(u > zero, g_scale * v * t / L::max(u, T(1e-300)), zero);
-      const T gs = L::select(u_raw >= u_floor, g, zero);
-      s.v += v;
-      s.sx += gs * (T(q.xx) * dx + T(q.xy * dy));
-      s.sy += gs * (T(q.xy) * dx + T(q.yy * dy));
-      s.s1 += gs * ((T(q1.xx) * dx + T(2.0 * q1.xy * dy)) * dx + T(q1.yy * dy * dy));
-      s.s2 += gs * ((T(q2.xx) * dx + T(2.0 * q2.xy * dy)) * dx + T(q2.yy * dy * dy));
-      s.sr += g * u;
-    }
-  }
-  return s;
 }
 
 template <class T, SersicRoot R>
@@ -165,6 +235,16 @@ void accumulate_derivative_rows(const SubpixelGrid& grid, const GridRegion& regi
     for (int p = 0; p < kNumShapeDerivatives; ++p)
       M::store(derivative[p] + k, overwrite ? terms[p] : M::load(derivative[p] + k) + terms[p]);
   };
+  if (vectorise_over_points<T>(region, supersample)) {
+    const PointOffsets points(off);
+    for (int j = region.y_begin; j < region.y_end; ++j) {
+      const double yc = grid.origin + grid.step * j - block.shape.y0;
+      const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(j) * grid.size;
+      for (int i = region.x_begin; i < region.x_end; ++i)
+        emit(point_derivative_sums<T, R>(grid.origin + grid.step * i - block.shape.x0, yc, points, block), row + i);
+    }
+    return;
+  }
   for (int j = region.y_begin; j < region.y_end; ++j) {
     const double yc = grid.origin + grid.step * j - block.shape.y0;
     const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(j) * grid.size;
