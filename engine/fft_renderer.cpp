@@ -20,7 +20,6 @@ FftRenderer::FftRenderer(const RenderOptions& options, const ModelOptions& model
       profile_kernels_(&kernels::profile_kernels(options.simd)),
       downsampler_(geometry_) {
   if (!psf_ || !(psf_->geometry() == geometry_)) throw std::invalid_argument("PSF kernel built for another model grid");
-  downsampler_.set_kernel(psf_->spectrum());
   for (auto& g : grid_images_) g = fft_.make_real_buffer();
   const std::size_t npix = static_cast<std::size_t>(geometry_.stamp_size) * geometry_.stamp_size;
   for (auto& s : stamp_images_) s.assign(npix, 0.0);
@@ -29,7 +28,6 @@ FftRenderer::FftRenderer(const RenderOptions& options, const ModelOptions& model
 void FftRenderer::set_psf(std::shared_ptr<const PsfKernel> psf) {
   if (!psf || !(psf->geometry() == geometry_)) throw std::invalid_argument("PSF kernel built for another model grid");
   psf_ = std::move(psf);
-  downsampler_.set_kernel(psf_->spectrum());
 }
 
 kernels::GridRegion FftRenderer::central_region(double x0, double y0) const {
@@ -58,7 +56,7 @@ std::array<kernels::GridRegion, 5> FftRenderer::partition(double x0, double y0) 
 }
 
 void FftRenderer::convolve_and_downsample(double* grid_image, double* out) {
-  downsampler_.apply(fft_.transform(grid_image), out);
+  downsampler_.apply(fft_.transform(grid_image), psf_->folded_spectrum(), out);
 }
 
 void FftRenderer::set_floor(kernels::SersicDerivativeBlock* c, int supersample, double radius) const {

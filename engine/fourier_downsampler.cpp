@@ -14,14 +14,7 @@ namespace stampede {
 FourierDownsampler::FourierDownsampler(const GridGeometry& g)
     : n_(g.size), u_(g.upsampling), m_(g.size / g.upsampling), stamp_size_(g.stamp_size) {
   if (n_ % u_ != 0) throw std::invalid_argument("FourierDownsampler: the grid is not a whole number of pixels");
-  const int o = g.offset % u_;
   first_pixel_ = g.offset / u_;
-  phase_.resize(static_cast<std::size_t>(n_));
-  for (int k = 0; k < n_; ++k) {
-    std::complex<double> box = 0;
-    for (int t = 0; t < u_; ++t) box += std::polar(1.0, 2 * std::numbers::pi * k * t / n_);
-    phase_[static_cast<std::size_t>(k)] = std::polar(1.0, 2 * std::numbers::pi * k * o / n_) * box / double(u_);
-  }
   const int hm = m_ / 2 + 1;
   folded_ = AlignedBuffer(sizeof(fftw_complex) * static_cast<std::size_t>(m_) * hm);
   pixels_ = AlignedBuffer(sizeof(double) * static_cast<std::size_t>(m_) * m_);
@@ -37,31 +30,39 @@ FourierDownsampler::~FourierDownsampler() {
   if (plan_) fftw_destroy_plan(static_cast<fftw_plan>(plan_));
 }
 
-void FourierDownsampler::set_kernel(const std::complex<double>* kernel) {
-  // K[ky][rx][jx] = kernel at (ky, kx = jx + M rx) (a conjugate where the half spectrum lacks it)
-  // times P(kx) P(ky): the PSF and the block-average/decimation in one factor, made once per PSF.
-  const int n = n_, m = m_, hn = n / 2 + 1, hm = m / 2 + 1;
-  effective_kernel_.resize(static_cast<std::size_t>(n) * u_ * hm);
+std::vector<std::complex<double>> FourierDownsampler::fold_kernel(const GridGeometry& g,
+                                                                 const std::complex<double>* kernel) {
+  const int n = g.size, u = g.upsampling, m = n / u, hn = n / 2 + 1, hm = m / 2 + 1;
+  if (n % u != 0) throw std::invalid_argument("FourierDownsampler: the grid is not a whole number of pixels");
+  const int o = g.offset % u;
+  std::vector<std::complex<double>> phase(static_cast<std::size_t>(n));  // P(k)
+  for (int k = 0; k < n; ++k) {
+    std::complex<double> box = 0;
+    for (int t = 0; t < u; ++t) box += std::polar(1.0, 2 * std::numbers::pi * k * t / n);
+    phase[static_cast<std::size_t>(k)] = std::polar(1.0, 2 * std::numbers::pi * k * o / n) * box / double(u);
+  }
+  std::vector<std::complex<double>> folded(static_cast<std::size_t>(n) * u * hm);
   for (int ky = 0; ky < n; ++ky)
-    for (int rx = 0; rx < u_; ++rx)
+    for (int rx = 0; rx < u; ++rx)
       for (int jx = 0; jx < hm; ++jx) {
         const int kx = jx + m * rx;
         const std::complex<double> k = kx < hn ? kernel[static_cast<std::size_t>(ky) * hn + kx]
                                                : std::conj(kernel[static_cast<std::size_t>((n - ky) % n) * hn + (n - kx)]);
-        effective_kernel_[(static_cast<std::size_t>(ky) * u_ + rx) * hm + jx] =
-            k * phase_[static_cast<std::size_t>(kx)] * phase_[static_cast<std::size_t>(ky)];
+        folded[(static_cast<std::size_t>(ky) * u + rx) * hm + jx] =
+            k * phase[static_cast<std::size_t>(kx)] * phase[static_cast<std::size_t>(ky)];
       }
+  return folded;
 }
 
-void FourierDownsampler::apply(const std::complex<double>* spectrum, double* stamp) {
-  if (effective_kernel_.empty()) throw std::logic_error("FourierDownsampler::apply before set_kernel");
+void FourierDownsampler::apply(const std::complex<double>* spectrum, const std::complex<double>* folded_kernel,
+                               double* stamp) {
   // Complex products are spelled out in real arithmetic: std::complex's operator* must handle
   // inf/nan (C99 Annex G) and becomes a library call per product without -ffast-math.
   const int n = n_, m = m_, hn = n / 2 + 1, hm = m / 2 + 1;
   auto* y = static_cast<double*>(folded_.data());  // interleaved re, im
   std::fill(y, y + 2 * static_cast<std::size_t>(m) * hm, 0.0);
   const auto* spec = reinterpret_cast<const double*>(spectrum);
-  const auto* keff = reinterpret_cast<const double*>(effective_kernel_.data());
+  const auto* keff = reinterpret_cast<const double*>(folded_kernel);
   // Only the columns kx = jx + M rx with jx <= M/2 feed the half spectrum of Y: U (M/2 + 1) of n.
   for (int ky = 0; ky < n; ++ky) {
     const std::size_t row = 2 * static_cast<std::size_t>(ky) * hn;

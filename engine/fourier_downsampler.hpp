@@ -26,16 +26,17 @@ class FourierDownsampler {
   FourierDownsampler(const FourierDownsampler&) = delete;
   FourierDownsampler& operator=(const FourierDownsampler&) = delete;
 
-  // Folds the PSF kernel (r2c layout on the model grid) with the block average; once per PSF.
-  void set_kernel(const std::complex<double>* kernel);
-  // stamp (stamp_size^2, row-major) = block-averaged inverse transform of spectrum .* kernel.
-  void apply(const std::complex<double>* spectrum, double* stamp);
+  // The PSF kernel (r2c layout on the model grid) folded with the block average: entries
+  // [ky][rx][jx] = kernel(ky, kx = jx + M rx) P(kx) P(ky) (a conjugate where the half spectrum
+  // lacks kx). Made once per PSF (PsfKernel holds it, shared by every thread).
+  static std::vector<std::complex<double>> fold_kernel(const GridGeometry& geometry, const std::complex<double>* kernel);
+  // stamp (stamp_size^2, row-major) = block-averaged inverse transform of spectrum .* kernel,
+  // with folded_kernel = fold_kernel(geometry, kernel).
+  void apply(const std::complex<double>* spectrum, const std::complex<double>* folded_kernel, double* stamp);
 
  private:
   int n_, u_, m_, first_pixel_;  // first_pixel_: lattice pixel of the stamp's pixel 0
   int stamp_size_;
-  std::vector<std::complex<double>> phase_;  // P(k), k in [0, n)
-  std::vector<std::complex<double>> effective_kernel_;  // see set_kernel
   AlignedBuffer folded_;                     // M x (M/2 + 1)
   AlignedBuffer pixels_;                     // M x M
   void* plan_ = nullptr;                     // fftw_plan, c2r M x M

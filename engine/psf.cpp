@@ -1,6 +1,8 @@
 // PSF kernels; see psf.hpp.
 #include "engine/psf.hpp"
 
+#include "engine/fourier_downsampler.hpp"
+
 #include <cmath>
 #include <numbers>
 #include <sstream>
@@ -180,6 +182,7 @@ std::shared_ptr<const PsfKernel> PsfKernel::build(const PsfOptions& psf, const G
     fft.forward(samples, kernel->spectrum_.data());
   }
   apply_subpixel_tophat(kernel->spectrum_, n);
+  kernel->folded_ = FourierDownsampler::fold_kernel(geometry, kernel->spectrum_.data());
   return kernel;
 }
 

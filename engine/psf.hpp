@@ -46,6 +46,8 @@ class PsfKernel {
 
   const GridGeometry& geometry() const { return geometry_; }
   const std::complex<double>* spectrum() const { return spectrum_.data(); }
+  // The spectrum folded with the block average to data resolution (FourierDownsampler::fold_kernel).
+  const std::complex<double>* folded_spectrum() const { return folded_.data(); }
   // Flux of the PSF captured by the model grid (analytic PSFs are normalised on the infinite plane).
   double grid_flux() const { return grid_flux_; }
   // Adaptive second moments of the pixel-convolved PSF, pixels^2 (starting-point size correction).
@@ -58,6 +60,7 @@ class PsfKernel {
   void set_adaptive_moments(const double* wrapped, int n, double step);
   GridGeometry geometry_;
   std::vector<std::complex<double>> spectrum_;
+  std::vector<std::complex<double>> folded_;
   double grid_flux_ = 0, xx_ = 0, xy_ = 0, yy_ = 0;
 };
 
