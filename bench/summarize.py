@@ -58,7 +58,7 @@ def main():
         skip = {"name", "run_name", "run_type", "repetitions", "threads", "aggregate_name", "aggregate_unit",
                 "iterations", "real_time", "cpu_time", "time_unit", "family_index", "per_family_instance_index",
                 "repetition_index", "items_per_second", "error_occurred", "error_message"}
-        for name, b in runs.items():
+        for name, b in sorted(runs.items()):
             counters = ", ".join(f"{k} {v:.4g}" for k, v in b.items() if k not in skip and isinstance(v, (int, float)))
             ips = f"{b['items_per_second']:.4g}" if "items_per_second" in b else ""
             print(f"| {name} | {fmt_time(b)} | {ips} | {counters} |")
