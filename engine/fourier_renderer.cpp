@@ -2,7 +2,6 @@
 #include "engine/fourier_renderer.hpp"
 
 #include <fftw3.h>
-#include <tbb/parallel_for.h>
 #include <math.h>  // j0, j1 (glibc)
 
 #include <algorithm>
@@ -13,6 +12,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "engine/parallel_indices.hpp"
 #include "engine/render_options.hpp"
 #include "kernels/sersic.hpp"
 
@@ -129,7 +129,9 @@ FourierRenderer::FourierRenderer(const PsfOptions& psf, const Options& options) 
   for (double n : options.sersic_indices) {
     if (n == 1.0) continue;
     std::vector<double> values(static_cast<std::size_t>(grid.count));
-    tbb::parallel_for(0, grid.count, [&](int i) { values[static_cast<std::size_t>(i)] = kernels::sersic_fourier(n, grid.node(i)); });
+    parallel_indices(
+        grid.count, 1, [] { return 0; },
+        [&](int, long long i) { values[static_cast<std::size_t>(i)] = kernels::sersic_fourier(n, grid.node(static_cast<int>(i))); });
     sersic_tables_.emplace_back(n, kernels::LogTable(grid, std::move(values)));
   }
 }

@@ -1,16 +1,13 @@
 // GREAT08-like simulations; see great08_sim.hpp.
 #include "engine/great08_sim.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
-
 #include <cmath>
 #include <complex>
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
 
+#include "engine/parallel_indices.hpp"
 #include "engine/random_stream.hpp"
 
 namespace stampede {
@@ -19,9 +16,7 @@ namespace {
 // Purposes of the random streams (the last key of each).
 enum StreamPurpose : std::uint64_t { kShearStream = 1, kGalaxyStream = 2, kNoiseStream = 3 };
 
-std::complex<double> lens(std::complex<double> e, std::complex<double> g) {
-  return (e + g) / (1.0 + std::conj(g) * e);
-}
+std::complex<double> lens(std::complex<double> e, std::complex<double> g) { return (e + g) / (1.0 + std::conj(g) * e); }
 
 // Intrinsic e: each component N(0, sigma), redrawn until |e| < e_max.
 std::complex<double> draw_ellipticity(RandomStream& rng, double sigma, double e_max) {
@@ -36,17 +31,21 @@ std::complex<double> draw_ellipticity(RandomStream& rng, double sigma, double e_
 
 const char* sim_galaxy_type_name(SimGalaxyType t) {
   switch (t) {
-    case SimGalaxyType::kBulgeDisc: return "bd";
-    case SimGalaxyType::kBulgePlusDisc: return "b+d";
-    case SimGalaxyType::kBulge: return "bulge";
-    case SimGalaxyType::kDisc: return "disc";
+    case SimGalaxyType::kBulgeDisc:
+      return "bd";
+    case SimGalaxyType::kBulgePlusDisc:
+      return "b+d";
+    case SimGalaxyType::kBulge:
+      return "bulge";
+    case SimGalaxyType::kDisc:
+      return "disc";
   }
   return "?";
 }
 
 bool parse_sim_galaxy_type(const std::string& name, SimGalaxyType* out) {
-  for (SimGalaxyType t : {SimGalaxyType::kBulgeDisc, SimGalaxyType::kBulgePlusDisc, SimGalaxyType::kBulge,
-                          SimGalaxyType::kDisc})
+  for (SimGalaxyType t :
+       {SimGalaxyType::kBulgeDisc, SimGalaxyType::kBulgePlusDisc, SimGalaxyType::kBulge, SimGalaxyType::kDisc})
     if (name == sim_galaxy_type_name(t)) {
       *out = t;
       return true;
@@ -64,26 +63,40 @@ PsfOptions Great08SimOptions::default_psf() {
 bool Great08SimOptions::IsValid(std::string* why) const {
   std::ostringstream m;
   std::string psf_why;
-  if (sets < 1 || sets > 10000) m << "--sets " << sets << ": must be in [1, 10000]";
-  else if (grid < 1 || grid > 1000) m << "--grid " << grid << ": must be in [1, 1000]";
-  else if (stamp_size < 8 || stamp_size > 512) m << "--stamp " << stamp_size << ": must be in [8, 512]";
-  else if (!(snr > 0 && std::isfinite(snr))) m << "--snr " << snr << ": must be positive";
-  else if (!(noise_sigma > 0 && std::isfinite(noise_sigma))) m << "--noise-sigma " << noise_sigma << ": must be positive";
-  else if (!(size_ratio > 1.0 && size_ratio <= 10.0)) m << "--size " << size_ratio << ": Rgp/Rp must be in (1, 10]";
-  else if (psf.type == PsfType::kImage) m << "--psf: the simulator draws analytic PSFs only (moffat, airy)";
-  else if (!psf.IsValid(&psf_why)) m << psf_why;
-  else if (!(e_sigma >= 0 && e_sigma <= 1)) m << "--e-sigma " << e_sigma << ": must be in [0, 1]";
-  else if (!(e_max > 0 && e_max <= 0.95)) m << "--e-max " << e_max << ": must be in (0, 0.95]";
-  else if (e_sigma > 0 && e_max < 0.01 * e_sigma) m << "--e-max " << e_max << ": too small for --e-sigma " << e_sigma;
-  else if (!(shear_max >= 0 && shear_max <= 0.2)) m << "--shear-max " << shear_max << ": must be in [0, 0.2]";
+  if (sets < 1 || sets > 10000)
+    m << "--sets " << sets << ": must be in [1, 10000]";
+  else if (grid < 1 || grid > 1000)
+    m << "--grid " << grid << ": must be in [1, 1000]";
+  else if (stamp_size < 8 || stamp_size > 512)
+    m << "--stamp " << stamp_size << ": must be in [8, 512]";
+  else if (!(snr > 0 && std::isfinite(snr)))
+    m << "--snr " << snr << ": must be positive";
+  else if (!(noise_sigma > 0 && std::isfinite(noise_sigma)))
+    m << "--noise-sigma " << noise_sigma << ": must be positive";
+  else if (!(size_ratio > 1.0 && size_ratio <= 10.0))
+    m << "--size " << size_ratio << ": Rgp/Rp must be in (1, 10]";
+  else if (psf.type == PsfType::kImage)
+    m << "--psf: the simulator draws analytic PSFs only (moffat, airy)";
+  else if (!psf.IsValid(&psf_why))
+    m << psf_why;
+  else if (!(e_sigma >= 0 && e_sigma <= 1))
+    m << "--e-sigma " << e_sigma << ": must be in [0, 1]";
+  else if (!(e_max > 0 && e_max <= 0.95))
+    m << "--e-max " << e_max << ": must be in (0, 0.95]";
+  else if (e_sigma > 0 && e_max < 0.01 * e_sigma)
+    m << "--e-max " << e_max << ": too small for --e-sigma " << e_sigma;
+  else if (!(shear_max >= 0 && shear_max <= 0.2))
+    m << "--shear-max " << shear_max << ": must be in [0, 0.2]";
   else if (!(centre_offset >= 0 && centre_offset <= 0.25 * stamp_size))
     m << "--centre-offset " << centre_offset << ": must be in [0, stamp/4]";
   else if (!(bulge_fraction_min >= 0 && bulge_fraction_min <= bulge_fraction_max && bulge_fraction_max <= 1))
     m << "--bulge-fraction " << bulge_fraction_min << "," << bulge_fraction_max << ": need 0 <= min <= max <= 1";
-  else if (!(bd_radius_ratio >= 0.1 && bd_radius_ratio <= 10)) m << "--bd-radius-ratio " << bd_radius_ratio << ": must be in [0.1, 10]";
+  else if (!(bd_radius_ratio >= 0.1 && bd_radius_ratio <= 10))
+    m << "--bd-radius-ratio " << bd_radius_ratio << ": must be in [0.1, 10]";
   else if (!(bd_misalignment_deg >= 0 && bd_misalignment_deg <= 90))
     m << "--bd-misalignment " << bd_misalignment_deg << ": must be in [0, 90] degrees";
-  else if (!(bd_offset >= 0 && bd_offset <= 5)) m << "--bd-offset " << bd_offset << ": must be in [0, 5] pixels";
+  else if (!(bd_offset >= 0 && bd_offset <= 5))
+    m << "--bd-offset " << bd_offset << ": must be in [0, 5] pixels";
   if (m.str().empty()) return true;
   if (why) *why = m.str();
   return false;
@@ -145,7 +158,8 @@ Great08Simulator::Great08Simulator(const Great08SimOptions& options) : options_(
   renderer_ = std::make_unique<FourierRenderer>(options.psf, ro);
   psf_fwhm_ = renderer_->round_fwhm({});
   double largest = 0;
-  const bool two = options.galaxy_type == SimGalaxyType::kBulgeDisc || options.galaxy_type == SimGalaxyType::kBulgePlusDisc;
+  const bool two =
+      options.galaxy_type == SimGalaxyType::kBulgeDisc || options.galaxy_type == SimGalaxyType::kBulgePlusDisc;
   const double bf_single = options.galaxy_type == SimGalaxyType::kBulge ? 1.0 : 0.0;
   for (double bf : two ? std::vector<double>{options.bulge_fraction_min, options.bulge_fraction_max}
                        : std::vector<double>{bf_single}) {
@@ -175,99 +189,112 @@ SimSet Great08Simulator::simulate_set(int k) const {
   const std::complex<double> g(set.shear1, set.shear2);
   const double centre = 0.5 * (s - 1);
 
-  tbb::enumerable_thread_specific<FourierWorkspace> workspaces;
-  tbb::enumerable_thread_specific<std::vector<double>> stamps;
+  struct Scratch {
+    std::unique_ptr<FourierWorkspace> workspace = std::make_unique<FourierWorkspace>();
+    std::vector<double> stamp;
+  };
   const long long n_pairs = (n_objects + 1) / 2;
-  tbb::parallel_for(tbb::blocked_range<long long>(0, n_pairs, 1), [&](const tbb::blocked_range<long long>& r) {
-    FourierWorkspace& ws = workspaces.local();
-    std::vector<double>& stamp = stamps.local();
-    stamp.resize(static_cast<std::size_t>(s) * s);
-    for (long long pair = r.begin(); pair < r.end(); ++pair) {
-      RandomStream rng({o.seed, static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(pair), kGalaxyStream});
-      double bf = 0;
-      switch (o.galaxy_type) {
-        case SimGalaxyType::kBulge: bf = 1; break;
-        case SimGalaxyType::kDisc: bf = 0; break;
-        default: bf = rng.uniform(o.bulge_fraction_min, o.bulge_fraction_max);
-      }
-      const std::complex<double> e_disc = draw_ellipticity(rng, o.e_sigma, o.e_max);
-      std::complex<double> e_bulge = e_disc;
-      std::complex<double> offset_bulge = 0;
-      const double dx = rng.uniform(-o.centre_offset, o.centre_offset);
-      const double dy = rng.uniform(-o.centre_offset, o.centre_offset);
-      if (o.galaxy_type == SimGalaxyType::kBulgePlusDisc) {
-        const double magnitude = std::abs(draw_ellipticity(rng, o.e_sigma, o.e_max));
-        const double turn = o.bd_misalignment_deg * std::numbers::pi / 180 * rng.normal();
-        e_bulge = std::polar(magnitude, std::arg(e_disc) + 2 * turn);
-        offset_bulge = std::polar(o.bd_offset * std::sqrt(rng.uniform()), 2 * std::numbers::pi * rng.uniform());
-      }
-      const double hlr = half_light_radius(bf);
-      for (int member = 0; member < 2; ++member) {
-        const long long index = 2 * pair + member;
-        if (index >= n_objects) break;
-        // The partner is the same galaxy turned by 90 degrees: e -> -e, offsets turned by 90.
-        const double sign = member == 0 ? 1.0 : -1.0;
-        const std::complex<double> turn90 = member == 0 ? 1.0 : std::complex<double>(0, 1);
-        const std::complex<double> ed = sign * e_disc, eb = sign * e_bulge;
-        const std::complex<double> ed_obs = lens(ed, g), eb_obs = lens(eb, g);
-        // Positions are sheared like the profiles: by the area-preserving matrix of g.
-        double sm[3];
-        shear_matrix(set.shear1, set.shear2, sm);
-        const std::complex<double> ob = turn90 * offset_bulge;
-        const std::complex<double> ob_obs(sm[0] * ob.real() + sm[1] * ob.imag(), sm[1] * ob.real() + sm[2] * ob.imag());
-        SimObjectTruth& t = set.truth[static_cast<std::size_t>(index)];
-        t.index = index;
-        t.ix = index % o.grid;
-        t.iy = index / o.grid;
-        t.pair = pair;
-        t.x_centre = centre + dx;
-        t.y_centre = centre + dy;
-        t.x_image = t.ix * s + t.x_centre;
-        t.y_image = t.iy * s + t.y_centre;
-        const bool bulge_only = o.galaxy_type == SimGalaxyType::kBulge;
-        const std::complex<double> e_main = bulge_only ? eb : ed, e_main_obs = bulge_only ? eb_obs : ed_obs;
-        t.e1_int = e_main.real();
-        t.e2_int = e_main.imag();
-        t.g1 = set.shear1;
-        t.g2 = set.shear2;
-        t.e1_obs = e_main_obs.real();
-        t.e2_obs = e_main_obs.imag();
-        t.hlr = bulge_only ? hlr * bulge_radius_ratio() : hlr;
-        t.hlr_bulge = hlr * bulge_radius_ratio();
-        t.bulge_frac = bf;
-        t.e1_int_bulge = eb.real();
-        t.e2_int_bulge = eb.imag();
-        t.bulge_dx = ob_obs.real();
-        t.bulge_dy = ob_obs.imag();
-        // Drawn at unit flux, then scaled to the S/N (the drawing is linear in flux).
-        std::vector<SimComponent> comps;
-        if (bf > 0)
-          comps.push_back({4.0, bf, t.hlr_bulge, eb_obs.real(), eb_obs.imag(), t.x_centre + t.bulge_dx,
-                           t.y_centre + t.bulge_dy});
-        if (bf < 1) comps.push_back({1.0, 1 - bf, hlr, ed_obs.real(), ed_obs.imag(), t.x_centre, t.y_centre});
-        renderer_->render(comps, s, stamp, ws);
-        double sum2 = 0;
-        for (double v : stamp) sum2 += v * v;
-        const double flux = o.snr * o.noise_sigma / std::sqrt(sum2);
-        t.flux = flux;
-        t.bulge_flux = flux * bf;
-        t.disc_flux = flux * (1 - bf);
-        double sum = 0, sum2_scaled = 0;
-        RandomStream noise({o.seed, static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(index), kNoiseStream});
-        for (int y = 0; y < s; ++y) {
-          double* row = set.image.data() + (static_cast<std::size_t>(t.iy) * s + y) * set.width + t.ix * s;
-          for (int x = 0; x < s; ++x) {
-            const double v = flux * stamp[static_cast<std::size_t>(y) * s + x];
-            sum += v;
-            sum2_scaled += v * v;
-            row[x] = o.noise_free ? v : v + o.noise_sigma * noise.normal();
-          }
+  // Each pair writes only its own stamps and truth rows.
+  parallel_indices(
+      n_pairs, 1,
+      [&] {
+        Scratch scratch;
+        scratch.stamp.resize(static_cast<std::size_t>(s) * s);
+        return scratch;
+      },
+      [&](Scratch& scratch, long long pair) {
+        FourierWorkspace& ws = *scratch.workspace;
+        std::vector<double>& stamp = scratch.stamp;
+        RandomStream rng({o.seed, static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(pair), kGalaxyStream});
+        double bf = 0;
+        switch (o.galaxy_type) {
+          case SimGalaxyType::kBulge:
+            bf = 1;
+            break;
+          case SimGalaxyType::kDisc:
+            bf = 0;
+            break;
+          default:
+            bf = rng.uniform(o.bulge_fraction_min, o.bulge_fraction_max);
         }
-        t.stamp_flux = sum;
-        t.snr = std::sqrt(sum2_scaled) / o.noise_sigma;
-      }
-    }
-  });
+        const std::complex<double> e_disc = draw_ellipticity(rng, o.e_sigma, o.e_max);
+        std::complex<double> e_bulge = e_disc;
+        std::complex<double> offset_bulge = 0;
+        const double dx = rng.uniform(-o.centre_offset, o.centre_offset);
+        const double dy = rng.uniform(-o.centre_offset, o.centre_offset);
+        if (o.galaxy_type == SimGalaxyType::kBulgePlusDisc) {
+          const double magnitude = std::abs(draw_ellipticity(rng, o.e_sigma, o.e_max));
+          const double turn = o.bd_misalignment_deg * std::numbers::pi / 180 * rng.normal();
+          e_bulge = std::polar(magnitude, std::arg(e_disc) + 2 * turn);
+          offset_bulge = std::polar(o.bd_offset * std::sqrt(rng.uniform()), 2 * std::numbers::pi * rng.uniform());
+        }
+        const double hlr = half_light_radius(bf);
+        for (int member = 0; member < 2; ++member) {
+          const long long index = 2 * pair + member;
+          if (index >= n_objects) break;
+          // The partner is the same galaxy turned by 90 degrees: e -> -e, offsets turned by 90.
+          const double sign = member == 0 ? 1.0 : -1.0;
+          const std::complex<double> turn90 = member == 0 ? 1.0 : std::complex<double>(0, 1);
+          const std::complex<double> ed = sign * e_disc, eb = sign * e_bulge;
+          const std::complex<double> ed_obs = lens(ed, g), eb_obs = lens(eb, g);
+          // Positions are sheared like the profiles: by the area-preserving matrix of g.
+          double sm[3];
+          shear_matrix(set.shear1, set.shear2, sm);
+          const std::complex<double> ob = turn90 * offset_bulge;
+          const std::complex<double> ob_obs(sm[0] * ob.real() + sm[1] * ob.imag(),
+                                            sm[1] * ob.real() + sm[2] * ob.imag());
+          SimObjectTruth& t = set.truth[static_cast<std::size_t>(index)];
+          t.index = index;
+          t.ix = index % o.grid;
+          t.iy = index / o.grid;
+          t.pair = pair;
+          t.x_centre = centre + dx;
+          t.y_centre = centre + dy;
+          t.x_image = t.ix * s + t.x_centre;
+          t.y_image = t.iy * s + t.y_centre;
+          const bool bulge_only = o.galaxy_type == SimGalaxyType::kBulge;
+          const std::complex<double> e_main = bulge_only ? eb : ed, e_main_obs = bulge_only ? eb_obs : ed_obs;
+          t.e1_int = e_main.real();
+          t.e2_int = e_main.imag();
+          t.g1 = set.shear1;
+          t.g2 = set.shear2;
+          t.e1_obs = e_main_obs.real();
+          t.e2_obs = e_main_obs.imag();
+          t.hlr = bulge_only ? hlr * bulge_radius_ratio() : hlr;
+          t.hlr_bulge = hlr * bulge_radius_ratio();
+          t.bulge_frac = bf;
+          t.e1_int_bulge = eb.real();
+          t.e2_int_bulge = eb.imag();
+          t.bulge_dx = ob_obs.real();
+          t.bulge_dy = ob_obs.imag();
+          // Drawn at unit flux, then scaled to the S/N (the drawing is linear in flux).
+          std::vector<SimComponent> comps;
+          if (bf > 0)
+            comps.push_back(
+                {4.0, bf, t.hlr_bulge, eb_obs.real(), eb_obs.imag(), t.x_centre + t.bulge_dx, t.y_centre + t.bulge_dy});
+          if (bf < 1) comps.push_back({1.0, 1 - bf, hlr, ed_obs.real(), ed_obs.imag(), t.x_centre, t.y_centre});
+          renderer_->render(comps, s, stamp, ws);
+          double sum2 = 0;
+          for (double v : stamp) sum2 += v * v;
+          const double flux = o.snr * o.noise_sigma / std::sqrt(sum2);
+          t.flux = flux;
+          t.bulge_flux = flux * bf;
+          t.disc_flux = flux * (1 - bf);
+          double sum = 0, sum2_scaled = 0;
+          RandomStream noise({o.seed, static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(index), kNoiseStream});
+          for (int y = 0; y < s; ++y) {
+            double* row = set.image.data() + (static_cast<std::size_t>(t.iy) * s + y) * set.width + t.ix * s;
+            for (int x = 0; x < s; ++x) {
+              const double v = flux * stamp[static_cast<std::size_t>(y) * s + x];
+              sum += v;
+              sum2_scaled += v * v;
+              row[x] = o.noise_free ? v : v + o.noise_sigma * noise.normal();
+            }
+          }
+          t.stamp_flux = sum;
+          t.snr = std::sqrt(sum2_scaled) / o.noise_sigma;
+        }
+      });
   return set;
 }
 
