@@ -10,7 +10,7 @@
 
 #include "engine/pipeline.hpp"
 #include "engine/stamp_fitter.hpp"
-#include "io/stamp_grid.hpp"
+#include "great08_stamps.hpp"
 
 namespace {
 
@@ -24,15 +24,9 @@ struct Data {
   FitterOptions options;
   std::shared_ptr<const PsfKernel> psf;
   Data() {
-    io::StampGridReader grid(std::string(STAMPEDE_DATA_DIR) + "/galsim-great08-mini/nf/set_0.fits");
-    size = grid.stamp_size();
-    const std::size_t npix = static_cast<std::size_t>(size) * size;
-    std::vector<double> row(grid.grid_nx() * npix);
-    for (int iy = 0; static_cast<int>(stamps.size() / npix) < kStamps; ++iy) {
-      grid.read_stamp_row(iy, row);
-      stamps.insert(stamps.end(), row.begin(), row.end());
-    }
-    stamps.resize(kStamps * npix);
+    bench::Great08Stamps g = bench::read_great08_stamps(kStamps);
+    stamps = std::move(g.pixels);
+    size = g.size;
     options.render.stamp_size = size;
     PsfOptions p;
     p.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "engine/fitter.hpp"
-#include "io/stamp_grid.hpp"
+#include "great08_stamps.hpp"
 
 namespace {
 
@@ -18,21 +18,8 @@ using namespace stampede;
 
 constexpr int kStamps = 16;
 
-struct Stamps {
-  std::vector<double> pixels;
-  int size = 39;
-  Stamps() {
-    io::StampGridReader grid(std::string(STAMPEDE_DATA_DIR) + "/galsim-great08-mini/nf/set_0.fits");
-    size = grid.stamp_size();
-    const std::size_t npix = static_cast<std::size_t>(size) * size;
-    std::vector<double> row(grid.grid_nx() * npix);
-    grid.read_stamp_row(0, row);
-    pixels.assign(row.begin(), row.begin() + kStamps * npix);
-  }
-};
-
-const Stamps& stamps() {
-  static const Stamps s;
+const bench::Great08Stamps& stamps() {
+  static const bench::Great08Stamps s = bench::read_great08_stamps(kStamps);
   return s;
 }
 
@@ -41,7 +28,7 @@ void run_fits(benchmark::State& state, kernels::Isa isa, FftPlanning planning) {
     state.SkipWithError("instruction set not available");
     return;
   }
-  const Stamps& s = stamps();
+  const bench::Great08Stamps& s = stamps();
   FitterOptions options;
   options.render.stamp_size = s.size;
   options.render.simd = isa;

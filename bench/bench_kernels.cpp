@@ -58,34 +58,31 @@ void BM_Value(benchmark::State& state, Isa isa, double n) {
   state.SetItemsProcessed(state.iterations() * kGrid * kGrid);
 }
 
-void BM_Derivatives(benchmark::State& state, Isa isa, double n) {
+// Value + derivative kernel over `region` at `supersample` points per sub-pixel side; overwrite as
+// the renderer's first (bulge) pass over the grid, accumulate as the central block's.
+void run_derivatives(benchmark::State& state, Isa isa, double n, const GridRegion& region, int supersample,
+                     bool overwrite) {
   const ProfileKernels* k = kernels_or_skip(state, isa);
   if (!k) return;
   const SersicDerivativeBlock d = fiducial(n);
   std::vector<std::vector<double>> img(6, std::vector<double>(kGrid * kGrid, 0.0));
   const std::array<double*, kNumShapeDerivatives> deriv = {img[0].data(), img[1].data(), img[2].data(),
                                                            img[3].data(), img[4].data()};
-  const GridRegion all{0, kGrid, 0, kGrid};
   for (auto _ : state) {
-    k->accumulate_derivatives(kSubGrid, all, 1, d, img[5].data(), deriv, true);
+    k->accumulate_derivatives(kSubGrid, region, supersample, d, img[5].data(), deriv, overwrite);
     benchmark::DoNotOptimize(img[5].data());
   }
-  state.SetItemsProcessed(state.iterations() * kGrid * kGrid);
+  const long long points = static_cast<long long>(region.x_end - region.x_begin) * (region.y_end - region.y_begin) *
+                           supersample * supersample;
+  state.SetItemsProcessed(state.iterations() * points);
+}
+
+void BM_Derivatives(benchmark::State& state, Isa isa, double n) {
+  run_derivatives(state, isa, n, GridRegion{0, kGrid, 0, kGrid}, 1, true);
 }
 
 void BM_CentralBlock(benchmark::State& state, Isa isa, double n) {
-  const ProfileKernels* k = kernels_or_skip(state, isa);
-  if (!k) return;
-  const SersicDerivativeBlock d = fiducial(n);
-  std::vector<std::vector<double>> img(6, std::vector<double>(kGrid * kGrid, 0.0));
-  const std::array<double*, kNumShapeDerivatives> deriv = {img[0].data(), img[1].data(), img[2].data(),
-                                                           img[3].data(), img[4].data()};
-  const GridRegion block{117, 120, 115, 118};
-  for (auto _ : state) {
-    k->accumulate_derivatives(kSubGrid, block, 7, d, img[5].data(), deriv, false);
-    benchmark::DoNotOptimize(img[5].data());
-  }
-  state.SetItemsProcessed(state.iterations() * 9 * 49);
+  run_derivatives(state, isa, n, GridRegion{117, 120, 115, 118}, 7, false);
 }
 
 void register_profile_benchmarks() {

@@ -137,9 +137,10 @@ FourierRenderer::FourierRenderer(const PsfOptions& psf, const Options& options) 
 }
 
 const kernels::LogTable* FourierRenderer::table_for(double n) const {
+  if (n == 1.0) return nullptr;
   for (const auto& [index, table] : sersic_tables_)
     if (index == n) return &table;
-  return nullptr;
+  throw std::invalid_argument("FourierRenderer: Sérsic index " + std::to_string(n) + " was not tabulated");
 }
 
 double FourierRenderer::psf_round_transform(double k) const {
@@ -154,24 +155,15 @@ double FourierRenderer::psf_transform(double kx, double ky) const {
   return psf_round_transform(std::hypot(sx, sy));
 }
 
-double FourierRenderer::round_transform(const SimComponent& c, double k) const {
-  const double q = k * c.half_light_radius;
-  if (c.sersic_n == 1.0) return kernels::exponential_fourier(q);
-  return (*table_for(c.sersic_n))(q);
-}
-
-double FourierRenderer::component_transform(const SimComponent& c, double kx, double ky) const {
-  double s[3];
-  shear_matrix(c.e1, c.e2, s);
-  return round_transform(c, std::hypot(s[0] * kx + s[1] * ky, s[1] * kx + s[2] * ky));
+double FourierRenderer::sersic_transform(const kernels::LogTable* table, double q) {
+  return table ? (*table)(q) : kernels::exponential_fourier(q);
 }
 
 void FourierRenderer::render(std::span<const SimComponent> components, int size, std::span<double> out,
                              FourierWorkspace& ws) const {
   double tail = 0;
   for (const SimComponent& c : components) {
-    if (c.sersic_n != 1.0 && !table_for(c.sersic_n))
-      throw std::invalid_argument("FourierRenderer: Sérsic index " + std::to_string(c.sersic_n) + " was not tabulated");
+    table_for(c.sersic_n);  // throws for an index without a table
     tail = std::max(tail, sersic_tail_radius(c.sersic_n, c.half_light_radius) +
                               std::hypot(c.x - 0.5 * (size - 1), c.y - 0.5 * (size - 1)));
   }
@@ -201,8 +193,8 @@ void FourierRenderer::draw(std::span<const SimComponent> components, bool psf_on
   // Per-component constants hoisted out of the frequency loop.
   struct Prepared {
     double s[3];
-    double flux, x, y;
-    const SimComponent* c;
+    double flux, x, y, hlr;
+    const kernels::LogTable* table;  // looked up once, not per frequency
   };
   std::vector<Prepared> prepared;
   prepared.reserve(components.size());
@@ -212,7 +204,8 @@ void FourierRenderer::draw(std::span<const SimComponent> components, bool psf_on
     p.flux = c.flux;
     p.x = c.x;
     p.y = c.y;
-    p.c = &c;
+    p.hlr = c.half_light_radius;
+    p.table = table_for(c.sersic_n);
     prepared.push_back(p);
   }
   for (int jy = 0; jy < n; ++jy) {
@@ -235,8 +228,8 @@ void FourierRenderer::draw(std::span<const SimComponent> components, bool psf_on
           }
           std::complex<double> gal = 0;
           for (const Prepared& p : prepared) {
-            const double q = std::hypot(p.s[0] * kx + p.s[1] * ky, p.s[1] * kx + p.s[2] * ky);
-            gal += p.flux * round_transform(*p.c, q) * std::polar(1.0, -(kx * p.x + ky * p.y));
+            const double k = std::hypot(p.s[0] * kx + p.s[1] * ky, p.s[1] * kx + p.s[2] * ky);
+            gal += p.flux * sersic_transform(p.table, k * p.hlr) * std::polar(1.0, -(kx * p.x + ky * p.y));
           }
           sum += psf * gal;
         }
@@ -255,6 +248,8 @@ double FourierRenderer::round_fwhm(std::span<const SimComponent> components) con
   // I(r) = (1/2pi) Integral F(k) J0(k r) k dk over [0, k_limit], as sum_i c_i J0(k_i r) with
   // Gauss-Legendre panels of width 0.05 / pixel (a quarter period of J0 at r = 30 px).
   constexpr double kPanel = 0.05;
+  std::vector<const kernels::LogTable*> tables;
+  for (const SimComponent& c : components) tables.push_back(table_for(c.sersic_n));
   std::vector<double> nodes, coeffs;
   for (double a = 0; a < k_limit_; a += kPanel) {
     const double mid = a + 0.5 * kPanel, h = 0.5 * kPanel;
@@ -264,7 +259,8 @@ double FourierRenderer::round_fwhm(std::span<const SimComponent> components) con
         double f = psf_round_transform(k);
         if (!components.empty()) {
           double g = 0;
-          for (const SimComponent& c : components) g += c.flux * round_transform(c, k);
+          for (std::size_t c = 0; c < components.size(); ++c)
+            g += components[c].flux * sersic_transform(tables[c], k * components[c].half_light_radius);
           f *= g;
         }
         nodes.push_back(k);

@@ -81,8 +81,9 @@ class FourierRenderer {
  private:
   double psf_transform(double kx, double ky) const;  // sheared
   double psf_round_transform(double k) const;
-  double component_transform(const SimComponent& c, double kx, double ky) const;  // no phase
-  double round_transform(const SimComponent& c, double k) const;
+  // The Sérsic transform at q = k r_e from table (null: n = 1, in closed form).
+  static double sersic_transform(const kernels::LogTable* table, double q);
+  // The table for index n (null for n = 1); throws when n was not tabulated.
   const kernels::LogTable* table_for(double n) const;
   void draw(std::span<const SimComponent> components, bool with_psf_only, int size, double step, double cx,
             double cy, bool with_pixel, double tail_radius, std::span<double> out, FourierWorkspace& ws) const;

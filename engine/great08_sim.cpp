@@ -194,6 +194,11 @@ SimSet Great08Simulator::simulate_set(int k) const {
     std::vector<double> stamp;
   };
   const long long n_pairs = (n_objects + 1) / 2;
+  double sm[3];  // positions are sheared like the profiles: by the area-preserving matrix of g
+  shear_matrix(set.shear1, set.shear2, sm);
+  // Single-component galaxies all have the same size: calibrate it once, not per pair.
+  const bool fixed_fraction = o.galaxy_type == SimGalaxyType::kBulge || o.galaxy_type == SimGalaxyType::kDisc;
+  const double fixed_hlr = fixed_fraction ? half_light_radius(o.galaxy_type == SimGalaxyType::kBulge ? 1.0 : 0.0) : NAN;
   // Each pair writes only its own stamps and truth rows.
   parallel_indices(
       n_pairs, 1,
@@ -228,7 +233,7 @@ SimSet Great08Simulator::simulate_set(int k) const {
           e_bulge = std::polar(magnitude, std::arg(e_disc) + 2 * turn);
           offset_bulge = std::polar(o.bd_offset * std::sqrt(rng.uniform()), 2 * std::numbers::pi * rng.uniform());
         }
-        const double hlr = half_light_radius(bf);
+        const double hlr = fixed_fraction ? fixed_hlr : half_light_radius(bf);
         for (int member = 0; member < 2; ++member) {
           const long long index = 2 * pair + member;
           if (index >= n_objects) break;
@@ -237,9 +242,6 @@ SimSet Great08Simulator::simulate_set(int k) const {
           const std::complex<double> turn90 = member == 0 ? 1.0 : std::complex<double>(0, 1);
           const std::complex<double> ed = sign * e_disc, eb = sign * e_bulge;
           const std::complex<double> ed_obs = lens(ed, g), eb_obs = lens(eb, g);
-          // Positions are sheared like the profiles: by the area-preserving matrix of g.
-          double sm[3];
-          shear_matrix(set.shear1, set.shear2, sm);
           const std::complex<double> ob = turn90 * offset_bulge;
           const std::complex<double> ob_obs(sm[0] * ob.real() + sm[1] * ob.imag(),
                                             sm[1] * ob.real() + sm[2] * ob.imag());

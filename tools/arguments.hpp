@@ -35,4 +35,14 @@ inline long long integer_value(int argc, char** argv, int* i) {
   return v;
 }
 
+// An integer option that must lie in [lo, hi]; the error names the option and the range.
+inline long long integer_in(int argc, char** argv, int* i, long long lo, long long hi) {
+  const std::string option = argv[*i];
+  const long long v = integer_value(argc, argv, i);
+  if (v < lo || v > hi)
+    throw std::invalid_argument("option " + option + ": " + std::to_string(v) + " is outside [" + std::to_string(lo) +
+                                ", " + std::to_string(hi) + "]");
+  return v;
+}
+
 }  // namespace stampede::tools

@@ -47,19 +47,18 @@ int run_demo_command(int argc, char** argv) {
   int set = 0, rows = 12, threads = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    auto value = [&](const char*) { return tools::option_value(argc, argv, &i); };
+    auto int_in = [&](long long lo, long long hi) { return static_cast<int>(tools::integer_in(argc, argv, &i, lo, hi)); };
     if (a == "--help" || a == "-h") {
       print_help();
       return 0;
     } else if (a == "--data") {
-      dir = value("--data");
+      dir = tools::option_value(argc, argv, &i);
     } else if (a == "--set") {
-      set = std::stoi(value("--set"));
+      set = int_in(0, 1000000);
     } else if (a == "--rows") {
-      rows = std::stoi(value("--rows"));
+      rows = int_in(0, 1000000);
     } else if (a == "--threads") {
-      threads = std::stoi(value("--threads"));
-      if (threads < 1) throw std::invalid_argument("--threads must be >= 1");
+      threads = int_in(1, 4096);
     } else {
       throw std::invalid_argument("unknown option '" + a + "' (see stampede demo --help)");
     }

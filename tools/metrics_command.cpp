@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -91,10 +92,9 @@ int run_metrics_command(int argc, char** argv) {
     } else if (a == "--json") {
       json = value();
     } else if (a == "--bootstrap") {
-      bootstrap = std::stoi(value());
-      if (bootstrap < 0) throw std::invalid_argument("--bootstrap must be >= 0");
+      bootstrap = static_cast<int>(tools::integer_in(argc, argv, &i, 0, 1000000));
     } else if (a == "--seed") {
-      seed = std::stoull(value());
+      seed = static_cast<std::uint64_t>(tools::integer_in(argc, argv, &i, 0, std::numeric_limits<long long>::max()));
     } else {
       throw std::invalid_argument("unknown option '" + a + "' (see stampede metrics --help)");
     }

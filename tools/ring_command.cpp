@@ -137,7 +137,7 @@ int run_ring_command(int argc, char** argv) {
       print_help();
       return 0;
     } else if (a == "--figure") {
-      figure = std::stoi(value());
+      figure = static_cast<int>(tools::integer_in(argc, argv, &i, 0, 99));  // figure_rows names the valid ones
     } else if (a == "--csv") {
       csv = value();
     } else {

@@ -86,7 +86,6 @@ int run_sim_command(int argc, char** argv) {
   }
   if (std::strcmp(argv[1], "great08") != 0)
     throw std::invalid_argument(std::string("unknown simulation '") + argv[1] + "' (available: great08)");
-  using tools::integer_value;
   using tools::number_value;
   Great08SimOptions o;
   std::string out;
@@ -94,13 +93,7 @@ int run_sim_command(int argc, char** argv) {
   bool overwrite = false;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
-    auto int_in = [&](long long lo, long long hi) {
-      const long long v = integer_value(argc, argv, &i);
-      if (v < lo || v > hi)
-        throw std::invalid_argument("option " + a + ": " + std::to_string(v) + " is outside [" + std::to_string(lo) +
-                                    ", " + std::to_string(hi) + "]");
-      return static_cast<int>(v);
-    };
+    auto int_in = [&](long long lo, long long hi) { return static_cast<int>(tools::integer_in(argc, argv, &i, lo, hi)); };
     if (a == "--help" || a == "-h") {
       print_help();
       return 0;
@@ -150,11 +143,8 @@ int run_sim_command(int argc, char** argv) {
     else if (a == "--e-max") o.e_max = number_value(argc, argv, &i);
     else if (a == "--centre-offset") o.centre_offset = number_value(argc, argv, &i);
     else if (a == "--shear-max") o.shear_max = number_value(argc, argv, &i);
-    else if (a == "--seed") {
-      const long long v = integer_value(argc, argv, &i);
-      if (v < 0) throw std::invalid_argument("option --seed: must be >= 0");
-      o.seed = static_cast<std::uint64_t>(v);
-    } else throw std::invalid_argument("unknown option '" + a + "' (see stampede sim --help)");
+    else if (a == "--seed")
+      o.seed = static_cast<std::uint64_t>(tools::integer_in(argc, argv, &i, 0, std::numeric_limits<long long>::max())); else throw std::invalid_argument("unknown option '" + a + "' (see stampede sim --help)");
   }
   if (out.empty()) throw std::invalid_argument("--out DIR is required (see stampede sim --help)");
   std::string why;
