@@ -193,7 +193,9 @@ SimSet Great08Simulator::simulate_set(int k) const {
     std::unique_ptr<FourierWorkspace> workspace = std::make_unique<FourierWorkspace>();
     std::vector<double> stamp;
   };
-  const long long n_pairs = (n_objects + 1) / 2;
+  // A group is a ring pair, or with noise pairs a ring pair drawn twice with opposite noise.
+  const int group = o.noise_pairs ? 4 : 2;
+  const long long n_groups = (n_objects + group - 1) / group;
   double sm[3];  // positions are sheared like the profiles: by the area-preserving matrix of g
   shear_matrix(set.shear1, set.shear2, sm);
   // Single-component galaxies all have the same size: calibrate it once, not per pair.
@@ -201,13 +203,13 @@ SimSet Great08Simulator::simulate_set(int k) const {
   const double fixed_hlr = fixed_fraction ? half_light_radius(o.galaxy_type == SimGalaxyType::kBulge ? 1.0 : 0.0) : NAN;
   // Each pair writes only its own stamps and truth rows.
   parallel_indices(
-      n_pairs, 1,
+      n_groups, 1,
       [&] {
         Scratch scratch;
         scratch.stamp.resize(static_cast<std::size_t>(s) * s);
         return scratch;
       },
-      [&](Scratch& scratch, long long pair) {
+      [&](Scratch& scratch, long long pair) {  // pair: the group's index
         FourierWorkspace& ws = *scratch.workspace;
         std::vector<double>& stamp = scratch.stamp;
         RandomStream rng({o.seed, static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(pair), kGalaxyStream});
@@ -235,7 +237,7 @@ SimSet Great08Simulator::simulate_set(int k) const {
         }
         const double hlr = fixed_fraction ? fixed_hlr : half_light_radius(bf);
         for (int member = 0; member < 2; ++member) {
-          const long long index = 2 * pair + member;
+          const long long index = group * pair + member;
           if (index >= n_objects) break;
           // The partner is the same galaxy turned by 90 degrees: e -> -e, offsets turned by 90.
           const double sign = member == 0 ? 1.0 : -1.0;
@@ -283,18 +285,37 @@ SimSet Great08Simulator::simulate_set(int k) const {
           t.bulge_flux = flux * bf;
           t.disc_flux = flux * (1 - bf);
           double sum = 0, sum2_scaled = 0;
-          RandomStream noise({o.seed, static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(index), kNoiseStream});
-          for (int y = 0; y < s; ++y) {
-            double* row = set.image.data() + (static_cast<std::size_t>(t.iy) * s + y) * set.width + t.ix * s;
-            for (int x = 0; x < s; ++x) {
-              const double v = flux * stamp[static_cast<std::size_t>(y) * s + x];
-              sum += v;
-              sum2_scaled += v * v;
-              row[x] = o.noise_free ? v : v + o.noise_sigma * noise.normal();
-            }
+          for (double u : stamp) {
+            const double v = flux * u;
+            sum += v;
+            sum2_scaled += v * v;
           }
           t.stamp_flux = sum;
           t.snr = std::sqrt(sum2_scaled) / o.noise_sigma;
+          // Copy 0 gets noise n from the object's own stream; copy 1 (noise pairs) the same galaxy
+          // with -n, so odd orders of noise cancel in the group mean.
+          for (int copy = 0; copy < group / 2; ++copy) {
+            const long long target = index + 2 * copy;
+            if (target >= n_objects) break;
+            SimObjectTruth& tc = set.truth[static_cast<std::size_t>(target)];
+            if (copy > 0) {
+              tc = t;
+              tc.index = target;
+              tc.ix = target % o.grid;
+              tc.iy = target / o.grid;
+              tc.x_image = tc.ix * s + tc.x_centre;
+              tc.y_image = tc.iy * s + tc.y_centre;
+            }
+            const double noise_sign = copy == 0 ? 1.0 : -1.0;
+            RandomStream noise({o.seed, static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(index), kNoiseStream});
+            for (int y = 0; y < s; ++y) {
+              double* row = set.image.data() + (static_cast<std::size_t>(tc.iy) * s + y) * set.width + tc.ix * s;
+              for (int x = 0; x < s; ++x) {
+                const double v = flux * stamp[static_cast<std::size_t>(y) * s + x];
+                row[x] = o.noise_free ? v : v + noise_sign * o.noise_sigma * noise.normal();
+              }
+            }
+          }
         }
       });
   return set;

@@ -36,6 +36,11 @@ struct Great08SimOptions {
   double snr = 40.0;     // sqrt(sum_pixels I^2) / noise_sigma of each noise-free stamp
   double noise_sigma = 1.0;  // Gaussian sigma per pixel; also the flux reference when noise_free
   bool noise_free = false;
+  // Noise pairs: objects 4q..4q+3 are a ring pair drawn twice, the second time with the first
+  // time's noise negated (4q+2 = 4q with -n, 4q+3 = 4q+1 with -n), all with pair label q. The
+  // group mean cancels shape noise and odd orders of pixel noise, leaving the noise bias with a
+  // far smaller scatter; expectations are unchanged (the noise is symmetric).
+  bool noise_pairs = false;
   double size_ratio = 1.4;   // Rgp/Rp: FWHM(round galaxy (x) PSF) / FWHM(PSF), no pixel; > 1
   PsfOptions psf = default_psf();
   SimGalaxyType galaxy_type = SimGalaxyType::kBulgeDisc;

@@ -18,6 +18,14 @@ enum InputFlag : std::uint32_t {
   kFlagPsfFailure = 1u << 17,    // the object's PSF could not be built
 };
 
+// Rows whose ellipticity may enter a shear estimate (`stampede metrics`, the noise-bias
+// calibration): status ok and none of the flags that make e doubtful.
+constexpr std::uint32_t kShearExcludingFlags =
+    kFlagAtBound | kFlagNoErrors | kFlagNotConverged | kFlagEdge | kFlagPsfFailure;
+inline bool usable_for_shear(FitStatus status, std::uint32_t flags) {
+  return status == FitStatus::kOk && !(flags & kShearExcludingFlags);
+}
+
 struct ObjectRecord {
   std::int64_t id = -1;        // grid: iy * nx + ix; catalogue: the catalogue's id
   std::int32_t ix = -1, iy = -1;            // grid position (-1 for catalogue input)

@@ -681,6 +681,43 @@ void FitsFile::write_table(const std::string& extname, const std::vector<OutputC
   }
 }
 
+void FitsFile::copy_all_hdus_to(FitsFile& out) {
+  out.require_writable("cannot copy HDUs from '" + path_ + "'");
+  int status = 0;
+  fits_copy_file(as_fits(handle()), as_fits(out.handle()), 1, 1, 1, &status);
+  if (status != 0) fail_status(status, "cannot copy HDUs to '" + out.path() + "'");
+  out.auto_image_ = false;
+}
+
+void FitsFile::add_column(const std::string& name, const std::string& comment) {
+  require_writable("cannot add column '" + name + "'");
+  require_table();
+  if (has_column(name)) fail("cannot add column '" + name + "': the table has one");
+  fitsfile* f = as_fits(handle());
+  int status = 0, ncols = 0;
+  fits_get_num_cols(f, &ncols, &status);
+  std::string ttype = name, tform = "D";
+  fits_insert_col(f, ncols + 1, ttype.data(), tform.data(), &status);
+  if (status == 0 && !comment.empty()) {
+    const std::string key = "TCOMM" + std::to_string(ncols + 1);
+    fits_update_key_str(f, key.c_str(), comment.c_str(), "", &status);
+  }
+  if (status != 0) fail_status(status, "cannot add column '" + name + "'");
+}
+
+void FitsFile::write_column_rows(const std::string& name, long long first_row, std::span<const double> values) {
+  require_writable("cannot write column '" + name + "'");
+  require_table();
+  const auto col = find_column(name);
+  if (!col) fail("no column '" + name + "'");
+  if (values.empty()) return;
+  std::vector<double> copy(values.begin(), values.end());  // CFITSIO byte-swaps its input in place
+  int status = 0;
+  fits_write_col(as_fits(handle()), TDOUBLE, *col, static_cast<LONGLONG>(first_row) + 1, 1,
+                 static_cast<LONGLONG>(copy.size()), copy.data(), &status);
+  if (status != 0) fail_status(status, "cannot write column '" + name + "'");
+}
+
 void FitsFile::read_image_region(long x_begin, long y_begin, long nx, long ny, std::span<double> out) {
   const ImageShape s = image_shape();
   if (x_begin < 0 || y_begin < 0 || nx <= 0 || ny <= 0 || x_begin > s.nx - nx || y_begin > s.ny - ny)

@@ -123,6 +123,13 @@ class FitsFile {
     std::vector<double> values;
   };
   void write_table(const std::string& extname, const std::vector<OutputColumn>& columns);
+  // Appends copies of every HDU of this file (headers and data) to `out` (e.g. a catalogue to be
+  // extended with new columns).
+  void copy_all_hdus_to(FitsFile& out);
+  // Appends a double ('D') column to the current table, with TCOMMn = comment when not empty.
+  void add_column(const std::string& name, const std::string& comment);
+  // Writes rows [first_row, first_row + values.size()) (0-based) of a numeric column.
+  void write_column_rows(const std::string& name, long long first_row, std::span<const double> values);
 
  private:
   FitsFile(void* fptr, std::string path, bool auto_image);

@@ -1,6 +1,7 @@
 // `stampede fit`; see fit_command.hpp.
 #include "tools/arguments.hpp"
 #include "tools/fit_command.hpp"
+#include "tools/psf_setup.hpp"
 
 #include <unistd.h>
 
@@ -119,18 +120,6 @@ class WriterSink final : public BatchSink {
   std::unique_ptr<FftRenderer> renderer_;
 };
 
-std::shared_ptr<PsfImage> read_psf_image(const io::RunConfig& cfg) {
-  io::FitsFile f = io::FitsFile::open_read(cfg.psf_image);
-  const auto shape = f.image_shape();
-  auto img = std::make_shared<PsfImage>();
-  img->nx = static_cast<int>(shape.nx);
-  img->ny = static_cast<int>(shape.ny);
-  img->pixels = f.read_image();
-  img->oversampling = cfg.psf_upsampling;
-  img->pixel_integrated = cfg.psf_pixel_integrated;
-  return img;
-}
-
 }  // namespace
 
 int run_fit_command(int argc, char** argv) {
@@ -219,23 +208,9 @@ int run_fit_command(int argc, char** argv) {
   if (cfg.psf_input == io::PsfInput::kMoffatCatalog) {
     psf_cache = std::make_unique<PsfKernelCache>(geometry, 1024);
   } else {
-    PsfOptions psf;
-    if (cfg.psf_input == io::PsfInput::kMoffat) {
-      psf.type = PsfType::kMoffat;
-      psf.moffat = cfg.moffat;
-      psf_e1 = cfg.moffat.e1, psf_e2 = cfg.moffat.e2, psf_fwhm = cfg.moffat.fwhm;
-    } else if (cfg.psf_input == io::PsfInput::kAiry) {
-      psf.type = PsfType::kAiry;
-      psf.airy = cfg.airy;
-      psf_e1 = psf_e2 = 0.0;
-      psf_fwhm = 1.028993969962188 * cfg.airy.lambda_over_d;
-    } else {
-      psf.type = PsfType::kImage;
-      psf.image = read_psf_image(cfg);
-    }
-    std::string error;
-    shared_psf = PsfKernel::build(psf, geometry, setup_plans, &error);
-    if (!shared_psf) throw std::runtime_error("PSF (psf_input = " + std::string(io::psf_input_name(cfg.psf_input)) + "): " + error);
+    const tools::SharedPsf psf = tools::build_shared_psf(cfg, geometry, setup_plans);
+    shared_psf = psf.kernel;
+    psf_e1 = psf.e1, psf_e2 = psf.e2, psf_fwhm = psf.fwhm;
   }
 
   io::CatalogWriterOptions wo;

@@ -20,14 +20,10 @@ namespace {
 
 using namespace stampede;
 
-// Rows excluded from the shear estimate: not converged, or a flag that makes e doubtful.
-constexpr std::uint32_t kExcludingFlags =
-    kFlagAtBound | kFlagNoErrors | kFlagNotConverged | kFlagEdge | kFlagPsfFailure;
-
 void print_help() {
   std::printf(
       "usage: stampede metrics --fit FIT.fits --truth TRUTH.fits [--fit ... --truth ...]\n"
-      "                        [--json OUT.json] [--bootstrap N] [--seed S]\n"
+      "                        [--json OUT.json] [--bootstrap N] [--seed S] [--e-columns E1,E2]\n"
       "\n"
       "Per set (a `stampede fit` table and the truth file of the same set, in the GREAT08-mini\n"
       "layout: SHEAR1 SHEAR2 in the primary header, a TRUTH table with `index` and `pair`):\n"
@@ -36,14 +32,17 @@ void print_help() {
       "4/16/32/65536/131072 (at bound, no errors, not converged, edge, PSF failure), with the\n"
       "partner of an excluded ring member. Across sets: a weighted fit g_est = (1 + m) g + c per\n"
       "component, c rotated into the PSF frame (c+ along the PSF), and the GREAT08 quality factor\n"
-      "  Q = 1e-4 / mean over sets and both components of (g_est - g_true)^2.\n");
+      "  Q = 1e-4 / mean over sets and both components of (g_est - g_true)^2.\n"
+      "\n"
+      "  --e-columns E1,E2   the ellipticity columns to use (default e1,e2; e.g. e1_cal,e2_cal from\n"
+      "                      `stampede calibrate apply`); rows where they are not finite are excluded\n");
 }
 
-SetShear read_set(const std::string& fit_path, const std::string& truth_path, int bootstrap, std::uint64_t seed,
-                  double* psf_e1, double* psf_e2) {
+SetShear read_set(const std::string& fit_path, const std::string& truth_path, const std::string& e1_column,
+                  const std::string& e2_column, int bootstrap, std::uint64_t seed, double* psf_e1, double* psf_e2) {
   io::FitsFile fit = io::FitsFile::open_read(fit_path);
   fit.move_to("RESULTS");
-  const auto id = fit.read_column("id"), e1 = fit.read_column("e1"), e2 = fit.read_column("e2"),
+  const auto id = fit.read_column("id"), e1 = fit.read_column(e1_column), e2 = fit.read_column(e2_column),
              status = fit.read_column("status"), flags = fit.read_column("flags"), pe1 = fit.read_column("psf_e1"),
              pe2 = fit.read_column("psf_e2");
   io::FitsFile truth = io::FitsFile::open_read(truth_path);
@@ -62,7 +61,8 @@ SetShear read_set(const std::string& fit_path, const std::string& truth_path, in
       throw std::runtime_error(fit.describe() + ": row " + std::to_string(i) + " is object " + std::to_string(id[i]) +
                                " but the truth row is object " + std::to_string(index[i]));
     usable[i] = status[i] == static_cast<double>(FitStatus::kOk) &&
-                !(static_cast<std::uint32_t>(flags[i]) & kExcludingFlags);
+                usable_for_shear(FitStatus::kOk, static_cast<std::uint32_t>(flags[i])) && std::isfinite(e1[i]) &&
+                std::isfinite(e2[i]);
     if (!pair.empty()) pair[i] = static_cast<long long>(pair_col[i]);
   }
   if (!pe1.empty() && std::isfinite(pe1[0])) {
@@ -76,7 +76,7 @@ SetShear read_set(const std::string& fit_path, const std::string& truth_path, in
 
 int run_metrics_command(int argc, char** argv) {
   std::vector<std::string> fits, truths;
-  std::string json;
+  std::string json, e1_column = "e1", e2_column = "e2";
   int bootstrap = 200;
   std::uint64_t seed = 1;
   for (int i = 1; i < argc; ++i) {
@@ -91,6 +91,13 @@ int run_metrics_command(int argc, char** argv) {
       truths.push_back(value());
     } else if (a == "--json") {
       json = value();
+    } else if (a == "--e-columns") {
+      const std::string v = value();
+      const auto comma = v.find(',');
+      if (comma == std::string::npos || comma == 0 || comma + 1 == v.size() || v.find(',', comma + 1) != std::string::npos)
+        throw std::invalid_argument("option --e-columns: '" + v + "' is not two column names 'E1,E2'");
+      e1_column = v.substr(0, comma);
+      e2_column = v.substr(comma + 1);
     } else if (a == "--bootstrap") {
       bootstrap = static_cast<int>(tools::integer_in(argc, argv, &i, 0, 1000000));
     } else if (a == "--seed") {
@@ -105,7 +112,7 @@ int run_metrics_command(int argc, char** argv) {
   double psf_e1 = 0, psf_e2 = 0;
   std::vector<SetShear> sets;
   for (std::size_t k = 0; k < fits.size(); ++k)
-    sets.push_back(read_set(fits[k], truths[k], bootstrap, seed + k, &psf_e1, &psf_e2));
+    sets.push_back(read_set(fits[k], truths[k], e1_column, e2_column, bootstrap, seed + k, &psf_e1, &psf_e2));
   const ShearMetrics m = combine_sets(sets, psf_e1, psf_e2);
   std::printf("%-4s %10s %10s %10s %9s %10s %10s %9s %6s %8s\n", "set", "g1_true", "g1", "g1-g1_t", "err1", "g2_true", "g2",
               "err2", "used", "excluded");
@@ -136,7 +143,12 @@ int run_metrics_command(int argc, char** argv) {
           << ", \"used\": " << s.used << ", \"excluded\": " << s.excluded << "}" << (k + 1 < m.sets.size() ? "," : "")
           << "\n";
     }
-    auto num = [](double v) { return std::isfinite(v) ? std::to_string(v) : std::string("null"); };
+    auto num = [](double v) {
+      if (!std::isfinite(v)) return std::string("null");
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%.9g", v);  // c ~ 1e-4: fixed-point to_string would lose it
+      return std::string(buf);
+    };
     out << "  ],\n  \"m1\": " << num(m.component[0].m) << ", \"m1_err\": " << num(m.component[0].m_err)
         << ", \"c1\": " << num(m.component[0].c) << ", \"c1_err\": " << num(m.component[0].c_err) << ",\n  \"m2\": "
         << num(m.component[1].m) << ", \"m2_err\": " << num(m.component[1].m_err) << ", \"c2\": " << num(m.component[1].c)

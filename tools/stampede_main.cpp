@@ -9,6 +9,7 @@
 #include "tools/fit_command.hpp"
 #include "tools/metrics_command.hpp"
 #include "tools/sim_command.hpp"
+#include "tools/calibrate_command.hpp"
 
 namespace {
 
@@ -24,6 +25,7 @@ void print_usage(std::FILE* out) {
                "  demo     fit the bundled noise-free GREAT08-like set and print true vs recovered e\n"
                "  ring     noise-free ring-test studies of the im3shape paper (figures 2, 4, 5, 6)\n"
                "  sim      GREAT08-like simulated sets (sim great08) in the GalSim-mini file layout\n"
+               "  calibrate  noise-bias calibration: build a table from simulations, apply it to a catalogue\n"
                "\n"
                "Run 'stampede <command> --help' for a command's options.\n");
 }
@@ -42,6 +44,7 @@ int main(int argc, char** argv) {
     if (command == "demo") return run_demo_command(argc - 1, argv + 1);
     if (command == "ring") return run_ring_command(argc - 1, argv + 1);
     if (command == "sim") return run_sim_command(argc - 1, argv + 1);
+    if (command == "calibrate") return run_calibrate_command(argc - 1, argv + 1);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "stampede %s: error: %s\n", command.c_str(), e.what());
     return 1;

@@ -209,6 +209,41 @@ TEST(Great08Sim, NoiseHasTheRequestedSigma) {
   EXPECT_EQ(clean.noise_seed, 0u);
 }
 
+
+// Noise pairs: 4q+2 and 4q+3 are 4q and 4q+1 again with the noise negated, so each copy pair
+// averages to the noise-free stamp, and all four share the pair label q.
+TEST(Great08Sim, NoisePairsRepeatTheRingPairWithNegatedNoise) {
+  Great08SimOptions o = small_options();
+  o.noise_pairs = true;
+  const SimSet noisy = Great08Simulator(o).simulate_set(1);
+  o.noise_free = true;
+  const SimSet clean = Great08Simulator(o).simulate_set(1);
+  const int s = o.stamp_size;
+  auto pixel = [&](const SimSet& set, const SimObjectTruth& t, int x, int y) {
+    return set.image[(t.iy * s + y) * set.width + t.ix * s + x];
+  };
+  ASSERT_EQ(noisy.truth.size(), 16u);
+  for (std::size_t i = 0; i < noisy.truth.size(); ++i) {
+    const SimObjectTruth& t = noisy.truth[i];
+    EXPECT_EQ(t.pair, static_cast<long long>(i / 4));
+    const SimObjectTruth& first = noisy.truth[i - i % 4 + i % 2];  // the copy with +n
+    EXPECT_EQ(t.e1_obs, first.e1_obs);
+    EXPECT_EQ(t.flux, first.flux);
+    EXPECT_EQ(t.x_centre, first.x_centre);
+    if (i % 4 == 1) {
+      EXPECT_EQ(t.e1_int, -noisy.truth[i - 1].e1_int);  // still a ring pair
+    }
+    double max_sum_error = 0, noise2 = 0;
+    for (int y = 0; y < s; ++y)
+      for (int x = 0; x < s; ++x) {
+        const double v = pixel(noisy, t, x, y), v_first = pixel(noisy, first, x, y), v_clean = pixel(clean, t, x, y);
+        if (i % 4 >= 2) max_sum_error = std::max(max_sum_error, std::abs(v + v_first - 2 * v_clean));
+        noise2 += (v - v_clean) * (v - v_clean);
+      }
+    EXPECT_LT(max_sum_error, 1e-12 * (1 + t.flux));
+    EXPECT_NEAR(std::sqrt(noise2 / (s * s)), o.noise_sigma, 0.1);  // every copy is noisy
+  }
+}
 // The b+d branch: a misaligned, offset bulge with its own radius, and the round-galaxy size kept.
 TEST(Great08Sim, BulgePlusDiscBranch) {
   Great08SimOptions o = small_options();

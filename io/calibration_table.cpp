@@ -1,0 +1,202 @@
+// Calibration file I/O; see calibration_table.hpp.
+#include "io/calibration_table.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "io/fits_file.hpp"
+
+namespace stampede::io {
+namespace {
+
+constexpr long long kVersion = 1;
+
+std::string join(const std::vector<double>& v) {
+  std::string s;
+  char buf[32];
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    std::snprintf(buf, sizeof buf, "%.17g", v[i]);
+    if (i) s += ',';
+    s += buf;
+  }
+  return s;
+}
+
+std::vector<double> split(FitsFile& f, const std::string& key) {
+  const std::string text = f.key_string(key);
+  std::vector<double> out;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      std::size_t used = 0;
+      out.push_back(std::stod(item, &used));
+      if (used != item.size()) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      f.move_to(0);
+      throw std::runtime_error(f.describe() + ": header keyword '" + key + "' = '" + text +
+                               "' is not a comma-separated list of numbers");
+    }
+  }
+  return out;
+}
+
+FitsFile::OutputColumn column(const std::string& name, bool integer = false) { return {name, integer, {}}; }
+
+}  // namespace
+
+void write_calibration_table(const std::string& path, const CalibrationTable& t, bool overwrite) {
+  FitsFile f = FitsFile::create(path, overwrite);
+  f.write_empty_image();
+  const CalibrationGridOptions& g = t.grid;
+  f.write_key("CALIBVER", kVersion, "stampede noise-bias calibration, format version");
+  f.write_key("SNRREF", g.snr, "reference S/N of the simulations");
+  f.write_key("NOISESIG", g.noise_sigma, "noise sigma per pixel of the simulations");
+  f.write_key("NREAL", static_cast<long long>(g.realisations), "noise pairs (n, -n) per grid point");
+  f.write_key("ESTEPS", static_cast<long long>(g.e_steps), "e_true steps over [-EMAX, EMAX]");
+  f.write_key("EMAX", g.e_max, "largest |e_true|");
+  f.write_key("STAMPSZ", static_cast<long long>(g.stamp_size), "stamp size, pixels");
+  f.write_key("RRATIO", g.bulge_radius_ratio, "bulge / disc half-light radius");
+  f.write_key("SEED", static_cast<long long>(g.seed & 0x7fffffffffffffffull), "noise seed");
+  f.write_key("RADII", join(g.radii), "disc half-light radii r_d of the grid, pixels");
+  f.write_key("BFRACS", join(g.bulge_fractions), "bulge flux fractions F of the grid");
+  if (g.psf.type == PsfType::kMoffat) {
+    f.write_key("PSFTYPE", std::string("moffat"), "PSF of the simulations");
+    f.write_key("PSFBETA", g.psf.moffat.beta, "Moffat beta");
+    f.write_key("PSFFWHM", g.psf.moffat.fwhm, "Moffat FWHM, pixels");
+    f.write_key("PSFE1", g.psf.moffat.e1, "PSF e1 (reduced shear)");
+    f.write_key("PSFE2", g.psf.moffat.e2, "PSF e2 (reduced shear)");
+    f.write_key("PSFTRUNC", g.psf.moffat.truncation, "Moffat truncation radius (0 = none)");
+  } else {
+    f.write_key("PSFTYPE", std::string("airy"), "PSF of the simulations");
+    f.write_key("PSFLOD", g.psf.airy.lambda_over_d, "Airy lambda / D, pixels");
+    f.write_key("PSFOBSC", g.psf.airy.obscuration, "Airy central obscuration");
+  }
+  for (std::size_t i = 0; i < t.config.size(); ++i) {
+    char key[32];
+    std::snprintf(key, sizeof key, "CFG%04zu", i + 1);
+    f.write_key(key, t.config[i].first + " = " + t.config[i].second, "fit configuration of the calibration run");
+  }
+
+  std::vector<FitsFile::OutputColumn> points = {
+      column("point", true), column("radius"),   column("bulge_fraction"), column("axis", true),
+      column("e_true"),      column("bias1"),    column("bias1_err"),      column("bias2"),
+      column("bias2_err"),   column("pairs_used", true), column("pairs_failed", true)};
+  for (std::size_t i = 0; i < t.points.size(); ++i) {
+    const CalibrationPoint& p = t.points[i];
+    const PointBias& b = t.biases.at(i);
+    const double row[] = {static_cast<double>(p.index), p.radius, p.bulge_fraction, static_cast<double>(p.axis),
+                          p.e_true, b.bias[0], b.error[0], b.bias[1], b.error[1],
+                          static_cast<double>(b.pairs_used), static_cast<double>(b.pairs_failed)};
+    for (std::size_t c = 0; c < points.size(); ++c) points[c].values.push_back(row[c]);
+  }
+  f.write_table("POINTS", points);
+
+  std::vector<FitsFile::OutputColumn> curves = {
+      column("radius"), column("bulge_fraction"), column("axis", true), column("component", true),
+      column("a0"),     column("a1"),             column("a2"),         column("a3"),
+      column("a0_err"), column("a1_err"),         column("a2_err"),     column("a3_err"),
+      column("chi2"),   column("points", true)};
+  for (const BiasCurve& c : t.curves) {
+    const double row[] = {c.radius, c.bulge_fraction, static_cast<double>(c.axis), static_cast<double>(c.component),
+                          c.coefficients[0], c.coefficients[1], c.coefficients[2], c.coefficients[3],
+                          c.errors[0], c.errors[1], c.errors[2], c.errors[3], c.chi2, static_cast<double>(c.points)};
+    for (std::size_t k = 0; k < curves.size(); ++k) curves[k].values.push_back(row[k]);
+  }
+  f.write_table("CURVES", curves);
+  f.close();
+}
+
+CalibrationTable read_calibration_table(const std::string& path) {
+  FitsFile f = FitsFile::open_read(path);
+  f.move_to(0);
+  CalibrationTable t;
+  CalibrationGridOptions& g = t.grid;
+  if (f.key_long("CALIBVER") != kVersion)
+    throw std::runtime_error(f.describe() + ": CALIBVER " + std::to_string(f.key_long("CALIBVER")) +
+                             " is not a calibration format this version reads (" + std::to_string(kVersion) + ")");
+  g.snr = f.key_double("SNRREF");
+  g.noise_sigma = f.key_double("NOISESIG");
+  g.realisations = static_cast<int>(f.key_long("NREAL"));
+  g.e_steps = static_cast<int>(f.key_long("ESTEPS"));
+  g.e_max = f.key_double("EMAX");
+  g.stamp_size = static_cast<int>(f.key_long("STAMPSZ"));
+  g.bulge_radius_ratio = f.key_double("RRATIO");
+  g.seed = static_cast<std::uint64_t>(f.key_long("SEED"));
+  g.radii = split(f, "RADII");
+  g.bulge_fractions = split(f, "BFRACS");
+  const std::string psf = f.key_string("PSFTYPE");
+  if (psf == "moffat") {
+    g.psf.type = PsfType::kMoffat;
+    g.psf.moffat = {f.key_double("PSFBETA"), f.key_double("PSFFWHM"), f.key_double("PSFE1"), f.key_double("PSFE2"),
+                    f.key_double("PSFTRUNC")};
+  } else if (psf == "airy") {
+    g.psf.type = PsfType::kAiry;
+    g.psf.airy.lambda_over_d = f.key_double("PSFLOD");
+    g.psf.airy.obscuration = f.key_double("PSFOBSC");
+  } else {
+    throw std::runtime_error(f.describe() + ": PSFTYPE '" + psf + "' is not moffat or airy");
+  }
+  for (int i = 1;; ++i) {
+    char key[32];
+    std::snprintf(key, sizeof key, "CFG%04d", i);
+    const auto card = f.read_key_string(key);
+    if (!card) break;
+    // FITS drops trailing blanks: an empty value reads back as "key =".
+    const auto eq = card->find(" =");
+    if (eq == std::string::npos || eq == 0)
+      throw std::runtime_error(f.describe() + ": " + key + " = '" + *card + "' is not 'key = value'");
+    std::string value = card->substr(eq + 2);
+    if (!value.empty() && value[0] == ' ') value.erase(0, 1);
+    t.config.emplace_back(card->substr(0, eq), value);
+  }
+  std::string why;
+  if (!g.IsValid(&why)) throw std::runtime_error(f.describe() + ": the grid in the header is not valid: " + why);
+
+  f.move_to("POINTS");
+  const auto point = f.read_column("point"), radius = f.read_column("radius"), fraction = f.read_column("bulge_fraction"),
+             axis = f.read_column("axis"), e_true = f.read_column("e_true"), b1 = f.read_column("bias1"),
+             e1 = f.read_column("bias1_err"), b2 = f.read_column("bias2"), e2 = f.read_column("bias2_err"),
+             used = f.read_column("pairs_used"), failed = f.read_column("pairs_failed");
+  for (std::size_t i = 0; i < point.size(); ++i) {
+    CalibrationPoint p;
+    p.index = static_cast<int>(point[i]);
+    p.radius = radius[i];
+    p.bulge_fraction = fraction[i];
+    p.axis = axis[i] == 0 ? BiasAxis::kE1 : BiasAxis::kE2;
+    p.e_true = e_true[i];
+    t.points.push_back(p);
+    PointBias b;
+    b.bias[0] = b1[i];
+    b.error[0] = e1[i];
+    b.bias[1] = b2[i];
+    b.error[1] = e2[i];
+    b.pairs_used = static_cast<int>(used[i]);
+    b.pairs_failed = static_cast<int>(failed[i]);
+    t.biases.push_back(b);
+  }
+
+  f.move_to("CURVES");
+  std::vector<std::vector<double>> c;
+  for (const char* name : {"radius", "bulge_fraction", "axis", "component", "a0", "a1", "a2", "a3", "a0_err", "a1_err",
+                           "a2_err", "a3_err", "chi2", "points"})
+    c.push_back(f.read_column(name));
+  for (std::size_t i = 0; i < c[0].size(); ++i) {
+    BiasCurve curve;
+    curve.radius = c[0][i];
+    curve.bulge_fraction = c[1][i];
+    curve.axis = c[2][i] == 0 ? BiasAxis::kE1 : BiasAxis::kE2;
+    curve.component = static_cast<int>(c[3][i]);
+    for (int k = 0; k < 4; ++k) {
+      curve.coefficients[k] = c[4 + k][i];
+      curve.errors[k] = c[8 + k][i];
+    }
+    curve.chi2 = c[12][i];
+    curve.points = static_cast<int>(c[13][i]);
+    t.curves.push_back(curve);
+  }
+  return t;
+}
+
+}  // namespace stampede::io

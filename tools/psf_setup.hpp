@@ -1,0 +1,23 @@
+// The run's shared PSF from its configuration (psf_input = moffat, airy or image), for the
+// commands that fit with one PSF for every object (`fit`, `calibrate build`).
+#pragma once
+
+#include <cmath>
+#include <memory>
+
+#include "engine/psf.hpp"
+#include "io/run_config.hpp"
+
+namespace stampede::tools {
+
+struct SharedPsf {
+  PsfOptions options;
+  std::shared_ptr<const PsfKernel> kernel;
+  double e1 = NAN, e2 = NAN, fwhm = NAN;  // as written to the output rows (NaN: unknown, image PSF)
+};
+
+// Reads psf_image when psf_input = image. Throws (naming psf_input, or the image file) when the PSF
+// cannot be built. Not for psf_input = moffat_catalog.
+SharedPsf build_shared_psf(const io::RunConfig& cfg, const GridGeometry& geometry, FftPlanCache& plans);
+
+}  // namespace stampede::tools
