@@ -103,7 +103,9 @@ Bias NoiseBiasModel::at(const GalaxyProperties& galaxy, bool* clamped) const {
   rbf_.evaluate(x, a);
   const auto coeff = [&](BiasAxis axis, int comp, int j) { return a[4 * curve_slot(axis, comp) + j]; };
   const double e2 = e * e;
-  const auto slope = [&](BiasAxis axis, int comp) { return coeff(axis, comp, 1) + 2 * coeff(axis, comp, 3) * e2; };
+  const auto slope = [&](BiasAxis axis, int comp) {
+    return coeff(axis, comp, 1) + coeff(axis, comp, 3) * e2 * (2 - e2);
+  };
   const auto even = [&](BiasAxis axis, int comp) { return coeff(axis, comp, 0) + coeff(axis, comp, 2) * e2; };
   Bias b;
   b.m = 0.5 * (slope(BiasAxis::kE1, 0) + slope(BiasAxis::kE2, 1));

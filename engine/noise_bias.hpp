@@ -8,12 +8,13 @@
 //
 // From curves to m and c. Away from PSF effects the bias is radial, e_fit - e = f(|e|) e / |e|,
 // with f odd: the odd part of b_11 along e1 (and of b_22 along e2) is f(r) = a1 r + a3 r^3. For a
-// population isotropic in e, a shear g moves e by g, and the mean response of e_fit,1 is
-//   1 + m,   m = < (f'(r) + f(r) / r) / 2 > = < a1 + 2 a3 r^2 >   (r = |e|),
-// (the orientation average of d F_1 / d e_1 for F = f(r) e / r). The even parts, a0 + a2 r^2, are
-// the additive bias; averaging b_1 over the four orientations the grid samples (along +-e1 from
-// b_11, along +-e2 from b_21) gives c1(r), and c2(r) likewise from b_12 and b_22. m is the mean of
-// the two components' values (they differ only through the PSF's anisotropy).
+// population isotropic in e, a shear g turns e into e' = (e + g) / (1 + conj(g) e) (reduced-shear
+// ellipticities, whose ring mean is exactly g), d e' / d g1 = 1 - e^2, and the orientation average
+// of d F_1(e') / d g1 for F = f(r) e / r is
+//   1 + m,   m = (f' + f / r) / 2 - r^2 (f' - f / r) / 2 = a1 + 2 a3 r^2 - a3 r^4   (r = |e|).
+// The even parts, a0 + a2 r^2, are the additive bias; averaging b_1 over the four orientations the
+// grid samples (along +-e1 from b_11, along +-e2 from b_21) gives c1(r), and c2(r) likewise from
+// b_12 and b_22. m is the mean of the two components' values (they differ only through the PSF).
 //
 // Interpolation. The 16 coefficients (2 axes x 2 components x a0..a3) are interpolated together
 // over (ln r_d, F) by a Gaussian RBF with a linear term (kernels/rbf_interpolator), widths 0.9 in

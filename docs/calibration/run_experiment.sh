@@ -101,7 +101,7 @@ apply() {
     "$STAMPEDE" metrics "${cal[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_calibrated.json" > "$dir/metrics_calibrated.txt"
     echo "$snr $dir/metrics_uncalibrated.json $dir/metrics_calibrated.json" >> "$table.tmp"
   done
-  /usr/bin/env python3 "$(dirname "$0")/table.py" "$table.tmp" "$SETS" "$GRID" > "$table"
+  /usr/bin/env python3 "$(dirname "$0")/table.py" "$table.tmp" > "$table"
   rm -f "$table.tmp"
   cat "$table"
 }

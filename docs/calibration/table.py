@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Markdown table of the calibration experiment from `stampede metrics --json` outputs.
 
-usage: table.py LIST SETS GRID
+usage: table.py LIST
 LIST: lines 'SNR uncalibrated.json calibrated.json' (written by run_experiment.sh).
 """
 import json
@@ -23,17 +23,18 @@ def row(label, d):
     m_err = 0.5 * (d["m1_err"] ** 2 + d["m2_err"] ** 2) ** 0.5
     used = sum(s["used"] for s in d["sets"])
     excluded = sum(s["excluded"] for s in d["sets"])
-    return (f"| {label} | {fmt(m, m_err)} | {fmt(d['m1'], d['m1_err'])} | {fmt(d['m2'], d['m2_err'])} | "
+    size = f"{len(d['sets'])} x {(used + excluded) // len(d['sets'])}"
+    return (f"| {label} | {size} | {fmt(m, m_err)} | {fmt(d['m1'], d['m1_err'])} | {fmt(d['m2'], d['m2_err'])} | "
             f"{fmt(d['c1'], d['c1_err'])} | {fmt(d['c2'], d['c2_err'])} | {fmt(d['c_plus'])} | {d['q']:.0f} | "
             f"{used} / {excluded} |"), m
 
 
 def main():
     lines = [l.split() for l in open(sys.argv[1]) if l.strip()]
-    sets, grid = int(sys.argv[2]), int(sys.argv[3])
-    print(f"{sets} sets x {grid * grid} galaxies per S/N (noise pairs), m = (m1 + m2) / 2\n")
-    print("| S/N, catalogue | m | m1 | m2 | c1 | c2 | c+ (PSF frame) | Q | used / excluded |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("m = (m1 + m2) / 2; errors from the per-set bootstrap errors; 'used / excluded': galaxies\n"
+          "in the shear estimates / left out (flagged fits and their ring-and-noise group)\n")
+    print("| S/N, catalogue | sets x galaxies | m | m1 | m2 | c1 | c2 | c+ (PSF frame) | Q | used / excluded |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     notes = []
     for snr, unc, cal in lines:
         du, dc = json.load(open(unc)), json.load(open(cal))

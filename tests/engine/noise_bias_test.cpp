@@ -69,7 +69,8 @@ TEST(NoiseBias, CubicCurvesRecoverTheInjectedBias) {
 Bias expected(double r, double f, double e) {
   auto a = [&](int slot, int j) { return injected(slot, j, r, f); };
   Bias b;
-  b.m = 0.5 * (a(0, 1) + 2 * a(0, 3) * e * e + a(3, 1) + 2 * a(3, 3) * e * e);
+  const double w = e * e * (2 - e * e);
+  b.m = 0.5 * (a(0, 1) + a(0, 3) * w + a(3, 1) + a(3, 3) * w);
   b.c1 = 0.5 * (a(0, 0) + a(0, 2) * e * e + a(2, 0) + a(2, 2) * e * e);
   b.c2 = 0.5 * (a(1, 0) + a(1, 2) * e * e + a(3, 0) + a(3, 2) * e * e);
   return b;
@@ -96,25 +97,27 @@ TEST(NoiseBias, ModelReproducesNodesAndAPlaneBetweenThem) {
   EXPECT_NEAR(out.m, edge.m, 1e-12);
 }
 
-// m = a1 + 2 a3 |e|^2 is the shear response of an isotropic population with a radial bias
-// e_fit = e + f(|e|) e / |e|, f = a1 r + a3 r^3: check against a numerical derivative of the
-// orientation-averaged e_fit,1 under a shear g along e1 (e -> e + g to first order).
+// m = a1 + 2 a3 |e|^2 - a3 |e|^4 is the shear response of an isotropic population with a radial
+// bias e_fit = e' + f(|e'|) e' / |e'|, f = a1 r + a3 r^3, where e' = (e + g) / (1 + conj(g) e) is the
+// sheared ellipticity: check against a numerical derivative of the orientation-averaged e_fit,1.
 TEST(NoiseBias, MultiplicativeBiasIsTheResponseOfARadialBias) {
-  const double a1 = 0.03, a3 = -0.02;
-  auto mean_e1 = [&](double r, double g) {
+  auto mean_e1 = [](double r, double g, double a1, double a3) {
     const int n = 720;
     double sum = 0;
     for (int k = 0; k < n; ++k) {
-      const std::complex<double> e = std::polar(r, 2 * std::numbers::pi * (k + 0.5) / n) + g;
-      const double s = std::abs(e);
-      sum += (e + (a1 * s + a3 * s * s * s) * e / s).real();
+      const std::complex<double> e = std::polar(r, 2 * std::numbers::pi * (k + 0.5) / n);
+      const std::complex<double> sheared = (e + g) / (1.0 + g * e);
+      const double s = std::abs(sheared);
+      sum += (sheared + (a1 * s + a3 * s * s * s) * sheared / s).real();
     }
     return sum / n;
   };
-  for (double r : {0.1, 0.3, 0.6}) {
-    const double h = 1e-5;
-    const double response = (mean_e1(r, h) - mean_e1(r, -h)) / (2 * h);
-    EXPECT_NEAR(response - 1, a1 + 2 * a3 * r * r, 1e-8) << r;
+  const double a1 = 0.03, a3 = -0.02, h = 1e-5;
+  for (double r : {0.1, 0.3, 0.6, 0.8}) {
+    const double response = (mean_e1(r, h, a1, a3) - mean_e1(r, -h, a1, a3)) / (2 * h);
+    EXPECT_NEAR(response - 1, a1 + 2 * a3 * r * r - a3 * r * r * r * r, 1e-8) << r;
+    // Without the bias the response is exactly 1: the ring mean of e' is g.
+    EXPECT_NEAR((mean_e1(r, h, 0, 0) - mean_e1(r, -h, 0, 0)) / (2 * h), 1.0, 1e-8) << r;
   }
 }
 
