@@ -441,7 +441,7 @@ int run_apply(int argc, char** argv) {
     std::vector<double> e1c, e2c, m, c1, c2;
     long long rows = 0, nan_rows = 0;
     double sum_m = 0;
-    for_chunks(out, names, [&](long long first, const std::vector<std::vector<double>>& c) {
+    for_chunks(in, names, [&](long long first, const std::vector<std::vector<double>>& c) {
       const std::size_t n = c[0].size();
       for (auto* v : {&e1c, &e2c, &m, &c1, &c2}) v->assign(n, NAN);
       for (std::size_t i = 0; i < n; ++i) {

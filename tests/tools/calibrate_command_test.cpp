@@ -217,6 +217,33 @@ TEST_F(CalibrateCommand, BadInputIsNamed) {
   EXPECT_NE(not_cal.find("science.fits"), std::string::npos) << not_cal;
   EXPECT_NE(not_cal.find("CALIBVER"), std::string::npos) << not_cal;
   EXPECT_FALSE(fs::exists(path("o.fits")));
+  // A catalogue without the columns apply needs: the file and the column are named.
+  {
+    FitsFile f = FitsFile::create(path("bare.fits"), false);
+    f.write_empty_image();
+    f.write_table("RESULTS", {{"id", true, {0, 1}}, {"e1", false, {0.1, 0.2}}, {"e2", false, {0.0, 0.1}}});
+  }
+  {  // a valid calibration file, written directly: flat bias curves over the default grid
+    CalibrationTable t;
+    t.points = CalibrationGrid(t.grid).points();
+    t.biases.resize(t.points.size());
+    for (double r : t.grid.radii)
+      for (double f : t.grid.bulge_fractions)
+        for (int k = 0; k < 4; ++k) {
+          BiasCurve c;
+          c.radius = r;
+          c.bulge_fraction = f;
+          c.axis = k < 2 ? BiasAxis::kE1 : BiasAxis::kE2;
+          c.component = k % 2;
+          c.coefficients = {0.0, 0.02, 0.0, 0.0};
+          t.curves.push_back(c);
+        }
+    io::write_calibration_table(path("cal.fits"), t, false);
+  }
+  const std::string bare = error({"apply", path("bare.fits"), "--calibration", path("cal.fits"), "--per-object", "-o",
+                                  path("o.fits")});
+  EXPECT_NE(bare.find("bare.fits"), std::string::npos) << bare;
+  EXPECT_NE(bare.find("'snr'"), std::string::npos) << bare;
 }
 
 }  // namespace
