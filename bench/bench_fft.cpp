@@ -1,11 +1,14 @@
 // FFT costs on the model grid, per grid size (U1 x (stamp + 2 padding) sub-pixels per side):
 //   BM_ForwardR2C/<n>/<planning>  one n x n r2c transform (FFTW_ESTIMATE vs FFTW_MEASURE); n = 195
 //                                 and 235 are the unpadded sizes, 200 and 240 the FFT-friendly ones
+//   BM_ForwardR2CFloat/<n>/<planning>  the same in single precision (fftwf), including the
+//                                 conversion of the double model image to float that a fit would need
 //   BM_ConvolveFullInverse/<n>    forward, multiply by the PSF kernel, n x n inverse, block average:
 //                                 the paper's order of operations
 //   BM_ConvolveFolded/<n>         forward, then the PSF product, block average and decimation folded
 //                                 into the spectrum and a (n/U1)^2 inverse (FourierDownsampler)
 #include <benchmark/benchmark.h>
+#include <fftw3.h>
 
 #include <cstring>
 #include <string>
@@ -38,6 +41,36 @@ void BM_ForwardR2C(benchmark::State& state) {
 BENCHMARK(BM_ForwardR2C)
     ->ArgNames({"n", "measure"})
     ->ArgsProduct({{195, 200, 235, 240}, {0, 1}})
+    ->Unit(benchmark::kMicrosecond);
+
+void BM_ForwardR2CFloat(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const unsigned flags = (state.range(1) ? FFTW_MEASURE : FFTW_ESTIMATE) | FFTW_DESTROY_INPUT;
+  const std::size_t npix = static_cast<std::size_t>(n) * n;
+  AlignedBuffer source(sizeof(double) * npix), real(sizeof(float) * npix),
+      spectrum(sizeof(fftwf_complex) * static_cast<std::size_t>(n) * (n / 2 + 1));
+  auto* src = static_cast<double*>(source.data());
+  auto* img = static_cast<float*>(real.data());
+  fftwf_plan plan = nullptr;
+  {
+    std::lock_guard<std::mutex> lock(fftw_planner_mutex());
+    plan = fftwf_plan_dft_r2c_2d(n, n, img, static_cast<fftwf_complex*>(spectrum.data()), flags);
+  }
+  for (std::size_t i = 0; i < npix; ++i) src[i] = 1.0 / (1 + static_cast<double>(i % 97));
+  for (auto _ : state) {
+    for (std::size_t i = 0; i < npix; ++i) img[i] = static_cast<float>(src[i]);
+    fftwf_execute(plan);
+    benchmark::DoNotOptimize(spectrum.data());
+  }
+  {
+    std::lock_guard<std::mutex> lock(fftw_planner_mutex());
+    fftwf_destroy_plan(plan);
+  }
+  state.SetItemsProcessed(state.iterations() * n * n);
+}
+BENCHMARK(BM_ForwardR2CFloat)
+    ->ArgNames({"n", "measure"})
+    ->ArgsProduct({{200, 240}, {0, 1}})
     ->Unit(benchmark::kMicrosecond);
 
 // The paper-default geometry for a stamp of side s at U1 = 5, padding 4 (grid 5 * (s + 8) rounded).
