@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "io/fits_file.hpp"
+#include "io/psf_keys.hpp"
 
 namespace stampede::io {
 namespace {
@@ -61,18 +62,7 @@ void write_calibration_table(const std::string& path, const CalibrationTable& t,
   f.write_key("SEED", static_cast<long long>(g.seed & 0x7fffffffffffffffull), "noise seed");
   f.write_key("RADII", join(g.radii), "disc half-light radii r_d of the grid, pixels");
   f.write_key("BFRACS", join(g.bulge_fractions), "bulge flux fractions F of the grid");
-  if (g.psf.type == PsfType::kMoffat) {
-    f.write_key("PSFTYPE", std::string("moffat"), "PSF of the simulations");
-    f.write_key("PSFBETA", g.psf.moffat.beta, "Moffat beta");
-    f.write_key("PSFFWHM", g.psf.moffat.fwhm, "Moffat FWHM, pixels");
-    f.write_key("PSFE1", g.psf.moffat.e1, "PSF e1 (reduced shear)");
-    f.write_key("PSFE2", g.psf.moffat.e2, "PSF e2 (reduced shear)");
-    f.write_key("PSFTRUNC", g.psf.moffat.truncation, "Moffat truncation radius (0 = none)");
-  } else {
-    f.write_key("PSFTYPE", std::string("airy"), "PSF of the simulations");
-    f.write_key("PSFLOD", g.psf.airy.lambda_over_d, "Airy lambda / D, pixels");
-    f.write_key("PSFOBSC", g.psf.airy.obscuration, "Airy central obscuration");
-  }
+  write_psf_keys(f, g.psf);
   for (std::size_t i = 0; i < t.config.size(); ++i) {
     char key[32];
     std::snprintf(key, sizeof key, "CFG%04zu", i + 1);
@@ -126,18 +116,7 @@ CalibrationTable read_calibration_table(const std::string& path) {
   g.seed = static_cast<std::uint64_t>(f.key_long("SEED"));
   g.radii = split(f, "RADII");
   g.bulge_fractions = split(f, "BFRACS");
-  const std::string psf = f.key_string("PSFTYPE");
-  if (psf == "moffat") {
-    g.psf.type = PsfType::kMoffat;
-    g.psf.moffat = {f.key_double("PSFBETA"), f.key_double("PSFFWHM"), f.key_double("PSFE1"), f.key_double("PSFE2"),
-                    f.key_double("PSFTRUNC")};
-  } else if (psf == "airy") {
-    g.psf.type = PsfType::kAiry;
-    g.psf.airy.lambda_over_d = f.key_double("PSFLOD");
-    g.psf.airy.obscuration = f.key_double("PSFOBSC");
-  } else {
-    throw std::runtime_error(f.describe() + ": PSFTYPE '" + psf + "' is not moffat or airy");
-  }
+  g.psf = read_psf_keys(f);
   for (int i = 1;; ++i) {
     char key[32];
     std::snprintf(key, sizeof key, "CFG%04d", i);

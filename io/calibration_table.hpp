@@ -3,8 +3,7 @@
 // Layout (FITS):
 //   primary  no data; the grid and the simulations: CALIBVER, SNRREF, NOISESIG, NREAL (noise pairs
 //            per point), ESTEPS, EMAX, STAMPSZ, RRATIO (bulge / disc radius), SEED, RADII and
-//            BFRACS (comma lists), PSFTYPE and the PSF's keys (PSFBETA PSFFWHM PSFE1 PSFE2
-//            PSFTRUNC, or PSFLOD PSFOBSC); the fit configuration of the calibration run as
+//            BFRACS (comma lists), the PSF (io/psf_keys.hpp); the fit configuration of the calibration run as
 //            CFG0001.. = 'key = value', in the order of `stampede fit --help-config`
 //   POINTS   one row per grid point: point radius bulge_fraction axis (0: e along e1, 1: along
 //            e2) e_true bias1 bias1_err bias2 bias2_err pairs_used pairs_failed

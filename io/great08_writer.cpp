@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "io/fits_file.hpp"
+#include "io/psf_keys.hpp"
 
 namespace stampede::io {
 namespace {
@@ -16,17 +17,7 @@ void write_common_keys(FitsFile& f, const Great08SimOptions& o, const SimSet& se
   f.write_key("NOISESIG", o.noise_free ? 0.0 : o.noise_sigma, "sigma of the Gaussian noise added (0 = none)");
   f.write_key("NOISEREF", o.noise_sigma, "sigma used to set fluxes for SNR");
   f.write_key("SNR", o.snr, "sqrt(sum I^2)/NOISEREF per galaxy");
-  if (o.psf.type == PsfType::kMoffat) {
-    f.write_key("PSFTYPE", std::string("moffat"), "PSF profile");
-    f.write_key("PSFFWHM", o.psf.moffat.fwhm, "Moffat FWHM (pixels), round profile");
-    f.write_key("PSFBETA", o.psf.moffat.beta, "Moffat beta");
-    f.write_key("PSFE1", o.psf.moffat.e1, "PSF shape, reduced shear g1=(a-b)/(a+b)");
-    f.write_key("PSFE2", o.psf.moffat.e2, "PSF shape, reduced shear g2");
-    f.write_key("PSFTRUNC", o.psf.moffat.truncation, "Moffat truncation radius (0 = none)");
-  } else {
-    f.write_key("PSFTYPE", std::string("airy"), "PSF profile");
-    f.write_key("PSFLOD", o.psf.airy.lambda_over_d, "Airy lambda/D (pixels), unobscured");
-  }
+  write_psf_keys(f, o.psf);
   f.write_key("PIXSCALE", 1.0, "pixel scale (1 unit = 1 pixel)");
   f.write_key("SIZERAT", o.size_ratio, "Rgp/Rp target (see SIZEDEF)");
   f.write_key("SIZEDEF", std::string("fwhm"), "size measure of round profiles, no pixel");

@@ -1,0 +1,17 @@
+// The PSF of a simulated set or of a calibration as header keywords: PSFTYPE = 'moffat' with
+// PSFBETA PSFFWHM PSFE1 PSFE2 PSFTRUNC, or 'airy' with PSFLOD PSFOBSC. Lengths in pixels,
+// ellipticities as reduced shear (a - b) / (a + b).
+#pragma once
+
+#include "engine/psf.hpp"
+#include "io/fits_file.hpp"
+
+namespace stampede::io {
+
+// Into the current HDU. Analytic PSFs only (an image PSF has no keywords: throws).
+void write_psf_keys(FitsFile& f, const PsfOptions& psf);
+// From the current HDU; without PSFTYPE a Moffat (GalSim's sets), PSFTRUNC and PSFOBSC default to 0.
+// Throws FitsError naming the file and the missing or bad keyword.
+PsfOptions read_psf_keys(FitsFile& f);
+
+}  // namespace stampede::io
