@@ -9,10 +9,13 @@
 #   science-SNR  sim + fit SETS sets of GRID^2 galaxies at S/N = SNR (SNR from SNRS)
 #   deep         sim + fit the deep sample of the same population at S/N 200
 #   build        stampede calibrate build at S/N 20 with the science configuration
-#   apply        stampede calibrate apply to every science set; metrics before and after -> table
+#   apply        stampede calibrate apply (population mode, and per-object mode for comparison) to
+#                every science set; metrics of e, of the population- and of the per-object-calibrated
+#                e -> OUTDIR/results.md
 #
 # Environment (defaults = the issue's experiment): SETS=8 GRID=100 DEEP_GRID=100 SNRS="20 40 10"
 # REALISATIONS=16 (noise pairs per calibration grid point) THREADS=(all cores) STAMPEDE=build/tools/stampede
+# BUILD_ARGS (extra options of calibrate build, e.g. a smaller grid for a dry run)
 #
 # Every science set uses --noise-pairs: objects 4q+2, 4q+3 repeat the ring pair 4q, 4q+1 with the
 # pixel noise negated. Expectations are those of plain GREAT08 sets; the scatter of the set means is
@@ -82,24 +85,28 @@ build() {
   local resume=()
   [[ -f "$out/calibration.fits.partial" ]] && resume=(--resume)
   "$STAMPEDE" calibrate build -o "$out/calibration.fits" --config "$out/run.ini" --snr 20 \
-    --realisations "$REALISATIONS" "${threads[@]}" "${resume[@]}"
+    --realisations "$REALISATIONS" "${threads[@]}" "${resume[@]}" ${BUILD_ARGS:-}
 }
 
 apply() {
   local table="$out/results.md"
   : > "$table.tmp"
   for snr in $SNRS; do
-    local dir="$out/snr$snr" fits=() cal=()
+    local dir="$out/snr$snr" fits=() cal=() obj=()
     for set in "$dir"/set_*.fits; do
       local k=${set##*/set_}; k=${k%.fits}
       "$STAMPEDE" calibrate apply "$dir/fit_$k.fits" --deep "$out/deep/fit_0.fits" --calibration "$out/calibration.fits" \
-        -o "$dir/cal_$k.fits" --overwrite
+        -o "$dir/cal_$k.fits" --overwrite --quiet
+      "$STAMPEDE" calibrate apply "$dir/fit_$k.fits" --per-object --calibration "$out/calibration.fits" \
+        -o "$dir/obj_$k.fits" --overwrite --quiet
       fits+=(--fit "$dir/fit_$k.fits" --truth "$dir/truth_$k.fits")
       cal+=(--fit "$dir/cal_$k.fits" --truth "$dir/truth_$k.fits")
+      obj+=(--fit "$dir/obj_$k.fits" --truth "$dir/truth_$k.fits")
     done
     "$STAMPEDE" metrics "${fits[@]}" --json "$dir/metrics_uncalibrated.json" > "$dir/metrics_uncalibrated.txt"
     "$STAMPEDE" metrics "${cal[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_calibrated.json" > "$dir/metrics_calibrated.txt"
-    echo "$snr $dir/metrics_uncalibrated.json $dir/metrics_calibrated.json" >> "$table.tmp"
+    "$STAMPEDE" metrics "${obj[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_per_object.json" > "$dir/metrics_per_object.txt"
+    echo "$snr $dir/metrics_uncalibrated.json $dir/metrics_calibrated.json $dir/metrics_per_object.json" >> "$table.tmp"
   done
   /usr/bin/env python3 "$(dirname "$0")/table.py" "$table.tmp" > "$table"
   rm -f "$table.tmp"

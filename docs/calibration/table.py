@@ -2,7 +2,7 @@
 """Markdown table of the calibration experiment from `stampede metrics --json` outputs.
 
 usage: table.py LIST
-LIST: lines 'SNR uncalibrated.json calibrated.json' (written by run_experiment.sh).
+LIST: lines 'SNR uncalibrated.json calibrated.json [per_object.json]' (run_experiment.sh).
 """
 import json
 import sys
@@ -36,12 +36,14 @@ def main():
     print("| S/N, catalogue | sets x galaxies | m | m1 | m2 | c1 | c2 | c+ (PSF frame) | Q | used / excluded |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     notes = []
-    for snr, unc, cal in lines:
+    for snr, unc, cal, *rest in lines:
         du, dc = json.load(open(unc)), json.load(open(cal))
         ru, mu = row(f"{snr}, uncalibrated", du)
-        rc, mc = row(f"{snr}, calibrated", dc)
+        rc, mc = row(f"{snr}, calibrated (population)", dc)
         print(ru)
         print(rc)
+        if rest:
+            print(row(f"{snr}, calibrated per object", json.load(open(rest[0])))[0])
         notes.append(f"S/N {snr}: |m| reduced {abs(mu) / max(abs(mc), 1e-12):.1f}x"
                      + (f" (paper: {PAPER[snr]})" if snr in PAPER else ""))
     print()
