@@ -108,7 +108,15 @@ apply() {
     "$STAMPEDE" metrics "${obj[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_per_object.json" > "$dir/metrics_per_object.txt"
     echo "$snr $dir/metrics_uncalibrated.json $dir/metrics_calibrated.json $dir/metrics_per_object.json" >> "$table.tmp"
   done
-  /usr/bin/env python3 "$(dirname "$0")/table.py" "$table.tmp" > "$table"
+  local dirs=()
+  for snr in $SNRS; do dirs+=("$out/snr$snr"); done
+  {
+    /usr/bin/env python3 "$(dirname "$0")/table.py" "$table.tmp"
+    echo
+    echo "Per-galaxy bias against the truth (galaxy_bias.py):"
+    echo
+    /usr/bin/env python3 "$(dirname "$0")/galaxy_bias.py" "${dirs[@]}"
+  } > "$table"
   rm -f "$table.tmp"
   cat "$table"
 }
