@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "engine/random_stream.hpp"
 #include "kernels/polynomial_fit.hpp"
 
 namespace stampede {
@@ -127,6 +128,37 @@ void PopulationBias::add(const GalaxyProperties& galaxy) {
 Bias PopulationBias::mean() const {
   if (n_ == 0) return {NAN, NAN, NAN};
   return {sum_m_ / n_, sum_c1_ / n_, sum_c2_ / n_};
+}
+
+Bias population_bias_error(const CalibrationTable& table, const std::vector<GalaxyProperties>& sample, int resamples,
+                           std::uint64_t seed) {
+  if (sample.empty() || resamples < 2) return {NAN, NAN, NAN};
+  double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
+  CalibrationTable redrawn = table;
+  for (int k = 0; k < resamples; ++k) {
+    RandomStream rng({seed, static_cast<std::uint64_t>(k)});
+    for (std::size_t i = 0; i < table.biases.size(); ++i)
+      for (int c = 0; c < 2; ++c) {
+        const PointBias& b = table.biases[i];
+        redrawn.biases[i].bias[c] = std::isfinite(b.error[c]) ? b.bias[c] + b.error[c] * rng.normal() : b.bias[c];
+      }
+    redrawn.curves = fit_bias_curves(redrawn.grid, redrawn.points, redrawn.biases);
+    const NoiseBiasModel model(redrawn);
+    PopulationBias pop(model);
+    for (const GalaxyProperties& g : sample) pop.add(g);
+    const Bias mean = pop.mean();
+    const double v[3] = {mean.m, mean.c1, mean.c2};
+    for (int j = 0; j < 3; ++j) {
+      s[j] += v[j];
+      s2[j] += v[j] * v[j];
+    }
+  }
+  double sd[3];
+  for (int j = 0; j < 3; ++j) {
+    const double mean = s[j] / resamples;
+    sd[j] = std::sqrt(std::max(0.0, (s2[j] / resamples - mean * mean) * resamples / (resamples - 1)));
+  }
+  return {sd[0], sd[1], sd[2]};
 }
 
 Bias object_correction(const Bias& bias, double snr_ref, std::complex<double> psf_e0, double snr,

@@ -29,6 +29,7 @@
 
 #include <array>
 #include <complex>
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -106,6 +107,13 @@ class PopulationBias {
   long long n_ = 0, clamped_ = 0;
   double sum_m_ = 0, sum_c1_ = 0, sum_c2_ = 0;
 };
+
+// The calibration's statistical error on a population mean: the point biases are redrawn
+// `resamples` times from N(bias, error), the cubics refitted and the model rebuilt, and the
+// standard deviation of the sample's mean m and c over the redraws returned (a parametric bootstrap
+// that keeps the covariance of each cubic's coefficients). Deterministic for a seed.
+Bias population_bias_error(const CalibrationTable& table, const std::vector<GalaxyProperties>& sample, int resamples,
+                           std::uint64_t seed);
 
 // The correction for one object: `bias` (at S/N_ref, calibration PSF frame) scaled by
 // (snr_ref / snr)^2 and c turned to the object's PSF (psf_e NaN: the calibration PSF assumed).

@@ -317,7 +317,8 @@ void print_apply_help() {
       "  --calibration CAL  the output of `stampede calibrate build` (same fit configuration)\n"
       "  --deep DEEP.fits   population mode (default): a `stampede fit` catalogue of a deep (high S/N)\n"
       "                     sample of the same population; m_hat and c_hat are the means of the\n"
-      "                     calibration's m(r_d, F, |e|) and c over its usable rows\n"
+      "                     calibration's m(r_d, F, |e|) and c over its usable rows, with their\n"
+      "                     errors from the calibration's point errors (parametric bootstrap)\n"
       "  --per-object       m and c from each row's own noisy r_d, F and |e| (Kacprzak et al. 2012).\n"
       "                     Biased: the noisy properties carry noise bias themselves (bias on bias;\n"
       "                     im3shape section 5.3 found m = 3e-2 left on GREAT08). For comparison only.\n"
@@ -402,12 +403,15 @@ int run_apply(int argc, char** argv) {
     }
   }
 
-  Bias population{NAN, NAN, NAN};
+  Bias population{NAN, NAN, NAN}, population_error{NAN, NAN, NAN};
   long long deep_used = 0, deep_clamped = 0, deep_rows = 0;
   if (!per_object) {
     io::FitsFile d = io::FitsFile::open_read(deep);
     d.move_to("RESULTS");
     PopulationBias pop(model);
+    // A subsample (every stride-th row, at most ~20000) for the bootstrap of the calibration error.
+    const long long stride = std::max(1LL, (d.table_rows() + 19999) / 20000);
+    std::vector<GalaxyProperties> sample;
     for_chunks(d, {"radius", "bulge_flux", "disc_flux", "e1", "e2", "status", "flags"},
                [&](long long, const std::vector<std::vector<double>>& c) {
                  for (std::size_t i = 0; i < c[0].size(); ++i) {
@@ -416,11 +420,14 @@ int run_apply(int argc, char** argv) {
                                          static_cast<std::uint32_t>(c[6][i])))
                      continue;
                    const GalaxyProperties p = properties(c[0][i], c[1][i], c[2][i], c[3][i], c[4][i]);
-                   if (finite(p)) pop.add(p);
+                   if (!finite(p)) continue;
+                   if (pop.count() % stride == 0) sample.push_back(p);
+                   pop.add(p);
                  }
                });
     if (pop.count() == 0) throw std::runtime_error(d.describe() + ": no usable rows for the population");
     population = pop.mean();
+    population_error = population_bias_error(table, sample, 200, 1);
     deep_used = pop.count();
     deep_clamped = pop.clamped();
   }
@@ -478,14 +485,18 @@ int run_apply(int argc, char** argv) {
       out.write_key("NBCM", population.m, "population m at NBCSNREF");
       out.write_key("NBCC1", population.c1, "population c1 at NBCSNREF, calibration PSF frame");
       out.write_key("NBCC2", population.c2, "population c2 at NBCSNREF, calibration PSF frame");
+      out.write_key("NBCMERR", population_error.m, "error of NBCM from the calibration's point errors");
+      out.write_key("NBCC1ERR", population_error.c1, "error of NBCC1 from the calibration's point errors");
+      out.write_key("NBCC2ERR", population_error.c2, "error of NBCC2 from the calibration's point errors");
     }
     out.close();
     if (!quiet) {
       if (!per_object)
         std::fprintf(stderr,
                      "stampede calibrate apply: population from %lld of %lld deep rows (%lld clamped to the grid): "
-                     "m = %+.4e, c = (%+.3e, %+.3e) at S/N %g\n",
-                     deep_used, deep_rows, deep_clamped, population.m, population.c1, population.c2, model.snr_ref());
+                     "m = %+.4e +- %.1e, c = (%+.3e +- %.1e, %+.3e +- %.1e) at S/N %g\n",
+                     deep_used, deep_rows, deep_clamped, population.m, population_error.m, population.c1,
+                     population_error.c1, population.c2, population_error.c2, model.snr_ref());
       std::fprintf(stderr, "stampede calibrate apply: %lld rows, %lld without a calibrated e; mean m applied %+.4e; wrote %s\n",
                    rows, nan_rows, sum_m / std::max(1LL, rows - nan_rows), output.c_str());
     }

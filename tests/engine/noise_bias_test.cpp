@@ -172,6 +172,24 @@ TEST(NoiseBias, PopulationMeanIsTheMeanOverTheSample) {
   EXPECT_NEAR(pop.mean().m, m / 4, 1e-15);
 }
 
+// The calibration's error on a population mean is linear in the point errors (everything between
+// the point biases and the mean is linear), and of the size the cubic fits imply.
+TEST(NoiseBias, PopulationErrorScalesWithThePointErrors) {
+  CalibrationTable t = injected_table();
+  const std::vector<GalaxyProperties> sample = {{1.3, 0.2, 0.3}, {2.0, 0.7, 0.1}, {2.8, 0.5, 0.4}};
+  const Bias e1 = population_bias_error(t, sample, 200, 5);
+  for (PointBias& b : t.biases) b.error[0] *= 2, b.error[1] *= 2;
+  const Bias e2 = population_bias_error(t, sample, 200, 5);
+  EXPECT_GT(e1.m, 0.0);
+  EXPECT_NEAR(e2.m, 2 * e1.m, 1e-9 * e1.m);
+  EXPECT_NEAR(e2.c1, 2 * e1.c1, 1e-9 * e1.c1);
+  // Points known to 1e-4 over 9 values of e in [-0.8, 0.8]: a1 to ~1e-4 / (3 x 0.55) x (cubic
+  // inflation ~2), and the mean of two components over a few nodes: m to a few 1e-5.
+  EXPECT_GT(e1.m, 5e-6);
+  EXPECT_LT(e1.m, 2e-4);
+  EXPECT_TRUE(std::isnan(population_bias_error(t, {}, 200, 5).m));
+}
+
 TEST(NoiseBias, ModelRefusesAnIncompleteTable) {
   CalibrationTable t = injected_table();
   t.curves[5].coefficients[2] = NAN;
