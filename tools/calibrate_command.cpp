@@ -53,7 +53,7 @@ void print_build_help() {
       "  --bulge-fractions A,..   bulge flux fractions F (0,0.5,1)\n"
       "  --e-max E --e-steps N    e_true from -E to E in N steps, along e1 and e2 (0.8, 17)\n"
       "  --realisations N         noise pairs per grid point (16); the bias of a point is measured to\n"
-      "                           ~0.03 / sqrt(N) in e at S/N 20 (printed per point at the end)\n"
+      "                           ~0.045 / sqrt(N) in e at S/N 20 (mean error printed at the end)\n"
       "  --seed S                 noise seed (11)\n"
       "  --threads N              worker threads (default: all cores); results identical for any N\n"
       "  --resume                 continue an interrupted build from its last completed grid point\n"
