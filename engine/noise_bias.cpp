@@ -112,6 +112,14 @@ Bias NoiseBiasModel::at(const GalaxyProperties& galaxy, bool* clamped) const {
   b.m = 0.5 * (slope(BiasAxis::kE1, 0) + slope(BiasAxis::kE2, 1));
   b.c1 = 0.5 * (even(BiasAxis::kE1, 0) + even(BiasAxis::kE2, 0));
   b.c2 = 0.5 * (even(BiasAxis::kE1, 1) + even(BiasAxis::kE2, 1));
+  // By symmetry the additive bias lies along the PSF: keep that component (appendix C's scalar
+  // c_hat) and drop the cross one, which is noise.
+  if (std::abs(psf_e0_) > 1e-12) {
+    const std::complex<double> axis = psf_e0_ / std::abs(psf_e0_);
+    const std::complex<double> along = std::real(std::complex<double>(b.c1, b.c2) * std::conj(axis)) * axis;
+    b.c1 = along.real();
+    b.c2 = along.imag();
+  }
   return b;
 }
 

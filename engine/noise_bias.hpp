@@ -15,6 +15,9 @@
 // The even parts, a0 + a2 r^2, are the additive bias; averaging b_1 over the four orientations the
 // grid samples (along +-e1 from b_11, along +-e2 from b_21) gives c1(r), and c2(r) likewise from
 // b_12 and b_22. m is the mean of the two components' values (they differ only through the PSF).
+// A PSF of ellipticity e0 leaves the problem symmetric under the reflection that keeps e0, so the
+// mean additive bias lies along e0: c is projected on it (appendix C's scalar c_hat), the cross
+// component, pure noise, dropped. A round calibration PSF gives no direction: c is kept whole.
 //
 // Interpolation. The 16 coefficients (2 axes x 2 components x a0..a3) are interpolated together
 // over (ln r_d, F) by a Gaussian RBF with a linear term (kernels/rbf_interpolator), widths 0.9 in

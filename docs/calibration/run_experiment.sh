@@ -16,6 +16,7 @@
 # Environment (defaults = the issue's experiment): SETS=8 GRID=100 DEEP_GRID=100 SNRS="20 40 10"
 # REALISATIONS=16 (noise pairs per calibration grid point) THREADS=(all cores) STAMPEDE=build/tools/stampede
 # BUILD_ARGS (extra options of calibrate build, e.g. a smaller grid for a dry run)
+# PYTHON=python3 (with numpy and astropy, for the tables)
 #
 # Every science set uses --noise-pairs: objects 4q+2, 4q+3 repeat the ring pair 4q, 4q+1 with the
 # pixel noise negated. Expectations are those of plain GREAT08 sets; the scatter of the set means is
@@ -111,11 +112,11 @@ apply() {
   local dirs=()
   for snr in $SNRS; do dirs+=("$out/snr$snr"); done
   {
-    /usr/bin/env python3 "$(dirname "$0")/table.py" "$table.tmp"
+    "${PYTHON:-python3}" "$(dirname "$0")/table.py" "$table.tmp"
     echo
     echo "Per-galaxy bias against the truth (galaxy_bias.py):"
     echo
-    /usr/bin/env python3 "$(dirname "$0")/galaxy_bias.py" "${dirs[@]}"
+    "${PYTHON:-python3}" "$(dirname "$0")/galaxy_bias.py" "${dirs[@]}"
   } > "$table"
   rm -f "$table.tmp"
   cat "$table"
