@@ -1,10 +1,12 @@
 // Command-line helpers shared by the sub-commands.
 #pragma once
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace stampede::tools {
 
@@ -43,6 +45,23 @@ inline long long integer_in(int argc, char** argv, int* i, long long lo, long lo
     throw std::invalid_argument("option " + option + ": " + std::to_string(v) + " is outside [" + std::to_string(lo) +
                                 ", " + std::to_string(hi) + "]");
   return v;
+}
+
+// A comma-separated list of finite numbers ("1,2.5,5"); the error names the option and the text.
+inline std::vector<double> number_list(const std::string& option, const std::string& text) {
+  std::vector<double> out;
+  std::size_t begin = 0;
+  for (;;) {
+    const std::size_t end = std::min(text.find(',', begin), text.size());
+    double v = 0;
+    const char* first = text.data() + begin + (end > begin && text[begin] == '+');
+    const auto [ptr, ec] = std::from_chars(first, text.data() + end, v);
+    if (end == begin || ec != std::errc() || ptr != text.data() + end || !std::isfinite(v))
+      throw std::invalid_argument("option " + option + ": '" + text + "' is not a comma-separated list of numbers");
+    out.push_back(v);
+    if (end == text.size()) return out;
+    begin = end + 1;
+  }
 }
 
 }  // namespace stampede::tools

@@ -25,6 +25,7 @@
 #include "io/run_config.hpp"
 #include "tools/arguments.hpp"
 #include "tools/psf_setup.hpp"
+#include "tools/run_fingerprint.hpp"
 
 namespace {
 
@@ -61,32 +62,6 @@ void print_build_help() {
       "  --resume                 continue an interrupted build from its last completed grid point\n"
       "  --overwrite              replace an existing CAL.fits\n"
       "  --quiet                  no progress or summary on stderr\n");
-}
-
-std::vector<double> number_list(const std::string& option, const std::string& text) {
-  std::vector<double> out;
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    std::size_t used = 0;
-    double v = 0;
-    try {
-      v = std::stod(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (item.empty() || used != item.size() || !std::isfinite(v))
-      throw std::invalid_argument("option " + option + ": '" + text + "' is not a comma-separated list of numbers");
-    out.push_back(v);
-  }
-  if (out.empty()) throw std::invalid_argument("option " + option + ": empty list");
-  return out;
-}
-
-std::uint64_t fnv1a(const std::string& s) {
-  std::uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
-  return h;
 }
 
 // The build's progress file: a header line naming the run, then one line per completed point.
@@ -175,8 +150,8 @@ int run_build(int argc, char** argv) {
     else if (a == "--config") config = tools::option_value(argc, argv, &i);
     else if (a == "--set") sets.push_back(tools::option_value(argc, argv, &i));
     else if (a == "--snr") g.snr = tools::number_value(argc, argv, &i);
-    else if (a == "--radii") g.radii = number_list(a, tools::option_value(argc, argv, &i));
-    else if (a == "--bulge-fractions") g.bulge_fractions = number_list(a, tools::option_value(argc, argv, &i));
+    else if (a == "--radii") g.radii = tools::number_list(a, tools::option_value(argc, argv, &i));
+    else if (a == "--bulge-fractions") g.bulge_fractions = tools::number_list(a, tools::option_value(argc, argv, &i));
     else if (a == "--e-max") g.e_max = tools::number_value(argc, argv, &i);
     else if (a == "--e-steps") g.e_steps = static_cast<int>(tools::integer_in(argc, argv, &i, 4, 201));
     else if (a == "--realisations") g.realisations = static_cast<int>(tools::integer_in(argc, argv, &i, 2, 1000000));
@@ -226,10 +201,9 @@ int run_build(int argc, char** argv) {
                 static_cast<unsigned long long>(g.seed));
   identity += buf;
   for (const auto& [k, v] : table.config) identity += k + "=" + v + "\n";
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(fnv1a(identity)));
 
   const int n_points = static_cast<int>(grid.points().size());
-  BuildCheckpoint checkpoint(output + ".partial", buf, resume, n_points);
+  BuildCheckpoint checkpoint(output + ".partial", tools::run_fingerprint(identity), resume, n_points);
   const int first_point = static_cast<int>(checkpoint.done().size());
   const bool show_progress = !quiet && isatty(fileno(stderr));
   if (!quiet)
@@ -437,8 +411,8 @@ int run_apply(int argc, char** argv) {
   const std::string partial = output + ".partial";
   {
     io::FitsFile out = io::FitsFile::create(partial, true);
-    io::FitsFile whole = io::FitsFile::open_read(science);
-    whole.copy_all_hdus_to(out);
+    in.copy_all_hdus_to(out);
+    in.move_to("RESULTS");  // the copy walks the input's HDUs
     out.move_to("RESULTS");
     out.add_column("e1_cal", "noise-bias calibrated e1: (e1 - nbc_c1) / (1 + nbc_m)");
     out.add_column("e2_cal", "noise-bias calibrated e2: (e2 - nbc_c2) / (1 + nbc_m)");

@@ -2,6 +2,7 @@
 #include "tools/arguments.hpp"
 #include "tools/fit_command.hpp"
 #include "tools/psf_setup.hpp"
+#include "tools/run_fingerprint.hpp"
 
 #include <unistd.h>
 
@@ -63,10 +64,6 @@ struct Args {
   bool resume = false, quiet = false;
 };
 
-std::uint64_t fnv1a(const std::string& s, std::uint64_t h = 1469598103934665603ull) {
-  for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
-  return h;
-}
 
 // The output sink: appends each batch to the catalogue writer, counts statuses, and saves the
 // data, best-fit model and residual of the objects named by save_images (re-rendered here from the
@@ -140,14 +137,7 @@ int run_fit_command(int argc, char** argv) {
     } else if (s == "--set") {
       a.sets.push_back(value());
     } else if (s == "--threads") {
-      const std::string v = value();
-      std::size_t used = 0;
-      try {
-        a.threads = std::stoi(v, &used);
-      } catch (...) {
-        used = 0;
-      }
-      if (used != v.size() || a.threads < 1) throw std::invalid_argument("--threads '" + v + "': must be an integer >= 1");
+      a.threads = static_cast<int>(tools::integer_in(argc, argv, &i, 1, 4096));
     } else if (s == "--catalog") {
       a.catalog = value();
     } else if (s == "--weight") {
@@ -223,9 +213,7 @@ int run_fit_command(int argc, char** argv) {
   if (!a.weight.empty()) wo.header.emplace_back("WEIGHTS", a.weight);
   std::string identity = a.input + "\n" + a.catalog + "\n" + a.weight + "\n";
   for (const auto& [k, v] : wo.header) identity += k + "=" + v + "\n";
-  char fp[17];
-  std::snprintf(fp, sizeof fp, "%016llx", static_cast<unsigned long long>(fnv1a(identity)));
-  wo.fingerprint = fp;
+  wo.fingerprint = tools::run_fingerprint(identity);
   std::unique_ptr<io::CatalogWriter> writer;
   long long done_before = 0;
   if (a.resume) {

@@ -60,9 +60,8 @@ SetShear read_set(const std::string& fit_path, const std::string& truth_path, co
     if (id[i] != index[i])
       throw std::runtime_error(fit.describe() + ": row " + std::to_string(i) + " is object " + std::to_string(id[i]) +
                                " but the truth row is object " + std::to_string(index[i]));
-    usable[i] = status[i] == static_cast<double>(FitStatus::kOk) &&
-                usable_for_shear(FitStatus::kOk, static_cast<std::uint32_t>(flags[i])) && std::isfinite(e1[i]) &&
-                std::isfinite(e2[i]);
+    usable[i] = usable_for_shear(static_cast<FitStatus>(static_cast<int>(status[i])), static_cast<std::uint32_t>(flags[i])) &&
+                std::isfinite(e1[i]) && std::isfinite(e2[i]);
     if (!pair.empty()) pair[i] = static_cast<long long>(pair_col[i]);
   }
   if (!pe1.empty() && std::isfinite(pe1[0])) {

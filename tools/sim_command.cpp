@@ -13,6 +13,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "engine/great08_sim.hpp"
 #include "io/great08_writer.hpp"
@@ -129,17 +130,15 @@ int run_sim_command(int argc, char** argv) {
     } else if (a == "--size") o.size_ratio = number_value(argc, argv, &i);
     else if (a == "--bulge-fraction") {
       const std::string v = tools::option_value(argc, argv, &i);
-      const auto comma = v.find(',');
+      std::vector<double> range;
       try {
-        std::size_t used = 0;
-        if (comma == std::string::npos) throw std::invalid_argument("");
-        o.bulge_fraction_min = std::stod(v.substr(0, comma), &used);
-        if (used != comma) throw std::invalid_argument("");
-        o.bulge_fraction_max = std::stod(v.substr(comma + 1), &used);
-        if (used != v.size() - comma - 1) throw std::invalid_argument("");
-      } catch (const std::exception&) {
-        throw std::invalid_argument("option --bulge-fraction: '" + v + "' is not MIN,MAX");
+        range = tools::number_list(a, v);
+      } catch (const std::invalid_argument&) {
+        // reported below, in this option's own terms
       }
+      if (range.size() != 2) throw std::invalid_argument("option --bulge-fraction: '" + v + "' is not MIN,MAX");
+      o.bulge_fraction_min = range[0];
+      o.bulge_fraction_max = range[1];
     } else if (a == "--bd-radius-ratio") o.bd_radius_ratio = number_value(argc, argv, &i);
     else if (a == "--bd-misalignment") o.bd_misalignment_deg = number_value(argc, argv, &i);
     else if (a == "--bd-offset") o.bd_offset = number_value(argc, argv, &i);
