@@ -11,6 +11,8 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <type_traits>
 
 #include "kernels/profile_render.hpp"
 
@@ -28,6 +30,8 @@ struct Lanes {  // the scalar reference
   static T exp(T x) { return std::exp(x); }
   static T sqrt(T x) { return std::sqrt(x); }
   static T pow(T x, double y) { return std::pow(x, y); }
+  static constexpr bool kEstimatedRsqrt = false;
+  static T rsqrt(T x) { return 1.0 / std::sqrt(x); }
   static double sum(T x) { return x; }
 };
 
@@ -44,22 +48,104 @@ struct Lanes<xsimd::batch<double, A>> {
   }
   static B select(xsimd::batch_bool<double, A> c, B a, B b) { return xsimd::select(c, a, b); }
   static B max(B a, B b) { return xsimd::max(a, b); }
-  static B exp(B x) { return xsimd::exp(x); }
+  // SSE4.2 has no FMA: xsimd's fma there is a multiply and an add, rounded twice.
+  static constexpr bool kFusedMultiplyAdd = !std::is_same_v<A, xsimd::sse4_2>;
+  // exp(x) for x <= 0 (the profiles' exp(-b t)) without division (xsimd's exp is a rational
+  // approximation, and vector division is no faster per element than scalar): x = k ln2 + r,
+  // |r| <= ln2/2, e^r by its degree-12 Taylor polynomial (truncation < 2e-16 relative), 2^k added
+  // to the exponent bits. One-step reduction: ln2's rounding error shifts r by k 2.3e-17, a
+  // relative error that matters only where e^x is far below the image's peak (with FMA). Below -708.3 it
+  // returns e^-708.3 (2e-308) where libm returns a subnormal or 0.
+  static B exp(B x) {
+    using I = xsimd::batch<std::int64_t, A>;
+    const B shift(0x1.8p52);  // adding it rounds to an integer held in the low mantissa bits
+    const B xc = xsimd::max(x, B(-708.3));
+    const B kd = xsimd::fma(xc, B(1.4426950408889634), shift);
+    const B k = kd - shift;
+    B r;
+    if constexpr (kFusedMultiplyAdd) {
+      r = xsimd::fnma(k, B(0.6931471805599453), xc);
+    } else {  // Cody-Waite: k ln2_hi is exact, so unfused rounding stays at 1 ulp of r
+      r = xsimd::fnma(k, B(1.42860682030941723212e-6), xsimd::fnma(k, B(6.93145751953125e-1), xc));
+    }
+    // Estrin's scheme: a dependency chain of 5 FMAs instead of Horner's 12.
+    const B r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
+    auto pair = [&](double c0, double c1) { return xsimd::fma(r, B(c1), B(c0)); };  // c0 + c1 r
+    const B p01 = pair(1.0, 1.0), p23 = pair(1.0 / 2, 1.0 / 6), p45 = pair(1.0 / 24, 1.0 / 120),
+            p67 = pair(1.0 / 720, 1.0 / 5040), p89 = pair(1.0 / 40320, 1.0 / 362880),
+            p1011 = pair(1.0 / 3628800, 1.0 / 39916800);
+    const B p03 = xsimd::fma(r2, p23, p01), p47 = xsimd::fma(r2, p67, p45),
+            p811 = xsimd::fma(r2, p1011, p89);
+    const B p812 = xsimd::fma(r4, B(1.0 / 479001600), p811);
+    const B p = xsimd::fma(r8, p812, xsimd::fma(r4, p47, p03));
+    const I scaled = xsimd::bitwise_cast<I>(p) + (xsimd::bitwise_cast<I>(kd) << 52);
+    return xsimd::bitwise_cast<B>(scaled);
+  }
   static B sqrt(B x) { return xsimd::sqrt(x); }
   static B pow(B x, double y) { return xsimd::pow(x, B(y)); }
+  // Whether roots go through rsqrt below rather than sqrt and division: only where the hardware
+  // gives an estimate to refine (measured: the bit-trick seed loses to vsqrtpd on AVX2 and SSE).
+  static constexpr bool kEstimatedRsqrt = std::is_same_v<A, xsimd::avx512f>;
+  // 1/sqrt(x) for x > 0 without a square root or division: a hardware estimate (AVX-512F, error
+  // < 2^-14) refined by one step of the series y (1 - e)^-1/2 with e = 1 - x y^2, to e^3
+  // (truncation ~6e-17); elsewhere the exponent-halving bit trick (3.4 %) and four Newton steps.
+  static B rsqrt(B x) {
+    using I = xsimd::batch<std::int64_t, A>;
+    if constexpr (std::is_same_v<A, xsimd::avx512f>) {
+      const B y = B(_mm512_rsqrt14_pd(x));
+      const B e = xsimd::fnma(x, y * y, B(1.0));
+      const B series = xsimd::fma(e, xsimd::fma(e, B(5.0 / 16), B(3.0 / 8)), B(0.5));
+      return xsimd::fma(y * e, series, y);
+    } else {
+      B y = xsimd::bitwise_cast<B>(I(0x5fe6eb50c7b537a9LL) - (xsimd::bitwise_cast<I>(x) >> 1));
+      const B half_x = B(0.5) * x;
+      for (int i = 0; i < 4; ++i) y = xsimd::fma(y, xsimd::fnma(half_x * y, y, B(0.5)), y);
+      return y;
+    }
+  }
+  // x^-1/8 for x > 0 (AVX-512F only): three chained 14-bit estimates (error < 2^-13), then one
+  // step of the series y (1 - e)^-1/8 with e = 1 - x y^8, to e^4 (truncation ~1e-17).
+  static B inverse_eighth_root(B x) {
+    B y = B(_mm512_rsqrt14_pd(_mm512_rsqrt14_pd(_mm512_rsqrt14_pd(x))));
+    const B y2 = y * y, y4 = y2 * y2;
+    const B e = xsimd::fnma(x, y4 * y4, B(1.0));
+    const B series =
+        e * xsimd::fma(e, xsimd::fma(e, xsimd::fma(e, B(663.0 / 32768), B(51.0 / 1024)), B(9.0 / 128)), B(1.0 / 8));
+    return xsimd::fma(y, series, y);
+  }
   static double sum(B x) { return xsimd::hadd(x); }
 };
 
+// t = u^(1/2n) and t / u (the gradient's factor) for u > 0. The scalar reference takes square roots and
+// divides; vectors chain reciprocal square roots instead (u^-1/2, u^-1/4, u^-1/8), since vector
+// sqrt and div run no faster per element than scalar ones.
+template <class T, SersicRoot R>
+struct Root {
+  T t, t_over_u;
+};
+
+template <class T, SersicRoot R>
+inline Root<T, R> root_and_ratio(T u, double inv_2n) {
+  using L = Lanes<T>;
+  if constexpr (R == SersicRoot::kGeneralPow) {
+    const T t = L::pow(u, inv_2n);
+    return {t, t / u};
+  } else if constexpr (!Lanes<T>::kEstimatedRsqrt) {
+    const T t = R == SersicRoot::kSquareRoot ? L::sqrt(u) : L::sqrt(L::sqrt(L::sqrt(u)));  // no pow for n = 4
+    return {t, t / u};
+  } else if constexpr (R == SersicRoot::kSquareRoot) {
+    const T a = L::rsqrt(u);  // u^-1/2
+    return {u * a, a};
+  } else {
+    const T c = L::inverse_eighth_root(u);  // u^-1/8
+    const T c2 = c * c, c7 = c2 * c2 * c2 * c;
+    return {u * c7, c7};
+  }
+}
+
 template <class T, SersicRoot R>
 inline T root_of(T u, double inv_2n) {
-  using L = Lanes<T>;
-  if constexpr (R == SersicRoot::kSquareRoot) {
-    return L::sqrt(u);
-  } else if constexpr (R == SersicRoot::kEighthRoot) {
-    return L::sqrt(L::sqrt(L::sqrt(u)));  // no pow for n = 4
-  } else {
-    return L::pow(u, inv_2n);
-  }
+  return root_and_ratio<T, R>(u, inv_2n).t;
 }
 
 struct SuperOffsets {
@@ -70,13 +156,18 @@ struct SuperOffsets {
   }
 };
 
+// The floor applied to u: u_floor, and never 0, where the gradient's t / u is singular (a point
+// exactly at the centre with no floor: u = 1e-300 gives the value 1 and gradient terms that vanish
+// with dx, dy and u).
+inline double positive_floor(const SersicBlock& block) { return std::max(block.u_floor, 1e-300); }
+
 // The profile at offsets (dx, dy) from the centre (one per lane).
 template <class T, SersicRoot R>
 inline T value_at(T dx, T dy, const SersicBlock& block) {
   using L = Lanes<T>;
   const EllipseQuadratic q = block.q;
   const T u = (T(q.xx) * dx + T(2.0 * q.xy) * dy) * dx + T(q.yy) * dy * dy;
-  return L::exp(T(-block.b) * root_of<T, R>(L::max(u, T(block.u_floor)), block.inv_2n));
+  return L::exp(T(-block.b) * root_of<T, R>(L::max(u, T(positive_floor(block))), block.inv_2n));
 }
 
 // Sub-pixels [i, i + lanes) of row j: value sum over the supersampling points.
@@ -95,33 +186,50 @@ struct DerivativeSums {
   T v = T(0.0), sx = T(0.0), sy = T(0.0), s1 = T(0.0), s2 = T(0.0), sr = T(0.0);
 };
 
-// Adds the value and gradient terms at offsets (dx, dy) from the centre (one per lane).
+// The derivative block with the per-sub-pixel mean and the constant factors of the gradient
+// folded into its coefficients once per call, so each point's terms come out final.
+struct DerivativeForms {
+  SersicBlock shape;
+  double g_scale;            // d value / du = g_scale value t / u (amplitude, -b, 1/2n and the mean)
+  double x0_x, x0_y, y0_y;   // du/dx0 = x0_x dx + x0_y dy, du/dy0 = x0_y dx + y0_y dy
+  EllipseQuadratic e1, e2;   // du/de1, du/de2 as quadratic forms
+  double r;                  // du/dr / u
+  double mean;               // 1 / points per sub-pixel
+  DerivativeForms(const SersicDerivativeBlock& block, int supersample) : shape(block.shape) {
+    mean = 1.0 / (supersample * supersample);
+    g_scale = -block.amplitude * shape.b * shape.inv_2n * mean;
+    const EllipseQuadratic& q = shape.q;
+    x0_x = -2.0 * q.xx;
+    x0_y = -2.0 * q.xy;
+    y0_y = -2.0 * q.yy;
+    e1 = block.dq_de1;
+    e2 = block.dq_de2;
+    r = block.du_dr_over_u;
+  }
+};
+
+// Adds the value and the derivative terms at offsets (dx, dy) from the centre (one per lane).
 template <class T, SersicRoot R>
-inline void add_derivative_terms(T dx, T dy, const SersicDerivativeBlock& block, DerivativeSums<T>& s) {
+inline void add_derivative_terms(T dx, T dy, const DerivativeForms& f, DerivativeSums<T>& s) {
   using L = Lanes<T>;
-  const EllipseQuadratic q = block.shape.q, q1 = block.dq_de1, q2 = block.dq_de2;
-  const double b = block.shape.b, inv_2n = block.shape.inv_2n;
-  const T u_floor(block.shape.u_floor), zero(0.0);
-  // d value / du = -b value (du^(1/2n)/du) = -b value t inv_2n / u; the amplitude folds in here.
-  const T g_scale(-block.amplitude * b * inv_2n);
+  const EllipseQuadratic q = f.shape.q, q1 = f.e1, q2 = f.e2;
   const T u_raw = (T(q.xx) * dx + T(2.0 * q.xy) * dy) * dx + T(q.yy) * dy * dy;
-  const T u = L::max(u_raw, u_floor);
-  const T t = root_of<T, R>(u, inv_2n);
-  const T v = L::exp(T(-b) * t);
-  // The gradient is singular at u = 0 (measure zero): 0 there. Under the floor the value
-  // depends only on r (through u_floor), not on position or shape.
-  const T g = L::select(u > zero, g_scale * v * t / L::max(u, T(1e-300)), zero);
-  const T gs = L::select(u_raw >= u_floor, g, zero);
+  const T u = L::max(u_raw, T(positive_floor(f.shape)));
+  const Root<T, R> root = root_and_ratio<T, R>(u, f.shape.inv_2n);
+  const T v = L::exp(T(-f.shape.b) * root.t);
+  const T g = T(f.g_scale) * v * root.t_over_u;
+  // Under the floor the value depends only on r (through u_floor), not on position or shape.
+  const T gs = L::select(u_raw >= T(f.shape.u_floor), g, T(0.0));
   s.v += v;
-  s.sx += gs * (T(q.xx) * dx + T(q.xy) * dy);
-  s.sy += gs * (T(q.xy) * dx + T(q.yy) * dy);
+  s.sx += gs * (T(f.x0_x) * dx + T(f.x0_y) * dy);
+  s.sy += gs * (T(f.x0_y) * dx + T(f.y0_y) * dy);
   s.s1 += gs * ((T(q1.xx) * dx + T(2.0 * q1.xy) * dy) * dx + T(q1.yy) * dy * dy);
   s.s2 += gs * ((T(q2.xx) * dx + T(2.0 * q2.xy) * dy) * dx + T(q2.yy) * dy * dy);
-  s.sr += g * u;
+  s.sr += g * (u * T(f.r));
 }
 
 template <class T, SersicRoot R>
-inline DerivativeSums<T> derivative_sums(T xc, double yc, const SuperOffsets& off, const SersicDerivativeBlock& block) {
+inline DerivativeSums<T> derivative_sums(T xc, double yc, const SuperOffsets& off, const DerivativeForms& block) {
   DerivativeSums<T> s;
   for (int bb = 0; bb < off.n; ++bb) {
     const T dy(yc + off.d[bb]);
@@ -157,7 +265,7 @@ double point_value_sum(double xc, double yc, const PointOffsets& p, const Sersic
 
 template <class T, SersicRoot R>
 DerivativeSums<double> point_derivative_sums(double xc, double yc, const PointOffsets& p,
-                                             const SersicDerivativeBlock& block) {
+                                             const DerivativeForms& block) {
   using L = Lanes<T>;
   constexpr int W = L::size;
   DerivativeSums<T> acc;
@@ -205,6 +313,17 @@ void accumulate_value_rows(const SubpixelGrid& grid, const GridRegion& region, i
     const double yc = grid.origin + grid.step * j - block.y0;
     double* row = out + static_cast<std::ptrdiff_t>(j) * grid.size;
     int i = region.x_begin;
+    if (off.n == 1) {  // one sample per sub-pixel (all but the central block): two vectors at a time
+      const T dy(yc);
+      for (; i + 2 * W <= region.x_end; i += 2 * W) {
+        // Each vector's offsets computed as in the one-vector loop: identical rounding whatever W.
+        const T xc0 = T(grid.origin + grid.step * i - block.x0) + lane_x;
+        const T xc1 = T(grid.origin + grid.step * (i + W) - block.x0) + lane_x;
+        const T v0 = value_at<T, R>(xc0, dy, block), v1 = value_at<T, R>(xc1, dy, block);
+        L::store(row + i, L::load(row + i) + T(scale) * v0);
+        L::store(row + i + W, L::load(row + i + W) + T(scale) * v1);
+      }
+    }
     for (; i + W <= region.x_end; i += W) {
       const T xc = T(grid.origin + grid.step * i - block.x0) + lane_x;
       L::store(row + i, L::load(row + i) + T(scale) * value_sum<T, R>(xc, yc, off, block));
@@ -223,15 +342,13 @@ void accumulate_derivative_rows(const SubpixelGrid& grid, const GridRegion& regi
   using L = Lanes<T>;
   constexpr int W = L::size;
   const SuperOffsets off(supersample, grid.step);
-  const double mean = 1.0 / (off.n * off.n);
+  const DerivativeForms forms(block, supersample);
   const T lane_x = L::iota() * T(grid.step);
-  // du/dx0 = -2 (xx dx + xy dy), du/dy0 = -2 (xy dx + yy dy).
-  const double cx = -2.0 * mean, cr = block.du_dr_over_u * mean;
   auto emit = [&](auto s, std::ptrdiff_t k) {
     using U = decltype(s.v);
     using M = Lanes<U>;
-    if (value) M::store(value + k, s.v * U(mean));
-    const U terms[kNumShapeDerivatives] = {s.sx * U(cx), s.sy * U(cx), s.s1 * U(mean), s.s2 * U(mean), s.sr * U(cr)};
+    if (value) M::store(value + k, s.v * U(forms.mean));
+    const U terms[kNumShapeDerivatives] = {s.sx, s.sy, s.s1, s.s2, s.sr};
     for (int p = 0; p < kNumShapeDerivatives; ++p)
       M::store(derivative[p] + k, overwrite ? terms[p] : M::load(derivative[p] + k) + terms[p]);
   };
@@ -241,7 +358,7 @@ void accumulate_derivative_rows(const SubpixelGrid& grid, const GridRegion& regi
       const double yc = grid.origin + grid.step * j - block.shape.y0;
       const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(j) * grid.size;
       for (int i = region.x_begin; i < region.x_end; ++i)
-        emit(point_derivative_sums<T, R>(grid.origin + grid.step * i - block.shape.x0, yc, points, block), row + i);
+        emit(point_derivative_sums<T, R>(grid.origin + grid.step * i - block.shape.x0, yc, points, forms), row + i);
     }
     return;
   }
@@ -249,13 +366,25 @@ void accumulate_derivative_rows(const SubpixelGrid& grid, const GridRegion& regi
     const double yc = grid.origin + grid.step * j - block.shape.y0;
     const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(j) * grid.size;
     int i = region.x_begin;
+    if (off.n == 1) {  // one sample per sub-pixel (all but the central block): two vectors at a time
+      const T dy(yc);
+      for (; i + 2 * W <= region.x_end; i += 2 * W) {
+        const T xc0 = T(grid.origin + grid.step * i - block.shape.x0) + lane_x;
+        const T xc1 = T(grid.origin + grid.step * (i + W) - block.shape.x0) + lane_x;
+        DerivativeSums<T> s0, s1;
+        add_derivative_terms<T, R>(xc0, dy, forms, s0);
+        add_derivative_terms<T, R>(xc1, dy, forms, s1);
+        emit(s0, row + i);
+        emit(s1, row + i + W);
+      }
+    }
     for (; i + W <= region.x_end; i += W) {
       const T xc = T(grid.origin + grid.step * i - block.shape.x0) + lane_x;
-      emit(derivative_sums<T, R>(xc, yc, off, block), row + i);
+      emit(derivative_sums<T, R>(xc, yc, off, forms), row + i);
     }
     for (; i < region.x_end; ++i) {
       const double xc = grid.origin + grid.step * i - block.shape.x0;
-      emit(derivative_sums<double, R>(xc, yc, off, block), row + i);
+      emit(derivative_sums<double, R>(xc, yc, off, forms), row + i);
     }
   }
 }
