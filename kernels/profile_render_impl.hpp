@@ -182,8 +182,9 @@ inline T value_sum(T xc, double yc, const SuperOffsets& off, const SersicBlock& 
 }
 
 template <class T>
-struct DerivativeSums {
-  T v = T(0.0), sx = T(0.0), sy = T(0.0), s1 = T(0.0), s2 = T(0.0), sr = T(0.0);
+struct DerivativeSums {  // no member initialisers: arrays of them are left for the kernel to zero
+  T v, sx, sy, s1, s2, sr;
+  static DerivativeSums zero() { return {T(0.0), T(0.0), T(0.0), T(0.0), T(0.0), T(0.0)}; }
 };
 
 // The derivative block with the per-sub-pixel mean and the constant factors of the gradient
@@ -213,7 +214,8 @@ template <class T, SersicRoot R>
 inline void add_derivative_terms(T dx, T dy, const DerivativeForms& f, DerivativeSums<T>& s) {
   using L = Lanes<T>;
   const EllipseQuadratic q = f.shape.q, q1 = f.e1, q2 = f.e2;
-  const T u_raw = (T(q.xx) * dx + T(2.0 * q.xy) * dy) * dx + T(q.yy) * dy * dy;
+  const T xx = dx * dx, xy = dx * dy, yy = dy * dy;  // shared by the three quadratic forms
+  const T u_raw = T(q.xx) * xx + T(2.0 * q.xy) * xy + T(q.yy) * yy;
   const T u = L::max(u_raw, T(positive_floor(f.shape)));
   const Root<T, R> root = root_and_ratio<T, R>(u, f.shape.inv_2n);
   const T v = L::exp(T(-f.shape.b) * root.t);
@@ -223,14 +225,14 @@ inline void add_derivative_terms(T dx, T dy, const DerivativeForms& f, Derivativ
   s.v += v;
   s.sx += gs * (T(f.x0_x) * dx + T(f.x0_y) * dy);
   s.sy += gs * (T(f.x0_y) * dx + T(f.y0_y) * dy);
-  s.s1 += gs * ((T(q1.xx) * dx + T(2.0 * q1.xy) * dy) * dx + T(q1.yy) * dy * dy);
-  s.s2 += gs * ((T(q2.xx) * dx + T(2.0 * q2.xy) * dy) * dx + T(q2.yy) * dy * dy);
+  s.s1 += gs * (T(q1.xx) * xx + T(2.0 * q1.xy) * xy + T(q1.yy) * yy);
+  s.s2 += gs * (T(q2.xx) * xx + T(2.0 * q2.xy) * xy + T(q2.yy) * yy);
   s.sr += g * (u * T(f.r));
 }
 
 template <class T, SersicRoot R>
 inline DerivativeSums<T> derivative_sums(T xc, double yc, const SuperOffsets& off, const DerivativeForms& block) {
-  DerivativeSums<T> s;
+  DerivativeSums<T> s = DerivativeSums<T>::zero();
   for (int bb = 0; bb < off.n; ++bb) {
     const T dy(yc + off.d[bb]);
     for (int a = 0; a < off.n; ++a) add_derivative_terms<T, R>(xc + T(off.d[a]), dy, block, s);
@@ -238,57 +240,63 @@ inline DerivativeSums<T> derivative_sums(T xc, double yc, const SuperOffsets& of
   return s;
 }
 
-// The supersampling points of one sub-pixel as flat offset lists, so that a region narrower than a
-// vector (the N_u x N_u central block) is vectorised over its U2 x U2 points instead.
-struct PointOffsets {
-  std::array<double, 64 * 64> x{}, y{};
-  int count = 0;
-  explicit PointOffsets(const SuperOffsets& off) : count(off.n * off.n) {
-    for (int k = 0; k < count; ++k) {
-      x[static_cast<std::size_t>(k)] = off.d[static_cast<std::size_t>(k % off.n)];
-      y[static_cast<std::size_t>(k)] = off.d[static_cast<std::size_t>(k / off.n)];
-    }
+// A supersampled block (the N_u x N_u central sub-pixels, U2^2 points each): lanes run over
+// sub-pixels, W at a time, each lane summing its own sub-pixel's points in the scalar reference's
+// order, so no lane idles and no horizontal sum is needed. The sub-pixels left over (fewer than W)
+// are vectorised over their points instead.
+constexpr int kMaxBlockSubpixels = 256;
+constexpr int kMaxBlockPoints = 1024;
+
+struct SupersampledBlock {
+  std::array<double, kMaxBlockSubpixels> cx, cy;  // sub-pixel centres relative to the profile centre
+  std::array<double, kMaxBlockPoints> px, py;     // the points' offsets within a sub-pixel
+  int subpixels = 0, points = 0;
+  static bool fits(const GridRegion& region, int supersample) {
+    return supersample > 1 && (region.x_end - region.x_begin) * (region.y_end - region.y_begin) <= kMaxBlockSubpixels &&
+           supersample * supersample <= kMaxBlockPoints;
+  }
+  SupersampledBlock(const SubpixelGrid& grid, const GridRegion& region, const SuperOffsets& off, double x0, double y0) {
+    for (int j = region.y_begin; j < region.y_end; ++j)
+      for (int i = region.x_begin; i < region.x_end; ++i) {
+        cx[static_cast<std::size_t>(subpixels)] = grid.origin + grid.step * i - x0;
+        cy[static_cast<std::size_t>(subpixels++)] = grid.origin + grid.step * j - y0;
+      }
+    for (int bb = 0; bb < off.n; ++bb)
+      for (int a = 0; a < off.n; ++a) {
+        px[static_cast<std::size_t>(points)] = off.d[static_cast<std::size_t>(a)];
+        py[static_cast<std::size_t>(points++)] = off.d[static_cast<std::size_t>(bb)];
+      }
   }
 };
 
 template <class T, SersicRoot R>
-double point_value_sum(double xc, double yc, const PointOffsets& p, const SersicBlock& block) {
+void accumulate_value_block(const SubpixelGrid& grid, const GridRegion& region, const SuperOffsets& off,
+                            const SersicBlock& block, double scale, double* out) {
   using L = Lanes<T>;
   constexpr int W = L::size;
-  T acc(0.0);
-  int k = 0;
-  for (; k + W <= p.count; k += W) acc += value_at<T, R>(T(xc) + L::load(&p.x[k]), T(yc) + L::load(&p.y[k]), block);
-  double sum = L::sum(acc);
-  for (; k < p.count; ++k) sum += value_at<double, R>(xc + p.x[k], yc + p.y[k], block);
-  return sum;
-}
-
-template <class T, SersicRoot R>
-DerivativeSums<double> point_derivative_sums(double xc, double yc, const PointOffsets& p,
-                                             const DerivativeForms& block) {
-  using L = Lanes<T>;
-  constexpr int W = L::size;
-  DerivativeSums<T> acc;
-  int k = 0;
-  for (; k + W <= p.count; k += W)
-    add_derivative_terms<T, R>(T(xc) + L::load(&p.x[k]), T(yc) + L::load(&p.y[k]), block, acc);
-  DerivativeSums<double> s;
-  s.v = L::sum(acc.v);
-  s.sx = L::sum(acc.sx);
-  s.sy = L::sum(acc.sy);
-  s.s1 = L::sum(acc.s1);
-  s.s2 = L::sum(acc.s2);
-  s.sr = L::sum(acc.sr);
-  for (; k < p.count; ++k) add_derivative_terms<double, R>(xc + p.x[k], yc + p.y[k], block, s);
-  return s;
-}
-
-// A region is vectorised over points when its rows are narrower than a vector and each sub-pixel
-// has at least a vector's worth of points.
-template <class T>
-bool vectorise_over_points(const GridRegion& region, int supersample) {
-  constexpr int W = Lanes<T>::size;
-  return W > 1 && region.x_end - region.x_begin < W && supersample * supersample >= W;
+  const SupersampledBlock sb(grid, region, off, block.x0, block.y0);
+  std::array<double, kMaxBlockSubpixels> sums;
+  int s = 0;
+  for (; s + W <= sb.subpixels; s += W) {
+    const T cx = L::load(&sb.cx[s]), cy = L::load(&sb.cy[s]);
+    T acc(0.0);
+    for (int k = 0; k < sb.points; ++k) acc += value_at<T, R>(cx + T(sb.px[k]), cy + T(sb.py[k]), block);
+    L::store(&sums[s], acc);
+  }
+  for (; s < sb.subpixels; ++s) {  // vectorised over points
+    const T cx(sb.cx[s]), cy(sb.cy[s]);
+    T acc(0.0);
+    int k = 0;
+    for (; k + W <= sb.points; k += W) acc += value_at<T, R>(cx + L::load(&sb.px[k]), cy + L::load(&sb.py[k]), block);
+    double sum = L::sum(acc);
+    for (; k < sb.points; ++k) sum += value_at<double, R>(sb.cx[s] + sb.px[k], sb.cy[s] + sb.py[k], block);
+    sums[s] = sum;
+  }
+  s = 0;
+  for (int j = region.y_begin; j < region.y_end; ++j) {
+    double* row = out + static_cast<std::ptrdiff_t>(j) * grid.size;
+    for (int i = region.x_begin; i < region.x_end; ++i) row[i] += scale * sums[s++];
+  }
 }
 
 template <class T, SersicRoot R>
@@ -299,14 +307,8 @@ void accumulate_value_rows(const SubpixelGrid& grid, const GridRegion& region, i
   const SuperOffsets off(supersample, grid.step);
   const double scale = amplitude / (off.n * off.n);
   const T lane_x = L::iota() * T(grid.step);
-  if (vectorise_over_points<T>(region, supersample)) {
-    const PointOffsets points(off);
-    for (int j = region.y_begin; j < region.y_end; ++j) {
-      const double yc = grid.origin + grid.step * j - block.y0;
-      double* row = out + static_cast<std::ptrdiff_t>(j) * grid.size;
-      for (int i = region.x_begin; i < region.x_end; ++i)
-        row[i] += scale * point_value_sum<T, R>(grid.origin + grid.step * i - block.x0, yc, points, block);
-    }
+  if (SupersampledBlock::fits(region, supersample)) {
+    accumulate_value_block<T, R>(grid, region, off, block, scale, out);
     return;
   }
   for (int j = region.y_begin; j < region.y_end; ++j) {
@@ -352,13 +354,33 @@ void accumulate_derivative_rows(const SubpixelGrid& grid, const GridRegion& regi
     for (int p = 0; p < kNumShapeDerivatives; ++p)
       M::store(derivative[p] + k, overwrite ? terms[p] : M::load(derivative[p] + k) + terms[p]);
   };
-  if (vectorise_over_points<T>(region, supersample)) {
-    const PointOffsets points(off);
+  if (SupersampledBlock::fits(region, supersample)) {
+    const SupersampledBlock sb(grid, region, off, block.shape.x0, block.shape.y0);
+    std::array<std::array<double, kMaxBlockSubpixels>, 6> sums;
+    int s = 0;
+    for (; s + W <= sb.subpixels; s += W) {
+      const T cx = L::load(&sb.cx[s]), cy = L::load(&sb.cy[s]);
+      DerivativeSums<T> acc = DerivativeSums<T>::zero();
+      for (int k = 0; k < sb.points; ++k) add_derivative_terms<T, R>(cx + T(sb.px[k]), cy + T(sb.py[k]), forms, acc);
+      int q = 0;
+      for (const T& sum : {acc.v, acc.sx, acc.sy, acc.s1, acc.s2, acc.sr}) L::store(&sums[q++][s], sum);
+    }
+    for (; s < sb.subpixels; ++s) {  // vectorised over points
+      const T cx(sb.cx[s]), cy(sb.cy[s]);
+      DerivativeSums<T> acc = DerivativeSums<T>::zero();
+      int k = 0;
+      for (; k + W <= sb.points; k += W)
+        add_derivative_terms<T, R>(cx + L::load(&sb.px[k]), cy + L::load(&sb.py[k]), forms, acc);
+      DerivativeSums<double> tail{L::sum(acc.v), L::sum(acc.sx), L::sum(acc.sy), L::sum(acc.s1), L::sum(acc.s2), L::sum(acc.sr)};
+      for (; k < sb.points; ++k) add_derivative_terms<double, R>(sb.cx[s] + sb.px[k], sb.cy[s] + sb.py[k], forms, tail);
+      int q = 0;
+      for (double sum : {tail.v, tail.sx, tail.sy, tail.s1, tail.s2, tail.sr}) sums[q++][s] = sum;
+    }
+    s = 0;
     for (int j = region.y_begin; j < region.y_end; ++j) {
-      const double yc = grid.origin + grid.step * j - block.shape.y0;
       const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(j) * grid.size;
-      for (int i = region.x_begin; i < region.x_end; ++i)
-        emit(point_derivative_sums<T, R>(grid.origin + grid.step * i - block.shape.x0, yc, points, forms), row + i);
+      for (int i = region.x_begin; i < region.x_end; ++i, ++s)
+        emit(DerivativeSums<double>{sums[0][s], sums[1][s], sums[2][s], sums[3][s], sums[4][s], sums[5][s]}, row + i);
     }
     return;
   }
@@ -371,7 +393,7 @@ void accumulate_derivative_rows(const SubpixelGrid& grid, const GridRegion& regi
       for (; i + 2 * W <= region.x_end; i += 2 * W) {
         const T xc0 = T(grid.origin + grid.step * i - block.shape.x0) + lane_x;
         const T xc1 = T(grid.origin + grid.step * (i + W) - block.shape.x0) + lane_x;
-        DerivativeSums<T> s0, s1;
+        DerivativeSums<T> s0 = DerivativeSums<T>::zero(), s1 = s0;
         add_derivative_terms<T, R>(xc0, dy, forms, s0);
         add_derivative_terms<T, R>(xc1, dy, forms, s1);
         emit(s0, row + i);
