@@ -4,18 +4,21 @@
 //   BM_Value/<isa>/<n>           unit-amplitude image, whole grid, one sample per sub-pixel
 //   BM_Derivatives/<isa>/<n>     value + five shape-derivative images, whole grid
 //   BM_CentralBlock/<isa>/<n>    the N_u x N_u = 3 x 3 central sub-pixels at U2 = 7 (value + derivatives)
-// Plus the scalar per-pixel work of every fit evaluation, for the cost model:
-//   BM_WeightedChi2, BM_NormalEquations (39^2 pixels, 7 parameters)
+// and the least-squares accumulations of every fit evaluation, per instruction set:
+//   BM_WeightedChi2/<isa>, BM_NormalEquations/<isa> (39^2 pixels, 7 parameters)
+//   BM_SpectrumFold/<isa>   the Fourier-space block average: 240^2 spectrum folded to 48^2 (U = 5)
 #include <benchmark/benchmark.h>
 
 #include <array>
 #include <string>
 #include <vector>
 
+#include "kernels/aligned_vector.hpp"
 #include "kernels/ellipse.hpp"
 #include "kernels/least_squares.hpp"
 #include "kernels/profile_render.hpp"
 #include "kernels/sersic.hpp"
+#include "kernels/spectrum_fold.hpp"
 
 namespace {
 
@@ -97,31 +100,80 @@ void register_profile_benchmarks() {
     }
 }
 
-void BM_WeightedChi2(benchmark::State& state) {
-  std::vector<double> data(39 * 39, 1.0), model(39 * 39, 0.9), weight(39 * 39, 1.0);
-  for (auto _ : state) benchmark::DoNotOptimize(weighted_chi2(data, model, weight));
-  state.SetItemsProcessed(state.iterations() * 39 * 39);
-}
-BENCHMARK(BM_WeightedChi2);
+// The least-squares accumulations of every fit evaluation, 39^2 pixels (10 % masked), 7 columns.
+struct LeastSquaresProblem {  // aligned as the fitter's buffers are
+  AlignedVector<double> data, model, weight;
+  std::vector<AlignedVector<double>> columns;
+  std::array<const double*, 7> column_ptrs{};
+  LeastSquaresProblem() : data(39 * 39), model(39 * 39), weight(39 * 39), columns(7, AlignedVector<double>(39 * 39)) {
+    for (std::size_t i = 0; i < data.size(); ++i) {
+      data[i] = 1.0 + 0.001 * static_cast<double>(i % 97);
+      model[i] = 0.9 + 0.002 * static_cast<double>(i % 89);
+      weight[i] = i % 10 == 3 ? 0.0 : 1.0;
+      for (std::size_t k = 0; k < columns.size(); ++k) columns[k][i] = 0.3 + 0.01 * static_cast<double>((i + 7 * k) % 31);
+    }
+    for (std::size_t k = 0; k < columns.size(); ++k) column_ptrs[k] = columns[k].data();
+  }
+};
 
-void BM_NormalEquations(benchmark::State& state) {
-  std::vector<double> data(39 * 39, 1.0), model(39 * 39, 0.9), weight(39 * 39, 1.0);
-  std::vector<std::vector<double>> cols(7, std::vector<double>(39 * 39, 0.3));
-  const double* c[7];
-  for (int k = 0; k < 7; ++k) c[k] = cols[k].data();
+const LeastSquaresKernels* least_squares_or_skip(benchmark::State& state, Isa isa) {
+  const LeastSquaresKernels* k = least_squares_kernels_for(isa);
+  if (!k) state.SkipWithError("instruction set not available on this CPU or build");
+  return k;
+}
+
+void BM_WeightedChi2(benchmark::State& state, Isa isa) {
+  const LeastSquaresKernels* k = least_squares_or_skip(state, isa);
+  if (!k) return;
+  const LeastSquaresProblem p;
+  for (auto _ : state) benchmark::DoNotOptimize(k->weighted_chi2(p.data, p.model, p.weight));
+  state.SetItemsProcessed(state.iterations() * static_cast<long long>(p.data.size()));
+}
+
+void BM_NormalEquations(benchmark::State& state, Isa isa) {
+  const LeastSquaresKernels* k = least_squares_or_skip(state, isa);
+  if (!k) return;
+  const LeastSquaresProblem p;
   double alpha[49], beta[7];
   for (auto _ : state) {
-    benchmark::DoNotOptimize(accumulate_normal_equations(data, model, weight, c, 7, alpha, beta));
+    benchmark::DoNotOptimize(k->normal_equations(p.data, p.model, p.weight, p.column_ptrs.data(), 7, alpha, beta));
     benchmark::DoNotOptimize(alpha);
   }
-  state.SetItemsProcessed(state.iterations() * 39 * 39);
+  state.SetItemsProcessed(state.iterations() * static_cast<long long>(p.data.size()));
 }
-BENCHMARK(BM_NormalEquations);
+
+// The fold of a 240^2 r2c spectrum times the folded PSF kernel down to 48^2 (U = 5), per set.
+void BM_SpectrumFold(benchmark::State& state, Isa isa) {
+  const SpectrumFoldKernels* f = spectrum_fold_kernels_for(isa);
+  if (!f) {
+    state.SkipWithError("instruction set not available on this CPU or build");
+    return;
+  }
+  constexpr int n = kGrid, u = 5, m = n / u;
+  AlignedVector<double> spectrum(2 * n * (n / 2 + 1)), kernel(2 * n * u * (m / 2 + 1)), out(2 * m * (m / 2 + 1));
+  for (std::size_t i = 0; i < spectrum.size(); ++i) spectrum[i] = 1.0 / (1.0 + static_cast<double>(i % 1013));
+  for (std::size_t i = 0; i < kernel.size(); ++i) kernel[i] = 0.5 - 0.001 * static_cast<double>(i % 997);
+  for (auto _ : state) {
+    f->fold(n, u, spectrum.data(), kernel.data(), out.data());
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(state.iterations() * n * u * (m / 2 + 1));  // complex products
+}
+
+void register_least_squares_benchmarks() {
+  for (Isa isa : {Isa::kScalar, Isa::kSse42, Isa::kAvx2, Isa::kAvx512}) {
+    const std::string suffix = std::string("/") + isa_name(isa);
+    benchmark::RegisterBenchmark(("BM_WeightedChi2" + suffix).c_str(), BM_WeightedChi2, isa);
+    benchmark::RegisterBenchmark(("BM_NormalEquations" + suffix).c_str(), BM_NormalEquations, isa);
+    benchmark::RegisterBenchmark(("BM_SpectrumFold" + suffix).c_str(), BM_SpectrumFold, isa)->Unit(benchmark::kMicrosecond);
+  }
+}
 
 }  // namespace
 
 int main(int argc, char** argv) {
   register_profile_benchmarks();
+  register_least_squares_benchmarks();
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();

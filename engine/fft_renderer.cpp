@@ -18,7 +18,7 @@ FftRenderer::FftRenderer(const RenderOptions& options, const ModelOptions& model
       psf_(std::move(psf)),
       fft_(plans.get(geometry_.grid_size())),
       profile_kernels_(&kernels::profile_kernels(options.simd)),
-      downsampler_(geometry_) {
+      downsampler_(geometry_, options.simd) {
   if (!psf_ || !(psf_->geometry() == geometry_)) throw std::invalid_argument("PSF kernel built for another model grid");
   for (auto& g : grid_images_) g = fft_.make_real_buffer();
   const std::size_t npix = static_cast<std::size_t>(geometry_.stamp_size) * geometry_.stamp_size;

@@ -28,11 +28,13 @@ bool FitterOptions::IsValid(std::string* why) const {
 // The least-squares problem of one stamp in the free parameters.
 class Fitter::Problem final : public LeastSquaresProblem {
  public:
-  Problem(Fitter& f, int npix) : f_(f), model_(npix), columns_(static_cast<std::size_t>(kMaxFree) * npix) {
-    for (int k = 0; k < kMaxFree; ++k) column_ptr_[k] = columns_.data() + static_cast<std::size_t>(k) * npix;
+  // Every per-pixel array starts on a 64-byte line, so the vector kernels' loads never straddle two.
+  Problem(Fitter& f, int npix)
+      : f_(f), data_(npix), model_(npix), columns_(kMaxFree * kernels::aligned_stride<double>(npix)) {
+    for (int k = 0; k < kMaxFree; ++k) column_ptr_[k] = columns_.data() + k * kernels::aligned_stride<double>(npix);
   }
   void reset(std::span<const double> data, const ParamVector& full, int npix_used) {
-    data_ = data;
+    std::copy(data.begin(), data.end(), data_.begin());
     full_ = full;
     npix_used_ = npix_used;
   }
@@ -56,7 +58,7 @@ class Fitter::Problem final : public LeastSquaresProblem {
       *chi2 = 2.0 * npix_used_;
       return false;
     }
-    *chi2 = kernels::weighted_chi2(data_, model_, f_.weight_);
+    *chi2 = f_.least_squares_->weighted_chi2(data_, model_, f_.weight_);
     return std::isfinite(*chi2);
   }
   bool normal_equations(const LmVector& x, double* chi2, LmMatrix* alpha, LmVector* beta) override {
@@ -70,19 +72,19 @@ class Fitter::Problem final : public LeastSquaresProblem {
     }
     alpha->resize(nf, nf);
     beta->resize(nf);
-    *chi2 = kernels::accumulate_normal_equations(data_, model_, f_.weight_, column_ptr_.data(), nf, alpha->data(),
+    *chi2 = f_.least_squares_->normal_equations(data_, model_, f_.weight_, column_ptr_.data(), nf, alpha->data(),
                                                  beta->data());
     return std::isfinite(*chi2) && alpha->allFinite() && beta->allFinite();
   }
-  const std::vector<double>& model() const { return model_; }
+  const kernels::AlignedVector<double>& model() const { return model_; }
 
  private:
   Fitter& f_;
-  std::span<const double> data_;
+  kernels::AlignedVector<double> data_;
   ParamVector full_{};
   int npix_used_ = 0;
-  std::vector<double> model_;
-  std::vector<double> columns_;
+  kernels::AlignedVector<double> model_;
+  kernels::AlignedVector<double> columns_;
   std::array<double*, kMaxFree> column_ptr_{};
 };
 
@@ -90,6 +92,7 @@ Fitter::Fitter(const FitterOptions& options, std::shared_ptr<const PsfKernel> ps
     : options_(options), psf_(std::move(psf)), plans_(plans) {
   std::string why;
   if (!options_.IsValid(&why)) throw std::invalid_argument(why);
+  least_squares_ = &kernels::least_squares_kernels(options_.render.simd);
   const int s = options_.render.stamp_size;
   const int npix = s * s;
   if (psf_) renderer_ = std::make_unique<FftRenderer>(options_.render, options_.model, psf_, plans);
@@ -214,7 +217,7 @@ void Fitter::solve_start_amplitudes(std::span<const double> pixels, ParamVector*
   std::array<double*, 2> cols = {start_bulge_.data(), start_disc_.data()};
   if (renderer_->render_with_jacobian(*p, amps, start_model_, cols) != RenderStatus::kOk) return;
   double a[4], b[2];
-  kernels::accumulate_normal_equations(pixels, zeros_, weight_, cols.data(), 2, a, b);
+  least_squares_->normal_equations(pixels, zeros_, weight_, cols.data(), 2, a, b);
   const double det = a[0] * a[3] - a[1] * a[2];
   if (!(std::abs(det) > 1e-12 * std::abs(a[0] * a[3])) || !std::isfinite(det)) return;
   const double ab = (b[0] * a[3] - a[1] * b[1]) / det, ad = (a[0] * b[1] - a[2] * b[0]) / det;

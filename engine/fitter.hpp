@@ -16,6 +16,8 @@
 #include "engine/parameters.hpp"
 #include "engine/psf.hpp"
 #include "engine/render_options.hpp"
+#include "kernels/aligned_vector.hpp"
+#include "kernels/least_squares.hpp"
 
 namespace stampede {
 
@@ -64,8 +66,9 @@ class Fitter {
   std::shared_ptr<const PsfKernel> psf_;
   FftPlanCache& plans_;
   std::unique_ptr<FftRenderer> renderer_;
+  const kernels::LeastSquaresKernels* least_squares_;  // options_.render.simd's build
   std::unique_ptr<Problem> problem_;
-  std::vector<double> weight_;
+  kernels::AlignedVector<double> weight_;
   std::vector<double> start_bulge_, start_disc_, start_model_, zeros_;
   std::array<Param, kNumParams> free_{};
   int num_free_ = 0;

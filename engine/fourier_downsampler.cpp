@@ -11,8 +11,12 @@
 
 namespace stampede {
 
-FourierDownsampler::FourierDownsampler(const GridGeometry& g)
-    : n_(g.size), u_(g.upsampling), m_(g.size / g.upsampling), stamp_size_(g.stamp_size) {
+FourierDownsampler::FourierDownsampler(const GridGeometry& g, kernels::Isa isa)
+    : n_(g.size),
+      u_(g.upsampling),
+      m_(g.size / g.upsampling),
+      stamp_size_(g.stamp_size),
+      fold_(&kernels::spectrum_fold_kernels(isa)) {
   if (n_ % u_ != 0) throw std::invalid_argument("FourierDownsampler: the grid is not a whole number of pixels");
   first_pixel_ = g.offset / u_;
   const int hm = m_ / 2 + 1;
@@ -56,39 +60,12 @@ std::vector<std::complex<double>> FourierDownsampler::fold_kernel(const GridGeom
 
 void FourierDownsampler::apply(const std::complex<double>* spectrum, const std::complex<double>* folded_kernel,
                                double* stamp) {
-  // Complex products are spelled out in real arithmetic: std::complex's operator* must handle
-  // inf/nan (C99 Annex G) and becomes a library call per product without -ffast-math.
-  const int n = n_, m = m_, hn = n / 2 + 1, hm = m / 2 + 1;
   auto* y = static_cast<double*>(folded_.data());  // interleaved re, im
-  std::fill(y, y + 2 * static_cast<std::size_t>(m) * hm, 0.0);
-  const auto* spec = reinterpret_cast<const double*>(spectrum);
-  const auto* keff = reinterpret_cast<const double*>(folded_kernel);
-  // Only the columns kx = jx + M rx with jx <= M/2 feed the half spectrum of Y: U (M/2 + 1) of n.
-  for (int ky = 0; ky < n; ++ky) {
-    const std::size_t row = 2 * static_cast<std::size_t>(ky) * hn;
-    const std::size_t mirror = 2 * static_cast<std::size_t>((n - ky) % n) * hn;
-    double* out = y + 2 * static_cast<std::size_t>(ky % m) * hm;
-    for (int rx = 0; rx < u_; ++rx) {
-      const int k0 = m * rx;
-      const double* b = keff + 2 * (static_cast<std::size_t>(ky) * u_ + rx) * hm;
-      // Stored columns kx < hn directly, the rest as conjugates of the spectrum at -k.
-      const int split = std::clamp(hn - k0, 0, hm);
-      for (int jx = 0; jx < split; ++jx) {
-        const double* a = spec + row + 2 * (k0 + jx);
-        out[2 * jx] += a[0] * b[2 * jx] - a[1] * b[2 * jx + 1];
-        out[2 * jx + 1] += a[0] * b[2 * jx + 1] + a[1] * b[2 * jx];
-      }
-      for (int jx = split; jx < hm; ++jx) {
-        const double* a = spec + mirror + 2 * (n - k0 - jx);
-        out[2 * jx] += a[0] * b[2 * jx] + a[1] * b[2 * jx + 1];
-        out[2 * jx + 1] += a[0] * b[2 * jx + 1] - a[1] * b[2 * jx];
-      }
-    }
-  }
+  fold_->fold(n_, u_, reinterpret_cast<const double*>(spectrum), reinterpret_cast<const double*>(folded_kernel), y);
   auto* pixels = static_cast<double*>(pixels_.data());
   fftw_execute_dft_c2r(static_cast<fftw_plan>(plan_), reinterpret_cast<fftw_complex*>(y), pixels);
   for (int py = 0; py < stamp_size_; ++py)
-    std::copy_n(pixels + static_cast<std::size_t>(first_pixel_ + py) * m + first_pixel_, stamp_size_,
+    std::copy_n(pixels + static_cast<std::size_t>(first_pixel_ + py) * m_ + first_pixel_, stamp_size_,
                 stamp + static_cast<std::size_t>(py) * stamp_size_);
 }
 

@@ -15,13 +15,15 @@
 
 #include "engine/fft_convolver.hpp"
 #include "engine/render_options.hpp"
+#include "kernels/spectrum_fold.hpp"
 
 namespace stampede {
 
 class FourierDownsampler {
  public:
   // The grid must be a whole number of data pixels: geometry.size % geometry.upsampling == 0.
-  explicit FourierDownsampler(const GridGeometry& geometry);
+  // isa: which build of the fold (kernels/spectrum_fold.hpp) to run.
+  explicit FourierDownsampler(const GridGeometry& geometry, kernels::Isa isa = kernels::Isa::kBest);
   ~FourierDownsampler();
   FourierDownsampler(const FourierDownsampler&) = delete;
   FourierDownsampler& operator=(const FourierDownsampler&) = delete;
@@ -39,6 +41,7 @@ class FourierDownsampler {
   int stamp_size_;
   AlignedBuffer folded_;                     // M x (M/2 + 1)
   AlignedBuffer pixels_;                     // M x M
+  const kernels::SpectrumFoldKernels* fold_;
   void* plan_ = nullptr;                     // fftw_plan, c2r M x M
 };
 

@@ -1,40 +1,62 @@
-// Least-squares accumulations; see least_squares.hpp.
+// Least-squares accumulations: the dispatcher over the per-instruction-set builds; see
+// least_squares.hpp. The kernels themselves are in least_squares_impl.hpp.
 #include "kernels/least_squares.hpp"
 
-#include <cstddef>
+#include <stdexcept>
+
+#include "kernels/least_squares_isa.hpp"
 
 namespace stampede::kernels {
+namespace {
+
+struct KernelTable {
+  LeastSquaresKernels scalar, sse42, avx2, avx512;
+  KernelTable() {
+    scalar = least_squares_kernels_scalar();
+#ifdef STAMPEDE_HAVE_SSE42
+    if (isa_available(Isa::kSse42)) sse42 = least_squares_kernels_sse42();
+#endif
+#ifdef STAMPEDE_HAVE_AVX2
+    if (isa_available(Isa::kAvx2)) avx2 = least_squares_kernels_avx2();
+#endif
+#ifdef STAMPEDE_HAVE_AVX512
+    if (isa_available(Isa::kAvx512)) avx512 = least_squares_kernels_avx512();
+#endif
+  }
+};
+
+const KernelTable& kernel_table() {
+  static const KernelTable table;  // immutable after its thread-safe initialisation
+  return table;
+}
+
+}  // namespace
+
+const LeastSquaresKernels* least_squares_kernels_for(Isa isa) {
+  if (!isa_available(isa)) return nullptr;
+  const KernelTable& t = kernel_table();
+  switch (resolve_isa(isa)) {
+    case Isa::kSse42: return &t.sse42;
+    case Isa::kAvx2: return &t.avx2;
+    case Isa::kAvx512: return &t.avx512;
+    default: return &t.scalar;
+  }
+}
+
+const LeastSquaresKernels& least_squares_kernels(Isa isa) {
+  const LeastSquaresKernels* k = least_squares_kernels_for(isa);
+  return k ? *k : kernel_table().scalar;
+}
 
 double weighted_chi2(std::span<const double> data, std::span<const double> model, std::span<const double> weight) {
-  double chi2 = 0.0;
-  for (std::size_t i = 0; i < data.size(); ++i) {
-    if (weight[i] == 0.0) continue;  // masked: its data may be NaN
-    const double r = data[i] - model[i];
-    chi2 += weight[i] * r * r;
-  }
-  return chi2;
+  return least_squares_kernels().weighted_chi2(data, model, weight);
 }
 
 double accumulate_normal_equations(std::span<const double> data, std::span<const double> model,
                                    std::span<const double> weight, const double* const* columns, int ncol,
                                    double* alpha, double* beta) {
-  for (int k = 0; k < ncol * ncol; ++k) alpha[k] = 0.0;
-  for (int k = 0; k < ncol; ++k) beta[k] = 0.0;
-  double chi2 = 0.0;
-  for (std::size_t i = 0; i < data.size(); ++i) {
-    const double w = weight[i];
-    if (w == 0.0) continue;  // masked pixel: contributes nothing, skip the column reads
-    const double r = data[i] - model[i];
-    chi2 += w * r * r;
-    for (int k = 0; k < ncol; ++k) {
-      const double wc = w * columns[k][i];
-      beta[k] += wc * r;
-      for (int l = 0; l <= k; ++l) alpha[k * ncol + l] += wc * columns[l][i];
-    }
-  }
-  for (int k = 0; k < ncol; ++k)
-    for (int l = k + 1; l < ncol; ++l) alpha[k * ncol + l] = alpha[l * ncol + k];
-  return chi2;
+  if (ncol > kMaxLeastSquaresColumns) throw std::invalid_argument("accumulate_normal_equations: too many columns");
+  return least_squares_kernels().normal_equations(data, model, weight, columns, ncol, alpha, beta);
 }
 
 }  // namespace stampede::kernels

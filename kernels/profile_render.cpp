@@ -2,11 +2,8 @@
 // profile_render.hpp. The kernels themselves are in profile_render_impl.hpp.
 #include "kernels/profile_render.hpp"
 
-#include <xsimd/xsimd.hpp>
-
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 
 #include "kernels/profile_render_isa.hpp"
 
@@ -23,48 +20,22 @@ double sersic_value(const SersicBlock& block, double x, double y) {
   return std::exp(-block.b * std::pow(u, block.inv_2n));
 }
 
-const char* isa_name(Isa isa) {
-  switch (isa) {
-    case Isa::kBest: return "best";
-    case Isa::kScalar: return "scalar";
-    case Isa::kSse42: return "sse4.2";
-    case Isa::kAvx2: return "avx2";
-    case Isa::kAvx512: return "avx512";
-  }
-  return "?";
-}
-
-bool parse_isa(const char* name, Isa* out) {
-  for (Isa isa : {Isa::kBest, Isa::kScalar, Isa::kSse42, Isa::kAvx2, Isa::kAvx512})
-    if (std::strcmp(name, isa_name(isa)) == 0) {
-      *out = isa;
-      return true;
-    }
-  return false;
-}
-
 namespace {
 
 // Built once: the table of function pointers for each set this binary and CPU both support.
 struct KernelTable {
   ProfileKernels scalar, sse42, avx2, avx512;
-  bool has_sse42 = false, has_avx2 = false, has_avx512 = false;
   KernelTable() {
-    const auto cpu = xsimd::available_architectures();
     scalar = profile_kernels_scalar();
 #ifdef STAMPEDE_HAVE_SSE42
-    has_sse42 = cpu.sse4_2;
-    if (has_sse42) sse42 = profile_kernels_sse42();
+    if (isa_available(Isa::kSse42)) sse42 = profile_kernels_sse42();
 #endif
 #ifdef STAMPEDE_HAVE_AVX2
-    has_avx2 = cpu.avx2 && cpu.fma3_avx2;
-    if (has_avx2) avx2 = profile_kernels_avx2();
+    if (isa_available(Isa::kAvx2)) avx2 = profile_kernels_avx2();
 #endif
 #ifdef STAMPEDE_HAVE_AVX512
-    has_avx512 = cpu.avx512f;
-    if (has_avx512) avx512 = profile_kernels_avx512();
+    if (isa_available(Isa::kAvx512)) avx512 = profile_kernels_avx512();
 #endif
-    (void)cpu;
   }
 };
 
@@ -76,19 +47,14 @@ const KernelTable& kernel_table() {
 }  // namespace
 
 const ProfileKernels* profile_kernels_for(Isa isa) {
+  if (!isa_available(isa)) return nullptr;
   const KernelTable& t = kernel_table();
-  switch (isa) {
-    case Isa::kBest:
-      if (t.has_avx512) return &t.avx512;
-      if (t.has_avx2) return &t.avx2;
-      if (t.has_sse42) return &t.sse42;
-      return &t.scalar;
-    case Isa::kScalar: return &t.scalar;
-    case Isa::kSse42: return t.has_sse42 ? &t.sse42 : nullptr;
-    case Isa::kAvx2: return t.has_avx2 ? &t.avx2 : nullptr;
-    case Isa::kAvx512: return t.has_avx512 ? &t.avx512 : nullptr;
+  switch (resolve_isa(isa)) {
+    case Isa::kSse42: return &t.sse42;
+    case Isa::kAvx2: return &t.avx2;
+    case Isa::kAvx512: return &t.avx512;
+    default: return &t.scalar;
   }
-  return nullptr;
 }
 
 const ProfileKernels& profile_kernels(Isa isa) {

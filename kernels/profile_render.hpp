@@ -11,6 +11,7 @@
 #include <cstddef>
 
 #include "kernels/ellipse.hpp"
+#include "kernels/isa.hpp"
 
 namespace stampede::kernels {
 
@@ -82,12 +83,6 @@ struct ProfileKernels {
                                  const std::array<double*, kNumShapeDerivatives>& derivative, bool overwrite) = nullptr;
 };
 
-// kBest: the widest set both compiled in and supported by this CPU. kScalar is the reference
-// (plain double, no vector instructions); results of different sets agree to a few ulp, so a
-// run that must be bitwise reproducible across machines names one set explicitly.
-enum class Isa { kBest, kScalar, kSse42, kAvx2, kAvx512 };
-const char* isa_name(Isa isa);  // "best", "scalar", "sse4.2", "avx2", "avx512"
-bool parse_isa(const char* name, Isa* out);
 // The kernels for a set; nullptr when it was not compiled in or this CPU lacks it.
 const ProfileKernels* profile_kernels_for(Isa isa);
 // profile_kernels_for(isa), or the scalar kernels when that set is unavailable.

@@ -5,116 +5,17 @@
 // by the linker for another.
 #pragma once
 
-#include <xsimd/xsimd.hpp>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstddef>
-#include <cstdint>
 #include <type_traits>
 
+#include "kernels/lanes.hpp"
 #include "kernels/profile_render.hpp"
 
 namespace stampede::kernels {
 namespace {
-
-template <class T>
-struct Lanes {  // the scalar reference
-  static constexpr int size = 1;
-  static T load(const double* p) { return *p; }
-  static void store(double* p, T v) { *p = v; }
-  static T iota() { return 0.0; }
-  static T select(bool c, T a, T b) { return c ? a : b; }
-  static T max(T a, T b) { return std::max(a, b); }
-  static T exp(T x) { return std::exp(x); }
-  static T sqrt(T x) { return std::sqrt(x); }
-  static T pow(T x, double y) { return std::pow(x, y); }
-  static constexpr bool kEstimatedRsqrt = false;
-  static T rsqrt(T x) { return 1.0 / std::sqrt(x); }
-  static double sum(T x) { return x; }
-};
-
-template <class A>
-struct Lanes<xsimd::batch<double, A>> {
-  using B = xsimd::batch<double, A>;
-  static constexpr int size = static_cast<int>(B::size);
-  static B load(const double* p) { return B::load_unaligned(p); }
-  static void store(double* p, B v) { v.store_unaligned(p); }
-  static B iota() {
-    alignas(64) double v[B::size];
-    for (std::size_t k = 0; k < B::size; ++k) v[k] = static_cast<double>(k);
-    return B::load_aligned(v);
-  }
-  static B select(xsimd::batch_bool<double, A> c, B a, B b) { return xsimd::select(c, a, b); }
-  static B max(B a, B b) { return xsimd::max(a, b); }
-  // SSE4.2 has no FMA: xsimd's fma there is a multiply and an add, rounded twice.
-  static constexpr bool kFusedMultiplyAdd = !std::is_same_v<A, xsimd::sse4_2>;
-  // exp(x) for x <= 0 (the profiles' exp(-b t)) without division (xsimd's exp is a rational
-  // approximation, and vector division is no faster per element than scalar): x = k ln2 + r,
-  // |r| <= ln2/2, e^r by its degree-12 Taylor polynomial (truncation < 2e-16 relative), 2^k added
-  // to the exponent bits. One-step reduction: ln2's rounding error shifts r by k 2.3e-17, a
-  // relative error that matters only where e^x is far below the image's peak (with FMA). Below -708.3 it
-  // returns e^-708.3 (2e-308) where libm returns a subnormal or 0.
-  static B exp(B x) {
-    using I = xsimd::batch<std::int64_t, A>;
-    const B shift(0x1.8p52);  // adding it rounds to an integer held in the low mantissa bits
-    const B xc = xsimd::max(x, B(-708.3));
-    const B kd = xsimd::fma(xc, B(1.4426950408889634), shift);
-    const B k = kd - shift;
-    B r;
-    if constexpr (kFusedMultiplyAdd) {
-      r = xsimd::fnma(k, B(0.6931471805599453), xc);
-    } else {  // Cody-Waite: k ln2_hi is exact, so unfused rounding stays at 1 ulp of r
-      r = xsimd::fnma(k, B(1.42860682030941723212e-6), xsimd::fnma(k, B(6.93145751953125e-1), xc));
-    }
-    // Estrin's scheme: a dependency chain of 5 FMAs instead of Horner's 12.
-    const B r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
-    auto pair = [&](double c0, double c1) { return xsimd::fma(r, B(c1), B(c0)); };  // c0 + c1 r
-    const B p01 = pair(1.0, 1.0), p23 = pair(1.0 / 2, 1.0 / 6), p45 = pair(1.0 / 24, 1.0 / 120),
-            p67 = pair(1.0 / 720, 1.0 / 5040), p89 = pair(1.0 / 40320, 1.0 / 362880),
-            p1011 = pair(1.0 / 3628800, 1.0 / 39916800);
-    const B p03 = xsimd::fma(r2, p23, p01), p47 = xsimd::fma(r2, p67, p45),
-            p811 = xsimd::fma(r2, p1011, p89);
-    const B p812 = xsimd::fma(r4, B(1.0 / 479001600), p811);
-    const B p = xsimd::fma(r8, p812, xsimd::fma(r4, p47, p03));
-    const I scaled = xsimd::bitwise_cast<I>(p) + (xsimd::bitwise_cast<I>(kd) << 52);
-    return xsimd::bitwise_cast<B>(scaled);
-  }
-  static B sqrt(B x) { return xsimd::sqrt(x); }
-  static B pow(B x, double y) { return xsimd::pow(x, B(y)); }
-  // Whether roots go through rsqrt below rather than sqrt and division: only where the hardware
-  // gives an estimate to refine (measured: the bit-trick seed loses to vsqrtpd on AVX2 and SSE).
-  static constexpr bool kEstimatedRsqrt = std::is_same_v<A, xsimd::avx512f>;
-  // 1/sqrt(x) for x > 0 without a square root or division: a hardware estimate (AVX-512F, error
-  // < 2^-14) refined by one step of the series y (1 - e)^-1/2 with e = 1 - x y^2, to e^3
-  // (truncation ~6e-17); elsewhere the exponent-halving bit trick (3.4 %) and four Newton steps.
-  static B rsqrt(B x) {
-    using I = xsimd::batch<std::int64_t, A>;
-    if constexpr (std::is_same_v<A, xsimd::avx512f>) {
-      const B y = B(_mm512_rsqrt14_pd(x));
-      const B e = xsimd::fnma(x, y * y, B(1.0));
-      const B series = xsimd::fma(e, xsimd::fma(e, B(5.0 / 16), B(3.0 / 8)), B(0.5));
-      return xsimd::fma(y * e, series, y);
-    } else {
-      B y = xsimd::bitwise_cast<B>(I(0x5fe6eb50c7b537a9LL) - (xsimd::bitwise_cast<I>(x) >> 1));
-      const B half_x = B(0.5) * x;
-      for (int i = 0; i < 4; ++i) y = xsimd::fma(y, xsimd::fnma(half_x * y, y, B(0.5)), y);
-      return y;
-    }
-  }
-  // x^-1/8 for x > 0 (AVX-512F only): three chained 14-bit estimates (error < 2^-13), then one
-  // step of the series y (1 - e)^-1/8 with e = 1 - x y^8, to e^4 (truncation ~1e-17).
-  static B inverse_eighth_root(B x) {
-    B y = B(_mm512_rsqrt14_pd(_mm512_rsqrt14_pd(_mm512_rsqrt14_pd(x))));
-    const B y2 = y * y, y4 = y2 * y2;
-    const B e = xsimd::fnma(x, y4 * y4, B(1.0));
-    const B series =
-        e * xsimd::fma(e, xsimd::fma(e, xsimd::fma(e, B(663.0 / 32768), B(51.0 / 1024)), B(9.0 / 128)), B(1.0 / 8));
-    return xsimd::fma(y, series, y);
-  }
-  static double sum(B x) { return xsimd::hadd(x); }
-};
 
 // t = u^(1/2n) and t / u (the gradient's factor) for u > 0. The scalar reference takes square roots and
 // divides; vectors chain reciprocal square roots instead (u^-1/2, u^-1/4, u^-1/8), since vector
@@ -161,12 +62,17 @@ struct SuperOffsets {
 // with dx, dy and u).
 inline double positive_floor(const SersicBlock& block) { return std::max(block.u_floor, 1e-300); }
 
+template <class T>
+inline T quadratic_form(const EllipseQuadratic& q, T dx, T dy) {
+  return (T(q.xx) * dx + T(2.0 * q.xy) * dy) * dx + T(q.yy) * dy * dy;
+}
+
 // The profile at offsets (dx, dy) from the centre (one per lane).
 template <class T, SersicRoot R>
 inline T value_at(T dx, T dy, const SersicBlock& block) {
   using L = Lanes<T>;
   const EllipseQuadratic q = block.q;
-  const T u = (T(q.xx) * dx + T(2.0 * q.xy) * dy) * dx + T(q.yy) * dy * dy;
+  const T u = quadratic_form(q, dx, dy);
   return L::exp(T(-block.b) * root_of<T, R>(L::max(u, T(positive_floor(block))), block.inv_2n));
 }
 
@@ -214,8 +120,8 @@ template <class T, SersicRoot R>
 inline void add_derivative_terms(T dx, T dy, const DerivativeForms& f, DerivativeSums<T>& s) {
   using L = Lanes<T>;
   const EllipseQuadratic q = f.shape.q, q1 = f.e1, q2 = f.e2;
-  const T xx = dx * dx, xy = dx * dy, yy = dy * dy;  // shared by the three quadratic forms
-  const T u_raw = T(q.xx) * xx + T(2.0 * q.xy) * xy + T(q.yy) * yy;
+  const T u_raw = quadratic_form(q, dx, dy);  // as value_at: the value image is the same to the bit
+  const T xx = dx * dx, xy = dx * dy, yy = dy * dy;  // shared by the shape derivatives' forms
   const T u = L::max(u_raw, T(positive_floor(f.shape)));
   const Root<T, R> root = root_and_ratio<T, R>(u, f.shape.inv_2n);
   const T v = L::exp(T(-f.shape.b) * root.t);

@@ -1,5 +1,6 @@
 // Tests kernels/least_squares: chi^2 and the normal equations against a naive dense Eigen
-// computation (J^T W J, J^T W r) on random data, masked (zero-weight) pixels included.
+// computation (J^T W J, J^T W r) on random data, masked (zero-weight) pixels included, for every
+// instruction set this machine runs.
 #include "kernels/least_squares.hpp"
 
 #include <gtest/gtest.h>
@@ -7,6 +8,7 @@
 #include <Eigen/Dense>
 #include <cmath>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 namespace stampede::kernels {
@@ -81,11 +83,8 @@ TEST(WeightedChi2, ZeroWeightPixelsContributeNothing) {
   const double normal = accumulate_normal_equations(p.data, p.model, p.weight, p.column_ptrs.data(), ncol,
                                                     alpha.data(), beta.data());
   EXPECT_NEAR(normal, clean, kRel * clean);
-  // KNOWN BUG (kernels/least_squares.cpp, weighted_chi2): it computes w * (d - m)^2 for every pixel,
-  // so 0 * NaN = NaN and 0 * Inf^2 = NaN poison the sum, while accumulate_normal_equations skips
-  // w == 0. In the fitter every trial step of a stamp with a non-finite masked pixel then reads
-  // chi2 = NaN, is rejected, and the fit ends as kNoProgress ("converged", status kOk) at the
-  // starting point. This assertion fails until weighted_chi2 skips zero-weight pixels.
+  // Were a NaN under zero weight to reach the sum (0 * NaN = NaN), every trial step of such a stamp
+  // would read chi2 = NaN and be rejected, ending the fit at its starting point.
   EXPECT_NEAR(weighted_chi2(p.data, p.model, p.weight), clean, kRel * clean);
 }
 
@@ -117,12 +116,20 @@ TEST(AccumulateNormalEquations, MatchesNaiveEigen) {
   }
 }
 
+std::vector<const LeastSquaresKernels*> every_set() {
+  std::vector<const LeastSquaresKernels*> out;
+  for (Isa isa : {Isa::kScalar, Isa::kSse42, Isa::kAvx2, Isa::kAvx512})
+    if (const LeastSquaresKernels* k = least_squares_kernels_for(isa)) out.push_back(k);
+  return out;
+}
+
 TEST(AccumulateNormalEquations, ZeroWeightPixelsContributeNothing) {
-  // Masked pixels may hold garbage (non-finite model or derivative values): the result must equal
-  // the computation on the unmasked pixels alone.
+  // Masked pixels may hold garbage (non-finite data, model or derivative values): they must add
+  // exactly +0 to every sum, so the result is bitwise that of the same problem with zeros there,
+  // and equals the computation on the unmasked pixels alone up to the summation order.
   const int ncol = 4;
-  Problem p = random_problem(500, ncol, 5u, 0.3);
-  Problem kept;
+  const Problem p = random_problem(501, ncol, 5u, 0.3);  // odd: every set has a tail
+  Problem garbage = p, zeros = p, kept;
   kept.columns.assign(ncol, {});
   for (std::size_t i = 0; i < p.data.size(); ++i) {
     if (p.weight[i] != 0.0) {
@@ -131,20 +138,85 @@ TEST(AccumulateNormalEquations, ZeroWeightPixelsContributeNothing) {
       kept.weight.push_back(p.weight[i]);
       for (int k = 0; k < ncol; ++k) kept.columns[k].push_back(p.columns[k][i]);
     } else {
-      p.model[i] = 1e300;
-      for (int k = 0; k < ncol; ++k) p.columns[k][i] = (k % 2) ? NAN : INFINITY;
+      garbage.data[i] = (i % 3) ? NAN : -INFINITY;
+      garbage.model[i] = 1e300;
+      zeros.data[i] = zeros.model[i] = 0.0;
+      for (int k = 0; k < ncol; ++k) {
+        garbage.columns[k][i] = (k % 2) ? NAN : INFINITY;
+        zeros.columns[k][i] = 0.0;
+      }
     }
   }
-  for (const auto& c : kept.columns) kept.column_ptrs.push_back(c.data());
+  for (Problem* q : {&garbage, &zeros, &kept}) {
+    q->column_ptrs.clear();
+    for (const auto& c : q->columns) q->column_ptrs.push_back(c.data());
+  }
   ASSERT_LT(kept.data.size(), p.data.size());
-  std::vector<double> a1(ncol * ncol), b1(ncol), a2(ncol * ncol), b2(ncol);
-  const double c1 = accumulate_normal_equations(p.data, p.model, p.weight, p.column_ptrs.data(), ncol, a1.data(), b1.data());
-  const double c2 =
-      accumulate_normal_equations(kept.data, kept.model, kept.weight, kept.column_ptrs.data(), ncol, a2.data(), b2.data());
-  // Same terms in the same order: identical.
-  EXPECT_EQ(c1, c2);
-  for (int k = 0; k < ncol; ++k) EXPECT_EQ(b1[k], b2[k]);
-  for (int k = 0; k < ncol * ncol; ++k) EXPECT_EQ(a1[k], a2[k]);
+  for (const LeastSquaresKernels* k : every_set()) {
+    SCOPED_TRACE(k->name);
+    std::vector<double> a1(ncol * ncol), b1(ncol), a2(ncol * ncol), b2(ncol), a3(ncol * ncol), b3(ncol);
+    const double c1 = k->normal_equations(garbage.data, garbage.model, garbage.weight, garbage.column_ptrs.data(), ncol,
+                                          a1.data(), b1.data());
+    const double c2 = k->normal_equations(zeros.data, zeros.model, zeros.weight, zeros.column_ptrs.data(), ncol,
+                                          a2.data(), b2.data());
+    const double c3 =
+        k->normal_equations(kept.data, kept.model, kept.weight, kept.column_ptrs.data(), ncol, a3.data(), b3.data());
+    EXPECT_EQ(c1, c2);
+    EXPECT_EQ(c1, k->weighted_chi2(garbage.data, garbage.model, garbage.weight));
+    EXPECT_NEAR(c1, c3, kRel * c3);
+    for (int j = 0; j < ncol; ++j) {
+      EXPECT_EQ(b1[j], b2[j]);
+      EXPECT_NEAR(b1[j], b3[j], kRel * 10 * std::abs(b3[j]) + 1e-12);
+    }
+    for (int j = 0; j < ncol * ncol; ++j) {
+      EXPECT_EQ(a1[j], a2[j]);
+      EXPECT_NEAR(a1[j], a3[j], kRel * std::abs(a3[j]));
+    }
+  }
+}
+
+TEST(LeastSquaresIsa, EverySetMatchesNaiveEigenAndTheScalarReference) {
+  const LeastSquaresKernels& ref = *least_squares_kernels_for(Isa::kScalar);
+  for (const LeastSquaresKernels* k : every_set()) {
+    SCOPED_TRACE(k->name);
+    for (int npix : {1, 7, 1521}) {
+      for (int ncol : {1, 2, 7, 12, 16}) {
+        const Problem p = random_problem(npix, ncol, 31u * npix + ncol, 0.2);
+        std::vector<double> alpha(ncol * ncol, NAN), beta(ncol, NAN), alpha_ref(ncol * ncol), beta_ref(ncol);
+        const double chi2 = k->normal_equations(p.data, p.model, p.weight, p.column_ptrs.data(), ncol, alpha.data(),
+                                                beta.data());
+        const double chi2_ref = ref.normal_equations(p.data, p.model, p.weight, p.column_ptrs.data(), ncol,
+                                                     alpha_ref.data(), beta_ref.data());
+        const Eigen::MatrixXd j = jacobian(p);
+        const Eigen::Map<const Eigen::VectorXd> d(p.data.data(), npix), m(p.model.data(), npix), w(p.weight.data(), npix);
+        const Eigen::VectorXd r = d - m;
+        const Eigen::MatrixXd a_eigen = j.transpose() * w.asDiagonal() * j;
+        const Eigen::VectorXd b_eigen = j.transpose() * w.asDiagonal() * r;
+        const double chi2_eigen = r.dot(w.asDiagonal() * r);
+        const double a_scale = a_eigen.cwiseAbs().maxCoeff() + 1e-300, b_scale = b_eigen.cwiseAbs().maxCoeff() + 1e-300;
+        EXPECT_NEAR(chi2, chi2_eigen, kRel * chi2_eigen);
+        EXPECT_NEAR(chi2, chi2_ref, kRel * chi2_ref);
+        EXPECT_NEAR(k->weighted_chi2(p.data, p.model, p.weight), chi2_eigen, kRel * chi2_eigen);
+        for (int a = 0; a < ncol; ++a) {
+          EXPECT_NEAR(beta[a], b_eigen[a], kRel * 10 * b_scale) << "npix " << npix << " ncol " << ncol;
+          EXPECT_NEAR(beta[a], beta_ref[a], kRel * 10 * b_scale);
+          for (int b = 0; b < ncol; ++b) {
+            EXPECT_NEAR(alpha[a * ncol + b], a_eigen(a, b), kRel * a_scale) << "npix " << npix << " ncol " << ncol;
+            EXPECT_NEAR(alpha[a * ncol + b], alpha_ref[a * ncol + b], kRel * a_scale);
+            EXPECT_EQ(alpha[a * ncol + b], alpha[b * ncol + a]) << "alpha must be exactly symmetric";
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(AccumulateNormalEquations, RejectsTooManyColumns) {
+  const Problem p = random_problem(10, kMaxLeastSquaresColumns + 1, 1u, 0.0);
+  std::vector<double> alpha(p.columns.size() * p.columns.size()), beta(p.columns.size());
+  EXPECT_THROW(accumulate_normal_equations(p.data, p.model, p.weight, p.column_ptrs.data(),
+                                           kMaxLeastSquaresColumns + 1, alpha.data(), beta.data()),
+               std::invalid_argument);
 }
 
 TEST(AccumulateNormalEquations, PerfectModelHasZeroChi2AndBeta) {
