@@ -65,9 +65,9 @@ def main():
         print()
     print("## Ratios (same run)\n")
     for name, b in sorted(all_runs.items()):
-        m = re.match(r"(BM_\w+)/(sse4\.2|avx2|avx512)/(n\d)", name)
+        m = re.match(r"(BM_\w+)/(sse4\.2|avx2|avx512)(/n\d)?$", name)
         if m:
-            ref = all_runs.get(f"{m.group(1)}/scalar/{m.group(3)}")
+            ref = all_runs.get(f"{m.group(1)}/scalar{m.group(3) or ''}")
             if ref:
                 width = {"sse4.2": 2, "avx2": 4, "avx512": 8}[m.group(2)]
                 speed = seconds(ref) / seconds(b)

@@ -24,6 +24,8 @@ struct Lanes {  // the scalar reference
   static void store(double* p, T v) { *p = v; }
   static T iota() { return 0.0; }
   static T select(bool c, T a, T b) { return c ? a : b; }
+  static bool all(bool c) { return c; }
+  static bool any(bool c) { return c; }
   static T max(T a, T b) { return std::max(a, b); }
   static T exp(T x) { return std::exp(x); }
   static T sqrt(T x) { return std::sqrt(x); }
@@ -45,6 +47,8 @@ struct Lanes<xsimd::batch<double, A>> {
     return B::load_aligned(v);
   }
   static B select(xsimd::batch_bool<double, A> c, B a, B b) { return xsimd::select(c, a, b); }
+  static bool all(xsimd::batch_bool<double, A> c) { return xsimd::all(c); }
+  static bool any(xsimd::batch_bool<double, A> c) { return xsimd::any(c); }
   static B max(B a, B b) { return xsimd::max(a, b); }
   // SSE4.2 has no FMA: xsimd's fma there is a multiply and an add, rounded twice.
   static constexpr bool kFusedMultiplyAdd = !std::is_same_v<A, xsimd::sse4_2>;
