@@ -148,7 +148,8 @@ inline DerivativeSums<T> derivative_sums(T xc, double yc, const SuperOffsets& of
 
 // A supersampled block (the N_u x N_u central sub-pixels, U2^2 points each): lanes run over
 // sub-pixels, W at a time, each lane summing its own sub-pixel's points in the scalar reference's
-// order, so no lane idles and no horizontal sum is needed. The sub-pixels left over (fewer than W)
+// order (even and odd points apart, then together), so no lane idles and no horizontal sum is
+// needed. The sub-pixels left over (fewer than W)
 // are vectorised over their points instead.
 constexpr int kMaxBlockSubpixels = 256;
 constexpr int kMaxBlockPoints = 1024;
@@ -185,8 +186,14 @@ void accumulate_value_block(const SubpixelGrid& grid, const GridRegion& region, 
   int s = 0;
   for (; s + W <= sb.subpixels; s += W) {
     const T cx = L::load(&sb.cx[s]), cy = L::load(&sb.cy[s]);
-    T acc(0.0);
-    for (int k = 0; k < sb.points; ++k) acc += value_at<T, R>(cx + T(sb.px[k]), cy + T(sb.py[k]), block);
+    T acc(0.0), odd(0.0);  // even and odd points: two independent chains in flight
+    int k = 0;
+    for (; k + 2 <= sb.points; k += 2) {
+      acc += value_at<T, R>(cx + T(sb.px[k]), cy + T(sb.py[k]), block);
+      odd += value_at<T, R>(cx + T(sb.px[k + 1]), cy + T(sb.py[k + 1]), block);
+    }
+    if (k < sb.points) acc += value_at<T, R>(cx + T(sb.px[k]), cy + T(sb.py[k]), block);
+    acc += odd;
     L::store(&sums[s], acc);
   }
   for (; s < sb.subpixels; ++s) {  // vectorised over points
@@ -266,8 +273,20 @@ void accumulate_derivative_rows(const SubpixelGrid& grid, const GridRegion& regi
     int s = 0;
     for (; s + W <= sb.subpixels; s += W) {
       const T cx = L::load(&sb.cx[s]), cy = L::load(&sb.cy[s]);
-      DerivativeSums<T> acc = DerivativeSums<T>::zero();
-      for (int k = 0; k < sb.points; ++k) add_derivative_terms<T, R>(cx + T(sb.px[k]), cy + T(sb.py[k]), forms, acc);
+      // Even and odd points in two sets of sums: two independent chains in flight.
+      DerivativeSums<T> acc = DerivativeSums<T>::zero(), odd = acc;
+      int k = 0;
+      for (; k + 2 <= sb.points; k += 2) {
+        add_derivative_terms<T, R>(cx + T(sb.px[k]), cy + T(sb.py[k]), forms, acc);
+        add_derivative_terms<T, R>(cx + T(sb.px[k + 1]), cy + T(sb.py[k + 1]), forms, odd);
+      }
+      if (k < sb.points) add_derivative_terms<T, R>(cx + T(sb.px[k]), cy + T(sb.py[k]), forms, acc);
+      acc.v += odd.v;
+      acc.sx += odd.sx;
+      acc.sy += odd.sy;
+      acc.s1 += odd.s1;
+      acc.s2 += odd.s2;
+      acc.sr += odd.sr;
       int q = 0;
       for (const T& sum : {acc.v, acc.sx, acc.sy, acc.s1, acc.s2, acc.sr}) L::store(&sums[q++][s], sum);
     }
