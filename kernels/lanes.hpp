@@ -31,7 +31,6 @@ struct Lanes {  // the scalar reference
   static T sqrt(T x) { return std::sqrt(x); }
   static T pow(T x, double y) { return std::pow(x, y); }
   static constexpr bool kEstimatedRsqrt = false;
-  static T rsqrt(T x) { return 1.0 / std::sqrt(x); }
   static double sum(T x) { return x; }
 };
 
@@ -86,24 +85,17 @@ struct Lanes<xsimd::batch<double, A>> {
   static B sqrt(B x) { return xsimd::sqrt(x); }
   static B pow(B x, double y) { return xsimd::pow(x, B(y)); }
   // Whether roots go through rsqrt below rather than sqrt and division: only where the hardware
-  // gives an estimate to refine (measured: the bit-trick seed loses to vsqrtpd on AVX2 and SSE).
+  // gives an estimate to refine (measured: a bit-trick seed with Newton steps loses to vsqrtpd on
+  // AVX2 and SSE4.2).
   static constexpr bool kEstimatedRsqrt = std::is_same_v<A, xsimd::avx512f>;
-  // 1/sqrt(x) for x > 0 without a square root or division: a hardware estimate (AVX-512F, error
-  // < 2^-14) refined by one step of the series y (1 - e)^-1/2 with e = 1 - x y^2, to e^3
-  // (truncation ~6e-17); elsewhere the exponent-halving bit trick (3.4 %) and four Newton steps.
+  // 1/sqrt(x) for x > 0 without a square root or division (AVX-512F only): the hardware estimate
+  // (error < 2^-14) refined by one step of the series y (1 - e)^-1/2 with e = 1 - x y^2, to e^3
+  // (truncation ~6e-17).
   static B rsqrt(B x) {
-    using I = xsimd::batch<std::int64_t, A>;
-    if constexpr (std::is_same_v<A, xsimd::avx512f>) {
-      const B y = B(_mm512_rsqrt14_pd(x));
-      const B e = xsimd::fnma(x, y * y, B(1.0));
-      const B series = xsimd::fma(e, xsimd::fma(e, B(5.0 / 16), B(3.0 / 8)), B(0.5));
-      return xsimd::fma(y * e, series, y);
-    } else {
-      B y = xsimd::bitwise_cast<B>(I(0x5fe6eb50c7b537a9LL) - (xsimd::bitwise_cast<I>(x) >> 1));
-      const B half_x = B(0.5) * x;
-      for (int i = 0; i < 4; ++i) y = xsimd::fma(y, xsimd::fnma(half_x * y, y, B(0.5)), y);
-      return y;
-    }
+    const B y = B(_mm512_rsqrt14_pd(x));
+    const B e = xsimd::fnma(x, y * y, B(1.0));
+    const B series = xsimd::fma(e, xsimd::fma(e, B(5.0 / 16), B(3.0 / 8)), B(0.5));
+    return xsimd::fma(y * e, series, y);
   }
   // x^-1/8 for x > 0 (AVX-512F only): three chained 14-bit estimates (error < 2^-13), then one
   // step of the series y (1 - e)^-1/8 with e = 1 - x y^8, to e^4 (truncation ~1e-17).

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "kernels/isa_dispatch.hpp"
 #include "kernels/profile_render_isa.hpp"
 
 namespace stampede::kernels {
@@ -22,45 +23,18 @@ double sersic_value(const SersicBlock& block, double x, double y) {
 
 namespace {
 
-// Built once: the table of function pointers for each set this binary and CPU both support.
-struct KernelTable {
-  ProfileKernels scalar, sse42, avx2, avx512;
-  KernelTable() {
-    scalar = profile_kernels_scalar();
-#ifdef STAMPEDE_HAVE_SSE42
-    if (isa_available(Isa::kSse42)) sse42 = profile_kernels_sse42();
-#endif
-#ifdef STAMPEDE_HAVE_AVX2
-    if (isa_available(Isa::kAvx2)) avx2 = profile_kernels_avx2();
-#endif
-#ifdef STAMPEDE_HAVE_AVX512
-    if (isa_available(Isa::kAvx512)) avx512 = profile_kernels_avx512();
-#endif
-  }
-};
-
-const KernelTable& kernel_table() {
-  static const KernelTable table;  // immutable after its thread-safe initialisation
-  return table;
+const IsaDispatch<ProfileKernels>& table() {
+  static const IsaDispatch<ProfileKernels> t(  // immutable after its thread-safe initialisation
+      profile_kernels_scalar, STAMPEDE_SSE42_ENTRY(profile_kernels_sse42), STAMPEDE_AVX2_ENTRY(profile_kernels_avx2),
+      STAMPEDE_AVX512_ENTRY(profile_kernels_avx512));
+  return t;
 }
 
 }  // namespace
 
-const ProfileKernels* profile_kernels_for(Isa isa) {
-  if (!isa_available(isa)) return nullptr;
-  const KernelTable& t = kernel_table();
-  switch (resolve_isa(isa)) {
-    case Isa::kSse42: return &t.sse42;
-    case Isa::kAvx2: return &t.avx2;
-    case Isa::kAvx512: return &t.avx512;
-    default: return &t.scalar;
-  }
-}
+const ProfileKernels* profile_kernels_for(Isa isa) { return table().find(isa); }
 
-const ProfileKernels& profile_kernels(Isa isa) {
-  const ProfileKernels* k = profile_kernels_for(isa);
-  return k ? *k : kernel_table().scalar;
-}
+const ProfileKernels& profile_kernels(Isa isa) { return table().get(isa); }
 
 void accumulate_sersic(const SubpixelGrid& grid, const GridRegion& region, int supersample,
                        const SersicBlock& block, double amplitude, double* out) {

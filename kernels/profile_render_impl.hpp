@@ -17,16 +17,17 @@
 namespace stampede::kernels {
 namespace {
 
-// t = u^(1/2n) and t / u (the gradient's factor) for u > 0. The scalar reference takes square roots and
-// divides; vectors chain reciprocal square roots instead (u^-1/2, u^-1/4, u^-1/8), since vector
-// sqrt and div run no faster per element than scalar ones.
-template <class T, SersicRoot R>
+// t = u^(1/2n) and t / u (the gradient's factor) for u > 0. The scalar reference and the AVX2 and
+// SSE4.2 builds take square roots and divide; AVX-512 refines reciprocal-square-root estimates
+// (u^-1/2, or u^-1/8 for n = 4), since its vector sqrt and div run no faster per element than
+// scalar ones.
+template <class T>
 struct Root {
   T t, t_over_u;
 };
 
 template <class T, SersicRoot R>
-inline Root<T, R> root_and_ratio(T u, double inv_2n) {
+inline Root<T> root_and_ratio(T u, double inv_2n) {
   using L = Lanes<T>;
   if constexpr (R == SersicRoot::kGeneralPow) {
     const T t = L::pow(u, inv_2n);
@@ -123,7 +124,7 @@ inline void add_derivative_terms(T dx, T dy, const DerivativeForms& f, Derivativ
   const T u_raw = quadratic_form(q, dx, dy);  // as value_at: the value image is the same to the bit
   const T xx = dx * dx, xy = dx * dy, yy = dy * dy;  // shared by the shape derivatives' forms
   const T u = L::max(u_raw, T(positive_floor(f.shape)));
-  const Root<T, R> root = root_and_ratio<T, R>(u, f.shape.inv_2n);
+  const Root<T> root = root_and_ratio<T, R>(u, f.shape.inv_2n);
   const T v = L::exp(T(-f.shape.b) * root.t);
   const T g = T(f.g_scale) * v * root.t_over_u;
   // Under the floor the value depends only on r (through u_floor), not on position or shape.
