@@ -34,7 +34,8 @@ class Fitter::Problem final : public LeastSquaresProblem {
     for (int k = 0; k < kMaxFree; ++k) column_ptr_[k] = columns_.data() + k * kernels::aligned_stride<double>(npix);
   }
   void reset(std::span<const double> data, const ParamVector& full, int npix_used) {
-    std::copy(data.begin(), data.end(), data_.begin());
+    // Masked pixels may hold NaN; as zeros they keep the least-squares kernels on their fast path.
+    for (std::size_t i = 0; i < data.size(); ++i) data_[i] = f_.weight_[i] != 0.0 ? data[i] : 0.0;
     full_ = full;
     npix_used_ = npix_used;
   }

@@ -133,8 +133,9 @@ void fold_columns(int n, int u, int q, int j, const double* spectrum, const doub
 template <class L>
 void fold_row_vectors(int n, int u, int q, int j, int count, const double* spectrum, const double* kernel, double* out) {
   constexpr int N = L::complex_per_vector;
+  constexpr int kMaxK = N >= 4 ? 8 : 4;
   while (count > 0) {
-    const int k = count > 8 ? 8 : count;
+    const int k = count > kMaxK ? kMaxK : count;
     switch (k) {
       case 1: fold_columns<L, 1>(n, u, q, j, spectrum, kernel, out); break;
       case 2: fold_columns<L, 2>(n, u, q, j, spectrum, kernel, out); break;

@@ -126,10 +126,12 @@ std::vector<const LeastSquaresKernels*> every_set() {
 TEST(AccumulateNormalEquations, ZeroWeightPixelsContributeNothing) {
   // Masked pixels may hold garbage (non-finite data, model or derivative values): they must add
   // exactly +0 to every sum, so the result is bitwise that of the same problem with zeros there,
-  // and equals the computation on the unmasked pixels alone up to the summation order.
+  // and equals the computation on the unmasked pixels alone up to the summation order. Finite
+  // garbage stays on the kernels' unmasked first pass (its products with w = 0 are ±0); non-finite
+  // garbage sends them to the masked second pass: both must give the zeros' bits.
   const int ncol = 4;
   const Problem p = random_problem(501, ncol, 5u, 0.3);  // odd: every set has a tail
-  Problem garbage = p, zeros = p, kept;
+  Problem garbage = p, finite_garbage = p, zeros = p, kept;
   kept.columns.assign(ncol, {});
   for (std::size_t i = 0; i < p.data.size(); ++i) {
     if (p.weight[i] != 0.0) {
@@ -140,14 +142,17 @@ TEST(AccumulateNormalEquations, ZeroWeightPixelsContributeNothing) {
     } else {
       garbage.data[i] = (i % 3) ? NAN : -INFINITY;
       garbage.model[i] = 1e300;
+      finite_garbage.data[i] = (i % 2) ? 1e150 : -1e150;
+      finite_garbage.model[i] = -3.0;
       zeros.data[i] = zeros.model[i] = 0.0;
       for (int k = 0; k < ncol; ++k) {
         garbage.columns[k][i] = (k % 2) ? NAN : INFINITY;
+        finite_garbage.columns[k][i] = (k % 2) ? -1e200 : 1e200;
         zeros.columns[k][i] = 0.0;
       }
     }
   }
-  for (Problem* q : {&garbage, &zeros, &kept}) {
+  for (Problem* q : {&garbage, &finite_garbage, &zeros, &kept}) {
     q->column_ptrs.clear();
     for (const auto& c : q->columns) q->column_ptrs.push_back(c.data());
   }
@@ -161,15 +166,22 @@ TEST(AccumulateNormalEquations, ZeroWeightPixelsContributeNothing) {
                                           a2.data(), b2.data());
     const double c3 =
         k->normal_equations(kept.data, kept.model, kept.weight, kept.column_ptrs.data(), ncol, a3.data(), b3.data());
+    std::vector<double> a4(ncol * ncol), b4(ncol);
+    const double c4 = k->normal_equations(finite_garbage.data, finite_garbage.model, finite_garbage.weight,
+                                          finite_garbage.column_ptrs.data(), ncol, a4.data(), b4.data());
     EXPECT_EQ(c1, c2);
+    EXPECT_EQ(c4, c2);
     EXPECT_EQ(c1, k->weighted_chi2(garbage.data, garbage.model, garbage.weight));
+    EXPECT_EQ(c4, k->weighted_chi2(finite_garbage.data, finite_garbage.model, finite_garbage.weight));
     EXPECT_NEAR(c1, c3, kRel * c3);
     for (int j = 0; j < ncol; ++j) {
       EXPECT_EQ(b1[j], b2[j]);
+      EXPECT_EQ(b4[j], b2[j]);
       EXPECT_NEAR(b1[j], b3[j], kRel * 10 * std::abs(b3[j]) + 1e-12);
     }
     for (int j = 0; j < ncol * ncol; ++j) {
       EXPECT_EQ(a1[j], a2[j]);
+      EXPECT_EQ(a4[j], a2[j]);
       EXPECT_NEAR(a1[j], a3[j], kRel * std::abs(a3[j]));
     }
   }
