@@ -88,13 +88,16 @@ inline typename L::V spectrum_columns(const double* row, const double* mirror, i
   return L::load(lanes);
 }
 
-// Output columns [j, j + K N) of output row q, K vectors side by side (independent accumulator
-// chains): all U^2 terms summed in registers (ky = q + M t ascending, then rx), reduced, stored.
+// K vectors of output row q side by side (independent accumulator chains), vector v < K - 1 at
+// column j + v N and the last at column `last` (j + (K - 1) N, or M/2 + 1 - N where it overlaps
+// its neighbour to end the row): all U^2 terms summed in registers (ky = q + M t ascending, then
+// rx), reduced, stored.
 template <class L, int K>
-void fold_columns(int n, int u, int q, int j, const double* spectrum, const double* kernel, double* out) {
+void fold_columns(int n, int u, int q, int j, int last, const double* spectrum, const double* kernel, double* out) {
   using V = typename L::V;
   constexpr int N = L::complex_per_vector;
   const int m = n / u, hn = n / 2 + 1, hm = m / 2 + 1;
+  auto column = [&](int v) { return v == K - 1 ? last : j + v * N; };
   V s1[K], s2[K], a[K];
 #pragma GCC unroll 8
   for (int v = 0; v < K; ++v) s1[v] = s2[v] = L::zero();
@@ -103,68 +106,67 @@ void fold_columns(int n, int u, int q, int j, const double* spectrum, const doub
     const double* mirror = spectrum + 2 * static_cast<std::size_t>((n - ky) % n) * hn;
     for (int rx = 0; rx < u; ++rx) {
       const int k0 = m * rx;
-      if (k0 + j + K * N <= hn) {  // all stored columns
-        const double* x = row + 2 * (k0 + j);
+      if (k0 + last + N <= hn) {  // all stored columns
 #pragma GCC unroll 8
-        for (int v = 0; v < K; ++v) a[v] = L::load(x + 2 * v * N);
+        for (int v = 0; v < K; ++v) a[v] = L::load(row + 2 * (k0 + column(v)));
       } else if (k0 + j >= hn) {  // all mirrored
-        const double* x = mirror + 2 * (n - k0 - j - (N - 1));
 #pragma GCC unroll 8
-        for (int v = 0; v < K; ++v) a[v] = L::conj(L::reverse(L::load(x - 2 * v * N)));
+        for (int v = 0; v < K; ++v) a[v] = L::conj(L::reverse(L::load(mirror + 2 * (n - k0 - column(v) - (N - 1)))));
       } else {
 #pragma GCC unroll 8
-        for (int v = 0; v < K; ++v) a[v] = spectrum_columns<L>(row, mirror, n, hn, k0, j + v * N);
+        for (int v = 0; v < K; ++v) a[v] = spectrum_columns<L>(row, mirror, n, hn, k0, column(v));
       }
-      const double* b = kernel + 2 * ((static_cast<std::size_t>(ky) * u + rx) * hm + j);
+      const double* b = kernel + 2 * (static_cast<std::size_t>(ky) * u + rx) * hm;
 #pragma GCC unroll 8
       for (int v = 0; v < K; ++v) {
-        const V bv = L::load(b + 2 * v * N);
+        const V bv = L::load(b + 2 * column(v));
         s1[v] = L::multiply_add(a[v], bv, s1[v]);
         s2[v] = L::multiply_add(a[v], L::swap(bv), s2[v]);
       }
     }
   }
+  double* out_row = out + 2 * static_cast<std::size_t>(q) * hm;
 #pragma GCC unroll 8
-  for (int v = 0; v < K; ++v) L::store(out + 2 * (static_cast<std::size_t>(q) * hm + j + v * N), L::combine(s1[v], s2[v]));
+  for (int v = 0; v < K; ++v) L::store(out_row + 2 * column(v), L::combine(s1[v], s2[v]));
 }
 
-// Columns [j, j + count N) of row q in chunks of at most 8 vectors (the accumulators fit in
-// registers).
+// Output row q: its whole vectors, plus one ending at the row's end where M/2 + 1 is not a multiple
+// of the width (the columns it repeats come out bitwise the same: each lane's terms and operations
+// are its column's alone), in as few passes as the registers allow, split evenly: every pass
+// re-reads the U^2 spectrum segments of the row, so a lone leftover vector would cost a whole pass.
 template <class L>
-void fold_row_vectors(int n, int u, int q, int j, int count, const double* spectrum, const double* kernel, double* out) {
+void fold_row(int n, int u, int q, const double* spectrum, const double* kernel, double* out) {
   constexpr int N = L::complex_per_vector;
-  constexpr int kMaxK = N >= 4 ? 8 : 4;
-  while (count > 0) {
-    const int k = count > kMaxK ? kMaxK : count;
+  constexpr int kMaxK = N >= 4 ? 8 : 4;  // 2 K accumulators in 32 or 16 registers
+  const int hm = (n / u) / 2 + 1;
+  const int whole = hm / N, vectors = whole + (hm % N ? 1 : 0);
+  const int passes = (vectors + kMaxK - 1) / kMaxK;
+  int first = 0;
+  for (int p = 0; p < passes; ++p) {
+    const int k = vectors / passes + (p < vectors % passes ? 1 : 0);
+    const int j = first * N, end = first + k;
+    const int last = end - 1 < whole ? (end - 1) * N : hm - N;
     switch (k) {
-      case 1: fold_columns<L, 1>(n, u, q, j, spectrum, kernel, out); break;
-      case 2: fold_columns<L, 2>(n, u, q, j, spectrum, kernel, out); break;
-      case 3: fold_columns<L, 3>(n, u, q, j, spectrum, kernel, out); break;
-      case 4: fold_columns<L, 4>(n, u, q, j, spectrum, kernel, out); break;
-      case 5: fold_columns<L, 5>(n, u, q, j, spectrum, kernel, out); break;
-      case 6: fold_columns<L, 6>(n, u, q, j, spectrum, kernel, out); break;
-      case 7: fold_columns<L, 7>(n, u, q, j, spectrum, kernel, out); break;
-      default: fold_columns<L, 8>(n, u, q, j, spectrum, kernel, out); break;
+      case 1: fold_columns<L, 1>(n, u, q, j, last, spectrum, kernel, out); break;
+      case 2: fold_columns<L, 2>(n, u, q, j, last, spectrum, kernel, out); break;
+      case 3: fold_columns<L, 3>(n, u, q, j, last, spectrum, kernel, out); break;
+      case 4: fold_columns<L, 4>(n, u, q, j, last, spectrum, kernel, out); break;
+      case 5: fold_columns<L, 5>(n, u, q, j, last, spectrum, kernel, out); break;
+      case 6: fold_columns<L, 6>(n, u, q, j, last, spectrum, kernel, out); break;
+      case 7: fold_columns<L, 7>(n, u, q, j, last, spectrum, kernel, out); break;
+      default: fold_columns<L, 8>(n, u, q, j, last, spectrum, kernel, out); break;
     }
-    j += k * N;
-    count -= k;
+    first = end;
   }
 }
 
 template <class T>
 void fold_lanes(int n, int u, const double* spectrum, const double* kernel, double* out) {
   using C = ComplexLanes<T>;
-  constexpr int N = C::complex_per_vector;
-  const int m = n / u, hm = m / 2 + 1;
-  for (int q = 0; q < m; ++q) {
-    if (hm < N) {
-      fold_row_vectors<ComplexLanes<double>>(n, u, q, 0, hm, spectrum, kernel, out);
-      continue;
-    }
-    fold_row_vectors<C>(n, u, q, 0, hm / N, spectrum, kernel, out);
-    // The last columns as one more vector ending at hm: the columns it repeats come out bitwise
-    // the same (each lane's terms and operations are its column's alone), so rewriting is harmless.
-    if (hm % N) fold_row_vectors<C>(n, u, q, hm - N, 1, spectrum, kernel, out);
+  const int hm = (n / u) / 2 + 1;
+  for (int q = 0; q < n / u; ++q) {
+    if (hm < C::complex_per_vector) fold_row<ComplexLanes<double>>(n, u, q, spectrum, kernel, out);
+    else fold_row<C>(n, u, q, spectrum, kernel, out);
   }
 }
 
