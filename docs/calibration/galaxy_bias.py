@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Per-galaxy bias of the experiment's catalogues against the simulation truth.
 
-usage: galaxy_bias.py DIR [DIR ...]     (DIR: an S/N directory of run_experiment.sh)
+usage: galaxy_bias.py DIRS [DIRS ...]   (DIRS: an S/N directory of run_experiment.sh, or several
+                                        joined by commas, pooled: an S/N and its extra batches)
 
 `stampede metrics` measures m from the set means against the sets' shears: with 8 sets whose
 shears spread over |g| < 0.05, its error on m is ~1e-2 at S/N 20. The truth files give each
@@ -25,9 +26,11 @@ from astropy.io import fits
 EXCLUDING = 4 | 16 | 32 | 65536 | 131072
 
 
-def load(dirname, prefix, cols):
+def load(dirnames, prefix, cols):
     out = {c: [] for c in cols + ["e1_true", "e2_true", "ok"]}
-    for truth in sorted(glob.glob(os.path.join(dirname, "truth_*.fits"))):
+    truths = [t for dirname in dirnames for t in sorted(glob.glob(os.path.join(dirname, "truth_*.fits")))]
+    for truth in truths:
+        dirname = os.path.dirname(truth)
         k = truth.rsplit("_", 1)[1][:-5]
         path = os.path.join(dirname, f"{prefix}_{k}.fits")
         if not os.path.exists(path):
@@ -65,15 +68,17 @@ def regress(d, e1, e2):
 def main():
     print("| S/N dir, catalogue | m_gal,1 | m_gal,2 | c_gal,1 | c_gal,2 | noise pairs |")
     print("|---|---|---|---|---|---|")
-    for dirname in sys.argv[1:]:
+    for arg in sys.argv[1:]:
+        dirnames = arg.split(",")
         for label, prefix, cols in (("raw e", "fit", ["e1", "e2"]),
                                     ("calibrated (population)", "cal", ["e1_cal", "e2_cal"]),
                                     ("calibrated per object", "obj", ["e1_cal", "e2_cal"])):
-            d = load(dirname, prefix, cols)
+            d = load(dirnames, prefix, cols)
             if d is None:
                 continue
             (m1, sm1, c1, sc1, n), (m2, sm2, c2, sc2, _) = regress(d, *cols)
-            print(f"| {os.path.basename(dirname.rstrip('/'))}, {label} | {m1:+.2e} ± {sm1:.1e} | "
+            name = " + ".join(os.path.basename(x.rstrip("/")) for x in dirnames)
+            print(f"| {name}, {label} | {m1:+.2e} ± {sm1:.1e} | "
                   f"{m2:+.2e} ± {sm2:.1e} | {c1:+.2e} ± {sc1:.1e} | {c2:+.2e} ± {sc2:.1e} | {n} |")
 
 

@@ -8,13 +8,16 @@
 # can be restarted):
 #   science-SNR  sim + fit SETS sets of GRID^2 galaxies at S/N = SNR (SNR from SNRS)
 #   deep         sim + fit the deep sample of the same population at S/N 200
+#   extra        sim + fit the EXTRA_BATCHES (below), each in OUTDIR/snrSNR_seedSEED
 #   build        stampede calibrate build at S/N 20 with the science configuration
 #   apply        stampede calibrate apply (population mode, and per-object mode for comparison) to
-#                every science set; metrics of e, of the population- and of the per-object-calibrated
-#                e -> OUTDIR/results.md
+#                every science set (an S/N's extra batches pooled with its sets); metrics of e, of the
+#                population- and of the per-object-calibrated e -> OUTDIR/results.md
 #
 # Environment (defaults = the issue's experiment): SETS=8 GRID=100 DEEP_GRID=100 SNRS="20 40 10"
 # REALISATIONS=16 (noise pairs per calibration grid point) THREADS=(all cores) STAMPEDE=build/tools/stampede
+# EXTRA_BATCHES="SNR:SETS:SEED ..." (default none): more sets at an S/N, simulated with another seed
+# (so new galaxies, noise and shears) and pooled with its sets, e.g. "20:12:3020"
 # BUILD_ARGS (extra options of calibrate build, e.g. a smaller grid for a dry run)
 # PYTHON=python3 (with numpy and astropy, for the tables)
 #
@@ -34,10 +37,11 @@ REALISATIONS=${REALISATIONS:-16}
 STAMPEDE=${STAMPEDE:-build/tools/stampede}
 threads=()
 [[ -n "${THREADS:-}" ]] && threads=(--threads "$THREADS")
+EXTRA_BATCHES=${EXTRA_BATCHES:-}
 if [[ ${#stages[@]} -eq 0 ]]; then
   stages=()
   for s in $SNRS; do stages+=("science-$s"); done
-  stages+=(deep build apply)
+  stages+=(extra deep build apply)
 fi
 mkdir -p "$out"
 
@@ -74,6 +78,19 @@ science() {  # SNR
   fit_sets "$dir"
 }
 
+extra() {
+  local batch snr sets seed dir
+  for batch in $EXTRA_BATCHES; do
+    IFS=: read -r snr sets seed <<< "$batch"
+    dir="$out/snr${snr}_seed$seed"
+    if [[ ! -f "$dir/set_$((sets - 1)).fits" ]]; then
+      "$STAMPEDE" sim great08 --out "$dir" --sets "$sets" --grid "$GRID" --snr "$snr" --noise-pairs --seed "$seed" \
+        --overwrite "${sim_common[@]}"
+    fi
+    fit_sets "$dir"
+  done
+}
+
 deep() {
   local dir="$out/deep"
   [[ -f "$dir/set_0.fits" ]] || "$STAMPEDE" sim great08 --out "$dir" --sets 1 --grid "$DEEP_GRID" --snr 200 --seed 2000 \
@@ -93,9 +110,14 @@ apply() {
   local table="$out/results.md"
   : > "$table.tmp"
   for snr in $SNRS; do
-    local dir="$out/snr$snr" fits=() cal=() obj=()
-    for set in "$dir"/set_*.fits; do
-      local k=${set##*/set_}; k=${k%.fits}
+    local fits=() cal=() obj=() dir="$out/snr$snr" sets=("$out/snr$snr"/set_*.fits)
+    for set in "$out/snr${snr}_seed"*/set_*.fits; do [[ -e $set ]] && sets+=("$set"); done
+    for set in "${sets[@]}"; do
+      local dir=${set%/set_*} k=${set##*/set_}; k=${k%.fits}
+      if [[ ! -f "$dir/fit_$k.fits" ]]; then
+        echo "apply: $dir/fit_$k.fits not made yet: set left out" >&2
+        continue
+      fi
       "$STAMPEDE" calibrate apply "$dir/fit_$k.fits" --deep "$out/deep/fit_0.fits" --calibration "$out/calibration.fits" \
         -o "$dir/cal_$k.fits" --overwrite --quiet
       "$STAMPEDE" calibrate apply "$dir/fit_$k.fits" --per-object --calibration "$out/calibration.fits" \
@@ -104,13 +126,18 @@ apply() {
       cal+=(--fit "$dir/cal_$k.fits" --truth "$dir/truth_$k.fits")
       obj+=(--fit "$dir/obj_$k.fits" --truth "$dir/truth_$k.fits")
     done
+    dir="$out/snr$snr"
     "$STAMPEDE" metrics "${fits[@]}" --json "$dir/metrics_uncalibrated.json" > "$dir/metrics_uncalibrated.txt"
     "$STAMPEDE" metrics "${cal[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_calibrated.json" > "$dir/metrics_calibrated.txt"
     "$STAMPEDE" metrics "${obj[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_per_object.json" > "$dir/metrics_per_object.txt"
     echo "$snr $dir/metrics_uncalibrated.json $dir/metrics_calibrated.json $dir/metrics_per_object.json" >> "$table.tmp"
   done
   local dirs=()
-  for snr in $SNRS; do dirs+=("$out/snr$snr"); done
+  for snr in $SNRS; do
+    local pooled="$out/snr$snr" extra_dir
+    for extra_dir in "$out/snr${snr}_seed"*; do [[ -d $extra_dir ]] && pooled+=",$extra_dir"; done
+    dirs+=("$pooled")
+  done
   {
     "${PYTHON:-python3}" "$(dirname "$0")/table.py" "$table.tmp"
     echo
@@ -126,6 +153,7 @@ for stage in "${stages[@]}"; do
   echo "== $stage ($(date -u +%H:%M:%S))" >&2
   case $stage in
     science-*) science "${stage#science-}" ;;
+    extra) extra ;;
     deep) deep ;;
     build) build ;;
     apply) apply ;;
