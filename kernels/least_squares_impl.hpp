@@ -66,8 +66,8 @@ double weighted_chi2_lanes(std::span<const double> data, std::span<const double>
 }
 
 // Pixels per chunk of the normal equations: every block of rows passes over a chunk's data, model,
-// weight and columns while they are in the 48 KiB L1 (up to 19 arrays of 2 KiB); over the whole
-// stamp at once each block would stream them from L2, which bounds the wide sets.
+// weight and columns while they are in the 48 KiB L1 (with 7 columns, 10 arrays of 4 KiB); over
+// the whole stamp at once each block would stream them from L2, which bounds the wide sets.
 inline constexpr std::size_t kNormalEquationsChunk = 512;
 
 // The lane accumulators of the normal equations, kept across chunks.
