@@ -42,4 +42,10 @@ PsfOptions read_psf_keys(FitsFile& f) {
   return psf;
 }
 
+std::optional<PsfOptions> read_psf_keys_if_present(FitsFile& f) {
+  for (const char* key : {"PSFTYPE", "PSFBETA", "PSFLOD"})
+    if (f.read_key_string(key)) return read_psf_keys(f);
+  return std::nullopt;
+}
+
 }  // namespace stampede::io

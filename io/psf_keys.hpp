@@ -3,6 +3,8 @@
 // ellipticities as reduced shear (a - b) / (a + b).
 #pragma once
 
+#include <optional>
+
 #include "engine/psf.hpp"
 #include "io/fits_file.hpp"
 
@@ -13,5 +15,7 @@ void write_psf_keys(FitsFile& f, const PsfOptions& psf);
 // From the current HDU; without PSFTYPE a Moffat (GalSim's sets), PSFTRUNC and PSFOBSC default to 0.
 // Throws FitsError naming the file and the missing or bad keyword.
 PsfOptions read_psf_keys(FitsFile& f);
+// The same where the HDU records a PSF at all (PSFTYPE, PSFBETA or PSFLOD present); nullopt otherwise.
+std::optional<PsfOptions> read_psf_keys_if_present(FitsFile& f);
 
 }  // namespace stampede::io

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -23,6 +24,7 @@
 #include "io/catalogue_source.hpp"
 #include "io/fits_error.hpp"
 #include "io/grid_source.hpp"
+#include "io/psf_keys.hpp"
 #include "io/run_config.hpp"
 
 namespace {
@@ -167,10 +169,14 @@ int run_fit_command(int argc, char** argv) {
 
   // Input first: its header may fix the stamp size, and a bad file should fail before anything.
   std::unique_ptr<StampSource> source;
+  std::optional<PsfOptions> recorded_psf;  // the PSF the input's header records, if any
+  std::string recorded_where;              // its file and HDU
   if (a.catalog.empty()) {
     auto grid = std::make_unique<io::GridStampSource>(a.input, a.weight,
                                                       cfg.explicitly_set.count("stamp_size") ? cfg.fitter.render.stamp_size : 0);
     cfg.fitter.render.stamp_size = grid->stamp_size();
+    recorded_psf = io::read_psf_keys_if_present(grid->header());
+    recorded_where = grid->header().describe();
     source = std::move(grid);
   } else {
     io::CatalogueColumns cols;
@@ -201,6 +207,19 @@ int run_fit_command(int argc, char** argv) {
     const tools::SharedPsf psf = tools::build_shared_psf(cfg, geometry, setup_plans);
     shared_psf = psf.kernel;
     psf_e1 = psf.e1, psf_e2 = psf.e2, psf_fwhm = psf.fwhm;
+    // A set written by `stampede sim` or GalSim records its PSF; fitting it with another (e.g. the
+    // default round Moffat) is almost always a forgotten option, and biases c by the difference.
+    if (recorded_psf) {
+      const std::vector<std::string> diff = tools::psf_differences(*recorded_psf, psf.options);
+      if (!diff.empty()) {
+        std::string list;
+        for (const auto& d : diff) list += (list.empty() ? "" : ", ") + d;
+        std::fprintf(stderr,
+                     "stampede fit: warning: %s records a PSF other than the run's: %s. The fit uses the run's "
+                     "PSF; set those options to fit with the recorded one.\n",
+                     recorded_where.c_str(), list.c_str());
+      }
+    }
   }
 
   io::CatalogWriterOptions wo;

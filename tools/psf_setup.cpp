@@ -1,6 +1,9 @@
 // The run's shared PSF; see psf_setup.hpp.
 #include "tools/psf_setup.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
@@ -38,6 +41,41 @@ SharedPsf build_shared_psf(const io::RunConfig& cfg, const GridGeometry& geometr
   out.kernel = PsfKernel::build(psf, geometry, plans, &error);
   if (!out.kernel)
     throw std::runtime_error("PSF (psf_input = " + std::string(io::psf_input_name(cfg.psf_input)) + "): " + error);
+  return out;
+}
+
+namespace {
+
+std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+}  // namespace
+
+std::vector<std::string> psf_differences(const PsfOptions& recorded, const PsfOptions& run) {
+  std::vector<std::string> out;
+  if (run.type == PsfType::kImage) return out;
+  auto type_name = [](PsfType t) { return t == PsfType::kMoffat ? "moffat" : t == PsfType::kAiry ? "airy" : "image"; };
+  if (recorded.type != run.type) {
+    out.push_back(std::string("PSFTYPE = '") + type_name(recorded.type) + "' (psf_input = " + type_name(run.type) + ")");
+    return out;
+  }
+  auto compare = [&](const char* key, double a, const char* option, double b) {
+    if (!(std::abs(a - b) <= 1e-9 * std::max(std::abs(a), std::abs(b))))
+      out.push_back(std::string(key) + " = " + number(a) + " (" + option + " = " + number(b) + ")");
+  };
+  if (run.type == PsfType::kMoffat) {
+    compare("PSFBETA", recorded.moffat.beta, "psf_beta", run.moffat.beta);
+    compare("PSFFWHM", recorded.moffat.fwhm, "psf_fwhm", run.moffat.fwhm);
+    compare("PSFE1", recorded.moffat.e1, "psf_e1", run.moffat.e1);
+    compare("PSFE2", recorded.moffat.e2, "psf_e2", run.moffat.e2);
+    compare("PSFTRUNC", recorded.moffat.truncation, "psf_truncation", run.moffat.truncation);
+  } else {
+    compare("PSFLOD", recorded.airy.lambda_over_d, "airy_lambda_over_d", run.airy.lambda_over_d);
+    compare("PSFOBSC", recorded.airy.obscuration, "airy_obscuration", run.airy.obscuration);
+  }
   return out;
 }
 

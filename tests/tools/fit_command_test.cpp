@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -172,7 +173,9 @@ TEST_F(FitCommand, MetricsRecoverTheGreat08MiniShears) {
 }
 
 // Writes an nx x ny grid of s x s stamps, each a round Gaussian blob (cheap to make and fit).
-void write_grid(const std::string& file, int nx, int ny, int s) {
+// keys: more header keywords for the image HDU.
+void write_grid(const std::string& file, int nx, int ny, int s,
+                const std::function<void(stampede::io::FitsFile&)>& keys = {}) {
   std::vector<double> img(static_cast<std::size_t>(nx) * s * ny * s);
   for (int iy = 0; iy < ny * s; ++iy)
     for (int ix = 0; ix < nx * s; ++ix) {
@@ -182,6 +185,7 @@ void write_grid(const std::string& file, int nx, int ny, int s) {
   auto f = stampede::io::FitsFile::create(file, true);
   f.write_image(static_cast<long>(nx) * s, static_cast<long>(ny) * s, img);
   f.write_key("STAMPSZ", s, "stamp size");
+  if (keys) keys(f);
 }
 
 // Must-show 4: peak RSS over 40,000 stamps within 20 MB of the run over 4,000. Cheap configuration:
@@ -198,6 +202,46 @@ TEST_F(FitCommand, MemoryIsBoundedByTheBatchNotTheCatalogue) {
   EXPECT_EQ(column(path("large_out.fits"), "id").size(), 40000u);
   std::printf("peak RSS: 4,000 stamps %ld kB, 40,000 stamps %ld kB\n", small.max_rss_kb, large.max_rss_kb);
   EXPECT_LT(large.max_rss_kb - small.max_rss_kb, 20 * 1024);
+}
+
+// A set that records its PSF (as `stampede sim` and GalSim write them) fitted with another one: a
+// warning naming the file and each differing key with both values; none when they agree or when
+// the file records no PSF. The fit itself goes on with the run's PSF.
+TEST_F(FitCommand, WarnsWhenTheSetRecordsAnotherPsf) {
+  const std::vector<std::string> cheap = {"--set", "upsampling=1", "--set", "n_central_pixels_to_upsample=0", "--set",
+                                         "padding=0", "--set", "minimizer_max_iterations=3", "--quiet"};
+  write_grid(path("plain.fits"), 2, 2, 9);
+  write_grid(path("moffat.fits"), 2, 2, 9, [](stampede::io::FitsFile& f) {
+    f.write_key("PSFTYPE", std::string("moffat"), "");
+    f.write_key("PSFBETA", 3.0, "");
+    f.write_key("PSFFWHM", 2.85, "");
+    f.write_key("PSFE1", 0.0, "");
+    f.write_key("PSFE2", 0.05, "");
+  });
+  write_grid(path("airy.fits"), 2, 2, 9, [](stampede::io::FitsFile& f) {
+    f.write_key("PSFTYPE", std::string("airy"), "");
+    f.write_key("PSFLOD", 2.0, "");
+  });
+  const RunResult differs = run(std::vector<std::string>{path("moffat.fits"), "-o", path("a.fits")} + cheap);
+  ASSERT_EQ(differs.exit_code, 0) << differs.err;
+  EXPECT_NE(differs.err.find("warning: " + path("moffat.fits") + "[HDU 0] records a PSF other than the run's"),
+            std::string::npos)
+      << differs.err;
+  EXPECT_NE(differs.err.find("PSFE2 = 0.05 (psf_e2 = 0)"), std::string::npos) << differs.err;
+  EXPECT_EQ(differs.err.find("PSFBETA"), std::string::npos) << "only differing keys are named: " << differs.err;
+  EXPECT_EQ(column(path("a.fits"), "id").size(), 4u);
+
+  const RunResult agrees = run(std::vector<std::string>{path("moffat.fits"), "-o", path("b.fits"), "--set", "psf_e2=0.05"} + cheap);
+  ASSERT_EQ(agrees.exit_code, 0) << agrees.err;
+  EXPECT_EQ(agrees.err.find("warning"), std::string::npos) << agrees.err;
+
+  const RunResult plain = run(std::vector<std::string>{path("plain.fits"), "-o", path("c.fits")} + cheap);
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_EQ(plain.err.find("warning"), std::string::npos) << plain.err;
+
+  const RunResult type = run(std::vector<std::string>{path("airy.fits"), "-o", path("d.fits")} + cheap);
+  ASSERT_EQ(type.exit_code, 0) << type.err;
+  EXPECT_NE(type.err.find("PSFTYPE = 'airy' (psf_input = moffat)"), std::string::npos) << type.err;
 }
 
 TEST_F(FitCommand, BadInputGivesAClearErrorBeforeFitting) {
