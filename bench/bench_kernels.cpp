@@ -101,7 +101,7 @@ void register_profile_benchmarks() {
 }
 
 // The least-squares accumulations of every fit evaluation, 39^2 pixels, 7 columns. No pixel is
-// masked, as in the fiducial fits (a vector holding a masked pixel takes the cleaning path; the
+// masked, as in the fiducial fits (non-finite values under the mask would add the masked pass; the
 // tests cover it).
 struct LeastSquaresProblem {  // aligned as the fitter's buffers are
   AlignedVector<double> data, model, weight;

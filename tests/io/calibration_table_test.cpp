@@ -3,7 +3,6 @@
 #include "io/calibration_table.hpp"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -11,6 +10,7 @@
 
 #include "io/fits_file.hpp"
 #include "support/error_assertions.hpp"
+#include "support/scratch_dir.hpp"
 
 namespace stampede::io {
 namespace {
@@ -21,13 +21,8 @@ using stampede::testing::error_of;
 
 class CalibrationTableTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir = fs::temp_directory_path() / ("stampede_caltable_" + std::to_string(getpid()));
-    fs::create_directories(dir);
-  }
-  void TearDown() override { fs::remove_all(dir); }
-  std::string path(const std::string& name) const { return (dir / name).string(); }
-  fs::path dir;
+  std::string path(const std::string& name) const { return scratch.path(name); }
+  stampede::testing::ScratchDir scratch{"stampede_caltable_"};
 };
 
 CalibrationTable sample_table() {

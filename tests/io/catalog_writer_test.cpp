@@ -11,7 +11,6 @@
 
 #include "support/error_assertions.hpp"
 #include <signal.h>
-#include <stdlib.h>  // mkdtemp
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -29,6 +28,7 @@
 #include <vector>
 
 #include "io/fits_file.hpp"
+#include "support/scratch_dir.hpp"
 
 namespace stampede::io {
 namespace {
@@ -254,18 +254,8 @@ long long append_batches(CatalogWriter& w, const std::vector<ObjectRecord>& reco
 
 class CatalogWriterTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    std::string templ = (fs::temp_directory_path() / "catalog_writer_test.XXXXXX").string();
-    ASSERT_NE(::mkdtemp(templ.data()), nullptr);
-    dir_ = templ;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-
   CatalogWriterOptions options(const std::string& subdir = "") const {
-    const fs::path d = subdir.empty() ? fs::path(dir_) : fs::path(dir_) / subdir;
+    const fs::path d = subdir.empty() ? scratch_.dir() : scratch_.dir() / subdir;
     fs::create_directories(d);
     CatalogWriterOptions o;
     o.path = (d / "out.fits").string();
@@ -284,7 +274,7 @@ class CatalogWriterTest : public ::testing::Test {
     return {read_bytes(o.path), read_bytes(o.text_path)};
   }
 
-  std::string dir_;
+  stampede::testing::ScratchDir scratch_{"catalog_writer_test."};
 };
 
 TEST(CatalogColumns, NamesInTableOrder) {
@@ -380,7 +370,7 @@ TEST_F(CatalogWriterTest, CatalogueColumnsWithoutTextFile) {
   append_batches(*w, records, 0, {1, 39});
   w->finish();
   expect_table(o.path, records, PositionColumns::kCatalogue);  // ids beyond 2^53 exact
-  EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 1)
+  EXPECT_EQ(std::distance(fs::directory_iterator(scratch_.dir()), fs::directory_iterator()), 1)
       << "only out.fits should be left";
 }
 
@@ -624,7 +614,7 @@ TEST_F(CatalogWriterTest, ResumeReportsCorruptFiles) {
   // A different layout (here: another writer's positions) in the partial itself.
   start();
   CatalogWriterOptions cat = o;
-  cat.path = (fs::path(dir_) / "cat.fits").string();
+  cat.path = scratch_.path("cat.fits");
   cat.text_path.clear();
   cat.positions = PositionColumns::kCatalogue;
   CatalogWriter::create(cat).reset();

@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "support/error_assertions.hpp"
-#include <stdlib.h>  // mkdtemp
+#include "support/scratch_dir.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -44,18 +44,9 @@ bool bitwise_equal(const std::vector<double>& a, const std::vector<double>& b) {
 // A fresh private directory per test, removed afterwards, so parallel ctest runs cannot collide.
 class FitsFileTmp : public ::testing::Test {
  protected:
-  void SetUp() override {
-    std::string tmpl = (fs::temp_directory_path() / "stampede_io_XXXXXX").string();
-    ASSERT_NE(mkdtemp(tmpl.data()), nullptr) << "cannot create a temporary directory";
-    dir_ = tmpl;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    if (!dir_.empty()) fs::remove_all(dir_, ec);
-  }
-  std::string tmp(const std::string& name) const { return (dir_ / name).string(); }
+  std::string tmp(const std::string& name) const { return scratch_.path(name); }
 
-  fs::path dir_;
+  stampede::testing::ScratchDir scratch_{"stampede_io_"};
 };
 
 // --- reading the reference data ------------------------------------------------------------------

@@ -3,7 +3,6 @@
 #include "io/psf_keys.hpp"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <string>
@@ -12,6 +11,7 @@
 #include "io/fits_error.hpp"
 #include "io/fits_file.hpp"
 #include "support/error_assertions.hpp"
+#include "support/scratch_dir.hpp"
 
 namespace stampede::io {
 namespace {
@@ -22,21 +22,16 @@ using stampede::testing::error_of;
 
 class PsfKeysTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir = fs::temp_directory_path() / ("stampede_psfkeys_" + std::to_string(getpid()));
-    fs::create_directories(dir);
-  }
-  void TearDown() override { fs::remove_all(dir); }
   // A one-pixel image HDU with `write` applied to its header.
   template <class Write>
   std::string image_with(const std::string& name, Write write) {
-    const std::string p = (dir / name).string();
+    const std::string p = scratch.path(name);
     auto f = FitsFile::create(p, true);
     f.write_image(1, 1, std::vector<double>{0.0});
     write(f);
     return p;
   }
-  fs::path dir;
+  stampede::testing::ScratchDir scratch{"stampede_psfkeys_"};
 };
 
 TEST_F(PsfKeysTest, AnalyticPsfsRoundTripBitwise) {

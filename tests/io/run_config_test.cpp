@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "support/error_assertions.hpp"
-#include <stdlib.h>  // mkdtemp
+#include "support/scratch_dir.hpp"
 
 #include <cmath>
 #include <cstdint>
@@ -34,18 +34,9 @@ bool same_double(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0
 // A fresh private directory per test, removed afterwards, so parallel ctest runs cannot collide.
 class RunConfigFile : public ::testing::Test {
  protected:
-  void SetUp() override {
-    std::string tmpl = (fs::temp_directory_path() / "stampede_cfg_XXXXXX").string();
-    ASSERT_NE(mkdtemp(tmpl.data()), nullptr) << "cannot create a temporary directory";
-    dir_ = tmpl;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    if (!dir_.empty()) fs::remove_all(dir_, ec);
-  }
   // Writes `text` to DIR/run.ini and returns the path.
   std::string write_ini(const std::string& text, const std::string& name = "run.ini") const {
-    const std::string path = (dir_ / name).string();
+    const std::string path = scratch_.path(name);
     std::ofstream(path) << text;
     return path;
   }
@@ -57,7 +48,7 @@ class RunConfigFile : public ::testing::Test {
     return msg;
   }
 
-  fs::path dir_;
+  stampede::testing::ScratchDir scratch_{"stampede_cfg_"};
 };
 
 // --- defaults and the registry -------------------------------------------------------------------
@@ -368,9 +359,9 @@ TEST_F(RunConfigFile, ErrorsNameTheFileLineAndKey) {
 
 TEST_F(RunConfigFile, UnreadableFilesAreConfigErrors) {
   RunConfig c;
-  const std::string missing = (dir_ / "x.ini").string();
+  const std::string missing = scratch_.path("x.ini");
   EXPECT_EQ(error_of<ConfigError>([&] { load_ini(c, missing); }), "cannot read config file '" + missing + "'");
-  EXPECT_EQ(error_of<ConfigError>([&] { load_ini(c, dir_.string()); }), "cannot read config file '" + dir_.string() + "'");
+  EXPECT_EQ(error_of<ConfigError>([&] { load_ini(c, scratch_.dir().string()); }), "cannot read config file '" + scratch_.dir().string() + "'");
 }
 
 TEST_F(RunConfigFile, OutOfRangeValuesFailValidationNamingKeyAndLine) {

@@ -17,6 +17,7 @@
 #include "io/calibration_table.hpp"
 #include "io/fits_file.hpp"
 #include "support/command_runner.hpp"
+#include "support/scratch_dir.hpp"
 
 namespace fs = std::filesystem;
 
@@ -36,14 +37,7 @@ const std::vector<std::string> kSmallBuild = {"--radii", "1.2,2",   "--bulge-fra
 
 class CalibrateCommand : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir = fs::temp_directory_path() / ("stampede_calibrate_" + std::to_string(getpid()) + "_" +
-                                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  void TearDown() override { fs::remove_all(dir); }
-  std::string path(const std::string& name) const { return (dir / name).string(); }
+  std::string path(const std::string& name) const { return scratch.path(name); }
   RunResult run(std::vector<std::string> args) {
     return finish(spawn(args, path("stderr.txt"), "calibrate"), path("stderr.txt"));
   }
@@ -77,7 +71,8 @@ class CalibrateCommand : public ::testing::Test {
                               {"radius", false, radius}, {"bulge_flux", false, bf}, {"disc_flux", false, df},
                               {"status", true, status}, {"flags", true, flags},    {"extra", false, extra}});
   }
-  fs::path dir;
+  stampede::testing::ScratchDir scratch{std::string("stampede_calibrate_") +
+                                          ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_"};
 };
 
 std::vector<double> column(const std::string& file, const std::string& hdu, const std::string& name) {

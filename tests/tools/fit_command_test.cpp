@@ -20,6 +20,7 @@
 
 #include "io/fits_file.hpp"
 #include "support/command_runner.hpp"
+#include "support/scratch_dir.hpp"
 
 namespace fs = std::filesystem;
 
@@ -33,16 +34,10 @@ std::string data(const std::string& rel) { return std::string(STAMPEDE_DATA_DIR)
 
 class FitCommand : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir = fs::temp_directory_path() / ("stampede_fit_" + std::to_string(getpid()) + "_" +
-                                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  void TearDown() override { fs::remove_all(dir); }
-  std::string path(const std::string& name) const { return (dir / name).string(); }
+  std::string path(const std::string& name) const { return scratch.path(name); }
   RunResult run(std::vector<std::string> args) { return finish(spawn(args, path("stderr.txt")), path("stderr.txt")); }
-  fs::path dir;
+  stampede::testing::ScratchDir scratch{std::string("stampede_fit_") +
+                                          ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_"};
 };
 
 const std::vector<std::string> kGreat08Psf = {"--set", "psf_beta=3", "--set", "psf_fwhm=2.85", "--set", "psf_e1=0",

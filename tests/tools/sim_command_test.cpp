@@ -1,7 +1,6 @@
 // End-to-end tests of `stampede sim great08`: the GalSim-mini file layout, identical sets for any
 // thread count or split of the sets, readable by `stampede fit` and `stampede metrics`, bad options.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -13,6 +12,7 @@
 
 #include "io/fits_file.hpp"
 #include "support/command_runner.hpp"
+#include "support/scratch_dir.hpp"
 
 namespace fs = std::filesystem;
 
@@ -27,14 +27,7 @@ std::string data(const std::string& rel) { return std::string(STAMPEDE_DATA_DIR)
 
 class SimCommand : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir = fs::temp_directory_path() / ("stampede_sim_" + std::to_string(getpid()) + "_" +
-                                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  void TearDown() override { fs::remove_all(dir); }
-  std::string path(const std::string& name) const { return (dir / name).string(); }
+  std::string path(const std::string& name) const { return scratch.path(name); }
   RunResult run(const std::string& command, std::vector<std::string> args, const std::string& out = "/dev/null") {
     return finish(spawn(args, path("stderr.txt"), command, out), path("stderr.txt"));
   }
@@ -43,7 +36,8 @@ class SimCommand : public ::testing::Test {
     args.insert(args.end(), extra.begin(), extra.end());
     return run("sim", args);
   }
-  fs::path dir;
+  stampede::testing::ScratchDir scratch{std::string("stampede_sim_") +
+                                          ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_"};
 };
 
 std::vector<std::string> column_names(const std::string& file) {
