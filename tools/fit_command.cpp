@@ -175,8 +175,12 @@ int run_fit_command(int argc, char** argv) {
     auto grid = std::make_unique<io::GridStampSource>(a.input, a.weight,
                                                       cfg.explicitly_set.count("stamp_size") ? cfg.fitter.render.stamp_size : 0);
     cfg.fitter.render.stamp_size = grid->stamp_size();
-    recorded_psf = io::read_psf_keys_if_present(grid->header());
     recorded_where = grid->header().describe();
+    try {
+      recorded_psf = io::read_psf_keys_if_present(grid->header());
+    } catch (const io::FitsError& e) {  // the record only feeds a check: the fit does not need it
+      std::fprintf(stderr, "stampede fit: warning: the PSF record is unreadable, not checked: %s\n", e.what());
+    }
     source = std::move(grid);
   } else {
     io::CatalogueColumns cols;

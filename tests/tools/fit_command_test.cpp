@@ -201,7 +201,7 @@ TEST_F(FitCommand, MemoryIsBoundedByTheBatchNotTheCatalogue) {
 
 // A set that records its PSF (as `stampede sim` and GalSim write them) fitted with another one: a
 // warning naming the file and each differing key with both values; none when they agree or when
-// the file records no PSF. The fit itself goes on with the run's PSF.
+// the file records no PSF; an incomplete record is a warning too. The fit goes on with the run's PSF.
 TEST_F(FitCommand, WarnsWhenTheSetRecordsAnotherPsf) {
   const std::vector<std::string> cheap = {"--set", "upsampling=1", "--set", "n_central_pixels_to_upsample=0", "--set",
                                          "padding=0", "--set", "minimizer_max_iterations=3", "--quiet"};
@@ -217,6 +217,7 @@ TEST_F(FitCommand, WarnsWhenTheSetRecordsAnotherPsf) {
     f.write_key("PSFTYPE", std::string("airy"), "");
     f.write_key("PSFLOD", 2.0, "");
   });
+  write_grid(path("partial.fits"), 2, 2, 9, [](stampede::io::FitsFile& f) { f.write_key("PSFBETA", 3.0, ""); });
   const RunResult differs = run(std::vector<std::string>{path("moffat.fits"), "-o", path("a.fits")} + cheap);
   ASSERT_EQ(differs.exit_code, 0) << differs.err;
   EXPECT_NE(differs.err.find("warning: " + path("moffat.fits") + "[HDU 0] records a PSF other than the run's"),
@@ -237,6 +238,14 @@ TEST_F(FitCommand, WarnsWhenTheSetRecordsAnotherPsf) {
   const RunResult type = run(std::vector<std::string>{path("airy.fits"), "-o", path("d.fits")} + cheap);
   ASSERT_EQ(type.exit_code, 0) << type.err;
   EXPECT_NE(type.err.find("PSFTYPE = 'airy' (psf_input = moffat)"), std::string::npos) << type.err;
+
+  // An incomplete record is not the fit's business: a warning naming the file and key, every row.
+  const RunResult partial = run(std::vector<std::string>{path("partial.fits"), "-o", path("e.fits")} + cheap);
+  ASSERT_EQ(partial.exit_code, 0) << partial.err;
+  EXPECT_NE(partial.err.find("PSF record is unreadable"), std::string::npos) << partial.err;
+  EXPECT_NE(partial.err.find("partial.fits"), std::string::npos) << partial.err;
+  EXPECT_NE(partial.err.find("PSFFWHM"), std::string::npos) << partial.err;
+  EXPECT_EQ(column(path("e.fits"), "id").size(), 4u);
 }
 
 TEST_F(FitCommand, BadInputGivesAClearErrorBeforeFitting) {
