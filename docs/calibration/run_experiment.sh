@@ -18,7 +18,8 @@
 # REALISATIONS=16 (noise pairs per calibration grid point) THREADS=(all cores) STAMPEDE=build/tools/stampede
 # EXTRA_BATCHES="SNR:SETS:SEED ..." (default none): more sets at an S/N, simulated with another seed
 # (so new galaxies, noise and shears) and pooled with its sets, e.g. "20:12:3020"
-# BUILD_ARGS (extra options of calibrate build, e.g. a smaller grid for a dry run)
+# BUILD_ARGS (extra options of calibrate build, e.g. --radii, or a smaller grid for a dry run)
+# CALIBRATION=OUTDIR/calibration.fits (the table build makes and apply uses)
 # PYTHON=python3 (with numpy and astropy, for the tables)
 #
 # Every science set uses --noise-pairs: objects 4q+2, 4q+3 repeat the ring pair 4q, 4q+1 with the
@@ -38,6 +39,7 @@ STAMPEDE=${STAMPEDE:-build/tools/stampede}
 threads=()
 [[ -n "${THREADS:-}" ]] && threads=(--threads "$THREADS")
 EXTRA_BATCHES=${EXTRA_BATCHES:-}
+CALIBRATION=${CALIBRATION:-$out/calibration.fits}
 if [[ ${#stages[@]} -eq 0 ]]; then
   stages=()
   for s in $SNRS; do stages+=("science-$s"); done
@@ -99,10 +101,10 @@ deep() {
 }
 
 build() {
-  [[ -f "$out/calibration.fits" ]] && return 0
+  [[ -f "$CALIBRATION" ]] && return 0
   local resume=()
-  [[ -f "$out/calibration.fits.partial" ]] && resume=(--resume)
-  "$STAMPEDE" calibrate build -o "$out/calibration.fits" --config "$out/run.ini" --snr 20 \
+  [[ -f "$CALIBRATION.partial" ]] && resume=(--resume)
+  "$STAMPEDE" calibrate build -o "$CALIBRATION" --config "$out/run.ini" --snr 20 \
     --realisations "$REALISATIONS" "${threads[@]}" "${resume[@]}" ${BUILD_ARGS:-}
 }
 
@@ -118,9 +120,9 @@ apply() {
         echo "apply: $dir/fit_$k.fits not made yet: set left out" >&2
         continue
       fi
-      "$STAMPEDE" calibrate apply "$dir/fit_$k.fits" --deep "$out/deep/fit_0.fits" --calibration "$out/calibration.fits" \
+      "$STAMPEDE" calibrate apply "$dir/fit_$k.fits" --deep "$out/deep/fit_0.fits" --calibration "$CALIBRATION" \
         -o "$dir/cal_$k.fits" --overwrite --quiet
-      "$STAMPEDE" calibrate apply "$dir/fit_$k.fits" --per-object --calibration "$out/calibration.fits" \
+      "$STAMPEDE" calibrate apply "$dir/fit_$k.fits" --per-object --calibration "$CALIBRATION" \
         -o "$dir/obj_$k.fits" --overwrite --quiet
       fits+=(--fit "$dir/fit_$k.fits" --truth "$dir/truth_$k.fits")
       cal+=(--fit "$dir/cal_$k.fits" --truth "$dir/truth_$k.fits")
