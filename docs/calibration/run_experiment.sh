@@ -112,8 +112,9 @@ apply() {
   local table="$out/results.md"
   : > "$table.tmp"
   for snr in $SNRS; do
-    local fits=() cal=() obj=() dir="$out/snr$snr" sets=("$out/snr$snr"/set_*.fits)
-    for set in "$out/snr${snr}_seed"*/set_*.fits; do [[ -e $set ]] && sets+=("$set"); done
+    # snrSNR may be moved aside to use only the extra batches; the metrics still go there.
+    local fits=() cal=() obj=() dir="$out/snr$snr" sets=()
+    for set in "$out/snr$snr"/set_*.fits "$out/snr${snr}_seed"*/set_*.fits; do [[ -e $set ]] && sets+=("$set"); done
     for set in "${sets[@]}"; do
       local dir=${set%/set_*} k=${set##*/set_}; k=${k%.fits}
       if [[ ! -f "$dir/fit_$k.fits" ]]; then
@@ -128,7 +129,12 @@ apply() {
       cal+=(--fit "$dir/cal_$k.fits" --truth "$dir/truth_$k.fits")
       obj+=(--fit "$dir/obj_$k.fits" --truth "$dir/truth_$k.fits")
     done
+    if [[ ${#fits[@]} -eq 0 ]]; then
+      echo "apply: no fitted sets at S/N $snr: left out" >&2
+      continue
+    fi
     dir="$out/snr$snr"
+    mkdir -p "$dir"
     "$STAMPEDE" metrics "${fits[@]}" --json "$dir/metrics_uncalibrated.json" > "$dir/metrics_uncalibrated.txt"
     "$STAMPEDE" metrics "${cal[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_calibrated.json" > "$dir/metrics_calibrated.txt"
     "$STAMPEDE" metrics "${obj[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_per_object.json" > "$dir/metrics_per_object.txt"
