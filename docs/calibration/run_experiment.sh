@@ -113,27 +113,27 @@ apply() {
   : > "$table.tmp"
   for snr in $SNRS; do
     # snrSNR may be moved aside to use only the extra batches; the metrics still go there.
-    local fits=() cal=() obj=() dir="$out/snr$snr" sets=()
+    local fits=() cal=() obj=() sets=() set_dir k
     for set in "$out/snr$snr"/set_*.fits "$out/snr${snr}_seed"*/set_*.fits; do [[ -e $set ]] && sets+=("$set"); done
     for set in "${sets[@]}"; do
-      local dir=${set%/set_*} k=${set##*/set_}; k=${k%.fits}
-      if [[ ! -f "$dir/fit_$k.fits" ]]; then
-        echo "apply: $dir/fit_$k.fits not made yet: set left out" >&2
+      set_dir=${set%/set_*} k=${set##*/set_}; k=${k%.fits}
+      if [[ ! -f "$set_dir/fit_$k.fits" ]]; then
+        echo "apply: $set_dir/fit_$k.fits not made yet: set left out" >&2
         continue
       fi
-      "$STAMPEDE" calibrate apply "$dir/fit_$k.fits" --deep "$out/deep/fit_0.fits" --calibration "$CALIBRATION" \
-        -o "$dir/cal_$k.fits" --overwrite --quiet
-      "$STAMPEDE" calibrate apply "$dir/fit_$k.fits" --per-object --calibration "$CALIBRATION" \
-        -o "$dir/obj_$k.fits" --overwrite --quiet
-      fits+=(--fit "$dir/fit_$k.fits" --truth "$dir/truth_$k.fits")
-      cal+=(--fit "$dir/cal_$k.fits" --truth "$dir/truth_$k.fits")
-      obj+=(--fit "$dir/obj_$k.fits" --truth "$dir/truth_$k.fits")
+      "$STAMPEDE" calibrate apply "$set_dir/fit_$k.fits" --deep "$out/deep/fit_0.fits" --calibration "$CALIBRATION" \
+        -o "$set_dir/cal_$k.fits" --overwrite --quiet
+      "$STAMPEDE" calibrate apply "$set_dir/fit_$k.fits" --per-object --calibration "$CALIBRATION" \
+        -o "$set_dir/obj_$k.fits" --overwrite --quiet
+      fits+=(--fit "$set_dir/fit_$k.fits" --truth "$set_dir/truth_$k.fits")
+      cal+=(--fit "$set_dir/cal_$k.fits" --truth "$set_dir/truth_$k.fits")
+      obj+=(--fit "$set_dir/obj_$k.fits" --truth "$set_dir/truth_$k.fits")
     done
     if [[ ${#fits[@]} -eq 0 ]]; then
       echo "apply: no fitted sets at S/N $snr: left out" >&2
       continue
     fi
-    dir="$out/snr$snr"
+    local dir="$out/snr$snr"
     mkdir -p "$dir"
     "$STAMPEDE" metrics "${fits[@]}" --json "$dir/metrics_uncalibrated.json" > "$dir/metrics_uncalibrated.txt"
     "$STAMPEDE" metrics "${cal[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_calibrated.json" > "$dir/metrics_calibrated.txt"
