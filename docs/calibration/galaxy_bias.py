@@ -72,7 +72,9 @@ def main():
         dirnames = arg.split(",")
         for label, prefix, cols in (("raw e", "fit", ["e1", "e2"]),
                                     ("calibrated (population)", "cal", ["e1_cal", "e2_cal"]),
-                                    ("calibrated per object", "obj", ["e1_cal", "e2_cal"])):
+                                    ("calibrated per object", "obj", ["e1_cal", "e2_cal"]),
+                                    ("calibrated (population, table measured at this S/N)", "matched",
+                                     ["e1_cal", "e2_cal"])):
             d = load(dirnames, prefix, cols)
             if d is None:
                 continue

@@ -12,7 +12,8 @@
 #   build        stampede calibrate build at S/N 20 with the science configuration
 #   apply        stampede calibrate apply (population mode, and per-object mode for comparison) to
 #                every science set (an S/N's extra batches pooled with its sets); metrics of e, of the
-#                population- and of the per-object-calibrated e -> OUTDIR/results.md
+#                population- and of the per-object-calibrated e -> OUTDIR/results.md; at an S/N
+#                named in MATCHED_CALIBRATIONS also with the table measured at that S/N
 #
 # Environment (defaults = the experiment): SETS=8 GRID=100 DEEP_GRID=100 SNRS="20 40 10"
 # REALISATIONS=16 (noise pairs per calibration grid point) THREADS=(all cores) STAMPEDE=build/tools/stampede
@@ -20,6 +21,8 @@
 # (so new galaxies, noise and shears) and pooled with its sets, e.g. "20:12:3020"
 # BUILD_ARGS (extra options of calibrate build, e.g. --radii, or a smaller grid for a dry run)
 # CALIBRATION=OUTDIR/calibration.fits (the table build makes and apply uses)
+# MATCHED_CALIBRATIONS="SNR:TABLE ..." (default none): tables built by hand with `calibrate build
+# --snr SNR`, applied (population mode) to that S/N's sets as well, e.g. "10:OUTDIR/cal_snr10.fits"
 # PYTHON=python3 (with numpy and astropy, for the tables)
 #
 # Every science set uses --noise-pairs: objects 4q+2, 4q+3 repeat the ring pair 4q, 4q+1 with the
@@ -113,7 +116,8 @@ apply() {
   : > "$table.tmp"
   for snr in $SNRS; do
     # snrSNR may be moved aside to use only the extra batches; the metrics still go there.
-    local fits=() cal=() obj=() sets=() set_dir k
+    local fits=() cal=() obj=() matched=() sets=() set_dir k matched_table="" entry
+    for entry in ${MATCHED_CALIBRATIONS:-}; do [[ ${entry%%:*} == "$snr" ]] && matched_table=${entry#*:}; done
     for set in "$out/snr$snr"/set_*.fits "$out/snr${snr}_seed"*/set_*.fits; do [[ -e $set ]] && sets+=("$set"); done
     for set in "${sets[@]}"; do
       set_dir=${set%/set_*} k=${set##*/set_}; k=${k%.fits}
@@ -125,6 +129,11 @@ apply() {
         -o "$set_dir/cal_$k.fits" --overwrite --quiet
       "$STAMPEDE" calibrate apply "$set_dir/fit_$k.fits" --per-object --calibration "$CALIBRATION" \
         -o "$set_dir/obj_$k.fits" --overwrite --quiet
+      if [[ -n $matched_table ]]; then
+        "$STAMPEDE" calibrate apply "$set_dir/fit_$k.fits" --deep "$out/deep/fit_0.fits" --calibration "$matched_table" \
+          -o "$set_dir/matched_$k.fits" --overwrite --quiet
+        matched+=(--fit "$set_dir/matched_$k.fits" --truth "$set_dir/truth_$k.fits")
+      fi
       fits+=(--fit "$set_dir/fit_$k.fits" --truth "$set_dir/truth_$k.fits")
       cal+=(--fit "$set_dir/cal_$k.fits" --truth "$set_dir/truth_$k.fits")
       obj+=(--fit "$set_dir/obj_$k.fits" --truth "$set_dir/truth_$k.fits")
@@ -138,7 +147,12 @@ apply() {
     "$STAMPEDE" metrics "${fits[@]}" --json "$dir/metrics_uncalibrated.json" > "$dir/metrics_uncalibrated.txt"
     "$STAMPEDE" metrics "${cal[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_calibrated.json" > "$dir/metrics_calibrated.txt"
     "$STAMPEDE" metrics "${obj[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_per_object.json" > "$dir/metrics_per_object.txt"
-    echo "$snr $dir/metrics_uncalibrated.json $dir/metrics_calibrated.json $dir/metrics_per_object.json" >> "$table.tmp"
+    local line="$snr $dir/metrics_uncalibrated.json $dir/metrics_calibrated.json $dir/metrics_per_object.json"
+    if [[ ${#matched[@]} -gt 0 ]]; then
+      "$STAMPEDE" metrics "${matched[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_matched.json" > "$dir/metrics_matched.txt"
+      line+=" $dir/metrics_matched.json"
+    fi
+    echo "$line" >> "$table.tmp"
   done
   local dirs=()
   for snr in $SNRS; do

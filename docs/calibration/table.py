@@ -2,7 +2,8 @@
 """Markdown table of the calibration experiment from `stampede metrics --json` outputs.
 
 usage: table.py LIST
-LIST: lines 'SNR uncalibrated.json calibrated.json [per_object.json]' (run_experiment.sh).
+LIST: lines 'SNR uncalibrated.json calibrated.json [per_object.json [matched.json]]' (run_experiment.sh;
+matched.json: population-calibrated with a table measured at that S/N itself).
 """
 import json
 import sys
@@ -44,8 +45,19 @@ def main():
         print(rc)
         if rest:
             print(row(f"{snr}, calibrated per object", json.load(open(rest[0])))[0])
-        notes.append(f"S/N {snr}: |m| reduced {abs(mu) / max(abs(mc), 1e-12):.1f}x"
-                     + (f" (paper: {PAPER[snr]})" if snr in PAPER else ""))
+        calibrated = [("population", dc, mc)]
+        if len(rest) > 1:
+            dm = json.load(open(rest[1]))
+            rm, mm = row(f"{snr}, calibrated (population, table measured at S/N {snr})", dm)
+            print(rm)
+            calibrated.append((f"table measured at S/N {snr}", dm, mm))
+        mu_err = 0.5 * (du["m1_err"] ** 2 + du["m2_err"] ** 2) ** 0.5
+        for label, d, m in calibrated:
+            # A reduction factor means something only where the raw m is measured to be non-zero.
+            factor = f", |m| reduced {abs(mu) / max(abs(m), 1e-12):.1f}x" if abs(mu) > 3 * mu_err else \
+                ", raw m within 3 sigma of zero"
+            notes.append(f"S/N {snr} ({label}): m {mu:+.2e} -> {m:+.2e}{factor}"
+                         + (f" (paper: {PAPER[snr]})" if snr in PAPER and label == "population" else ""))
     print()
     for n in notes:
         print(f"- {n}")
