@@ -133,6 +133,8 @@ apply() {
         "$STAMPEDE" calibrate apply "$set_dir/fit_$k.fits" --deep "$out/deep/fit_0.fits" --calibration "$matched_table" \
           -o "$set_dir/matched_$k.fits" --overwrite --quiet
         matched+=(--fit "$set_dir/matched_$k.fits" --truth "$set_dir/truth_$k.fits")
+      else
+        rm -f "$set_dir/matched_$k.fits"  # galaxy_bias.py reads every matched_K.fits it finds
       fi
       fits+=(--fit "$set_dir/fit_$k.fits" --truth "$set_dir/truth_$k.fits")
       cal+=(--fit "$set_dir/cal_$k.fits" --truth "$set_dir/truth_$k.fits")
