@@ -70,6 +70,8 @@ def main():
     print("|---|---|---|---|---|---|")
     for arg in sys.argv[1:]:
         dirnames = arg.split(",")
+        name = " + ".join(os.path.basename(x.rstrip("/")) for x in dirnames
+                          if glob.glob(os.path.join(x, "truth_*.fits")))
         for label, prefix, cols in (("raw e", "fit", ["e1", "e2"]),
                                     ("calibrated (population)", "cal", ["e1_cal", "e2_cal"]),
                                     ("calibrated per object", "obj", ["e1_cal", "e2_cal"]),
@@ -79,8 +81,6 @@ def main():
             if d is None:
                 continue
             (m1, sm1, c1, sc1, n), (m2, sm2, c2, sc2, _) = regress(d, *cols)
-            name = " + ".join(os.path.basename(x.rstrip("/")) for x in dirnames
-                              if glob.glob(os.path.join(x, "truth_*.fits")))
             print(f"| {name}, {label} | {m1:+.2e} ± {sm1:.1e} | "
                   f"{m2:+.2e} ± {sm2:.1e} | {c1:+.2e} ± {sc1:.1e} | {c2:+.2e} ± {sc2:.1e} | {n} |")
 

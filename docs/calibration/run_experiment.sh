@@ -111,6 +111,10 @@ build() {
     --realisations "$REALISATIONS" "${threads[@]}" "${resume[@]}" ${BUILD_ARGS:-}
 }
 
+population() {  # TABLE FIT OUT: population-mode calibration against the deep sample
+  "$STAMPEDE" calibrate apply "$2" --deep "$out/deep/fit_0.fits" --calibration "$1" -o "$3" --overwrite --quiet
+}
+
 apply() {
   local table="$out/results.md"
   : > "$table.tmp"
@@ -125,13 +129,11 @@ apply() {
         echo "apply: $set_dir/fit_$k.fits not made yet: set left out" >&2
         continue
       fi
-      "$STAMPEDE" calibrate apply "$set_dir/fit_$k.fits" --deep "$out/deep/fit_0.fits" --calibration "$CALIBRATION" \
-        -o "$set_dir/cal_$k.fits" --overwrite --quiet
+      population "$CALIBRATION" "$set_dir/fit_$k.fits" "$set_dir/cal_$k.fits"
       "$STAMPEDE" calibrate apply "$set_dir/fit_$k.fits" --per-object --calibration "$CALIBRATION" \
         -o "$set_dir/obj_$k.fits" --overwrite --quiet
       if [[ -n $matched_table ]]; then
-        "$STAMPEDE" calibrate apply "$set_dir/fit_$k.fits" --deep "$out/deep/fit_0.fits" --calibration "$matched_table" \
-          -o "$set_dir/matched_$k.fits" --overwrite --quiet
+        population "$matched_table" "$set_dir/fit_$k.fits" "$set_dir/matched_$k.fits"
         matched+=(--fit "$set_dir/matched_$k.fits" --truth "$set_dir/truth_$k.fits")
       else
         rm -f "$set_dir/matched_$k.fits"  # galaxy_bias.py reads every matched_K.fits it finds
