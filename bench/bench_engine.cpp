@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "engine/pipeline.hpp"
-#include "engine/stamp_fitter.hpp"
+#include "engine/pipeline/pipeline.hpp"
+#include "engine/pipeline/stamp_fitter.hpp"
 #include "great08_stamps.hpp"
 
 namespace {

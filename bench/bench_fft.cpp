@@ -14,9 +14,9 @@
 #include <string>
 #include <vector>
 
-#include "engine/fft_convolver.hpp"
-#include "engine/fourier_downsampler.hpp"
-#include "engine/psf.hpp"
+#include "engine/render/fft_plans.hpp"
+#include "engine/render/fourier_downsampler.hpp"
+#include "engine/render/psf_kernel.hpp"
 #include "kernels/downsample.hpp"
 
 namespace {

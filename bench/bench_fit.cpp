@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/fitter.hpp"
+#include "engine/fit/fitter.hpp"
 #include "great08_stamps.hpp"
 
 namespace {

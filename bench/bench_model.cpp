@@ -2,7 +2,7 @@
 // U1 = 5, N_u = 3, U2 = 7) for a fiducial bulge + disc galaxy.
 #include <benchmark/benchmark.h>
 
-#include "engine/fft_renderer.hpp"
+#include "engine/render/upsampled_renderer.hpp"
 #include "kernels/sersic.hpp"
 
 namespace {
@@ -13,14 +13,14 @@ struct Setup {
   FftPlanCache plans{FftPlanning::kMeasure};
   RenderOptions ro;
   std::shared_ptr<const PsfKernel> psf;
-  std::unique_ptr<FftRenderer> renderer;
+  std::unique_ptr<UpsampledRenderer> renderer;
   ParamVector p;
   Setup() {
     PsfOptions o;
     o.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};
     std::string err;
     psf = PsfKernel::build(o, GridGeometry(ro), plans, &err);
-    renderer = std::make_unique<FftRenderer>(ro, ModelOptions{}, psf, plans);
+    renderer = std::make_unique<UpsampledRenderer>(ro, ModelOptions{}, psf, plans);
     p = ParameterSet::default_values();
     p[index(Param::kX0)] = 19.2;
     p[index(Param::kY0)] = 18.7;

@@ -13,7 +13,7 @@
 
 #include <string>
 
-#include "engine/noise_bias.hpp"
+#include "engine/calibration/noise_bias.hpp"
 
 namespace stampede::io {
 

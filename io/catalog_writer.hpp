@@ -38,7 +38,7 @@
 #include <utility>
 #include <vector>
 
-#include "engine/object_record.hpp"
+#include "engine/pipeline/object_record.hpp"
 
 namespace stampede::io {
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/stamp_batch.hpp"
+#include "engine/pipeline/stamp_batch.hpp"
 #include "io/fits_file.hpp"
 
 namespace stampede::io {

@@ -8,7 +8,7 @@
 
 #include <string>
 
-#include "engine/great08_sim.hpp"
+#include "engine/sim/great08_sim.hpp"
 
 namespace stampede::io {
 

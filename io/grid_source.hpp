@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/stamp_batch.hpp"
+#include "engine/pipeline/stamp_batch.hpp"
 #include "io/stamp_grid.hpp"
 
 namespace stampede::io {

@@ -5,7 +5,7 @@
 
 #include <optional>
 
-#include "engine/psf.hpp"
+#include "engine/render/psf_kernel.hpp"
 #include "io/fits_file.hpp"
 
 namespace stampede::io {

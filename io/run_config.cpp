@@ -10,7 +10,7 @@
 #include <system_error>
 #include <tuple>
 
-#include "engine/psf.hpp"
+#include "engine/render/psf_kernel.hpp"
 
 namespace stampede::io {
 namespace {

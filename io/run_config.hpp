@@ -21,7 +21,7 @@
 #include <utility>
 #include <vector>
 
-#include "engine/fitter.hpp"
+#include "engine/fit/fitter.hpp"
 #include "kernels/psf_profile.hpp"
 
 namespace stampede::io {

@@ -1,5 +1,5 @@
 // The alias-sum fold of a model-resolution spectrum down to data resolution (the Fourier-space
-// block average and decimation of engine/fourier_downsampler.hpp), per instruction set.
+// block average and decimation of engine/render/fourier_downsampler.hpp), per instruction set.
 //
 //   out[ky mod M][jx] += sum over rx < U of X[ky][jx + M rx] K[ky][rx][jx]
 // for every row ky < n of the n x (n/2 + 1) r2c spectrum X (interleaved re, im), with the folded

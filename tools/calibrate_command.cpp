@@ -15,11 +15,11 @@
 #include <string>
 #include <vector>
 
-#include "engine/calibration_grid.hpp"
-#include "engine/noise_bias.hpp"
-#include "engine/parameters.hpp"
-#include "engine/pipeline.hpp"
-#include "engine/stamp_fitter.hpp"
+#include "engine/calibration/calibration_grid.hpp"
+#include "engine/calibration/noise_bias.hpp"
+#include "engine/model/parameters.hpp"
+#include "engine/pipeline/pipeline.hpp"
+#include "engine/pipeline/stamp_fitter.hpp"
 #include "io/calibration_table.hpp"
 #include "io/fits_file.hpp"
 #include "io/run_config.hpp"

@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/fitter.hpp"
+#include "engine/fit/fitter.hpp"
 #include "io/fits_file.hpp"
 #include "io/stamp_grid.hpp"
 

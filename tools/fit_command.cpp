@@ -16,10 +16,10 @@
 #include <string>
 #include <vector>
 
-#include "engine/fft_renderer.hpp"
-#include "engine/pipeline.hpp"
-#include "engine/psf_cache.hpp"
-#include "engine/stamp_fitter.hpp"
+#include "engine/render/upsampled_renderer.hpp"
+#include "engine/pipeline/pipeline.hpp"
+#include "engine/render/psf_cache.hpp"
+#include "engine/pipeline/stamp_fitter.hpp"
 #include "io/catalog_writer.hpp"
 #include "io/catalogue_source.hpp"
 #include "io/fits_error.hpp"
@@ -96,7 +96,7 @@ class WriterSink final : public BatchSink {
     if (psf_cache_) psf = psf_cache_->moffat(batch.psf[k], plans_, &error);
     if (!psf) return;
     if (!renderer_)
-      renderer_ = std::make_unique<FftRenderer>(cfg_.fitter.render, cfg_.fitter.model, psf, plans_);
+      renderer_ = std::make_unique<UpsampledRenderer>(cfg_.fitter.render, cfg_.fitter.model, psf, plans_);
     else
       renderer_->set_psf(psf);
     const std::size_t npix = batch.npix();
@@ -116,7 +116,7 @@ class WriterSink final : public BatchSink {
   std::set<std::int64_t> wanted_;
   std::unique_ptr<io::FitsFile> images_;
   FftPlanCache plans_{FftPlanning::kEstimate};
-  std::unique_ptr<FftRenderer> renderer_;
+  std::unique_ptr<UpsampledRenderer> renderer_;
 };
 
 }  // namespace

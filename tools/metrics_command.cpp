@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "engine/fit_result.hpp"
-#include "engine/object_record.hpp"
-#include "engine/shear_metrics.hpp"
+#include "engine/fit/fit_result.hpp"
+#include "engine/pipeline/object_record.hpp"
+#include "engine/analysis/shear_metrics.hpp"
 #include "io/fits_error.hpp"
 #include "io/fits_file.hpp"
 

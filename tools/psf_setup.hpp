@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/psf.hpp"
+#include "engine/render/psf_kernel.hpp"
 #include "io/run_config.hpp"
 
 namespace stampede::tools {

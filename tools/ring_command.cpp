@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/ring_test.hpp"
+#include "engine/analysis/ring_study.hpp"
 
 namespace {
 
@@ -37,9 +37,9 @@ void print_help() {
 struct Row {
   std::string panel, series;
   double x = 0;
-  RingTestConfig config;
+  RingStudyConfig config;
   double size = 1.4;  // Rgp/Rp to calibrate the disc radius for
-  RingTestResult result;
+  RingStudyResult result;
 };
 
 std::vector<Row> figure_rows(int figure) {
@@ -48,7 +48,7 @@ std::vector<Row> figure_rows(int figure) {
   round_psf.moffat = {3.5, 2.85, 0.0, 0.0, 0.0};
   paper_psf.moffat = {3.0, 2.85, 0.03, 0.03, 0.0};
   auto base = [&](const PsfOptions& psf, int stamp) {
-    RingTestConfig c;
+    RingStudyConfig c;
     c.psf = psf;
     c.fit.render.stamp_size = stamp;
     return c;
@@ -154,7 +154,7 @@ int run_ring_command(int argc, char** argv) {
       row.config.galaxy.disc_radius = NAN;  // unreachable size: the row stays NaN
       return;
     }
-    row.result = run_ring_test(row.config, plans);
+    row.result = run_ring_study(row.config, plans);
   });
   std::FILE* out = csv.empty() ? stdout : std::fopen(csv.c_str(), "w");
   if (!out) throw std::runtime_error("cannot write '" + csv + "'");

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/great08_sim.hpp"
+#include "engine/sim/great08_sim.hpp"
 #include "io/great08_writer.hpp"
 #include "tools/arguments.hpp"
 

@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "engine/fitter.hpp"
-#include "engine/psf.hpp"
+#include "engine/fit/fitter.hpp"
+#include "engine/render/psf_kernel.hpp"
 #include "io/fits_file.hpp"
 #include "kernels/sersic.hpp"
 #include <cstdio>

@@ -13,7 +13,7 @@
 #include <thread>
 #include <vector>
 
-#include "engine/noise_bias.hpp"
+#include "engine/calibration/noise_bias.hpp"
 #include "io/calibration_table.hpp"
 #include "io/fits_file.hpp"
 #include "support/command_runner.hpp"

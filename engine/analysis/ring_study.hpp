@@ -1,0 +1,51 @@
+// Noise-free ring tests (Nakajima & Bernstein 2007) as in im3shape section 4: galaxies at N
+// orientations, sheared by +g and -g, drawn at high accuracy, fitted, and m, c measured from
+//   <e>(+g) - <e>(-g) = 2 (1 + m) g,   <e>(+g) + <e>(-g) = 2 c.
+// Also the GREAT08 size definition Rgp/Rp (FWHM of the round galaxy convolved with the PSF, no
+// pixel, over the PSF's FWHM) and its inversion to a half-light radius.
+#pragma once
+
+#include "engine/fit/fitter.hpp"
+#include "engine/render/psf_kernel.hpp"
+
+namespace stampede {
+
+// The true galaxy of a ring test: a bulge and a disc with their own Sérsic indices and radii,
+// sharing the ring member's position angle; each component is sheared on its own, so a bulge
+// rounder than its disc (delta_e < 0) stays so after shear.
+struct RingGalaxy {
+  double bulge_fraction = 0.5;  // of the total flux
+  double disc_radius = 1.5;     // half-light radius, pixels
+  double radius_ratio = 1.0;    // bulge / disc half-light radius
+  double bulge_index = 4.0;
+  double disc_index = 1.0;
+  double disc_e = 0.3;          // |e| of the disc before shear
+  double delta_e = 0.0;         // |e_bulge| - |e_disc| before shear
+  double flux = 1000;
+};
+
+struct RingStudyConfig {
+  double shear1 = 0.02, shear2 = 0.01;
+  int n_angles = 4;  // orientations over 180 degrees (0, 45, 90, 135 for 4)
+  RingGalaxy galaxy;
+  PsfOptions psf;
+  FitterOptions fit;  // the fitter under test (its stamp_size is the stamp)
+  // The truth renderer: well beyond the fitter's defaults.
+  int truth_upsampling = 25, truth_central = 25, truth_central_upsampling = 25, truth_padding = 8;
+};
+
+struct RingStudyResult {
+  double m1 = NAN, m2 = NAN, c1 = NAN, c2 = NAN;
+  int fits = 0, failed = 0;
+};
+
+RingStudyResult run_ring_study(const RingStudyConfig& config, FftPlanCache& plans);
+
+// FWHM (pixels) of the round version of `galaxy` convolved with the round PSF, without pixel.
+double convolved_fwhm(const RingGalaxy& galaxy, const PsfOptions& psf, FftPlanCache& plans);
+// The disc radius (bulge radius following radius_ratio) giving FWHM(gal (x) PSF) / FWHM(PSF) = ratio.
+double disc_radius_for_size_ratio(RingGalaxy galaxy, double ratio, const PsfOptions& psf, FftPlanCache& plans);
+// Single-component shorthand: the half-light radius of a Sérsic n with that size ratio.
+double half_light_radius_for_size_ratio(double n, double ratio, const PsfOptions& psf, FftPlanCache& plans);
+
+}  // namespace stampede

@@ -1,0 +1,350 @@
+// Single-stamp fitting; see fitter.hpp.
+#include "engine/fit/fitter.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "kernels/least_squares.hpp"
+#include "kernels/moments.hpp"
+#include "kernels/sersic.hpp"
+
+namespace stampede {
+
+bool FitterOptions::IsValid(std::string* why) const {
+  if (!render.IsValid(why) || !model.IsValid(why) || !lm.IsValid(why) || !params.IsValid(why)) return false;
+  if (!(noise_sigma >= 0.0 && std::isfinite(noise_sigma))) {
+    if (why) {
+      std::ostringstream msg;
+      msg << "noise_sigma = " << noise_sigma << ": must be >= 0 (0 = unweighted)";
+      *why = msg.str();
+    }
+    return false;
+  }
+  return true;
+}
+
+// The least-squares problem of one stamp in the free parameters.
+class Fitter::Problem final : public LeastSquaresProblem {
+ public:
+  // Every per-pixel array starts on a 64-byte line, so the vector kernels' loads never straddle two.
+  Problem(Fitter& f, int npix)
+      : f_(f), data_(npix), model_(npix), columns_(kMaxFree * kernels::aligned_stride<double>(npix)) {
+    for (int k = 0; k < kMaxFree; ++k) column_ptr_[k] = columns_.data() + k * kernels::aligned_stride<double>(npix);
+  }
+  void reset(std::span<const double> data, const ParamVector& full, int npix_used) {
+    // Masked pixels may hold NaN; as zeros they keep the least-squares kernels on their fast path.
+    for (std::size_t i = 0; i < data.size(); ++i) data_[i] = f_.weight_[i] != 0.0 ? data[i] : 0.0;
+    full_ = full;
+    npix_used_ = npix_used;
+  }
+  int num_pixels() const override { return npix_used_; }
+
+  bool expand(const LmVector& x, ParamVector* p) const {
+    *p = full_;
+    for (int k = 0; k < f_.num_free_; ++k) {
+      const int i = index(f_.free_[k]);
+      if (!(x[k] >= f_.lower_[i] && x[k] <= f_.upper_[i])) return false;  // out of range: no model
+      (*p)[i] = x[k];
+    }
+    return true;
+  }
+  // The paper's convention: a model that cannot be made scores chi2 = 2 per pixel. The solver also
+  // gets `false` and rejects the step outright, since 2 per pixel would look like an improvement
+  // to an unweighted fit of bright data.
+  bool chi2(const LmVector& x, double* chi2) override {
+    ParamVector p;
+    if (!expand(x, &p) || f_.renderer_->render(p, model_) != RenderStatus::kOk) {
+      *chi2 = 2.0 * npix_used_;
+      return false;
+    }
+    *chi2 = f_.least_squares_->weighted_chi2(data_, model_, f_.weight_);
+    return std::isfinite(*chi2);
+  }
+  bool normal_equations(const LmVector& x, double* chi2, LmMatrix* alpha, LmVector* beta) override {
+    ParamVector p;
+    const int nf = f_.num_free_;
+    if (!expand(x, &p) ||
+        f_.renderer_->render_with_jacobian(p, std::span<const Param>(f_.free_.data(), nf), model_,
+                                           std::span<double* const>(column_ptr_.data(), nf)) != RenderStatus::kOk) {
+      *chi2 = 2.0 * npix_used_;
+      return false;
+    }
+    alpha->resize(nf, nf);
+    beta->resize(nf);
+    *chi2 = f_.least_squares_->normal_equations(data_, model_, f_.weight_, column_ptr_.data(), nf, alpha->data(),
+                                                 beta->data());
+    return std::isfinite(*chi2) && alpha->allFinite() && beta->allFinite();
+  }
+  const kernels::AlignedVector<double>& model() const { return model_; }
+
+ private:
+  Fitter& f_;
+  kernels::AlignedVector<double> data_;
+  ParamVector full_{};
+  int npix_used_ = 0;
+  kernels::AlignedVector<double> model_;
+  kernels::AlignedVector<double> columns_;
+  std::array<double*, kMaxFree> column_ptr_{};
+};
+
+Fitter::Fitter(const FitterOptions& options, std::shared_ptr<const PsfKernel> psf, FftPlanCache& plans)
+    : options_(options), psf_(std::move(psf)), plans_(plans) {
+  std::string why;
+  if (!options_.IsValid(&why)) throw std::invalid_argument(why);
+  least_squares_ = &kernels::least_squares_kernels(options_.render.simd);
+  const int s = options_.render.stamp_size;
+  const int npix = s * s;
+  if (psf_) renderer_ = std::make_unique<UpsampledRenderer>(options_.render, options_.model, psf_, plans);
+  problem_ = std::make_unique<Problem>(*this, npix);
+  weight_.assign(npix, 0.0);
+  start_bulge_.assign(npix, 0.0);
+  start_disc_.assign(npix, 0.0);
+  start_model_.assign(npix, 0.0);
+  zeros_.assign(npix, 0.0);
+  num_free_ = options_.params.free_params(&free_);
+  for (int k = 0; k < kNumParams; ++k) {
+    const ParamSpec& spec = options_.params.spec[k];
+    lower_[k] = spec.lower;
+    upper_[k] = spec.upper;
+  }
+  // Centroid bounds default to the stamp itself.
+  for (Param c : {Param::kX0, Param::kY0}) {
+    if (std::isnan(lower_[index(c)])) lower_[index(c)] = -0.5;
+    if (std::isnan(upper_[index(c)])) upper_[index(c)] = s - 0.5;
+  }
+}
+
+Fitter::~Fitter() = default;
+
+void Fitter::set_psf(std::shared_ptr<const PsfKernel> psf) {
+  psf_ = std::move(psf);
+  if (!psf_) return;
+  if (renderer_)
+    renderer_->set_psf(psf_);
+  else
+    renderer_ = std::make_unique<UpsampledRenderer>(options_.render, options_.model, psf_, plans_);
+}
+
+FitStatus Fitter::prepare_weights(std::span<const double> pixels, std::span<const double> weight, std::uint32_t* flags) {
+  const std::size_t npix = weight_.size();
+  if (pixels.size() != npix || (!weight.empty() && weight.size() != npix))
+    throw std::invalid_argument("stamp or weight size does not match stamp_size^2");
+  const double sigma = options_.noise_sigma;
+  const double w0 = sigma > 0 ? 1.0 / (sigma * sigma) : 1.0;
+  if (weight.empty() && sigma == 0) *flags |= kFlagUnweighted;
+  int used = 0;
+  bool any_signal = false;
+  for (std::size_t i = 0; i < npix; ++i) {
+    const double w = weight.empty() ? w0 : weight[i];
+    if (!(w >= 0.0) || !std::isfinite(w)) return FitStatus::kBadPixels;
+    weight_[i] = w;
+    if (w == 0.0) {
+      *flags |= kFlagMaskedPixels;
+      continue;
+    }
+    if (!std::isfinite(pixels[i])) return FitStatus::kBadPixels;
+    ++used;
+    any_signal |= pixels[i] != 0.0;
+  }
+  if (used == 0 || !any_signal) return FitStatus::kNoData;
+  return FitStatus::kOk;
+}
+
+ParamVector Fitter::starting_point(std::span<const double> pixels, std::span<const double> weight,
+                                   std::uint32_t* flags) {
+  if (prepare_weights(pixels, weight, flags) != FitStatus::kOk) *flags |= kFlagDefaultStart;
+  return start_from_prepared(pixels, flags);
+}
+
+ParamVector Fitter::start_from_prepared(std::span<const double> pixels, std::uint32_t* flags) {
+  const int s = options_.render.stamp_size;
+  const ParameterSet& ps = options_.params;
+  ParamVector p;
+  for (int k = 0; k < kNumParams; ++k) p[k] = ps.spec[k].start;
+  const kernels::ImageMoments m = kernels::adaptive_moments(pixels, weight_, s);
+  double x = 0.5 * (s - 1), y = 0.5 * (s - 1), e1 = 0, e2 = 0, r = 1.5;
+  double flux = m.flux;
+  if (m.valid && m.x >= 0 && m.x <= s - 1 && m.y >= 0 && m.y <= s - 1) {
+    x = m.x;
+    y = m.y;
+    // Remove the PSF's second moments when that leaves a positive-definite galaxy.
+    double gxx = m.xx, gxy = m.xy, gyy = m.yy;
+    if (psf_) {
+      const double dxx = m.xx - psf_->xx(), dxy = m.xy - psf_->xy(), dyy = m.yy - psf_->yy();
+      if (dxx > 0 && dyy > 0 && dxx * dyy - dxy * dxy > 0.01 * (m.xx * m.yy - m.xy * m.xy)) {
+        gxx = dxx;
+        gxy = dxy;
+        gyy = dyy;
+      }
+    }
+    kernels::covariance_ellipticity(gxx, gxy, gyy, &e1, &e2);
+    // Half-light radius of a Gaussian with this determinant: sqrt(2 ln 2) sigma.
+    r = 1.1774 * std::pow(gxx * gyy - gxy * gxy, 0.25);
+    if (!(r > 0.3) || !std::isfinite(r)) r = 0.3;
+  } else {
+    *flags |= kFlagDefaultStart;
+  }
+  auto set_if_unset = [&](Param q, double v) {
+    if (std::isnan(p[index(q)])) p[index(q)] = v;
+  };
+  set_if_unset(Param::kX0, x);
+  set_if_unset(Param::kY0, y);
+  set_if_unset(Param::kE1, e1);
+  set_if_unset(Param::kE2, e2);
+  set_if_unset(Param::kRadius, r);
+  // Split the flux evenly between the components that are free to have it.
+  const bool bulge_free = ps[Param::kBulgeA].free, disc_free = ps[Param::kDiscA].free;
+  const double share = (bulge_free && disc_free) ? 0.5 : 1.0;
+  const double rd = std::abs(p[index(Param::kRadius)]);
+  const double rb = rd * p[index(Param::kRadiusRatio)];
+  if (!(flux > 0) || !std::isfinite(flux)) flux = 1.0;
+  const bool amplitudes_unset = std::isnan(p[index(Param::kBulgeA)]) && std::isnan(p[index(Param::kDiscA)]);
+  set_if_unset(Param::kBulgeA, bulge_free ? share * flux / kernels::sersic_flux_per_amplitude(rb, p[index(Param::kBulgeIndex)]) : 0.0);
+  set_if_unset(Param::kDiscA, disc_free ? share * flux / kernels::sersic_flux_per_amplitude(rd, p[index(Param::kDiscIndex)]) : 0.0);
+  for (int k = 0; k < kNumParams; ++k) {
+    if (!std::isnan(lower_[k])) p[k] = std::max(p[k], lower_[k]);
+    if (!std::isnan(upper_[k])) p[k] = std::min(p[k], upper_[k]);
+  }
+  if (amplitudes_unset && bulge_free && disc_free) solve_start_amplitudes(pixels, &p);
+  return p;
+}
+
+void Fitter::solve_start_amplitudes(std::span<const double> pixels, ParamVector* p) {
+  // The model is linear in the amplitudes: at the starting shape, take the weighted least-squares
+  // amplitudes (a 2 x 2 solve) instead of an arbitrary flux split.
+  const std::array<Param, 2> amps = {Param::kBulgeA, Param::kDiscA};
+  std::array<double*, 2> cols = {start_bulge_.data(), start_disc_.data()};
+  if (renderer_->render_with_jacobian(*p, amps, start_model_, cols) != RenderStatus::kOk) return;
+  double a[4], b[2];
+  least_squares_->normal_equations(pixels, zeros_, weight_, cols.data(), 2, a, b);
+  const double det = a[0] * a[3] - a[1] * a[2];
+  if (!(std::abs(det) > 1e-12 * std::abs(a[0] * a[3])) || !std::isfinite(det)) return;
+  const double ab = (b[0] * a[3] - a[1] * b[1]) / det, ad = (a[0] * b[1] - a[2] * b[0]) / det;
+  // A negative component at the start usually means the shape is off; keep the flux split then.
+  if (ab >= 0 && ad >= 0) {
+    (*p)[index(Param::kBulgeA)] = ab;
+    (*p)[index(Param::kDiscA)] = ad;
+  }
+}
+
+FitResult Fitter::fit(std::span<const double> pixels, std::span<const double> weight) {
+  std::uint32_t flags = 0;
+  FitResult r;
+  if (!psf_) {
+    r.status = FitStatus::kPsfFailure;
+    return r;
+  }
+  const FitStatus input = prepare_weights(pixels, weight, &flags);
+  if (input != FitStatus::kOk) {
+    r.status = input;
+    r.flags = flags;
+    return r;
+  }
+  const ParamVector start = start_from_prepared(pixels, &flags);
+  return run(pixels, start, flags);
+}
+
+FitResult Fitter::fit_from(std::span<const double> pixels, std::span<const double> weight, const ParamVector& start) {
+  std::uint32_t flags = 0;
+  FitResult r;
+  if (!psf_) {
+    r.status = FitStatus::kPsfFailure;
+    return r;
+  }
+  const FitStatus input = prepare_weights(pixels, weight, &flags);
+  if (input != FitStatus::kOk) {
+    r.status = input;
+    r.flags = flags;
+    return r;
+  }
+  return run(pixels, start, flags);
+}
+
+FitResult Fitter::run(std::span<const double> pixels, const ParamVector& start, std::uint32_t flags) {
+  FitResult r;
+  int used = 0;
+  for (double w : weight_) used += w > 0 ? 1 : 0;
+  problem_->reset(pixels, start, used);
+  LmVector x0(num_free_);
+  for (int k = 0; k < num_free_; ++k) x0[k] = start[index(free_[k])];
+  LmSummary sum = levenberg_marquardt(*problem_, x0, options_.lm);
+  r.stop_reason = sum.reason;
+  r.stop_value = sum.stop_value;
+  r.stop_threshold = sum.stop_threshold;
+  r.iterations = sum.iterations;
+  r.evaluations = sum.evaluations;
+  r.n_pixels = used;
+  if (sum.reason == StopReason::kInvalidStart) {
+    r.status = FitStatus::kModelFailure;
+    r.chi2 = 2.0 * used;
+    r.likelihood = -0.5 * r.chi2;
+    r.flags = flags;
+    return r;
+  }
+  // Parameter errors and the model need J^T W J and the model at the optimum.
+  double chi2 = sum.chi2;
+  LmMatrix alpha = sum.alpha;
+  LmVector beta;
+  if (!sum.alpha_at_x) {
+    ++r.evaluations;
+    if (!problem_->normal_equations(sum.x, &chi2, &alpha, &beta)) {
+      r.status = FitStatus::kSolverFailure;
+      r.flags = flags;
+      return r;
+    }
+  } else {
+    problem_->chi2(sum.x, &chi2);  // leaves the optimum's model in the buffer
+    ++r.evaluations;
+  }
+  if (!std::isfinite(chi2)) {
+    r.status = FitStatus::kSolverFailure;
+    r.flags = flags;
+    return r;
+  }
+  ParamVector p;
+  problem_->expand(sum.x, &p);
+  // Errors from the inverse of J^T W J.
+  Eigen::LDLT<LmMatrix> ldlt(alpha);
+  LmMatrix cov = ldlt.solve(LmMatrix::Identity(num_free_, num_free_));
+  const bool cov_ok = ldlt.info() == Eigen::Success && cov.allFinite() && (cov.diagonal().array() > 0).all();
+  if (!cov_ok) flags |= kFlagNoErrors;
+  for (int k = 0; k < num_free_; ++k) {
+    const int i = index(free_[k]);
+    if (cov_ok) r.errors[i] = std::sqrt(cov(k, k));
+    if (std::abs(p[i] - lower_[i]) < 1e-6 || std::abs(p[i] - upper_[i]) < 1e-6) flags |= kFlagAtBound;
+  }
+  // Report the effective (mirrored, softened) values the model was drawn with.
+  ModelComponents comp;
+  renderer_->galaxy_model().components(p, &comp);
+  if (std::hypot(p[index(Param::kE1)], p[index(Param::kE2)]) > options_.model.ellipticity_mirror) flags |= kFlagMirrored;
+  r.params = p;
+  r.params[index(Param::kE1)] = comp.e1;
+  r.params[index(Param::kE2)] = comp.e2;
+  r.params[index(Param::kRadius)] = comp.disc_radius;
+  r.e1_err = r.errors[index(Param::kE1)];
+  r.e2_err = r.errors[index(Param::kE2)];
+  renderer_->galaxy_model().fluxes(p, &r.bulge_flux, &r.disc_flux);
+  r.flux = r.bulge_flux + r.disc_flux;
+  r.chi2 = chi2;
+  r.likelihood = -0.5 * chi2;
+  if (!(flags & kFlagUnweighted)) {
+    double s2 = 0;
+    const auto& m = problem_->model();
+    for (std::size_t i = 0; i < m.size(); ++i) s2 += weight_[i] * m[i] * m[i];
+    r.snr = std::sqrt(s2);
+  }
+  switch (sum.reason) {
+    case StopReason::kMaxIterations:
+      r.status = FitStatus::kMaxIterations;
+      flags |= kFlagNotConverged;
+      break;
+    case StopReason::kSingular: r.status = FitStatus::kSolverFailure; break;
+    default: r.status = FitStatus::kOk; break;
+  }
+  r.flags = flags;
+  return r;
+}
+
+}  // namespace stampede

@@ -1,0 +1,78 @@
+// Fits one postage stamp with the im3shape model: starting point from adaptive moments, then
+// Levenberg-Marquardt on the analytic Jacobian. One Fitter per thread; buffers are allocated at
+// construction, none per stamp.
+#pragma once
+
+#include <array>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "engine/render/upsampled_renderer.hpp"
+#include "engine/fit/fit_result.hpp"
+#include "engine/model/galaxy_model.hpp"
+#include "engine/solver/levenberg_marquardt.hpp"
+#include "engine/model/parameters.hpp"
+#include "engine/render/psf_kernel.hpp"
+#include "engine/render/render_options.hpp"
+#include "kernels/aligned_vector.hpp"
+#include "kernels/least_squares.hpp"
+
+namespace stampede {
+
+struct FitterOptions {
+  RenderOptions render;
+  ModelOptions model;
+  LmOptions lm;
+  ParameterSet params;
+  double noise_sigma = 0.0;  // per-pixel noise when no weight map is given; 0 = unweighted (noise-free data)
+
+  bool IsValid(std::string* why) const;
+};
+
+class Fitter {
+ public:
+  // options must be valid. psf may be null (it could not be built): every fit then reports kPsfFailure.
+  Fitter(const FitterOptions& options, std::shared_ptr<const PsfKernel> psf, FftPlanCache& plans);
+  
+  ~Fitter();
+
+  // pixels: stamp_size^2, row-major. weight: empty (use noise_sigma) or inverse variance per pixel,
+  // 0 masking a pixel.
+  FitResult fit(std::span<const double> pixels, std::span<const double> weight = {});
+  // As fit(), starting from `start` (a full parameter vector) instead of the moments.
+  FitResult fit_from(std::span<const double> pixels, std::span<const double> weight, const ParamVector& start);
+
+  // The starting point fit() would use (exposed for tests and diagnostics); flags may gain kFlagDefaultStart.
+  ParamVector starting_point(std::span<const double> pixels, std::span<const double> weight, std::uint32_t* flags);
+
+  // Swaps the PSF for the following fits (null: they report kPsfFailure). Allocates nothing once
+  // the first PSF has been set.
+  void set_psf(std::shared_ptr<const PsfKernel> psf);
+
+  Renderer& renderer() { return *renderer_; }
+  const FitterOptions& options() const { return options_; }
+
+ private:
+  class Problem;
+  // Fills weight_ from the inputs; returns a status other than kOk when nothing can be fitted.
+  FitStatus prepare_weights(std::span<const double> pixels, std::span<const double> weight, std::uint32_t* flags);
+  FitResult run(std::span<const double> pixels, const ParamVector& start, std::uint32_t flags);
+  ParamVector start_from_prepared(std::span<const double> pixels, std::uint32_t* flags);
+  void solve_start_amplitudes(std::span<const double> pixels, ParamVector* p);
+
+  FitterOptions options_;
+  std::shared_ptr<const PsfKernel> psf_;
+  FftPlanCache& plans_;
+  std::unique_ptr<UpsampledRenderer> renderer_;
+  const kernels::LeastSquaresKernels* least_squares_;  // options_.render.simd's build
+  std::unique_ptr<Problem> problem_;
+  kernels::AlignedVector<double> weight_;
+  std::vector<double> start_bulge_, start_disc_, start_model_, zeros_;
+  std::array<Param, kNumParams> free_{};
+  int num_free_ = 0;
+  ParamVector lower_{}, upper_{};
+};
+
+}  // namespace stampede

@@ -1,0 +1,40 @@
+// One output row: what the engine knows about one input object after fitting it.
+//
+// Designed for multi-epoch input later: an object's identity and position live here, while the
+// per-exposure inputs (cutout, weight, PSF, pixel-to-sky Jacobian) belong to the batch that carries
+// the object to the fitter, so adding exposures changes the input side, not this record.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include "engine/fit/fit_result.hpp"
+
+namespace stampede {
+
+// Input-side flag bits, merged into the row's `flags` above the fit's own bits (fit_result.hpp).
+enum InputFlag : std::uint32_t {
+  kFlagEdge = 1u << 16,          // the stamp reaches beyond the image; outside pixels masked
+  kFlagPsfFailure = 1u << 17,    // the object's PSF could not be built
+};
+
+// Rows whose ellipticity may enter a shear estimate (`stampede metrics`, the noise-bias
+// calibration): status ok and none of the flags that make e doubtful.
+constexpr std::uint32_t kShearExcludingFlags =
+    kFlagAtBound | kFlagNoErrors | kFlagNotConverged | kFlagEdge | kFlagPsfFailure;
+inline bool usable_for_shear(FitStatus status, std::uint32_t flags) {
+  return status == FitStatus::kOk && !(flags & kShearExcludingFlags);
+}
+
+struct ObjectRecord {
+  std::int64_t id = -1;        // grid: iy * nx + ix; catalogue: the catalogue's id
+  std::int32_t ix = -1, iy = -1;            // grid position (-1 for catalogue input)
+  double x_image = NAN, y_image = NAN;      // catalogue position, FITS 1-based pixels (NaN for grid)
+  double stamp_x0 = 0, stamp_y0 = 0;        // 0-based image coordinate of the stamp's pixel (0, 0)
+  FitResult fit;
+  std::uint32_t flags = 0;     // fit.flags | input flags
+  double time_us = NAN;        // wall time of this object's fit, microseconds
+  double psf_e1 = NAN, psf_e2 = NAN, psf_fwhm = NAN;
+};
+
+}  // namespace stampede

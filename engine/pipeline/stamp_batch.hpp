@@ -1,0 +1,57 @@
+// A batch of stamps travelling through the pipeline: the unit of reading, fitting and writing.
+// Batches are allocated once (a fixed pool) and reused, so steady state allocates nothing.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "engine/pipeline/object_record.hpp"
+#include "kernels/psf_profile.hpp"
+
+namespace stampede {
+
+struct StampBatch {
+  long long sequence = 0;      // batch number in input order
+  long long first_object = 0;  // input index of the first object
+  int count = 0;               // objects in this batch
+  int stamp_size = 0;
+  bool has_weights = false;
+  std::vector<double> pixels;   // capacity * stamp_size^2
+  std::vector<double> weights;  // same layout when has_weights
+  std::vector<kernels::MoffatProfile> psf;  // per-object PSF (psf_input = moffat_catalog)
+  std::vector<ObjectRecord> records;        // input identity, then fit results
+  StampBatch* next = nullptr;               // intrusive link for the writer hand-off
+
+  StampBatch(int capacity, int stamp, bool per_object_psf)
+      : stamp_size(stamp),
+        pixels(static_cast<std::size_t>(capacity) * stamp * stamp),
+        weights(static_cast<std::size_t>(capacity) * stamp * stamp),
+        psf(per_object_psf ? capacity : 0),
+        records(capacity) {}
+  int capacity() const { return static_cast<int>(records.size()); }
+  std::size_t npix() const { return static_cast<std::size_t>(stamp_size) * stamp_size; }
+  double* stamp(int k) { return pixels.data() + k * npix(); }
+  double* weight(int k) { return weights.data() + k * npix(); }
+  const double* stamp(int k) const { return pixels.data() + k * npix(); }
+  const double* weight(int k) const { return weights.data() + k * npix(); }
+};
+
+// The serial input side: fills the next batch (records' identity, pixels, weights, PSFs) and
+// returns false at the end of the input. Errors (I/O) throw.
+class StampSource {
+ public:
+  virtual ~StampSource() = default;
+  virtual long long total_objects() const = 0;  // -1 if unknown
+  // Positions the source so the next batch starts at object `index` (resume).
+  virtual void skip_to(long long index) = 0;
+  virtual bool fill(StampBatch& batch) = 0;
+};
+
+// The serial output side: receives batches strictly in input order. Errors (I/O) throw.
+class BatchSink {
+ public:
+  virtual ~BatchSink() = default;
+  virtual void write(const StampBatch& batch) = 0;
+};
+
+}  // namespace stampede

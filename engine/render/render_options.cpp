@@ -1,0 +1,41 @@
+// Render option validation; see render_options.hpp.
+#include "engine/render/render_options.hpp"
+
+#include <algorithm>
+#include <sstream>
+
+namespace stampede {
+
+int fft_friendly_size(int n) {
+  for (int m = std::max(n, 1);; ++m) {
+    int r = m;
+    for (int f : {2, 3, 5, 7})
+      while (r % f == 0) r /= f;
+    if (r == 1) return m;
+  }
+}
+
+bool RenderOptions::IsValid(std::string* why) const {
+  std::ostringstream msg;
+  if (stamp_size < 3 || stamp_size > 4096)
+    msg << "stamp_size = " << stamp_size << ": must be in [3, 4096]";
+  else if (upsampling < 1 || upsampling > 32)
+    msg << "upsampling = " << upsampling << ": must be an integer in [1, 32]";
+  else if (n_central_pixels_to_upsample < 0 || n_central_pixels_to_upsample > upsampling * stamp_size)
+    msg << "n_central_pixels_to_upsample = " << n_central_pixels_to_upsample
+        << ": must be in [0, upsampling * stamp_size]";
+  else if (n_central_pixel_upsampling < 1 || n_central_pixel_upsampling > 64)
+    msg << "n_central_pixel_upsampling = " << n_central_pixel_upsampling << ": must be in [1, 64]";
+  else if (padding < 0 || padding > 4 * stamp_size)
+    msg << "padding = " << padding << ": must be in [0, 4 * stamp_size]";
+  else if (static_cast<long>(upsampling) * (stamp_size + 2L * padding) > 8192)
+    msg << "upsampling * (stamp_size + 2 padding) = " << upsampling * (stamp_size + 2 * padding)
+        << ": model grid larger than 8192 sub-pixels per side";
+  else if (!kernels::profile_kernels_for(simd))
+    msg << "simd = " << kernels::isa_name(simd) << ": this build or CPU does not support it";
+  if (msg.str().empty()) return true;
+  if (why) *why = msg.str();
+  return false;
+}
+
+}  // namespace stampede

@@ -1,0 +1,304 @@
+// The simulator's exact Fourier-space renderer; see sim_renderer.hpp.
+#include "engine/sim/sim_renderer.hpp"
+
+#include <fftw3.h>
+#include <math.h>  // j0, j1 (glibc)
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <mutex>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+
+#include "engine/common/parallel_indices.hpp"
+#include "engine/render/render_options.hpp"
+#include "kernels/sersic.hpp"
+
+namespace stampede {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kPsfTransformFloor = 1e-12;  // aliases are summed out to here
+constexpr int kMaxGrid = 2048;
+
+double sinc(double x) { return std::abs(x) < 1e-8 ? 1.0 - x * x / 6 : std::sin(x) / x; }
+
+// Radius beyond which a Sérsic's surface brightness is below 1e-6 of its value at r_e.
+double sersic_tail_radius(double n, double hlr) {
+  return hlr * std::pow(1.0 + std::log(1e6) / kernels::sersic_b(n), n);
+}
+
+// 12-point Gauss-Legendre on [-1, 1] (nodes to double precision; weights sum to 2).
+constexpr double kGlX[6] = {0.1252334085114689, 0.3678314989981802, 0.5873179542866175,
+                            0.7699026741943047, 0.9041172563704749, 0.9815606342467192};
+constexpr double kGlW[6] = {0.2491470458134028, 0.2334925365383548, 0.2031674267230659,
+                            0.1600783285433462, 0.1069393259953184, 0.0471753363865118};
+
+}  // namespace
+
+void shear_matrix(double e1, double e2, double s[3]) {
+  const double norm = 1.0 / std::sqrt(1.0 - e1 * e1 - e2 * e2);
+  s[0] = (1 + e1) * norm;
+  s[1] = e2 * norm;
+  s[2] = (1 - e1) * norm;
+}
+
+// --- workspace ---------------------------------------------------------------------------------
+
+SimWorkspace::~SimWorkspace() {
+  std::lock_guard<std::mutex> lock(fftw_planner_mutex());  // fftw_destroy_plan is not thread-safe
+  for (auto& [n, g] : grids_) fftw_destroy_plan(static_cast<fftw_plan>(g.plan));
+}
+
+SimWorkspace::Grid& SimWorkspace::grid(int n) {
+  auto it = grids_.find(n);
+  if (it != grids_.end()) return it->second;
+  Grid g;
+  g.spectrum = AlignedBuffer(sizeof(fftw_complex) * static_cast<std::size_t>(n) * (n / 2 + 1));
+  g.image = AlignedBuffer(sizeof(double) * static_cast<std::size_t>(n) * n);
+  {
+    // ESTIMATE: deterministic plans, so every thread and run computes bitwise the same image.
+    std::lock_guard<std::mutex> lock(fftw_planner_mutex());
+    g.plan = fftw_plan_dft_c2r_2d(n, n, static_cast<fftw_complex*>(g.spectrum.data()),
+                                  static_cast<double*>(g.image.data()), FFTW_ESTIMATE);
+  }
+  if (!g.plan) throw std::runtime_error("FFTW could not plan a " + std::to_string(n) + "^2 inverse transform");
+  return grids_.emplace(n, std::move(g)).first->second;
+}
+
+// --- renderer -----------------------------------------------------------------------------------
+
+bool SimRenderer::Options::IsValid(std::string* why) const {
+  std::ostringstream msg;
+  if (sersic_indices.empty()) msg << "sersic_indices: empty";
+  for (double n : sersic_indices)
+    if (!(n >= 0.5 && n <= 8)) msg << "sersic index " << n << ": must be in [0.5, 8]";
+  if (!(max_half_light_radius > 0 && max_half_light_radius <= 100))
+    msg << "max_half_light_radius = " << max_half_light_radius << ": must be in (0, 100] pixels";
+  if (!(max_e >= 0 && max_e < 0.99)) msg << "max_e = " << max_e << ": must be in [0, 0.99)";
+  if (msg.str().empty()) return true;
+  if (why) *why = msg.str();
+  return false;
+}
+
+SimRenderer::SimRenderer(const PsfOptions& psf, const Options& options) : psf_(psf) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument("SimRenderer: " + why);
+  if (!psf.IsValid(&why)) throw std::invalid_argument("SimRenderer PSF: " + why);
+  if (psf.type == PsfType::kImage) throw std::invalid_argument("the simulator draws analytic PSFs only (Moffat, Airy)");
+  if (psf.type == PsfType::kMoffat) {
+    const auto& m = psf.moffat;
+    psf_alpha_ = kernels::moffat_alpha(m.fwhm, m.beta);
+    const double t = m.truncation > 0 ? m.truncation / psf_alpha_ : 0.0;
+    // Largest x = k alpha above the floor: scan outwards (a truncated Moffat's transform rings
+    // slowly, so it is capped at five aliases of the pixel frequency: 1e-6 of the peak for a
+    // truncation at 2.8 FWHM, 1e-5 at 1.4 FWHM).
+    const double x_cap = 10 * kPi * psf_alpha_;
+    double x_limit = 1.0;
+    for (double x = 0.25; x <= x_cap; x += 0.25)
+      if (std::abs(kernels::moffat_fourier(m.beta, t, x)) > kPsfTransformFloor) x_limit = x + 0.25;
+    x_limit = std::min(x_limit, x_cap);
+    // A truncated Moffat's transform oscillates with period ~2 pi / t in x: 400 nodes per decade
+    // keep >= 10 nodes per period out to the cap.
+    moffat_table_ = kernels::LogTable([&](double x) { return kernels::moffat_fourier(m.beta, t, x); },
+                                      kernels::LogGrid::covering(1e-4, x_limit, t > 0 ? 400 : 40));
+    k_limit_ = x_limit / psf_alpha_;
+    shear_matrix(m.e1, m.e2, psf_shear_);
+    const double e = std::hypot(m.e1, m.e2);
+    psf_stretch_ = std::sqrt((1 + e) / (1 - e));
+    // Light below 1e-7 of the peak: (1 + (r/alpha)^2)^-beta = 1e-7.
+    psf_tail_radius_ = psf_alpha_ * std::sqrt(std::pow(1e7, 1.0 / m.beta) - 1.0) * psf_stretch_;
+    if (m.truncation > 0) psf_tail_radius_ = std::min(psf_tail_radius_, m.truncation * psf_stretch_);
+  } else {
+    if (psf.airy.obscuration != 0.0)
+      throw std::invalid_argument("the simulator draws unobscured Airy discs only (obscuration = 0)");
+    psf_alpha_ = psf.airy.lambda_over_d;
+    k_limit_ = 2 * kPi / psf_alpha_;  // the pupil's cut-off: the transform is exactly 0 beyond
+    // The Airy envelope 8 L^3 / (pi^4 r^3) of the peak falls to 1e-6 at ~435 L: the r^-3 wings
+    // wrapped by a shorter period lift the stamp by ~1e-5 of the peak (1.4e-6 at this period).
+    psf_tail_radius_ = psf_alpha_ * std::cbrt(8.0 / (std::pow(kPi, 4) * 1e-6));
+  }
+  // Sérsic tables out to the largest q met where the PSF still passes light.
+  const double max_stretch = std::sqrt((1 + options.max_e) / (1 - options.max_e));
+  const double q_max = std::max(10.0, 1.2 * k_limit_ * psf_stretch_ * max_stretch * options.max_half_light_radius);
+  // 40 nodes per decade: interpolation error ~1e-10 of F(0). The high-q nodes cost most (their
+  // quadratures follow many Bessel periods), so the nodes are computed in parallel.
+  const kernels::LogGrid grid = kernels::LogGrid::covering(1e-4, q_max, 40);
+  for (double n : options.sersic_indices) {
+    if (n == 1.0) continue;
+    std::vector<double> values(static_cast<std::size_t>(grid.count));
+    parallel_indices(
+        grid.count, 1, [] { return 0; },
+        [&](int, long long i) { values[static_cast<std::size_t>(i)] = kernels::sersic_fourier(n, grid.node(static_cast<int>(i))); });
+    sersic_tables_.emplace_back(n, kernels::LogTable(grid, std::move(values)));
+  }
+}
+
+const kernels::LogTable* SimRenderer::table_for(double n) const {
+  if (n == 1.0) return nullptr;
+  for (const auto& [index, table] : sersic_tables_)
+    if (index == n) return &table;
+  throw std::invalid_argument("SimRenderer: Sérsic index " + std::to_string(n) + " was not tabulated");
+}
+
+double SimRenderer::psf_round_transform(double k) const {
+  if (psf_.type == PsfType::kAiry) return kernels::airy_fourier(k * psf_alpha_ / (2 * kPi));
+  const double x = k * psf_alpha_;
+  return x > moffat_table_.q_max() ? 0.0 : moffat_table_(x);
+}
+
+double SimRenderer::psf_transform(double kx, double ky) const {
+  if (psf_.type == PsfType::kAiry) return psf_round_transform(std::hypot(kx, ky));
+  const double sx = psf_shear_[0] * kx + psf_shear_[1] * ky, sy = psf_shear_[1] * kx + psf_shear_[2] * ky;
+  return psf_round_transform(std::hypot(sx, sy));
+}
+
+double SimRenderer::sersic_transform(const kernels::LogTable* table, double q) {
+  return table ? (*table)(q) : kernels::exponential_fourier(q);
+}
+
+void SimRenderer::render(std::span<const SimComponent> components, int size, std::span<double> out,
+                             SimWorkspace& ws) const {
+  double tail = 0;
+  for (const SimComponent& c : components) {
+    table_for(c.sersic_n);  // throws for an index without a table
+    tail = std::max(tail, sersic_tail_radius(c.sersic_n, c.half_light_radius) +
+                              std::hypot(c.x - 0.5 * (size - 1), c.y - 0.5 * (size - 1)));
+  }
+  draw(components, false, size, 1.0, 0, 0, true, tail, out, ws);
+}
+
+void SimRenderer::render_psf(int size, double step, double cx, double cy, bool with_pixel, std::span<double> out,
+                                 SimWorkspace& ws) const {
+  draw({}, true, size, step, cx, cy, with_pixel, 0.0, out, ws);
+}
+
+void SimRenderer::draw(std::span<const SimComponent> components, bool psf_only, int size, double step, double cx,
+                           double cy, bool with_pixel, double tail_radius, std::span<double> out,
+                           SimWorkspace& ws) const {
+  if (size < 1 || out.size() != static_cast<std::size_t>(size) * size)
+    throw std::invalid_argument("SimRenderer: output does not hold size^2 pixels");
+  const double reach = tail_radius + psf_tail_radius_ + 2.0;  // pixels
+  const int n = fft_friendly_size(std::min(kMaxGrid, size + static_cast<int>(std::ceil(reach / step))));
+  if (n < size) throw std::invalid_argument("SimRenderer: stamp larger than the largest grid");
+  SimWorkspace::Grid& grid = ws.grid(n);
+  auto* spectrum = static_cast<std::complex<double>*>(grid.spectrum.data());
+  const int half = n / 2 + 1;
+  const double dk = 2 * kPi / (n * step), alias = 2 * kPi / step;
+  const double k_bound = k_limit_ * psf_stretch_;
+  const int m_max = static_cast<int>(std::ceil(k_bound / alias + 0.5));
+  const double scale = (with_pixel ? 1.0 / (step * step) : 1.0) / (static_cast<double>(n) * n);
+  // Per-component constants hoisted out of the frequency loop.
+  struct Prepared {
+    double s[3];
+    double flux, x, y, hlr;
+    const kernels::LogTable* table;  // looked up once, not per frequency
+  };
+  std::vector<Prepared> prepared;
+  prepared.reserve(components.size());
+  for (const SimComponent& c : components) {
+    Prepared p{};
+    shear_matrix(c.e1, c.e2, p.s);
+    p.flux = c.flux;
+    p.x = c.x;
+    p.y = c.y;
+    p.hlr = c.half_light_radius;
+    p.table = table_for(c.sersic_n);
+    prepared.push_back(p);
+  }
+  for (int jy = 0; jy < n; ++jy) {
+    const double ky0 = dk * (jy <= n / 2 ? jy : jy - n);
+    for (int jx = 0; jx < half; ++jx) {
+      const double kx0 = dk * jx;
+      std::complex<double> sum = 0;
+      for (int my = -m_max; my <= m_max; ++my) {
+        const double ky = ky0 + alias * my;
+        if (std::abs(ky) > k_bound) continue;
+        for (int mx = -m_max; mx <= m_max; ++mx) {
+          const double kx = kx0 + alias * mx;
+          if (kx * kx + ky * ky > k_bound * k_bound) continue;
+          double psf = psf_transform(kx, ky);
+          if (psf == 0.0) continue;
+          if (with_pixel) psf *= sinc(0.5 * kx) * sinc(0.5 * ky);
+          if (psf_only) {
+            sum += psf * std::polar(1.0, -(kx * cx + ky * cy) * step);
+            continue;
+          }
+          std::complex<double> gal = 0;
+          for (const Prepared& p : prepared) {
+            const double k = std::hypot(p.s[0] * kx + p.s[1] * ky, p.s[1] * kx + p.s[2] * ky);
+            gal += p.flux * sersic_transform(p.table, k * p.hlr) * std::polar(1.0, -(kx * p.x + ky * p.y));
+          }
+          sum += psf * gal;
+        }
+      }
+      spectrum[static_cast<std::size_t>(jy) * half + jx] = sum * scale;
+    }
+  }
+  fftw_execute_dft_c2r(static_cast<fftw_plan>(grid.plan), reinterpret_cast<fftw_complex*>(spectrum),
+                       static_cast<double*>(grid.image.data()));
+  const double* image = static_cast<const double*>(grid.image.data());
+  for (int y = 0; y < size; ++y)
+    std::copy_n(image + static_cast<std::size_t>(y) * n, size, out.data() + static_cast<std::size_t>(y) * size);
+}
+
+double SimRenderer::round_fwhm(std::span<const SimComponent> components) const {
+  // I(r) = (1/2pi) Integral F(k) J0(k r) k dk over [0, k_limit], as sum_i c_i J0(k_i r) with
+  // Gauss-Legendre panels of width 0.05 / pixel (a quarter period of J0 at r = 30 px).
+  constexpr double kPanel = 0.05;
+  std::vector<const kernels::LogTable*> tables;
+  for (const SimComponent& c : components) tables.push_back(table_for(c.sersic_n));
+  std::vector<double> nodes, coeffs;
+  for (double a = 0; a < k_limit_; a += kPanel) {
+    const double mid = a + 0.5 * kPanel, h = 0.5 * kPanel;
+    for (int i = 0; i < 6; ++i)
+      for (double sgn : {-1.0, 1.0}) {
+        const double k = mid + sgn * h * kGlX[i];
+        double f = psf_round_transform(k);
+        if (!components.empty()) {
+          double g = 0;
+          for (std::size_t c = 0; c < components.size(); ++c)
+            g += components[c].flux * sersic_transform(tables[c], k * components[c].half_light_radius);
+          f *= g;
+        }
+        nodes.push_back(k);
+        coeffs.push_back(kGlW[i] * h * k * f);
+      }
+  }
+  auto intensity = [&](double r) {
+    double s = 0;
+    for (std::size_t i = 0; i < nodes.size(); ++i) s += coeffs[i] * ::j0(nodes[i] * r);
+    return s;
+  };
+  auto slope = [&](double r) {
+    double s = 0;
+    for (std::size_t i = 0; i < nodes.size(); ++i) s -= coeffs[i] * nodes[i] * ::j1(nodes[i] * r);
+    return s;
+  };
+  const double target = 0.5 * intensity(0.0);
+  double lo = 0, hi = 0.25;
+  while (intensity(hi) > target) {
+    lo = hi;
+    hi *= 2;
+    if (hi > 1e3) throw std::runtime_error("round_fwhm: the profile does not fall to half maximum");
+  }
+  // Newton from the bracket's middle, falling back to bisection when a step leaves the bracket.
+  double r = 0.5 * (lo + hi);
+  for (int it = 0; it < 100 && hi - lo > 1e-12 * hi; ++it) {
+    const double f = intensity(r) - target;
+    (f > 0 ? lo : hi) = r;
+    const double d = slope(r);
+    double next = d < 0 ? r - f / d : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (std::abs(next - r) < 1e-13 * r) {
+      r = next;
+      break;
+    }
+    r = next;
+  }
+  return 2 * r;
+}
+
+}  // namespace stampede

@@ -1,0 +1,50 @@
+// Grid geometry: FFT-friendly sizes and the sub-pixel coordinate convention.
+#include "engine/render/render_options.hpp"
+
+#include <gtest/gtest.h>
+
+namespace stampede {
+namespace {
+
+TEST(RenderOptions, FftFriendlySizes) {
+  EXPECT_EQ(fft_friendly_size(195), 196);  // 2^2 7^2
+  EXPECT_EQ(fft_friendly_size(235), 240);  // 235 = 5 * 47
+  EXPECT_EQ(fft_friendly_size(211), 216);  // 211 is prime
+  EXPECT_EQ(fft_friendly_size(1), 1);
+  for (int n = 1; n < 2000; ++n) {
+    const int m = fft_friendly_size(n);
+    EXPECT_GE(m, n);
+    int r = m;
+    for (int f : {2, 3, 5, 7})
+      while (r % f == 0) r /= f;
+    EXPECT_EQ(r, 1) << n;
+  }
+}
+
+TEST(RenderOptions, SubpixelCentresFollowTheDataConvention) {
+  RenderOptions ro;  // 39 px, U1 = 5, padding 4: 235 -> 240 sub-pixels, stamp from sub-pixel 22
+  const GridGeometry g(ro);
+  EXPECT_EQ(g.grid_size(), 240);
+  EXPECT_EQ(g.data_offset(), 22);
+  const kernels::SubpixelGrid s = g.subpixel_grid();
+  // Data pixel 0 covers [-0.5, 0.5): its first sub-pixel's centre is at -0.5 + 0.1.
+  EXPECT_NEAR(s.origin + s.step * g.data_offset(), -0.4, 1e-12);
+  // The middle sub-pixel of pixel 19 is centred on 19.
+  EXPECT_NEAR(s.origin + s.step * (g.data_offset() + 19 * 5 + 2), 19.0, 1e-12);
+}
+
+TEST(RenderOptions, ValidationNamesTheOption) {
+  RenderOptions ro;
+  ro.upsampling = 0;
+  std::string why;
+  EXPECT_FALSE(ro.IsValid(&why));
+  EXPECT_NE(why.find("upsampling = 0"), std::string::npos) << why;
+  ro = RenderOptions{};
+  ro.n_central_pixel_upsampling = 65;
+  EXPECT_FALSE(ro.IsValid(&why));
+  EXPECT_NE(why.find("n_central_pixel_upsampling = 65"), std::string::npos) << why;
+  EXPECT_TRUE(RenderOptions{}.IsValid(&why));
+}
+
+}  // namespace
+}  // namespace stampede
