@@ -18,11 +18,11 @@
 #include <Eigen/Dense>
 #include <string>
 
-#include "engine/model/parameters.hpp"
-
 namespace stampede {
 
-inline constexpr int kMaxFree = kNumParams;
+// The solver knows nothing of the galaxy model: it sizes its fixed storage for up to 12 free
+// parameters (the model has 12; engine/fit asserts that they fit).
+inline constexpr int kMaxFree = 12;
 using LmVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxFree, 1>;
 using LmMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxFree, kMaxFree>;
 
