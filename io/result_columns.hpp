@@ -62,7 +62,8 @@ struct ResultColumn {
 
 // The columns of a table with these positions, in table order.
 std::span<const ResultColumn> result_columns(PositionColumns positions);
-// The column of `field` (grid and catalogue tables share every column they both have).
+// The column of `field`. Grid and catalogue tables share every column they both have; only the
+// description of `id` differs (result_columns() has each table's).
 const ResultColumn& result_column(ResultField field);
 // Its TTYPE, e.g. "psf_e1".
 const char* column_name(ResultField field);

@@ -386,12 +386,13 @@ int run_apply(int argc, char** argv) {
   Bias population{NAN, NAN, NAN}, population_error{NAN, NAN, NAN};
   long long deep_used = 0, deep_clamped = 0, deep_rows = 0;
   if (!per_object) {
-    io::CatalogReader d = io::CatalogReader::open(deep);
+    const std::vector<F> deep_fields = {F::kRadius, F::kBulgeFlux, F::kDiscFlux, F::kE1, F::kE2, F::kStatus, F::kFlags};
+    io::CatalogReader d = io::CatalogReader::open(deep, deep_fields);
     PopulationBias pop(model);
     // A subsample (every stride-th row, at most ~20000) for the bootstrap of the calibration error.
     const long long stride = std::max(1LL, (d.rows() + 19999) / 20000);
     std::vector<GalaxyProperties> sample;
-    for_chunks(d, {F::kRadius, F::kBulgeFlux, F::kDiscFlux, F::kE1, F::kE2, F::kStatus, F::kFlags},
+    for_chunks(d, deep_fields,
                [&](long long, const std::vector<std::vector<double>>& c) {
                  for (std::size_t i = 0; i < c[0].size(); ++i) {
                    ++deep_rows;
