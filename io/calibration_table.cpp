@@ -36,7 +36,7 @@ std::vector<double> split(FitsFile& f, const std::string& key) {
       if (used != item.size()) throw std::invalid_argument(item);
     } catch (const std::exception&) {
       f.move_to(0);
-      throw std::runtime_error(f.describe() + ": header keyword '" + key + "' = '" + text +
+      throw FitsError(f.describe() + ": header keyword '" + key + "' = '" + text +
                                "' is not a comma-separated list of numbers");
     }
   }
@@ -104,7 +104,7 @@ CalibrationTable read_calibration_table(const std::string& path) {
   CalibrationTable t;
   CalibrationGridOptions& g = t.grid;
   if (f.key_long("CALIBVER") != kVersion)
-    throw std::runtime_error(f.describe() + ": CALIBVER " + std::to_string(f.key_long("CALIBVER")) +
+    throw FitsError(f.describe() + ": CALIBVER " + std::to_string(f.key_long("CALIBVER")) +
                              " is not a calibration format this version reads (" + std::to_string(kVersion) + ")");
   g.snr = f.key_double("SNRREF");
   g.noise_sigma = f.key_double("NOISESIG");
@@ -125,13 +125,13 @@ CalibrationTable read_calibration_table(const std::string& path) {
     // FITS drops trailing blanks: an empty value reads back as "key =".
     const auto eq = card->find(" =");
     if (eq == std::string::npos || eq == 0)
-      throw std::runtime_error(f.describe() + ": " + key + " = '" + *card + "' is not 'key = value'");
+      throw FitsError(f.describe() + ": " + key + " = '" + *card + "' is not 'key = value'");
     std::string value = card->substr(eq + 2);
     if (!value.empty() && value[0] == ' ') value.erase(0, 1);
     t.config.emplace_back(card->substr(0, eq), value);
   }
   std::string why;
-  if (!g.IsValid(&why)) throw std::runtime_error(f.describe() + ": the grid in the header is not valid: " + why);
+  if (!g.IsValid(&why)) throw FitsError(f.describe() + ": the grid in the header is not valid: " + why);
 
   f.move_to("POINTS");
   const auto point = f.read_column("point"), radius = f.read_column("radius"), fraction = f.read_column("bulge_fraction"),

@@ -1,20 +1,19 @@
-// CatalogWriter implementation: column table, FITS header, commits and crash repair (see
-// catalog_writer.hpp for the protocol).
+// CatalogWriter implementation: the table header, commits and crash repair (see catalog_writer.hpp
+// for the protocol), over the column schema (result_columns), the header cards (fits_cards) and
+// the POSIX durability helpers (durable_file).
 //
-// CFITSIO is used directly: FitsFile has no table writing and hides its fitsfile*. Files are opened
-// with fits_create_diskfile / fits_open_diskfile so that paths are taken literally (no extended
-// syntax). Raw POSIX calls do what CFITSIO cannot: fsync, truncation, atomic rename.
+// CFITSIO is used directly, not through FitsFile, which lacks what this writer needs: a literal
+// path (fits_create_diskfile / fits_open_diskfile, no extended syntax), typed columns with units
+// (1J, 1V with TZERO, 1K), raw header records, fits_flush_file at each commit, the HDU's byte
+// addresses for repair, and column writes without FitsFile::write_column_rows's per-call copy.
+// Adding them to FitsFile would serve only this file; the bytes written are the same either way.
 #include "io/catalog_writer.hpp"
 
-#include <fcntl.h>
 #include <fitsio.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <bit>
 #include <cctype>
-#include <cerrno>
 #include <charconv>
 #include <cstdint>
 #include <filesystem>
@@ -23,116 +22,28 @@
 #include <string_view>
 #include <system_error>
 
+#include "io/durable_file.hpp"
+#include "io/fits_cards.hpp"
+#include "io/fits_error.hpp"
+
 namespace stampede::io {
 namespace {
 
-// ---- the columns --------------------------------------------------------------------------------
-
-enum class ColType { kI64, kI32, kU32, kF64 };
-
-// One column of both outputs: the FITS table and the text file are written from this one list, so
-// they cannot disagree. Integer columns read through `integer` (widened; every source type fits
-// its FITS type exactly), double columns through `real`.
-struct Column {
-  const char* name;
-  ColType type;
-  const char* unit;         // TUNITn; "" = dimensionless or data units
-  const char* description;  // TCOMMn, at most 68 characters (one FITS string card)
-  std::int64_t (*integer)(const ObjectRecord&);
-  double (*real)(const ObjectRecord&);
-};
-
-using R = const ObjectRecord&;
-constexpr double param(R r, Param p) { return r.fit.params[index(p)]; }
-
-constexpr Column real(const char* name, const char* unit, const char* description,
-                      double (*get)(R)) {
-  return {name, ColType::kF64, unit, description, nullptr, get};
-}
-constexpr Column integer(const char* name, ColType type, const char* description,
-                         std::int64_t (*get)(R)) {
-  return {name, type, "", description, get, nullptr};
-}
-
-const Column kGridPositions[] = {
-    integer("id", ColType::kI64, "object id: iy * nx + ix",
-            [](R r) -> std::int64_t { return r.id; }),
-    integer("ix", ColType::kI32, "stamp column in the grid, 0-based",
-            [](R r) -> std::int64_t { return r.ix; }),
-    integer("iy", ColType::kI32, "stamp row in the grid, 0-based",
-            [](R r) -> std::int64_t { return r.iy; }),
-};
-const Column kCataloguePositions[] = {
-    integer("id", ColType::kI64, "object id from the input catalogue",
-            [](R r) -> std::int64_t { return r.id; }),
-    real("x_image", "pixel", "catalogue x position, FITS 1-based image pixels",
-         [](R r) { return r.x_image; }),
-    real("y_image", "pixel", "catalogue y position, FITS 1-based image pixels",
-         [](R r) { return r.y_image; }),
-};
-const Column kFitColumns[] = {
-    real("x0", "pixel", "fitted centroid x, 0-based pixels within the stamp",
-         [](R r) { return param(r, Param::kX0); }),
-    real("y0", "pixel", "fitted centroid y, 0-based pixels within the stamp",
-         [](R r) { return param(r, Param::kY0); }),
-    real("e1", "", "ellipticity (a-b)/(a+b) along x, after the mirror",
-         [](R r) { return param(r, Param::kE1); }),
-    real("e2", "", "ellipticity along y = x, after the mirror",
-         [](R r) { return param(r, Param::kE2); }),
-    real("radius", "pixel", "disc half-light radius sqrt(ab), after softening",
-         [](R r) { return param(r, Param::kRadius); }),
-    real("bulge_A", "", "bulge central intensity, data units per pixel^2",
-         [](R r) { return param(r, Param::kBulgeA); }),
-    real("disc_A", "", "disc central intensity, data units per pixel^2",
-         [](R r) { return param(r, Param::kDiscA); }),
-    real("bulge_flux", "", "bulge flux, data units", [](R r) { return r.fit.bulge_flux; }),
-    real("disc_flux", "", "disc flux, data units", [](R r) { return r.fit.disc_flux; }),
-    real("flux", "", "total flux, data units", [](R r) { return r.fit.flux; }),
-    real("e1_err", "", "error of e1 from (J^T W J)^-1", [](R r) { return r.fit.e1_err; }),
-    real("e2_err", "", "error of e2 from (J^T W J)^-1", [](R r) { return r.fit.e2_err; }),
-    real("snr", "", "S/N sqrt(sum w m^2) of the best model", [](R r) { return r.fit.snr; }),
-    real("chi2", "", "sum w (d - m)^2 over used pixels", [](R r) { return r.fit.chi2; }),
-    real("likelihood", "", "-chi2 / 2", [](R r) { return r.fit.likelihood; }),
-    integer("n_iter", ColType::kI32, "solver iterations (Jacobian evaluations)",
-            [](R r) -> std::int64_t { return r.fit.iterations; }),
-    integer("n_eval", ColType::kI32, "model evaluations",
-            [](R r) -> std::int64_t { return r.fit.evaluations; }),
-    integer("stop_reason", ColType::kI32, "StopReason: the rule that stopped the solver",
-            [](R r) -> std::int64_t { return static_cast<int>(r.fit.stop_reason); }),
-    integer("status", ColType::kI32, "FitStatus, named by header keys STATUSn",
-            [](R r) -> std::int64_t { return static_cast<int>(r.fit.status); }),
-    integer("flags", ColType::kU32, "fit and input flag bits, see COMMENT cards",
-            [](R r) -> std::int64_t { return r.flags; }),
-    real("time_us", "us", "wall time of the fit", [](R r) { return r.time_us; }),
-    real("psf_e1", "", "PSF ellipticity e1", [](R r) { return r.psf_e1; }),
-    real("psf_e2", "", "PSF ellipticity e2", [](R r) { return r.psf_e2; }),
-    real("psf_fwhm", "pixel", "PSF FWHM", [](R r) { return r.psf_fwhm; }),
-};
-
-std::vector<Column> columns_for(PositionColumns positions) {
-  std::vector<Column> out;
-  if (positions == PositionColumns::kGrid) {
-    out.assign(std::begin(kGridPositions), std::end(kGridPositions));
-  } else {
-    out.assign(std::begin(kCataloguePositions), std::end(kCataloguePositions));
-  }
-  out.insert(out.end(), std::begin(kFitColumns), std::end(kFitColumns));
-  return out;
-}
-
-const char* tform(ColType t) {
+const char* tform(ColumnType t) {
   switch (t) {
-    case ColType::kI64: return "1K";
-    case ColType::kI32: return "1J";
-    case ColType::kU32: return "1V";  // CFITSIO: stored as J with TZERO = 2147483648
-    case ColType::kF64: return "1D";
+    case ColumnType::kInt64: return "1K";
+    case ColumnType::kInt32: return "1J";
+    case ColumnType::kUInt32: return "1V";  // CFITSIO: stored as J with TZERO = 2147483648
+    case ColumnType::kFloat64: return "1D";
   }
   return "?";
 }
 
-long row_bytes(const std::vector<Column>& columns) {
+long row_bytes(std::span<const ResultColumn> columns) {
   long n = 0;
-  for (const Column& c : columns) n += (c.type == ColType::kI64 || c.type == ColType::kF64) ? 8 : 4;
+  for (const ResultColumn& c : columns) {
+    n += (c.type == ColumnType::kInt64 || c.type == ColumnType::kFloat64) ? 8 : 4;
+  }
   return n;
 }
 
@@ -168,163 +79,22 @@ constexpr std::size_t kChunkRows = 256;
 
 constexpr std::string_view kCheckpointMagic = "stampede catalogue checkpoint 1";
 
-// ---- error text and POSIX helpers ---------------------------------------------------------------
-
-std::string errno_text(int e) { return std::generic_category().message(e); }
-
-// CFITSIO's text for `status`; also empties its global message stack so stale messages do not
-// pile up.
-std::string fits_text(int status) {
-  char text[FLEN_STATUS] = {};
-  fits_get_errstatus(status, text);
-  fits_clear_errmsg();
-  return std::string(text) + " (CFITSIO status " + std::to_string(status) + ")";
-}
-
 [[noreturn]] void fail(const std::string& what) { throw CatalogError(what); }
-[[noreturn]] void fail_errno(const std::string& what) { fail(what + ": " + errno_text(errno)); }
 
-void write_all(int fd, std::string_view bytes, const std::string& path) {
-  while (!bytes.empty()) {
-    const ssize_t n = ::write(fd, bytes.data(), bytes.size());
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      fail_errno("cannot write '" + path + "'");
-    }
-    bytes.remove_prefix(static_cast<std::size_t>(n));
+// The writer promises CatalogError for every failure; durable_file reports FileError with the same
+// kind of message (path and system reason), passed on unchanged.
+template <typename Fn>
+decltype(auto) catalog_errors(Fn&& fn) {
+  try {
+    return fn();
+  } catch (const FileError& e) {
+    throw CatalogError(e.what());
   }
 }
-
-void fsync_or_throw(int fd, const std::string& path) {
-  if (::fsync(fd) != 0) fail_errno("cannot sync '" + path + "' to disk");
-}
-
-std::string directory_of(const std::string& path) {
-  const std::string dir = std::filesystem::path(path).parent_path().string();
-  return dir.empty() ? "." : dir;
-}
-
-// Makes renames and creations in the directory durable. Filesystems that cannot sync a directory
-// (EINVAL) order metadata themselves.
-void fsync_directory(const std::string& file_in_dir) {
-  const std::string dir = directory_of(file_in_dir);
-  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) fail_errno("cannot open directory '" + dir + "'");
-  const int rc = ::fsync(fd);
-  const int e = errno;
-  ::close(fd);
-  if (rc != 0 && e != EINVAL) fail("cannot sync directory '" + dir + "': " + errno_text(e));
-}
-
-void remove_if_present(const std::string& path) {
-  if (::unlink(path.c_str()) != 0 && errno != ENOENT) fail_errno("cannot remove '" + path + "'");
-}
-
-bool exists(const std::string& path) {
-  struct stat st {};
-  return ::stat(path.c_str(), &st) == 0;
-}
-
-long long file_size(int fd, const std::string& path) {
-  struct stat st {};
-  if (::fstat(fd, &st) != 0) fail_errno("cannot stat '" + path + "'");
-  return static_cast<long long>(st.st_size);
-}
-
-// ---- header keys --------------------------------------------------------------------------------
 
 std::string upper(std::string s) {
   for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return s;
-}
-
-bool is_standard_key(const std::string& key) {
-  return !key.empty() && key.size() <= 8 && std::ranges::all_of(key, [](char c) {
-    return (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
-  });
-}
-
-// Keys the table's structure or this writer owns; a configuration value must not replace them.
-bool is_reserved(const std::string& key) {
-  static const char* const kExact[] = {"SIMPLE", "XTENSION", "BITPIX", "NAXIS", "PCOUNT", "GCOUNT",
-                                       "TFIELDS", "EXTNAME", "EXTVER", "EXTLEVEL", "THEAP", "END",
-                                       "CONTINUE", "COMMENT", "HISTORY", "LONGSTRN", "HIERARCH"};
-  static const char* const kIndexed[] = {"NAXIS", "TTYPE", "TFORM", "TUNIT", "TZERO", "TSCAL",
-                                         "TNULL", "TCOMM", "TDIM", "TDISP", "STATUS"};
-  for (const char* k : kExact) {
-    if (key == k) return true;
-  }
-  for (std::string_view prefix : kIndexed) {
-    if (key.size() > prefix.size() && key.starts_with(prefix) &&
-        std::all_of(key.begin() + static_cast<std::ptrdiff_t>(prefix.size()), key.end(),
-                    [](char c) { return c >= '0' && c <= '9'; })) {
-      return true;
-    }
-  }
-  return false;
-}
-
-bool printable(std::string_view s) {
-  return std::ranges::all_of(s, [](char c) { return c >= 0x20 && c <= 0x7e; });
-}
-
-// Validates the header list, upper-cases the keys and keeps the last value of a repeated key (at
-// the position of its first appearance).
-std::vector<std::pair<std::string, std::string>> normalise_header(
-    const std::vector<std::pair<std::string, std::string>>& header) {
-  std::vector<std::pair<std::string, std::string>> out;
-  for (const auto& [raw_key, value] : header) {
-    const std::string key = upper(raw_key);
-    if (key.empty() || key.front() == ' ' || key.back() == ' ' || !printable(key) ||
-        key.find('=') != std::string::npos || key.find('\'') != std::string::npos) {
-      fail("header key '" + raw_key +
-           "' is not a valid FITS keyword (printable ASCII, no '=', quote or edge spaces)");
-    }
-    if (is_standard_key(key) ? is_reserved(key) : key.starts_with("HIERARCH")) {
-      fail("header key '" + raw_key + "' is reserved for the table structure");
-    }
-    if (!printable(value)) {
-      fail("value of header key '" + raw_key + "' has characters a FITS header cannot hold " +
-           "(printable ASCII only)");
-    }
-    // "HIERARCH KEY = '" plus one escaped quote and "&'" must fit one 80-character card.
-    if (!is_standard_key(key) && key.size() > 80 - 17) {
-      fail("header key '" + raw_key + "' is too long for a FITS card");
-    }
-    auto same = std::ranges::find_if(out, [&](const auto& kv) { return kv.first == key; });
-    if (same != out.end()) {
-      same->second = value;
-    } else {
-      out.emplace_back(key, value);
-    }
-  }
-  return out;
-}
-
-// Cards for a HIERARCH string key. Built by hand because CFITSIO 4.2's fits_update_key_longstr
-// drops the '&' continuation marker when a long HIERARCH name leaves little room on the first
-// card, so readers would lose the rest of the value. Quotes are doubled and never split.
-std::vector<std::string> hierarch_cards(const std::string& key, const std::string& value) {
-  std::vector<std::string> cards;
-  std::string card = "HIERARCH " + key + " = '";
-  std::size_t pos = 0;
-  auto escaped = [](char c) { return c == '\'' ? std::string("''") : std::string(1, c); };
-  for (;;) {
-    std::string rest;
-    for (std::size_t i = pos; i < value.size(); ++i) rest += escaped(value[i]);
-    if (card.size() + rest.size() + 1 <= 80) {
-      cards.push_back(card + rest + "'");
-      return cards;
-    }
-    // Leave room for "&'"; normalise_header's key limit guarantees one character fits.
-    for (; pos < value.size(); ++pos) {
-      const std::string e = escaped(value[pos]);
-      if (card.size() + e.size() + 2 > 80) break;
-      card += e;
-    }
-    cards.push_back(card + "&'");
-    card = "CONTINUE  '";
-  }
 }
 
 // ---- checkpoint ---------------------------------------------------------------------------------
@@ -402,9 +172,9 @@ void append_value(std::string* out, std::int64_t v) {
   out->append(buf, r.ptr);
 }
 
-std::string text_header_line(const std::vector<Column>& columns) {
+std::string text_header_line(std::span<const ResultColumn> columns) {
   std::string line = "#";
-  for (const Column& c : columns) (line += ' ') += c.name;
+  for (const ResultColumn& c : columns) (line += ' ') += c.name;
   return line + "\n";
 }
 
@@ -419,13 +189,13 @@ bool compressed_name(const std::string& path) {
 
 struct CatalogWriter::State {
   CatalogWriterOptions options;
-  std::vector<Column> columns;
+  std::span<const ResultColumn> columns;
   std::string fits_partial, text_partial, checkpoint, checkpoint_tmp;
   std::string text_header;
 
   fitsfile* fits = nullptr;
-  int fits_fd = -1;  // our descriptor of the FITS partial: fsync on it reaches CFITSIO's writes
-  int text_fd = -1;
+  DurableFile fits_file;  // our descriptor of the FITS partial: fsync on it reaches CFITSIO's writes
+  DurableFile text_file;
   long long rows = 0;        // committed
   long long text_bytes = 0;  // committed size of the text partial
   bool failed = false;
@@ -440,11 +210,11 @@ struct CatalogWriter::State {
 
   explicit State(const CatalogWriterOptions& o)
       : options(o),
-        columns(columns_for(o.positions)),
+        columns(result_columns(o.positions)),
         fits_partial(o.path + ".partial"),
         text_partial(o.text_path.empty() ? "" : o.text_path + ".partial"),
         checkpoint(o.path + ".checkpoint"),
-        checkpoint_tmp(o.path + ".checkpoint.tmp"),
+        checkpoint_tmp(temporary_path(checkpoint)),
         text_header(text_header_line(columns)),
         f64(kChunkRows),
         i64(kChunkRows),
@@ -464,15 +234,14 @@ struct CatalogWriter::State {
       if (status != 0) fits_clear_errmsg();
       fits = nullptr;
     }
-    if (fits_fd >= 0) ::close(fits_fd);
-    if (text_fd >= 0) ::close(text_fd);
-    fits_fd = text_fd = -1;
+    fits_file = DurableFile();
+    text_file = DurableFile();
   }
 
   bool has_text() const { return !text_partial.empty(); }
 
   [[noreturn]] void fits_fail(int status, const std::string& what) {
-    fail("cannot " + what + " '" + fits_partial + "': " + fits_text(status));
+    fail("cannot " + what + " '" + fits_partial + "': " + cfitsio_status_text(status));
   }
   void check(int status, const std::string& what) {
     if (status != 0) fits_fail(status, what);
@@ -481,23 +250,10 @@ struct CatalogWriter::State {
   void write_checkpoint(long long new_rows, long long new_text_bytes) {
     const Checkpoint c{new_rows, new_text_bytes, options.positions, has_text(),
                        options.fingerprint};
-    const int fd = ::open(checkpoint_tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-    if (fd < 0) fail_errno("cannot create '" + checkpoint_tmp + "'");
-    try {
-      write_all(fd, serialise(c), checkpoint_tmp);
-      fsync_or_throw(fd, checkpoint_tmp);
-    } catch (...) {
-      ::close(fd);
-      throw;
-    }
-    if (::close(fd) != 0) fail_errno("cannot close '" + checkpoint_tmp + "'");
-    if (::rename(checkpoint_tmp.c_str(), checkpoint.c_str()) != 0) {
-      fail_errno("cannot rename '" + checkpoint_tmp + "' to '" + checkpoint + "'");
-    }
-    fsync_directory(checkpoint);
+    replace_durably(checkpoint, serialise(c));
   }
 
-  void write_table_header(const std::vector<std::pair<std::string, std::string>>& header) {
+  void write_table_header(const StringKeys& header) {
     const int n = static_cast<int>(columns.size());
     std::vector<char*> ttype(n), tform_v(n), tunit(n);
     for (int i = 0; i < n; ++i) {
@@ -535,13 +291,7 @@ struct CatalogWriter::State {
     }
     check(status, "write the table description to");
     for (const auto& [key, value] : header) {
-      if (is_standard_key(key)) {
-        fits_update_key_longstr(fits, key.c_str(), value.c_str(), "", &status);
-      } else {
-        for (const std::string& card : hierarch_cards(key, value)) {
-          fits_write_record(fits, card.c_str(), &status);
-        }
-      }
+      write_string_key(fits, key, value, &status);
       check(status, "write header key '" + key + "' to");
     }
   }
@@ -551,8 +301,8 @@ struct CatalogWriter::State {
     int status = 0;
     fits_flush_file(fits, &status);  // also rewrites NAXIS2 and the data fill
     check(status, "flush");
-    fsync_or_throw(fits_fd, fits_partial);
-    if (has_text()) fsync_or_throw(text_fd, text_partial);
+    fits_file.sync();
+    if (has_text()) text_file.sync();
     write_checkpoint(new_rows, new_text_bytes);
     rows = new_rows;
     text_bytes = new_text_bytes;
@@ -563,24 +313,24 @@ struct CatalogWriter::State {
     const auto n = static_cast<LONGLONG>(chunk.size());
     int status = 0;
     for (std::size_t c = 0; c < columns.size(); ++c) {
-      const Column& col = columns[c];
+      const ResultColumn& col = columns[c];
       const int colnum = static_cast<int>(c) + 1;
       switch (col.type) {
-        case ColType::kF64:
+        case ColumnType::kFloat64:
           for (std::size_t i = 0; i < chunk.size(); ++i) f64[i] = col.real(chunk[i]);
           fits_write_col(fits, TDOUBLE, colnum, first + 1, 1, n, f64.data(), &status);
           break;
-        case ColType::kI64:
+        case ColumnType::kInt64:
           for (std::size_t i = 0; i < chunk.size(); ++i) i64[i] = col.integer(chunk[i]);
           fits_write_col(fits, TLONGLONG, colnum, first + 1, 1, n, i64.data(), &status);
           break;
-        case ColType::kI32:
+        case ColumnType::kInt32:
           for (std::size_t i = 0; i < chunk.size(); ++i) {
             i32[i] = static_cast<int>(col.integer(chunk[i]));
           }
           fits_write_col(fits, TINT, colnum, first + 1, 1, n, i32.data(), &status);
           break;
-        case ColType::kU32:
+        case ColumnType::kUInt32:
           for (std::size_t i = 0; i < chunk.size(); ++i) {
             u32[i] = static_cast<unsigned int>(col.integer(chunk[i]));
           }
@@ -594,8 +344,8 @@ struct CatalogWriter::State {
     for (const ObjectRecord& r : chunk) {
       for (std::size_t c = 0; c < columns.size(); ++c) {
         if (c > 0) text += ' ';
-        const Column& col = columns[c];
-        if (col.type == ColType::kF64) {
+        const ResultColumn& col = columns[c];
+        if (col.type == ColumnType::kFloat64) {
           append_value(&text, col.real(r));
         } else {
           append_value(&text, col.integer(r));
@@ -603,7 +353,7 @@ struct CatalogWriter::State {
       }
       text += '\n';
     }
-    write_all(text_fd, text, text_partial);
+    text_file.write_all(text);
     return static_cast<long long>(text.size());
   }
 
@@ -624,7 +374,7 @@ struct CatalogWriter::State {
     fits_open_diskfile(&fits, fits_partial.c_str(), READONLY, &status);
     if (status != 0) {
       fits = nullptr;
-      fail(corrupt + "cannot open it as FITS: " + fits_text(status));
+      fail(corrupt + "cannot open it as FITS: " + cfitsio_status_text(status));
     }
     LONGLONG naxis1 = 0, naxis2 = 0, headstart = 0, datastart = 0, dataend = 0;
     int hdunum = 0, ncols = 0;
@@ -634,7 +384,7 @@ struct CatalogWriter::State {
     fits_read_key(fits, TLONGLONG, "NAXIS1", &naxis1, nullptr, &status);
     fits_get_num_rowsll(fits, &naxis2, &status);
     fits_get_hduaddrll(fits, &headstart, &datastart, &dataend, &status);
-    if (status != 0) fail(corrupt + "no readable RESULTS table: " + fits_text(status));
+    if (status != 0) fail(corrupt + "no readable RESULTS table: " + cfitsio_status_text(status));
     std::string why;
     if (hdunum != 2 || ncols != static_cast<int>(columns.size()) || naxis1 != row_bytes(columns)) {
       why = "its RESULTS table does not have this writer's layout";
@@ -663,17 +413,14 @@ struct CatalogWriter::State {
 
     const long long data_end = datastart + committed * naxis1;
     const long long padded = (data_end + 2879) / 2880 * 2880;
-    const int fd = ::open(fits_partial.c_str(), O_RDWR | O_CLOEXEC);
-    if (fd < 0) fail_errno("cannot open '" + fits_partial + "'");
-    fits_fd = fd;
-    if (file_size(fd, fits_partial) < data_end) {
+    fits_file = DurableFile::open(fits_partial, DurableFile::Mode::kReadWrite);
+    if (fits_file.size() < data_end) {
       fail(corrupt + "it is shorter than the " + std::to_string(committed) + " committed rows");
     }
     // Truncating then extending zeroes the fill: rows beyond NAXIS2 may have reached the disk
     // from CFITSIO's buffers before the crash.
-    if (::ftruncate(fd, data_end) != 0 || ::ftruncate(fd, padded) != 0) {
-      fail_errno("cannot truncate '" + fits_partial + "'");
-    }
+    fits_file.truncate(data_end);
+    fits_file.truncate(padded);
 
     fits_open_diskfile(&fits, fits_partial.c_str(), READWRITE, &status);
     if (status != 0) {
@@ -688,31 +435,26 @@ struct CatalogWriter::State {
       fits_flush_file(fits, &status);
     }
     check(status, "restore the committed rows of");
-    fsync_or_throw(fd, fits_partial);
+    fits_file.sync();
   }
 
   // Cuts the text partial back to `committed` bytes, checking that they end a line of this layout.
   void repair_text(long long committed) {
     const std::string corrupt = text_partial + " is corrupt: ";
-    text_fd = ::open(text_partial.c_str(), O_RDWR | O_CLOEXEC);
-    if (text_fd < 0) fail_errno("cannot open '" + text_partial + "'");
-    const long long size = file_size(text_fd, text_partial);
+    text_file = DurableFile::open(text_partial, DurableFile::Mode::kReadWrite);
+    const long long size = text_file.size();
     if (size < committed || committed < static_cast<long long>(text_header.size())) {
       fail(corrupt + "it is shorter than the committed " + std::to_string(committed) + " bytes");
     }
     std::string head(text_header.size(), '\0');
     char last = 0;
-    if (::pread(text_fd, head.data(), head.size(), 0) != static_cast<ssize_t>(head.size()) ||
-        ::pread(text_fd, &last, 1, committed - 1) != 1) {
-      fail_errno("cannot read '" + text_partial + "'");
-    }
+    text_file.read_at(0, head);
+    text_file.read_at(committed - 1, std::span<char>(&last, 1));
     if (head != text_header) fail(corrupt + "its header line is not this writer's columns");
     if (last != '\n') fail(corrupt + "the committed bytes do not end a line");
-    if (::ftruncate(text_fd, committed) != 0) fail_errno("cannot truncate '" + text_partial + "'");
-    if (::lseek(text_fd, committed, SEEK_SET) != committed) {
-      fail_errno("cannot seek in '" + text_partial + "'");
-    }
-    fsync_or_throw(text_fd, text_partial);
+    text_file.truncate(committed);
+    text_file.seek_to_end();
+    text_file.sync();
   }
 };
 
@@ -739,49 +481,47 @@ CatalogWriter::~CatalogWriter() = default;
 
 std::unique_ptr<CatalogWriter> CatalogWriter::create(const CatalogWriterOptions& options) {
   validate(options);
-  const auto header = normalise_header(options.header);
+  StringKeys header;
+  std::string why;
+  if (!normalise_string_keys(options.header, &header, &why)) fail(why);
   auto s = std::make_unique<State>(options);
-  try {
-    // A stale checkpoint must not outlive the partials it described.
-    remove_if_present(s->checkpoint);
-    remove_if_present(s->checkpoint_tmp);
-    // Up-front check with the errno text: CFITSIO only says "couldn't create the named file".
-    // fits_create_diskfile refuses existing files, so the probe is removed again.
-    for (const std::string& p : {s->fits_partial, s->text_partial}) {
-      if (p.empty()) continue;
-      const int fd = ::open(p.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-      if (fd < 0) fail_errno("cannot create catalogue '" + p + "'");
-      ::close(fd);
-    }
-    remove_if_present(s->fits_partial);
-    int status = 0;
-    fits_create_diskfile(&s->fits, s->fits_partial.c_str(), &status);
-    if (status != 0) {
-      s->fits = nullptr;
-      s->fits_fail(status, "create catalogue");
-    }
-    s->write_table_header(header);
-    s->fits_fd = ::open(s->fits_partial.c_str(), O_RDONLY | O_CLOEXEC);
-    if (s->fits_fd < 0) fail_errno("cannot open '" + s->fits_partial + "'");
-    if (s->has_text()) {
-      s->text_fd = ::open(s->text_partial.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
-      if (s->text_fd < 0) fail_errno("cannot open '" + s->text_partial + "'");
-      write_all(s->text_fd, s->text_header, s->text_partial);
-      // The checkpoint's rename syncs the FITS directory; the text may live elsewhere.
-      if (directory_of(s->text_partial) != directory_of(s->fits_partial)) {
-        fsync_directory(s->text_partial);
+  catalog_errors([&] {
+    try {
+      // A stale checkpoint must not outlive the partials it described.
+      remove_if_present(s->checkpoint);
+      remove_if_present(s->checkpoint_tmp);
+      // Up-front check with the errno text: CFITSIO only says "couldn't create the named file".
+      // fits_create_diskfile refuses existing files, so the FITS probe is removed again; the
+      // text one is the text partial.
+      DurableFile::create(s->fits_partial, "catalogue");
+      if (s->has_text()) s->text_file = DurableFile::create(s->text_partial, "catalogue");
+      remove_if_present(s->fits_partial);
+      int status = 0;
+      fits_create_diskfile(&s->fits, s->fits_partial.c_str(), &status);
+      if (status != 0) {
+        s->fits = nullptr;
+        s->fits_fail(status, "create catalogue");
       }
+      s->write_table_header(header);
+      s->fits_file = DurableFile::open(s->fits_partial, DurableFile::Mode::kRead);
+      if (s->has_text()) {
+        s->text_file.write_all(s->text_header);
+        // The checkpoint's rename syncs the FITS directory; the text may live elsewhere.
+        if (directory_of(s->text_partial) != directory_of(s->fits_partial)) {
+          sync_directory_of(s->text_partial);
+        }
+      }
+      s->commit(0, s->has_text() ? static_cast<long long>(s->text_header.size()) : 0);
+    } catch (...) {
+      // Leave nothing that resume() could mistake for a run.
+      s->close_quietly();
+      std::error_code ignored;
+      for (const std::string& p : {s->checkpoint, s->checkpoint_tmp, s->fits_partial, s->text_partial}) {
+        if (!p.empty()) std::filesystem::remove(p, ignored);
+      }
+      throw;
     }
-    s->commit(0, s->has_text() ? static_cast<long long>(s->text_header.size()) : 0);
-  } catch (...) {
-    // Leave nothing that resume() could mistake for a run.
-    s->close_quietly();
-    ::unlink(s->checkpoint.c_str());
-    ::unlink(s->checkpoint_tmp.c_str());
-    ::unlink(s->fits_partial.c_str());
-    if (s->has_text()) ::unlink(s->text_partial.c_str());
-    throw;
-  }
+  });
   return std::unique_ptr<CatalogWriter>(new CatalogWriter(std::move(s)));
 }
 
@@ -790,7 +530,7 @@ std::unique_ptr<CatalogWriter> CatalogWriter::resume(const CatalogWriterOptions&
   validate(options);
   auto s = std::make_unique<State>(options);
   for (const std::string& p : {s->checkpoint, s->fits_partial, s->text_partial}) {
-    if (!p.empty() && !exists(p)) {
+    if (!p.empty() && !file_exists(p)) {
       fail("nothing to resume at " + options.path + ": '" + p + "' does not exist");
     }
   }
@@ -805,8 +545,10 @@ std::unique_ptr<CatalogWriter> CatalogWriter::resume(const CatalogWriterOptions&
       c.has_text != s->has_text()) {
     fail(s->checkpoint + " was written by a different run (input or configuration changed)");
   }
-  s->repair_fits(c.rows);
-  if (s->has_text()) s->repair_text(c.text_bytes);
+  catalog_errors([&] {
+    s->repair_fits(c.rows);
+    if (s->has_text()) s->repair_text(c.text_bytes);
+  });
   s->rows = c.rows;
   s->text_bytes = c.text_bytes;
   if (rows_committed != nullptr) *rows_committed = c.rows;
@@ -818,14 +560,16 @@ void CatalogWriter::append(std::span<const ObjectRecord> rows) {
   s.require_usable("append to");
   if (rows.empty()) return;
   try {
-    long long written = s.rows;
-    long long text_bytes = s.text_bytes;
-    for (std::size_t i = 0; i < rows.size(); i += kChunkRows) {
-      const auto chunk = rows.subspan(i, std::min(kChunkRows, rows.size() - i));
-      text_bytes += s.write_chunk(chunk, written);
-      written += static_cast<long long>(chunk.size());
-    }
-    s.commit(written, text_bytes);
+    catalog_errors([&] {
+      long long written = s.rows;
+      long long text_bytes = s.text_bytes;
+      for (std::size_t i = 0; i < rows.size(); i += kChunkRows) {
+        const auto chunk = rows.subspan(i, std::min(kChunkRows, rows.size() - i));
+        text_bytes += s.write_chunk(chunk, written);
+        written += static_cast<long long>(chunk.size());
+      }
+      s.commit(written, text_bytes);
+    });
   } catch (...) {
     s.failed = true;
     throw;
@@ -836,26 +580,24 @@ void CatalogWriter::finish() {
   State& s = *s_;
   s.require_usable("finish");
   try {
-    int status = 0;
-    fits_close_file(s.fits, &status);
-    s.fits = nullptr;
-    s.check(status, "close");
-    fsync_or_throw(s.fits_fd, s.fits_partial);
-    s.close_quietly();
-    // The text first: once the FITS file has its final name the run counts as done.
-    if (s.has_text()) {
-      if (::rename(s.text_partial.c_str(), s.options.text_path.c_str()) != 0) {
-        fail_errno("cannot rename '" + s.text_partial + "' to '" + s.options.text_path + "'");
+    catalog_errors([&] {
+      int status = 0;
+      fits_close_file(s.fits, &status);
+      s.fits = nullptr;
+      s.check(status, "close");
+      s.fits_file.sync();
+      s.close_quietly();
+      // The text first: once the FITS file has its final name the run counts as done.
+      if (s.has_text()) {
+        rename_file(s.text_partial, s.options.text_path);
+        sync_directory_of(s.options.text_path);
       }
-      fsync_directory(s.options.text_path);
-    }
-    if (::rename(s.fits_partial.c_str(), s.options.path.c_str()) != 0) {
-      fail_errno("cannot rename '" + s.fits_partial + "' to '" + s.options.path + "'");
-    }
-    remove_if_present(s.checkpoint);
-    remove_if_present(s.checkpoint_tmp);
-    fsync_directory(s.options.path);
-    s.finished = true;
+      rename_file(s.fits_partial, s.options.path);
+      remove_if_present(s.checkpoint);
+      remove_if_present(s.checkpoint_tmp);
+      sync_directory_of(s.options.path);
+      s.finished = true;
+    });
   } catch (...) {
     s.failed = true;
     throw;
@@ -863,11 +605,5 @@ void CatalogWriter::finish() {
 }
 
 long long CatalogWriter::rows() const { return s_->rows; }
-
-std::vector<std::string> catalog_columns(PositionColumns positions) {
-  std::vector<std::string> names;
-  for (const Column& c : columns_for(positions)) names.emplace_back(c.name);
-  return names;
-}
 
 }  // namespace stampede::io

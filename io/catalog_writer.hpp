@@ -7,51 +7,37 @@
 // committed. Each append() is one commit:
 //   1. rows written to both partials (FITS: fits_write_col per column per chunk of rows);
 //   2. both partials flushed and fsync'd (FITS: fits_flush_file, which also rewrites NAXIS2);
-//   3. the checkpoint replaced atomically (write PATH.checkpoint.tmp, fsync, rename, fsync dir).
+//   3. the checkpoint replaced atomically (durable_file.hpp: write PATH.checkpoint.tmp, fsync,
+//      rename, fsync dir).
 // So the checkpoint never counts a row that is not on disk; bytes past it are discarded on resume.
 // finish() renames the partials to their final names and removes the checkpoint.
 //
-// Columns (catalog_columns() gives the names in order; units and descriptions are in the header as
-// TUNITn / TCOMMn):
-//   positions   grid: id (K), ix, iy (J), the stamp's grid indices;
-//               catalogue: id (K), x_image, y_image (D), FITS 1-based image pixels
-//   x0 y0       fitted centroid in 0-based pixel coordinates *of the stamp* (pixel centres at
-//               integers), as fitted; the stamp's origin is the caller's (grid: ix, iy times the
-//               stamp size; catalogue: the cutout around x_image, y_image)
-//   e1 e2 radius bulge_A disc_A   effective fitted values (FitResult::params)
-//   bulge_flux disc_flux flux e1_err e2_err snr chi2 likelihood   (D)
-//   n_iter n_eval stop_reason status (J)   stop_reason: StopReason value; status: FitStatus value,
-//               named by the header keys STATUS0..STATUS6
-//   flags (1V: unsigned 32-bit, stored as J with TZERO = 2^31)   bits listed in COMMENT cards
-//   time_us psf_e1 psf_e2 psf_fwhm (D)
-// NaN means "not computed" in every D column, as in FitResult; it is written as IEEE NaN in FITS
-// and as "nan" in the text file (doubles are printed with 17 significant digits: they read back
-// bitwise).
+// Columns: the schema in result_columns.hpp (catalog_columns() gives the names in order); units and
+// descriptions are in the header as TUNITn / TCOMMn, the FitStatus values are named by the header
+// keys STATUS0..STATUS6 and the flag bits listed in COMMENT cards. NaN is written as IEEE NaN in
+// FITS and as "nan" in the text file (doubles are printed with 17 significant digits: they read
+// back bitwise). catalog_reader.hpp reads the table back.
 //
 // Not thread-safe: one writer is driven by the pipeline's serial output stage.
 #pragma once
 
 #include <memory>
 #include <span>
-#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "engine/common/error.hpp"
 #include "engine/pipeline/object_record.hpp"
+#include "io/result_columns.hpp"
 
 namespace stampede::io {
 
 // Every failure of the writer: I/O errors, unwritable paths, nothing or the wrong run to resume.
 // The message names the file concerned.
-class CatalogError : public std::runtime_error {
+class CatalogError : public Error {
  public:
-  using runtime_error::runtime_error;
-};
-
-enum class PositionColumns {
-  kGrid,       // id ix iy
-  kCatalogue,  // id x_image y_image
+  using Error::Error;
 };
 
 struct CatalogWriterOptions {
@@ -108,8 +94,5 @@ class CatalogWriter {
   explicit CatalogWriter(std::unique_ptr<State> state);
   std::unique_ptr<State> s_;
 };
-
-// Column names in table order, for documentation and tests.
-std::vector<std::string> catalog_columns(PositionColumns positions);
 
 }  // namespace stampede::io

@@ -1,5 +1,5 @@
-// FitsFile implementation: every CFITSIO call goes through here, and every non-zero CFITSIO status
-// becomes a FitsError naming the file and HDU (see fits_file.hpp).
+// FitsFile implementation: every non-zero CFITSIO status becomes a FitsError naming the file and
+// HDU (see fits_file.hpp).
 #include "io/fits_file.hpp"
 
 #include <fitsio.h>
@@ -17,15 +17,6 @@ namespace stampede::io {
 namespace {
 
 fitsfile* as_fits(void* p) { return static_cast<fitsfile*>(p); }
-
-// CFITSIO's short text for `status`. Also empties CFITSIO's global error-message stack, which
-// would otherwise keep growing (and leak stale messages into later reports).
-std::string status_text(int status) {
-  char text[FLEN_STATUS] = {};
-  fits_get_errstatus(status, text);
-  fits_clear_errmsg();
-  return std::string(text) + " (CFITSIO status " + std::to_string(status) + ")";
-}
 
 // The file part of a CFITSIO path ("a.fits[CASES]" -> "a.fits", "!a.fits" -> "a.fits"), so error
 // messages name the file as it is on disk. Falls back to the path itself.
@@ -81,7 +72,7 @@ FitsFile FitsFile::open_read(const std::string& path) {
   fits_open_file(&f, path.c_str(), READONLY, &status);
   if (status != 0) {
     // CFITSIO frees the half-opened file itself on failure.
-    throw FitsError("cannot open FITS file '" + path + "': " + status_text(status));
+    throw FitsError("cannot open FITS file '" + path + "': " + cfitsio_status_text(status));
   }
   return FitsFile(f, path, /*auto_image=*/true);
 }
@@ -93,7 +84,7 @@ FitsFile FitsFile::create(const std::string& path, bool overwrite) {
   int status = 0;
   fits_create_file(&f, name.c_str(), &status);
   if (status != 0) {
-    std::string msg = "cannot create FITS file '" + path + "': " + status_text(status);
+    std::string msg = "cannot create FITS file '" + path + "': " + cfitsio_status_text(status);
     std::error_code ec;
     if (!overwrite && std::filesystem::exists(root_name(path), ec)) {
       msg += " (the file exists and overwrite is false)";
@@ -134,7 +125,7 @@ void FitsFile::close() {
   int status = 0;
   fits_close_file(as_fits(std::exchange(fptr_, nullptr)), &status);
   if (status != 0) {
-    throw FitsError("cannot close FITS file '" + path_ + "': " + status_text(status));
+    throw FitsError("cannot close FITS file '" + path_ + "': " + cfitsio_status_text(status));
   }
 }
 
@@ -170,7 +161,7 @@ std::string FitsFile::describe() {
 void FitsFile::fail(const std::string& what) { throw FitsError(describe() + ": " + what); }
 
 void FitsFile::fail_status(int status, const std::string& what) {
-  const std::string text = status_text(status);  // before describe(), which touches CFITSIO again
+  const std::string text = cfitsio_status_text(status);  // before describe(), which touches CFITSIO again
   fail(what + ": " + text);
 }
 
@@ -194,7 +185,7 @@ void FitsFile::move_to(int hdu_index) {
   int status = 0;
   fits_movabs_hdu(f, hdu_index + 1, nullptr, &status);
   if (status != 0) {
-    const std::string text = status_text(status);
+    const std::string text = cfitsio_status_text(status);
     restore_hdu(f, before);
     fail("cannot move to HDU " + std::to_string(hdu_index) + ": " + text);
   }
@@ -209,7 +200,7 @@ void FitsFile::move_to(const std::string& extname) {
   int status = 0;
   fits_movnam_hdu(f, ANY_HDU, name.data(), 0, &status);
   if (status != 0) {
-    const std::string text = status_text(status);
+    const std::string text = cfitsio_status_text(status);
     restore_hdu(f, before);
     if (status == BAD_HDU_NUM) fail("no HDU with EXTNAME '" + extname + "'");
     fail("cannot move to HDU '" + extname + "': " + text);
@@ -641,6 +632,21 @@ void FitsFile::read_column_rows(const std::string& name, long long first_row, st
   int anynul = 0, status = 0;
   fits_read_col(as_fits(handle()), TDOUBLE, col, first_row + 1, 1, static_cast<LONGLONG>(out.size()),
                 nulval ? &nan : nullptr, out.data(), &anynul, &status);
+  if (status != 0) fail_status(status, "cannot read column '" + name + "'");
+}
+
+void FitsFile::read_column_rows(const std::string& name, long long first_row, std::span<long long> out) {
+  void* nulval = nullptr;
+  const int col = numeric_column(name, &nulval);
+  if (nulval == nullptr) fail("column '" + name + "' is not an integer column");
+  const long long rows = table_rows();
+  if (first_row < 0 || static_cast<long long>(out.size()) > rows - first_row)
+    fail("cannot read rows " + std::to_string(first_row) + ".." + std::to_string(first_row + out.size() - 1) +
+         " of column '" + name + "': the table has " + std::to_string(rows) + " rows");
+  if (out.empty()) return;
+  int anynul = 0, status = 0;
+  fits_read_col(as_fits(handle()), TLONGLONG, col, first_row + 1, 1, static_cast<LONGLONG>(out.size()), nullptr,
+                out.data(), &anynul, &status);
   if (status != 0) fail_status(status, "cannot read column '" + name + "'");
 }
 

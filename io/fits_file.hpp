@@ -113,6 +113,10 @@ class FitsFile {
   // Rows [first_row, first_row + out.size()) (0-based) of a scalar numeric column, so a catalogue
   // can be streamed in chunks.
   void read_column_rows(const std::string& name, long long first_row, std::span<double> out);
+  // The same for an integer column (after TSCAL/TZERO), read exactly as 64-bit integers (ids
+  // beyond 2^53 included; TNULL is not applied). Throws "... column 'NAME' is not an integer
+  // column" for a floating-point column.
+  void read_column_rows(const std::string& name, long long first_row, std::span<long long> out);
   // The nx x ny pixels whose lower-left pixel is (x_begin, y_begin), 0-based, row-major.
   void read_image_region(long x_begin, long y_begin, long nx, long ny, std::span<double> out);
   // Appends a binary table of scalar columns (all of one length) and makes it current. Integer

@@ -21,6 +21,7 @@
 #include <utility>
 #include <vector>
 
+#include "engine/common/error.hpp"
 #include "engine/fit/fitter.hpp"
 #include "kernels/psf_profile.hpp"
 
@@ -28,9 +29,9 @@ namespace stampede::io {
 
 // Every configuration problem: an unknown key, a value that does not parse, an unreadable file or
 // an invalid combination. The message names the key and, where known, the file and line.
-class ConfigError : public std::runtime_error {
+class ConfigError : public Error {
  public:
-  using runtime_error::runtime_error;
+  using Error::Error;
 };
 
 // Where each object's PSF comes from.

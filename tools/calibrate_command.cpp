@@ -21,6 +21,7 @@
 #include "engine/pipeline/pipeline.hpp"
 #include "engine/pipeline/stamp_fitter.hpp"
 #include "io/calibration_table.hpp"
+#include "io/catalog_reader.hpp"
 #include "io/fits_file.hpp"
 #include "io/run_config.hpp"
 #include "tools/arguments.hpp"
@@ -316,16 +317,16 @@ bool finite(const GalaxyProperties& p) {
   return std::isfinite(p.radius) && p.radius > 0 && std::isfinite(p.bulge_fraction) && std::isfinite(p.e);
 }
 
-// Reads the columns of the RESULTS table of `f` in chunks and calls fn(first_row, columns).
+// Reads `fields` of a fit table in chunks and calls fn(first_row, columns), columns in that order.
 template <typename Fn>
-void for_chunks(io::FitsFile& f, const std::vector<std::string>& names, Fn fn) {
-  const long long rows = f.table_rows();
-  std::vector<std::vector<double>> cols(names.size());
+void for_chunks(io::CatalogReader& f, const std::vector<io::ResultField>& fields, Fn fn) {
+  const long long rows = f.rows();
+  std::vector<std::vector<double>> cols(fields.size());
   for (long long first = 0; first < rows; first += kChunk) {
     const long long n = std::min(kChunk, rows - first);
-    for (std::size_t c = 0; c < names.size(); ++c) {
+    for (std::size_t c = 0; c < fields.size(); ++c) {
       cols[c].resize(static_cast<std::size_t>(n));
-      f.read_column_rows(names[c], first, cols[c]);
+      f.column_rows(fields[c], first, cols[c]);
     }
     fn(first, cols);
   }
@@ -359,9 +360,12 @@ int run_apply(int argc, char** argv) {
   const CalibrationTable table = io::read_calibration_table(calibration);
   const NoiseBiasModel model(table);
 
+  using F = io::ResultField;
+  std::vector<F> science_fields = {F::kE1, F::kE2, F::kSnr, F::kPsfE1, F::kPsfE2};
+  if (per_object) science_fields.insert(science_fields.end(), {F::kRadius, F::kBulgeFlux, F::kDiscFlux});
+
   // The science run should have been fitted as the calibration was: warn about differences.
-  io::FitsFile in = io::FitsFile::open_read(science);
-  in.move_to("RESULTS");
+  io::CatalogReader in = io::CatalogReader::open(science, science_fields);
   static const std::set<std::string> kMayDiffer = {"noise_sigma", "psf_e1", "psf_e2", "batch_size", "fft_wisdom",
                                                    "save_images", "psf_input", "psf_image", "psf_upsampling",
                                                    "psf_pixel_integrated"};
@@ -370,7 +374,7 @@ int run_apply(int argc, char** argv) {
     if (kMayDiffer.count(key) || key.starts_with("catalog_")) continue;
     std::string upper = key;
     for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    const auto v = in.read_key_string(upper);
+    const auto v = in.file().read_key_string(upper);
     if (v && *v != value) {
       ++differing;
       if (!quiet)
@@ -382,13 +386,13 @@ int run_apply(int argc, char** argv) {
   Bias population{NAN, NAN, NAN}, population_error{NAN, NAN, NAN};
   long long deep_used = 0, deep_clamped = 0, deep_rows = 0;
   if (!per_object) {
-    io::FitsFile d = io::FitsFile::open_read(deep);
-    d.move_to("RESULTS");
+    const std::vector<F> deep_fields = {F::kRadius, F::kBulgeFlux, F::kDiscFlux, F::kE1, F::kE2, F::kStatus, F::kFlags};
+    io::CatalogReader d = io::CatalogReader::open(deep, deep_fields);
     PopulationBias pop(model);
     // A subsample (every stride-th row, at most ~20000) for the bootstrap of the calibration error.
-    const long long stride = std::max(1LL, (d.table_rows() + 19999) / 20000);
+    const long long stride = std::max(1LL, (d.rows() + 19999) / 20000);
     std::vector<GalaxyProperties> sample;
-    for_chunks(d, {"radius", "bulge_flux", "disc_flux", "e1", "e2", "status", "flags"},
+    for_chunks(d, deep_fields,
                [&](long long, const std::vector<std::vector<double>>& c) {
                  for (std::size_t i = 0; i < c[0].size(); ++i) {
                    ++deep_rows;
@@ -411,20 +415,18 @@ int run_apply(int argc, char** argv) {
   const std::string partial = output + ".partial";
   {
     io::FitsFile out = io::FitsFile::create(partial, true);
-    in.copy_all_hdus_to(out);
-    in.move_to("RESULTS");  // the copy walks the input's HDUs
+    in.file().copy_all_hdus_to(out);
+    in.file().move_to("RESULTS");  // the copy walks the input's HDUs
     out.move_to("RESULTS");
     out.add_column("e1_cal", "noise-bias calibrated e1: (e1 - nbc_c1) / (1 + nbc_m)");
     out.add_column("e2_cal", "noise-bias calibrated e2: (e2 - nbc_c2) / (1 + nbc_m)");
     out.add_column("nbc_m", "noise-bias m applied: m (SNRREF / snr)^2");
     out.add_column("nbc_c1", "noise-bias c1 applied, scaled and turned to the row's PSF");
     out.add_column("nbc_c2", "noise-bias c2 applied, scaled and turned to the row's PSF");
-    std::vector<std::string> names = {"e1", "e2", "snr", "psf_e1", "psf_e2"};
-    if (per_object) names.insert(names.end(), {"radius", "bulge_flux", "disc_flux"});
     std::vector<double> e1c, e2c, m, c1, c2;
     long long rows = 0, nan_rows = 0;
     double sum_m = 0;
-    for_chunks(in, names, [&](long long first, const std::vector<std::vector<double>>& c) {
+    for_chunks(in, science_fields, [&](long long first, const std::vector<std::vector<double>>& c) {
       const std::size_t n = c[0].size();
       for (auto* v : {&e1c, &e2c, &m, &c1, &c2}) v->assign(n, NAN);
       for (std::size_t i = 0; i < n; ++i) {

@@ -13,7 +13,7 @@
 #include "engine/fit/fit_result.hpp"
 #include "engine/pipeline/object_record.hpp"
 #include "engine/analysis/shear_metrics.hpp"
-#include "io/fits_error.hpp"
+#include "io/catalog_reader.hpp"
 #include "io/fits_file.hpp"
 
 namespace {
@@ -40,11 +40,11 @@ void print_help() {
 
 SetShear read_set(const std::string& fit_path, const std::string& truth_path, const std::string& e1_column,
                   const std::string& e2_column, int bootstrap, std::uint64_t seed, double* psf_e1, double* psf_e2) {
-  io::FitsFile fit = io::FitsFile::open_read(fit_path);
-  fit.move_to("RESULTS");
-  const auto id = fit.read_column("id"), e1 = fit.read_column(e1_column), e2 = fit.read_column(e2_column),
-             status = fit.read_column("status"), flags = fit.read_column("flags"), pe1 = fit.read_column("psf_e1"),
-             pe2 = fit.read_column("psf_e2");
+  using F = io::ResultField;
+  io::CatalogReader fit = io::CatalogReader::open(fit_path, {F::kId, F::kStatus, F::kFlags, F::kPsfE1, F::kPsfE2});
+  const auto id = fit.column(F::kId), e1 = fit.column(e1_column), e2 = fit.column(e2_column),
+             status = fit.column(F::kStatus), flags = fit.column(F::kFlags), pe1 = fit.column(F::kPsfE1),
+             pe2 = fit.column(F::kPsfE2);
   io::FitsFile truth = io::FitsFile::open_read(truth_path);
   const double g1 = truth.key_double("SHEAR1"), g2 = truth.key_double("SHEAR2");
   truth.move_to("TRUTH");
@@ -75,7 +75,8 @@ SetShear read_set(const std::string& fit_path, const std::string& truth_path, co
 
 int run_metrics_command(int argc, char** argv) {
   std::vector<std::string> fits, truths;
-  std::string json, e1_column = "e1", e2_column = "e2";
+  std::string json, e1_column = io::column_name(io::ResultField::kE1),
+                    e2_column = io::column_name(io::ResultField::kE2);
   int bootstrap = 200;
   std::uint64_t seed = 1;
   for (int i = 1; i < argc; ++i) {

@@ -1,0 +1,69 @@
+// Reading result tables by the column schema; see catalog_reader.hpp.
+#include "io/catalog_reader.hpp"
+
+#include <cstdint>
+#include <stdexcept>
+#include <utility>
+
+namespace stampede::io {
+
+CatalogReader CatalogReader::open(const std::string& path,
+                                  const std::vector<ResultField>& required) {
+  FitsFile f = FitsFile::open_read(path);
+  f.move_to("RESULTS");
+  CatalogReader reader(std::move(f));
+  for (ResultField field : required) reader.require(field);
+  return reader;
+}
+
+void CatalogReader::require(ResultField field) {
+  if (!has(field)) throw FitsError(f_.describe() + ": no column '" + column_name(field) + "'");
+}
+
+long long CatalogReader::rows() { return f_.table_rows(); }
+
+bool CatalogReader::has(ResultField field) { return f_.has_column(column_name(field)); }
+
+PositionColumns CatalogReader::positions() {
+  return has(ResultField::kXImage) ? PositionColumns::kCatalogue : PositionColumns::kGrid;
+}
+
+std::vector<double> CatalogReader::column(ResultField field) {
+  require(field);
+  return f_.read_column(column_name(field));
+}
+
+void CatalogReader::column_rows(ResultField field, long long first_row, std::span<double> out) {
+  require(field);
+  f_.read_column_rows(column_name(field), first_row, out);
+}
+
+std::vector<double> CatalogReader::column(const std::string& name) { return f_.read_column(name); }
+
+void CatalogReader::column_rows(const std::string& name, long long first_row,
+                                std::span<double> out) {
+  f_.read_column_rows(name, first_row, out);
+}
+
+std::vector<ObjectRecord> CatalogReader::records(long long first_row, long long count) {
+  if (count < 0) throw std::invalid_argument("CatalogReader::records: negative count");
+  const std::span<const ResultColumn> columns = result_columns(positions());
+  for (const ResultColumn& c : columns) require(c.field);
+  std::vector<ObjectRecord> out(static_cast<std::size_t>(count));
+  std::vector<double> reals(out.size());
+  std::vector<long long> integers(out.size());
+  for (const ResultColumn& c : columns) {
+    if (c.type == ColumnType::kFloat64) {
+      f_.read_column_rows(c.name, first_row, reals);
+      for (std::size_t i = 0; i < out.size(); ++i) c.set_real(out[i], reals[i]);
+    } else {
+      f_.read_column_rows(c.name, first_row, integers);
+      for (std::size_t i = 0; i < out.size(); ++i) {
+        c.set_integer(out[i], static_cast<std::int64_t>(integers[i]));
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace stampede::io

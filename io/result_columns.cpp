@@ -1,0 +1,147 @@
+// The result column table; see result_columns.hpp.
+#include "io/result_columns.hpp"
+
+#include <array>
+#include <cstddef>
+
+namespace stampede::io {
+namespace {
+
+using R = const ObjectRecord&;
+using W = ObjectRecord&;
+
+constexpr ResultColumn real(ResultField field, const char* name, const char* unit,
+                            const char* description, double (*get)(R), void (*set)(W, double)) {
+  return {field, name, ColumnType::kFloat64, unit, description, nullptr, get, nullptr, set};
+}
+constexpr ResultColumn integer(ResultField field, const char* name, ColumnType type,
+                               const char* description, std::int64_t (*get)(R),
+                               void (*set)(W, std::int64_t)) {
+  return {field, name, type, "", description, get, nullptr, set, nullptr};
+}
+
+// A fitted parameter's column: FitResult::params[p].
+template <Param p>
+constexpr ResultColumn param(ResultField field, const char* name, const char* unit,
+                             const char* description) {
+  return real(
+      field, name, unit, description, [](R r) { return r.fit.params[index(p)]; },
+      [](W r, double v) { r.fit.params[index(p)] = v; });
+}
+
+using F = ResultField;
+using T = ColumnType;
+
+// Indexed by ResultField (checked below).
+constexpr ResultColumn kColumns[] = {
+    // The grid and the catalogue describe id differently; the grid's text is the one kept here,
+    // the catalogue table overrides it.
+    integer(F::kId, "id", T::kInt64, "object id: iy * nx + ix",
+            [](R r) -> std::int64_t { return r.id; }, [](W r, std::int64_t v) { r.id = v; }),
+    integer(F::kIx, "ix", T::kInt32, "stamp column in the grid, 0-based",
+            [](R r) -> std::int64_t { return r.ix; },
+            [](W r, std::int64_t v) { r.ix = static_cast<std::int32_t>(v); }),
+    integer(F::kIy, "iy", T::kInt32, "stamp row in the grid, 0-based",
+            [](R r) -> std::int64_t { return r.iy; },
+            [](W r, std::int64_t v) { r.iy = static_cast<std::int32_t>(v); }),
+    real(F::kXImage, "x_image", "pixel", "catalogue x position, FITS 1-based image pixels",
+         [](R r) { return r.x_image; }, [](W r, double v) { r.x_image = v; }),
+    real(F::kYImage, "y_image", "pixel", "catalogue y position, FITS 1-based image pixels",
+         [](R r) { return r.y_image; }, [](W r, double v) { r.y_image = v; }),
+    param<Param::kX0>(F::kX0, "x0", "pixel", "fitted centroid x, 0-based pixels within the stamp"),
+    param<Param::kY0>(F::kY0, "y0", "pixel", "fitted centroid y, 0-based pixels within the stamp"),
+    param<Param::kE1>(F::kE1, "e1", "", "ellipticity (a-b)/(a+b) along x, after the mirror"),
+    param<Param::kE2>(F::kE2, "e2", "", "ellipticity along y = x, after the mirror"),
+    param<Param::kRadius>(F::kRadius, "radius", "pixel",
+                          "disc half-light radius sqrt(ab), after softening"),
+    param<Param::kBulgeA>(F::kBulgeA, "bulge_A", "",
+                          "bulge central intensity, data units per pixel^2"),
+    param<Param::kDiscA>(F::kDiscA, "disc_A", "", "disc central intensity, data units per pixel^2"),
+    real(F::kBulgeFlux, "bulge_flux", "", "bulge flux, data units",
+         [](R r) { return r.fit.bulge_flux; }, [](W r, double v) { r.fit.bulge_flux = v; }),
+    real(F::kDiscFlux, "disc_flux", "", "disc flux, data units",
+         [](R r) { return r.fit.disc_flux; }, [](W r, double v) { r.fit.disc_flux = v; }),
+    real(F::kFlux, "flux", "", "total flux, data units", [](R r) { return r.fit.flux; },
+         [](W r, double v) { r.fit.flux = v; }),
+    real(F::kE1Err, "e1_err", "", "error of e1 from (J^T W J)^-1",
+         [](R r) { return r.fit.e1_err; }, [](W r, double v) { r.fit.e1_err = v; }),
+    real(F::kE2Err, "e2_err", "", "error of e2 from (J^T W J)^-1",
+         [](R r) { return r.fit.e2_err; }, [](W r, double v) { r.fit.e2_err = v; }),
+    real(F::kSnr, "snr", "", "S/N sqrt(sum w m^2) of the best model",
+         [](R r) { return r.fit.snr; }, [](W r, double v) { r.fit.snr = v; }),
+    real(F::kChi2, "chi2", "", "sum w (d - m)^2 over used pixels", [](R r) { return r.fit.chi2; },
+         [](W r, double v) { r.fit.chi2 = v; }),
+    real(F::kLikelihood, "likelihood", "", "-chi2 / 2", [](R r) { return r.fit.likelihood; },
+         [](W r, double v) { r.fit.likelihood = v; }),
+    integer(F::kIterations, "n_iter", T::kInt32, "solver iterations (Jacobian evaluations)",
+            [](R r) -> std::int64_t { return r.fit.iterations; },
+            [](W r, std::int64_t v) { r.fit.iterations = static_cast<int>(v); }),
+    integer(F::kEvaluations, "n_eval", T::kInt32, "model evaluations",
+            [](R r) -> std::int64_t { return r.fit.evaluations; },
+            [](W r, std::int64_t v) { r.fit.evaluations = static_cast<int>(v); }),
+    integer(F::kStopReason, "stop_reason", T::kInt32, "StopReason: the rule that stopped the solver",
+            [](R r) -> std::int64_t { return static_cast<int>(r.fit.stop_reason); },
+            [](W r, std::int64_t v) { r.fit.stop_reason = static_cast<StopReason>(v); }),
+    integer(F::kStatus, "status", T::kInt32, "FitStatus, named by header keys STATUSn",
+            [](R r) -> std::int64_t { return static_cast<int>(r.fit.status); },
+            [](W r, std::int64_t v) { r.fit.status = static_cast<FitStatus>(v); }),
+    integer(F::kFlags, "flags", T::kUInt32, "fit and input flag bits, see COMMENT cards",
+            [](R r) -> std::int64_t { return r.flags; },
+            [](W r, std::int64_t v) { r.flags = static_cast<std::uint32_t>(v); }),
+    real(F::kTimeUs, "time_us", "us", "wall time of the fit", [](R r) { return r.time_us; },
+         [](W r, double v) { r.time_us = v; }),
+    real(F::kPsfE1, "psf_e1", "", "PSF ellipticity e1", [](R r) { return r.psf_e1; },
+         [](W r, double v) { r.psf_e1 = v; }),
+    real(F::kPsfE2, "psf_e2", "", "PSF ellipticity e2", [](R r) { return r.psf_e2; },
+         [](W r, double v) { r.psf_e2 = v; }),
+    real(F::kPsfFwhm, "psf_fwhm", "pixel", "PSF FWHM", [](R r) { return r.psf_fwhm; },
+         [](W r, double v) { r.psf_fwhm = v; }),
+};
+
+constexpr bool indexed_by_field() {
+  if (std::size(kColumns) != static_cast<std::size_t>(kNumResultFields)) return false;
+  for (std::size_t i = 0; i < std::size(kColumns); ++i) {
+    if (static_cast<std::size_t>(kColumns[i].field) != i) return false;
+  }
+  return true;
+}
+static_assert(indexed_by_field(), "kColumns must list every ResultField in enum order");
+
+constexpr int kFirstFitField = static_cast<int>(F::kX0);
+constexpr std::size_t kTableColumns = 3 + kNumResultFields - kFirstFitField;
+
+// A table: three position columns, then every fit column.
+constexpr std::array<ResultColumn, kTableColumns> table(PositionColumns positions) {
+  std::array<ResultColumn, kTableColumns> out{};
+  std::size_t n = 0;
+  if (positions == PositionColumns::kGrid) {
+    for (F f : {F::kId, F::kIx, F::kIy}) out[n++] = kColumns[static_cast<int>(f)];
+  } else {
+    for (F f : {F::kId, F::kXImage, F::kYImage}) out[n++] = kColumns[static_cast<int>(f)];
+    out[0].description = "object id from the input catalogue";
+  }
+  for (int f = kFirstFitField; f < kNumResultFields; ++f) out[n++] = kColumns[f];
+  return out;
+}
+
+constexpr auto kGridTable = table(PositionColumns::kGrid);
+constexpr auto kCatalogueTable = table(PositionColumns::kCatalogue);
+
+}  // namespace
+
+std::span<const ResultColumn> result_columns(PositionColumns positions) {
+  return positions == PositionColumns::kGrid ? std::span<const ResultColumn>(kGridTable)
+                                             : std::span<const ResultColumn>(kCatalogueTable);
+}
+
+const ResultColumn& result_column(ResultField field) { return kColumns[static_cast<int>(field)]; }
+
+const char* column_name(ResultField field) { return result_column(field).name; }
+
+std::vector<std::string> catalog_columns(PositionColumns positions) {
+  std::vector<std::string> names;
+  for (const ResultColumn& c : result_columns(positions)) names.emplace_back(c.name);
+  return names;
+}
+
+}  // namespace stampede::io

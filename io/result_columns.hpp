@@ -1,0 +1,74 @@
+// The result column schema: every column of the RESULTS table that `stampede fit` writes (name,
+// FITS type, unit, description, and how it maps to an ObjectRecord), the one list from which the
+// writer (catalog_writer) writes and the reader (catalog_reader) reads, so the two and the tools
+// that consume fit tables cannot disagree about a column's name or type.
+//
+// A table has the position columns of its input (grid or catalogue) followed by the fit columns:
+//   positions   grid: id (K), ix, iy (J), the stamp's grid indices;
+//               catalogue: id (K), x_image, y_image (D), FITS 1-based image pixels
+//   x0 y0       fitted centroid in 0-based pixel coordinates *of the stamp* (pixel centres at
+//               integers), as fitted; the stamp's origin is the caller's (grid: ix, iy times the
+//               stamp size; catalogue: the cutout around x_image, y_image)
+//   e1 e2 radius bulge_A disc_A   effective fitted values (FitResult::params)
+//   bulge_flux disc_flux flux e1_err e2_err snr chi2 likelihood   (D)
+//   n_iter n_eval stop_reason status (J)   stop_reason: StopReason value; status: FitStatus value
+//   flags (1V: unsigned 32-bit, stored as J with TZERO = 2^31)
+//   time_us psf_e1 psf_e2 psf_fwhm (D)
+// NaN means "not computed" in every D column, as in FitResult.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "engine/pipeline/object_record.hpp"
+
+namespace stampede::io {
+
+enum class PositionColumns {
+  kGrid,       // id ix iy
+  kCatalogue,  // id x_image y_image
+};
+
+// Every column a result table can have, grid and catalogue positions together; one value per
+// column, so consumers name columns by value rather than by a re-typed string.
+enum class ResultField : int {
+  kId, kIx, kIy, kXImage, kYImage,
+  kX0, kY0, kE1, kE2, kRadius, kBulgeA, kDiscA,
+  kBulgeFlux, kDiscFlux, kFlux, kE1Err, kE2Err, kSnr, kChi2, kLikelihood,
+  kIterations, kEvaluations, kStopReason, kStatus, kFlags,
+  kTimeUs, kPsfE1, kPsfE2, kPsfFwhm,
+};
+inline constexpr int kNumResultFields = static_cast<int>(ResultField::kPsfFwhm) + 1;
+
+// On-disk type: FITS TFORM 1K, 1J, 1V (unsigned, stored as J with TZERO = 2^31) and 1D.
+enum class ColumnType { kInt64, kInt32, kUInt32, kFloat64 };
+
+// One column of the table and of the text catalogue. Integer columns go through `integer` /
+// `set_integer` (widened to 64 bits; every record field fits its FITS type exactly), kFloat64
+// columns through `real` / `set_real`; the other pair is null.
+struct ResultColumn {
+  ResultField field;
+  const char* name;         // TTYPEn
+  ColumnType type;
+  const char* unit;         // TUNITn; "" = dimensionless or data units
+  const char* description;  // TCOMMn, at most 68 characters (one FITS string card)
+  std::int64_t (*integer)(const ObjectRecord&);
+  double (*real)(const ObjectRecord&);
+  void (*set_integer)(ObjectRecord&, std::int64_t);
+  void (*set_real)(ObjectRecord&, double);
+};
+
+// The columns of a table with these positions, in table order.
+std::span<const ResultColumn> result_columns(PositionColumns positions);
+// The column of `field`. Grid and catalogue tables share every column they both have; only the
+// description of `id` differs (result_columns() has each table's).
+const ResultColumn& result_column(ResultField field);
+// Its TTYPE, e.g. "psf_e1".
+const char* column_name(ResultField field);
+
+// Column names in table order, for documentation and tests.
+std::vector<std::string> catalog_columns(PositionColumns positions);
+
+}  // namespace stampede::io

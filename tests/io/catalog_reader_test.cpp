@@ -1,0 +1,162 @@
+// Tests for io/catalog_reader: a table written by CatalogWriter reads back with every column equal
+// (doubles bitwise, NaN and -0 included; 64-bit ids and unsigned flags exactly), by field, in
+// chunks and as records; columns outside the schema by name; a missing column is an error naming
+// the file, the HDU and the column.
+#include "io/catalog_reader.hpp"
+
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cmath>
+#include <cstdlib>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "io/catalog_writer.hpp"
+#include "support/error_assertions.hpp"
+#include "support/scratch_dir.hpp"
+
+namespace stampede::io {
+namespace {
+
+using stampede::testing::Contains;
+using stampede::testing::error_of;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Rows with NaN, -0, inf, ids beyond 2^53 (catalogue), flags with bit 31 set.
+std::vector<ObjectRecord> make_records(long long n, PositionColumns positions) {
+  std::vector<ObjectRecord> rows;
+  for (long long i = 0; i < n; ++i) {
+    ObjectRecord r;
+    if (positions == PositionColumns::kGrid) {
+      r.id = i;
+      r.ix = static_cast<std::int32_t>(i % 17);
+      r.iy = static_cast<std::int32_t>(i / 17);
+    } else {
+      r.id = (1LL << 53) + 1 + 3 * i;
+      r.x_image = 1.0 + static_cast<double>(i) / 3.0;
+      r.y_image = 4096.25 - 0.1 * static_cast<double>(i);
+    }
+    const double t = static_cast<double>(i);
+    r.fit.status = static_cast<FitStatus>(i % 7);
+    r.fit.stop_reason = static_cast<StopReason>(i % 9);
+    for (int p = 0; p < 7; ++p) r.fit.params[p] = i % 10 == 0 ? -0.0 : std::sin(t + p) / 3.0;
+    r.fit.e1_err = i % 8 == 0 ? kNaN : 1e-300 * t;
+    r.fit.e2_err = 2.5e-2 / (t + 1.0);
+    r.fit.bulge_flux = 12.0 * t;
+    r.fit.disc_flux = 1e10 / 3.0;
+    r.fit.flux = r.fit.bulge_flux + r.fit.disc_flux;
+    r.fit.snr = i % 13 == 0 ? std::numeric_limits<double>::infinity() : 20.0 + t;
+    r.fit.chi2 = 1521.0 + 1.0 / 3.0;
+    r.fit.likelihood = -r.fit.chi2 / 2;
+    r.fit.iterations = static_cast<int>(i % 200);
+    r.fit.evaluations = static_cast<int>((3 * i) % 500);
+    r.flags = (i % 5 == 0 ? 1u << 31 : 0u) | static_cast<std::uint32_t>(i % 3);
+    r.time_us = i % 6 == 0 ? kNaN : 1234.5678 + t / 7.0;
+    r.psf_e1 = -0.01 * static_cast<double>(i % 5);
+    r.psf_e2 = 0.02;
+    r.psf_fwhm = 2.85;
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+bool same_double(double a, double b) {
+  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b) ||
+         (std::isnan(a) && std::isnan(b));
+}
+
+class CatalogReaderTest : public ::testing::TestWithParam<PositionColumns> {
+ protected:
+  std::string write(const std::vector<ObjectRecord>& rows, PositionColumns positions) {
+    CatalogWriterOptions o;
+    o.path = scratch_.path("fit.fits");
+    o.positions = positions;
+    auto w = CatalogWriter::create(o);
+    w->append(rows);
+    w->finish();
+    return o.path;
+  }
+  stampede::testing::ScratchDir scratch_{"stampede_catalog_reader_"};
+};
+
+TEST_P(CatalogReaderTest, RoundTripsEveryColumn) {
+  const PositionColumns positions = GetParam();
+  const auto rows = make_records(300, positions);  // more than one writer chunk
+  CatalogReader reader = CatalogReader::open(write(rows, positions));
+  EXPECT_EQ(reader.rows(), 300);
+  EXPECT_EQ(reader.positions(), positions);
+
+  const std::vector<ObjectRecord> back = reader.records(0, reader.rows());
+  ASSERT_EQ(back.size(), rows.size());
+  for (const ResultColumn& c : result_columns(positions)) {
+    const std::vector<double> column = reader.column(c.field);
+    ASSERT_EQ(column.size(), rows.size()) << c.name;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      if (c.type == ColumnType::kFloat64) {
+        ASSERT_TRUE(same_double(c.real(back[i]), c.real(rows[i]))) << c.name << " row " << i;
+        ASSERT_TRUE(same_double(column[i], c.real(rows[i]))) << c.name << " row " << i;
+      } else {
+        ASSERT_EQ(c.integer(back[i]), c.integer(rows[i])) << c.name << " row " << i;  // ids exact
+        if (std::abs(c.integer(rows[i])) < (1LL << 53)) {  // doubles hold integers exactly to 2^53
+          ASSERT_EQ(column[i], static_cast<double>(c.integer(rows[i]))) << c.name << " row " << i;
+        }
+      }
+    }
+  }
+  // A chunk in the middle, by field and by name.
+  std::vector<double> chunk(7);
+  reader.column_rows(ResultField::kE1Err, 290, chunk);
+  for (std::size_t i = 0; i < chunk.size(); ++i) {
+    EXPECT_TRUE(same_double(chunk[i], rows[290 + i].fit.e1_err)) << i;
+  }
+  const std::vector<ObjectRecord> tail = reader.records(295, 5);
+  ASSERT_EQ(tail.size(), 5u);
+  EXPECT_EQ(tail[4].id, rows[299].id);
+  EXPECT_EQ(tail[4].flags, rows[299].flags);
+}
+
+INSTANTIATE_TEST_SUITE_P(BothLayouts, CatalogReaderTest,
+                         ::testing::Values(PositionColumns::kGrid, PositionColumns::kCatalogue),
+                         [](const auto& info) {
+                           return info.param == PositionColumns::kGrid ? "Grid" : "Catalogue";
+                         });
+
+TEST(CatalogReader, MissingColumnNamesFileHduAndColumn) {
+  stampede::testing::ScratchDir scratch("stampede_catalog_reader_");
+  const std::string path = scratch.path("bare.fits");
+  {
+    FitsFile f = FitsFile::create(path, false);
+    f.write_empty_image();
+    f.write_table("RESULTS", {{"id", true, {0, 1}}, {"e1", false, {0.1, 0.2}},
+                              {"e1_cal", false, {0.3, 0.4}}});
+  }
+  std::string msg = error_of<FitsError>(
+      [&] { CatalogReader::open(path, {ResultField::kId, ResultField::kE1, ResultField::kSnr}); });
+  EXPECT_TRUE(Contains(msg, path));
+  EXPECT_TRUE(Contains(msg, "RESULTS"));
+  EXPECT_TRUE(Contains(msg, "no column 'snr'"));
+
+  CatalogReader reader = CatalogReader::open(path, {ResultField::kId, ResultField::kE1});
+  EXPECT_EQ(reader.column("e1_cal"), (std::vector<double>{0.3, 0.4}));  // outside the schema
+  EXPECT_TRUE(reader.has(ResultField::kE1));
+  EXPECT_FALSE(reader.has(ResultField::kE2));
+  msg = error_of<FitsError>([&] { reader.column(ResultField::kPsfE1); });
+  EXPECT_TRUE(Contains(msg, "no column 'psf_e1'"));
+  msg = error_of<FitsError>([&] { reader.records(0, 2); });
+  EXPECT_TRUE(Contains(msg, "no column 'ix'"));  // the first grid column it lacks
+
+  // A file without a RESULTS table.
+  const std::string image = scratch.path("image.fits");
+  {
+    FitsFile f = FitsFile::create(image, false);
+    f.write_empty_image();
+  }
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { CatalogReader::open(image); }), image));
+}
+
+}  // namespace
+}  // namespace stampede::io

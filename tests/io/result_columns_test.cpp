@@ -1,0 +1,71 @@
+// Tests for io/result_columns: the schema table is indexed by ResultField, each column has the
+// accessors of its type, the getters and setters of every column invert each other, and grid and
+// catalogue tables differ only in their position columns.
+#include "io/result_columns.hpp"
+
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cstdint>
+#include <cstring>
+#include <string>
+
+namespace stampede::io {
+namespace {
+
+TEST(ResultColumns, IndexedByFieldWithTheAccessorsOfTheirType) {
+  for (int f = 0; f < kNumResultFields; ++f) {
+    const ResultColumn& c = result_column(static_cast<ResultField>(f));
+    EXPECT_EQ(static_cast<int>(c.field), f) << c.name;
+    EXPECT_STREQ(column_name(c.field), c.name);
+    EXPECT_LE(std::strlen(c.description), 68u) << c.name;  // one FITS string card
+    if (c.type == ColumnType::kFloat64) {
+      EXPECT_TRUE(c.real && c.set_real && !c.integer && !c.set_integer) << c.name;
+    } else {
+      EXPECT_TRUE(c.integer && c.set_integer && !c.real && !c.set_real) << c.name;
+    }
+  }
+  EXPECT_STREQ(column_name(ResultField::kSnr), "snr");
+  EXPECT_STREQ(column_name(ResultField::kIterations), "n_iter");
+}
+
+TEST(ResultColumns, SettersInvertGetters) {
+  ObjectRecord r;
+  // Distinct values per column, so a getter reading another column's field is caught.
+  for (int f = 0; f < kNumResultFields; ++f) {
+    const ResultColumn& c = result_column(static_cast<ResultField>(f));
+    if (c.type == ColumnType::kFloat64) {
+      c.set_real(r, 0.5 + f);
+    } else {
+      c.set_integer(r, c.type == ColumnType::kUInt32 ? (1LL << 31) + f : f + 1);
+    }
+  }
+  for (int f = 0; f < kNumResultFields; ++f) {
+    const ResultColumn& c = result_column(static_cast<ResultField>(f));
+    if (c.type == ColumnType::kFloat64) {
+      EXPECT_EQ(c.real(r), 0.5 + f) << c.name;
+    } else {
+      EXPECT_EQ(c.integer(r), c.type == ColumnType::kUInt32 ? (1LL << 31) + f : f + 1) << c.name;
+    }
+  }
+  EXPECT_EQ(r.fit.params[index(Param::kE2)], 0.5 + static_cast<int>(ResultField::kE2));
+  EXPECT_EQ(r.fit.status, static_cast<FitStatus>(static_cast<int>(ResultField::kStatus) + 1));
+}
+
+TEST(ResultColumns, GridAndCatalogueTablesShareTheFitColumns) {
+  const auto grid = result_columns(PositionColumns::kGrid);
+  const auto cat = result_columns(PositionColumns::kCatalogue);
+  ASSERT_EQ(grid.size(), cat.size());
+  EXPECT_EQ(grid[1].field, ResultField::kIx);
+  EXPECT_EQ(cat[1].field, ResultField::kXImage);
+  EXPECT_STRNE(grid[0].description, cat[0].description);  // what the id means differs
+  for (std::size_t i = 3; i < grid.size(); ++i) {
+    EXPECT_EQ(grid[i].field, cat[i].field);
+    EXPECT_EQ(grid[i].field, static_cast<ResultField>(static_cast<int>(ResultField::kX0) + i - 3));
+  }
+  EXPECT_EQ(catalog_columns(PositionColumns::kGrid).size(), grid.size());
+  EXPECT_EQ(catalog_columns(PositionColumns::kCatalogue)[2], "y_image");
+}
+
+}  // namespace
+}  // namespace stampede::io
