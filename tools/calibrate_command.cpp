@@ -1,32 +1,27 @@
 // `stampede calibrate build | apply`; see calibrate_command.hpp.
 #include "tools/calibrate_command.hpp"
 
-#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
+#include <functional>
 #include <set>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "app/calibration_build.hpp"
 #include "engine/calibration/calibration_grid.hpp"
 #include "engine/calibration/noise_bias.hpp"
-#include "engine/model/parameters.hpp"
 #include "engine/pipeline/pipeline.hpp"
-#include "engine/pipeline/stamp_fitter.hpp"
 #include "io/calibration_table.hpp"
 #include "io/catalog_reader.hpp"
 #include "io/fits_file.hpp"
 #include "io/run_config.hpp"
 #include "tools/arguments.hpp"
-#include "tools/psf_setup.hpp"
-#include "tools/run_fingerprint.hpp"
 
 namespace {
 
@@ -65,77 +60,6 @@ void print_build_help() {
       "  --quiet                  no progress or summary on stderr\n");
 }
 
-// The build's progress file: a header line naming the run, then one line per completed point.
-// Appended and fsync'd point by point, so a build killed at any moment resumes after its last line.
-class BuildCheckpoint {
- public:
-  BuildCheckpoint(const std::string& path, const std::string& fingerprint, bool resume, int n_points)
-      : path_(path), header_("# stampede calibrate build " + fingerprint) {
-    if (resume) {
-      std::ifstream in(path_);
-      if (!in) throw std::runtime_error("--resume: no progress file '" + path_ + "' to resume from");
-      std::string line;
-      if (!std::getline(in, line) || line != header_)
-        throw std::runtime_error("--resume: '" + path_ + "' belongs to a different build (options or configuration differ)");
-      long long valid_bytes = static_cast<long long>(line.size()) + 1;
-      while (std::getline(in, line)) {
-        if (in.eof()) break;  // a last line without its newline was cut by the interruption
-        std::istringstream ls(line);
-        int point = -1;
-        PointBias b;
-        if (!(ls >> point >> b.bias[0] >> b.error[0] >> b.bias[1] >> b.error[1] >> b.pairs_used >> b.pairs_failed) ||
-            point != static_cast<int>(done_.size()) || point >= n_points)
-          throw std::runtime_error("--resume: '" + path_ + "' is damaged at grid point " + std::to_string(done_.size()));
-        done_.push_back(b);
-        valid_bytes += static_cast<long long>(line.size()) + 1;
-      }
-      fd_ = ::open(path_.c_str(), O_WRONLY);
-      if (fd_ < 0 || ::ftruncate(fd_, valid_bytes) != 0 || ::lseek(fd_, 0, SEEK_END) < 0)
-        throw std::runtime_error("cannot reopen '" + path_ + "' for writing");
-    } else {
-      fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (fd_ < 0) throw std::runtime_error("cannot create '" + path_ + "' (is the directory writable?)");
-      append(header_ + "\n");
-    }
-  }
-  ~BuildCheckpoint() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  const std::vector<PointBias>& done() const { return done_; }
-  void add(int point, const PointBias& b) {
-    char line[256];
-    std::snprintf(line, sizeof line, "%d %.17g %.17g %.17g %.17g %d %d\n", point, b.bias[0], b.error[0], b.bias[1],
-                  b.error[1], b.pairs_used, b.pairs_failed);
-    append(line);
-    done_.push_back(b);
-  }
-  void remove() {
-    ::close(fd_);
-    fd_ = -1;
-    std::remove(path_.c_str());
-  }
-
- private:
-  void append(const std::string& text) {
-    if (::write(fd_, text.data(), text.size()) != static_cast<ssize_t>(text.size()) || ::fsync(fd_) != 0)
-      throw std::runtime_error("cannot write '" + path_ + "'");
-  }
-  std::string path_, header_;
-  int fd_ = -1;
-  std::vector<PointBias> done_;
-};
-
-class AccumulatingSink final : public BatchSink {
- public:
-  explicit AccumulatingSink(PointBiasAccumulator& acc) : acc_(acc) {}
-  void write(const StampBatch& batch) override {
-    acc_.add(std::span<const ObjectRecord>(batch.records.data(), static_cast<std::size_t>(batch.count)));
-  }
-
- private:
-  PointBiasAccumulator& acc_;
-};
-
 int run_build(int argc, char** argv) {
   CalibrationGridOptions g;
   std::string output, config;
@@ -164,116 +88,27 @@ int run_build(int argc, char** argv) {
     else throw std::invalid_argument("unknown option '" + a + "' (see stampede calibrate build --help)");
   }
   if (output.empty()) throw std::invalid_argument("-o CAL.fits is required (see stampede calibrate build --help)");
-  if (!overwrite && !resume && std::filesystem::exists(output))
-    throw std::invalid_argument("'" + output + "' exists (use --overwrite to replace it)");
 
-  io::RunConfig cfg;
-  if (!config.empty()) io::load_ini(cfg, config);
-  for (const auto& s : sets) io::apply_set(cfg, s);
-  io::validate(cfg);
-  if (cfg.psf_input != io::PsfInput::kMoffat && cfg.psf_input != io::PsfInput::kAiry)
-    throw io::ConfigError("option 'psf_input' = '" + std::string(io::psf_input_name(cfg.psf_input)) +
-                          "': calibrate build simulates analytic PSFs only (moffat or airy)");
-  if (!(cfg.fitter.noise_sigma > 0))
-    throw io::ConfigError("option 'noise_sigma' = 0: the calibration fits (and the science run's) must be weighted; "
-                          "set noise_sigma > 0 (the data's noise)");
-  g.noise_sigma = cfg.fitter.noise_sigma;
-  g.stamp_size = cfg.fitter.render.stamp_size;
-  g.bulge_radius_ratio = cfg.fitter.params.spec[index(Param::kRadiusRatio)].start;
-
-  const GridGeometry geometry(cfg.fitter.render);
-  FftPlanCache setup_plans(FftPlanning::kEstimate);
-  const tools::SharedPsf psf = tools::build_shared_psf(cfg, geometry, setup_plans);
-  g.psf = psf.options;
-  const CalibrationGrid grid(g);  // validates the grid options
-
-  CalibrationTable table;
-  table.grid = g;
-  table.points = grid.points();
-  table.config = io::effective_options(cfg);
-  std::string identity;
-  char buf[64];
-  for (const auto* list : {&g.radii, &g.bulge_fractions})
-    for (double v : *list) {
-      std::snprintf(buf, sizeof buf, "%.17g,", v);
-      identity += buf;
-    }
-  std::snprintf(buf, sizeof buf, "|%.17g|%.17g|%d|%d|%llu|", g.snr, g.e_max, g.e_steps, g.realisations,
-                static_cast<unsigned long long>(g.seed));
-  identity += buf;
-  for (const auto& [k, v] : table.config) identity += k + "=" + v + "\n";
-
-  const int n_points = static_cast<int>(grid.points().size());
-  BuildCheckpoint checkpoint(output + ".partial", tools::run_fingerprint(identity), resume, n_points);
-  const int first_point = static_cast<int>(checkpoint.done().size());
+  app::CalibrationBuildOptions o;
+  o.grid = g;
+  o.output = output;
+  o.threads = threads;
+  o.resume = resume;
+  o.overwrite = overwrite;
+  if (!config.empty()) io::load_ini(o.config, config);
+  for (const auto& s : sets) io::apply_set(o.config, s);
+  app::CalibrationBuild build(o);
   const bool show_progress = !quiet && isatty(fileno(stderr));
-  if (!quiet)
-    std::fprintf(stderr,
-                 "stampede calibrate build: %d grid points (%zu radii x %zu bulge fractions x 2 axes x %d e) x %d noise "
-                 "pairs = %lld fits at S/N %g%s\n",
-                 n_points, g.radii.size(), g.bulge_fractions.size(), g.e_steps, g.realisations, grid.objects(), g.snr,
-                 first_point ? (", resuming at point " + std::to_string(first_point)).c_str() : "");
-
-  if (first_point < n_points) {
-    PointBiasAccumulator acc(grid, [&](int point, const PointBias& b) { checkpoint.add(point, b); });
-    AccumulatingSink sink(acc);
-    CalibrationSource source(grid);
-    source.skip_to(static_cast<long long>(first_point) * grid.objects_per_point());
-    PipelineOptions po;
-    po.threads = threads;
-    po.batch_size = cfg.batch_size;
-    po.stamp_size = g.stamp_size;
-    const FitterOptions fitter_options = cfg.fitter;
-    std::shared_ptr<const PsfKernel> kernel = psf.kernel;
-    auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
-      return std::make_unique<StampFitter>(fitter_options, kernel, nullptr, FftPlanning::kEstimate, psf.e1, psf.e2,
-                                           psf.fwhm);
-    };
-    const long long total = grid.objects(), before = static_cast<long long>(first_point) * grid.objects_per_point();
-    double last_print = -1;
-    auto progress = [&](const PipelineProgress& p) {
-      if (!show_progress || p.seconds - last_print < 0.5) return;
-      last_print = p.seconds;
-      const double rate = p.objects_done / std::max(p.seconds, 1e-9);
-      const long long done = before + p.objects_done;
-      std::fprintf(stderr, "\r%lld/%lld fits (%.1f%%), point %lld/%d, %.1f fits/s, ETA %.0f s   ", done, total,
-                   100.0 * done / total, done / grid.objects_per_point(), n_points, rate, (total - done) / std::max(rate, 1e-9));
-    };
-    const PipelineSummary summary = run_pipeline(source, sink, make_fitter, po, progress);
+  if (!quiet) std::fprintf(stderr, "%s\n", build.PlanReport().c_str());
+  std::function<void(const app::CalibrationBuildProgress&)> progress;
+  if (show_progress)
+    progress = [](const app::CalibrationBuildProgress& p) { std::fprintf(stderr, "\r%s", p.Line().c_str()); };
+  const app::CalibrationBuildSummary summary = build.run(progress);
+  if (summary.fitted) {
     if (show_progress) std::fputc('\n', stderr);
-    if (!quiet)
-      std::fprintf(stderr, "stampede calibrate build: %lld fits in %.1f s, %.1f fits/s\n", summary.objects,
-                   summary.seconds, summary.objects / std::max(summary.seconds, 1e-9));
+    if (!quiet) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
   }
-  if (static_cast<int>(checkpoint.done().size()) != n_points)
-    throw std::runtime_error("calibrate build: only " + std::to_string(checkpoint.done().size()) + " of " +
-                             std::to_string(n_points) + " grid points were measured");
-  table.biases = checkpoint.done();
-  table.curves = fit_bias_curves(g, table.points, table.biases);
-  const std::string tmp = output + ".tmp";
-  io::write_calibration_table(tmp, table, true);
-  std::filesystem::rename(tmp, output);
-  checkpoint.remove();
-
-  if (!quiet) {
-    long long used = 0, failed = 0;
-    double err = 0;
-    for (const PointBias& b : table.biases) {
-      used += b.pairs_used;
-      failed += b.pairs_failed;
-      if (std::isfinite(b.error[0])) err += b.error[0];
-    }
-    std::fprintf(stderr, "noise pairs used %lld, lost to a flagged fit %lld; mean error of a point's bias %.2e\n", used,
-                 failed, err / n_points);
-    std::fprintf(stderr, "%8s %6s %11s %11s %11s %11s\n", "r_d", "F", "m(e=0) e1", "m(e=0) e2", "c1(e=0)", "c2(e=0)");
-    for (std::size_t k = 0; k + 3 < table.curves.size(); k += 4) {
-      const BiasCurve* c = &table.curves[k];  // (e1, 0), (e1, 1), (e2, 0), (e2, 1)
-      std::fprintf(stderr, "%8.3g %6.3g %+11.3e %+11.3e %+11.3e %+11.3e\n", c[0].radius, c[0].bulge_fraction,
-                   c[0].coefficients[1], c[3].coefficients[1], 0.5 * (c[0].coefficients[0] + c[2].coefficients[0]),
-                   0.5 * (c[1].coefficients[0] + c[3].coefficients[0]));
-    }
-    std::fprintf(stderr, "wrote %s\n", output.c_str());
-  }
+  if (!quiet) std::fputs(summary.FullReport().c_str(), stderr);
   return 0;
 }
 

@@ -1,7 +1,6 @@
 // `stampede sim`; see sim_command.hpp.
 #include "tools/sim_command.hpp"
 
-#include <tbb/global_control.h>
 #include <tbb/info.h>
 #include <tbb/task_arena.h>
 

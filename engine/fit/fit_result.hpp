@@ -17,6 +17,7 @@ enum class FitStatus : int {
   kSolverFailure = 5,  // normal equations could not be solved: parameters not usable
   kPsfFailure = 6,     // the PSF could not be normalised: nothing fitted
 };
+inline constexpr int kFitStatusCount = static_cast<int>(FitStatus::kPsfFailure) + 1;  // keep: last value + 1
 const char* ToString(FitStatus s);
 // Whether the fitted parameters may be used for science (kMaxIterations: with a flag).
 bool IsUsable(FitStatus s);

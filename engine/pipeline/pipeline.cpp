@@ -5,9 +5,8 @@
 #include "engine/pipeline/tsan_annotations.hpp"
 
 #include <tbb/enumerable_thread_specific.h>
-#include <tbb/global_control.h>
-#include <tbb/info.h>
 #include <tbb/parallel_pipeline.h>
+#include <tbb/task_arena.h>
 
 #include <atomic>
 #include <condition_variable>
@@ -52,8 +51,12 @@ PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
                              const std::function<std::unique_ptr<BatchFitter>()>& make_fitter,
                              const PipelineOptions& options,
                              const std::function<void(const PipelineProgress&)>& progress) {
-  const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
-  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+  // The run's threads are a task arena of its own, made here because the token pool is sized from
+  // the same count: the caller's other oneTBB work (a Python or MPI host, a second run) is not
+  // limited or changed, as a process-wide tbb::global_control would. 0 takes the concurrency of the
+  // arena the caller runs in (all cores, outside any).
+  const int threads = options.threads > 0 ? options.threads : tbb::this_task_arena::max_concurrency();
+  tbb::task_arena arena(threads);
   const int pool_size = std::max(2, options.batches_per_thread * threads);
   std::vector<std::unique_ptr<StampBatch>> batches;
   BatchPool pool;
@@ -160,7 +163,7 @@ PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
                                                   STAMPEDE_TSAN_RELEASE(&handoff_token);
                                                 });
     STAMPEDE_TSAN_RELEASE(&start_token);  // after the filters exist: workers read them
-    tbb::parallel_pipeline(static_cast<std::size_t>(pool_size), filters);
+    arena.execute([&] { tbb::parallel_pipeline(static_cast<std::size_t>(pool_size), filters); });
   } catch (...) {
     pipeline_error = std::current_exception();
     cancelled.store(true);
@@ -172,6 +175,7 @@ PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
   writer.join();
   if (pipeline_error) std::rethrow_exception(pipeline_error);
   if (writer_error) std::rethrow_exception(writer_error);
+  summary.threads = threads;
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return summary;
 }

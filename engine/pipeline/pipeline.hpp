@@ -26,7 +26,7 @@ class BatchFitter {
 };
 
 struct PipelineOptions {
-  int threads = 0;          // 0: all cores
+  int threads = 0;          // fit threads, in a task arena of the run's own; 0: the caller's arena's (all cores)
   int batch_size = 32;      // stamps per batch
   int batches_per_thread = 3;
   bool per_object_psf = false;
@@ -42,6 +42,7 @@ struct PipelineProgress {
 struct PipelineSummary {
   long long objects = 0;
   long long batches = 0;
+  int threads = 0;  // the arena's concurrency
   double seconds = 0;
 };
 

@@ -1,5 +1,5 @@
 // The run's shared PSF; see psf_setup.hpp.
-#include "tools/psf_setup.hpp"
+#include "app/psf_setup.hpp"
 
 #include <algorithm>
 #include <cmath>

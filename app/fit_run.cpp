@@ -1,0 +1,237 @@
+// The fit run; see fit_run.hpp.
+#include "app/fit_run.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <set>
+#include <stdexcept>
+#include <vector>
+
+#include "app/psf_setup.hpp"
+#include "app/run_fingerprint.hpp"
+#include "engine/pipeline/pipeline.hpp"
+#include "engine/pipeline/stamp_fitter.hpp"
+#include "engine/render/psf_cache.hpp"
+#include "engine/render/upsampled_renderer.hpp"
+#include "io/catalog_writer.hpp"
+#include "io/catalogue_source.hpp"
+#include "io/fits_error.hpp"
+#include "io/grid_source.hpp"
+#include "io/psf_keys.hpp"
+
+namespace stampede::app {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// The output sink: appends each batch to the catalogue writer (if any), hands the rows to the
+// caller, counts statuses, and saves the data, best-fit model and residual of the objects named by
+// save_images (re-rendered here from the row's parameters, on the writer thread, with its own plans).
+class WriterSink final : public BatchSink {
+ public:
+  WriterSink(io::CatalogWriter* writer, const FitRunOptions& run, const io::RunConfig& cfg,
+             std::shared_ptr<const PsfKernel> shared_psf, PsfKernelCache* psf_cache, const std::string& images_path)
+      : writer_(writer), run_(run), cfg_(cfg), shared_psf_(std::move(shared_psf)), psf_cache_(psf_cache) {
+    for (std::int64_t id : io::save_image_ids(cfg)) wanted_.insert(id);
+    if (!wanted_.empty()) images_ = std::make_unique<io::FitsFile>(io::FitsFile::create(images_path, true));
+  }
+  void write(const StampBatch& batch) override {
+    const std::span<const ObjectRecord> rows(batch.records.data(), batch.count);
+    if (writer_) writer_->append(rows);
+    if (run_.on_rows) run_.on_rows(rows);
+    for (int k = 0; k < batch.count; ++k) {
+      const ObjectRecord& r = batch.records[k];
+      ++by_status[static_cast<int>(r.fit.status)];
+      if (wanted_.count(r.id) && IsUsable(r.fit.status)) save(batch, k);
+    }
+  }
+  std::array<long long, kFitStatusCount> by_status{};
+
+ private:
+  void save(const StampBatch& batch, int k) {
+    const ObjectRecord& r = batch.records[k];
+    std::shared_ptr<const PsfKernel> psf = shared_psf_;
+    std::string error;
+    if (psf_cache_) psf = psf_cache_->moffat(batch.psf[k], plans_, &error);
+    if (!psf) return;
+    if (!renderer_)
+      renderer_ = std::make_unique<UpsampledRenderer>(cfg_.fitter.render, cfg_.fitter.model, psf, plans_);
+    else
+      renderer_->set_psf(psf);
+    const std::size_t npix = batch.npix();
+    std::vector<double> data(batch.stamp(k), batch.stamp(k) + npix), model(npix), resid(npix);
+    if (renderer_->render(r.fit.params, model) != RenderStatus::kOk) return;
+    for (std::size_t i = 0; i < npix; ++i) resid[i] = data[i] - model[i];
+    const std::string id = std::to_string(r.id);
+    images_->write_image(batch.stamp_size, batch.stamp_size, data, "DATA_" + id);
+    images_->write_image(batch.stamp_size, batch.stamp_size, model, "MODEL_" + id);
+    images_->write_image(batch.stamp_size, batch.stamp_size, resid, "RESID_" + id);
+  }
+
+  io::CatalogWriter* writer_;
+  const FitRunOptions& run_;
+  const io::RunConfig& cfg_;
+  std::shared_ptr<const PsfKernel> shared_psf_;
+  PsfKernelCache* psf_cache_;
+  std::set<std::int64_t> wanted_;
+  std::unique_ptr<io::FitsFile> images_;
+  FftPlanCache plans_{FftPlanning::kEstimate};
+  std::unique_ptr<UpsampledRenderer> renderer_;
+};
+
+// OUT.fits -> OUT.images.fits (any other name: NAME.images.fits).
+std::string images_path_for(std::string output) {
+  if (output.size() > 5 && output.compare(output.size() - 5, 5, ".fits") == 0) output.resize(output.size() - 5);
+  return output + ".images.fits";
+}
+
+}  // namespace
+
+std::string FitRunProgress::Line() const {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "%lld/%lld objects (%.1f%%), %.1f objects/s, ETA %.0f s   ", objects_done,
+                objects_total, 100.0 * objects_done / std::max(objects_total, 1LL), objects_per_second, eta_seconds);
+  return buf;
+}
+
+RunSummary FitRun::run() const {
+  const Clock::time_point start = Clock::now();
+  const FitRunOptions& a = options_;
+  auto warn = [&](const std::string& text) {
+    if (a.on_warning) a.on_warning(text);
+  };
+  if (a.output.empty() && a.resume) throw std::invalid_argument("fit run: resume needs the output to resume");
+  io::RunConfig cfg = a.config;
+
+  // Input first: its header may fix the stamp size, and a bad file should fail before anything.
+  std::unique_ptr<StampSource> source;
+  std::optional<PsfOptions> recorded_psf;  // the PSF the input's header records, if any
+  std::string recorded_where;              // its file and HDU
+  if (a.catalog.empty()) {
+    auto grid = std::make_unique<io::GridStampSource>(a.input, a.weight,
+                                                      cfg.explicitly_set.count("stamp_size") ? cfg.fitter.render.stamp_size : 0);
+    cfg.fitter.render.stamp_size = grid->stamp_size();
+    recorded_where = grid->header().describe();
+    try {
+      recorded_psf = io::read_psf_keys_if_present(grid->header());
+    } catch (const io::FitsError& e) {  // the record only feeds a check: the fit does not need it
+      warn(std::string("the PSF record is unreadable, not checked: ") + e.what());
+    }
+    source = std::move(grid);
+  } else {
+    io::CatalogueColumns cols;
+    cols.id = cfg.catalog_id_column;
+    cols.x = cfg.catalog_x_column;
+    cols.y = cfg.catalog_y_column;
+    cols.with_psf = cfg.psf_input == io::PsfInput::kMoffatCatalog;
+    cols.psf_beta = cfg.catalog_psf_beta_column;
+    cols.psf_fwhm = cfg.catalog_psf_fwhm_column;
+    cols.psf_e1 = cfg.catalog_psf_e1_column;
+    cols.psf_e2 = cfg.catalog_psf_e2_column;
+    source = std::make_unique<io::CatalogueStampSource>(a.input, a.weight, a.catalog, cfg.fitter.render.stamp_size, cols);
+  }
+  io::validate(cfg);
+  if (cfg.psf_input == io::PsfInput::kMoffatCatalog && a.catalog.empty())
+    throw io::ConfigError("option 'psf_input' = 'moffat_catalog' needs --catalog");
+  if (a.output.empty() && !cfg.save_images.empty())
+    throw io::ConfigError("option 'save_images' needs an output (the images go beside it)");
+
+  const FftPlanning planning = cfg.fft_wisdom.empty() ? FftPlanning::kEstimate : FftPlanning::kMeasure;
+  if (!cfg.fft_wisdom.empty()) load_fftw_wisdom(cfg.fft_wisdom);  // a missing file is fine: it is made at the end
+  const GridGeometry geometry(cfg.fitter.render);
+  FftPlanCache setup_plans(planning);
+  std::shared_ptr<const PsfKernel> shared_psf;
+  std::unique_ptr<PsfKernelCache> psf_cache;
+  double psf_e1 = NAN, psf_e2 = NAN, psf_fwhm = NAN;
+  if (cfg.psf_input == io::PsfInput::kMoffatCatalog) {
+    psf_cache = std::make_unique<PsfKernelCache>(geometry, 1024);
+  } else {
+    const tools::SharedPsf psf = tools::build_shared_psf(cfg, geometry, setup_plans);
+    shared_psf = psf.kernel;
+    psf_e1 = psf.e1, psf_e2 = psf.e2, psf_fwhm = psf.fwhm;
+    // A set written by `stampede sim` or GalSim records its PSF; fitting it with another (e.g. the
+    // default round Moffat) is almost always a forgotten option, and biases c by the difference.
+    if (recorded_psf) {
+      const std::vector<std::string> diff = tools::psf_differences(*recorded_psf, psf.options);
+      if (!diff.empty()) {
+        std::string list;
+        for (const auto& d : diff) list += (list.empty() ? "" : ", ") + d;
+        warn(recorded_where + " records a PSF other than the run's: " + list +
+             ". The fit uses the run's PSF; set those options to fit with the recorded one.");
+      }
+    }
+  }
+
+  RunSummary summary;
+  summary.input = a.input;
+  summary.catalog = a.catalog;
+  summary.weight = a.weight;
+  summary.output = a.output;
+  summary.text_output = a.text_output;
+  std::unique_ptr<io::CatalogWriter> writer;
+  if (!a.output.empty()) {
+    io::CatalogWriterOptions wo;
+    wo.path = a.output;
+    wo.text_path = a.text_output;
+    wo.positions = a.catalog.empty() ? io::PositionColumns::kGrid : io::PositionColumns::kCatalogue;
+    wo.header = io::effective_options(cfg);
+    wo.header.emplace_back("INPUT", a.input);
+    if (!a.catalog.empty()) wo.header.emplace_back("CATALOG", a.catalog);
+    if (!a.weight.empty()) wo.header.emplace_back("WEIGHTS", a.weight);
+    wo.fingerprint = fit_fingerprint(a.input, a.catalog, a.weight, wo.header);
+    if (a.resume) {
+      writer = io::CatalogWriter::resume(wo, &summary.resumed);
+      source->skip_to(summary.resumed);
+    } else {
+      writer = io::CatalogWriter::create(wo);
+    }
+  }
+
+  WriterSink sink(writer.get(), a, cfg, shared_psf, psf_cache.get(), images_path_for(a.output));
+  PipelineOptions po;
+  po.threads = a.threads;
+  po.batch_size = cfg.batch_size;
+  po.per_object_psf = static_cast<bool>(psf_cache);
+  po.stamp_size = cfg.fitter.render.stamp_size;
+  const FitterOptions fitter_options = cfg.fitter;
+  PsfKernelCache* cache = psf_cache.get();
+  auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
+    return std::make_unique<StampFitter>(fitter_options, shared_psf, cache, planning, psf_e1, psf_e2, psf_fwhm);
+  };
+  double last_report = -1;
+  const long long total = source->total_objects(), done_before = summary.resumed;
+  auto progress = [&](const PipelineProgress& p) {
+    if (!a.on_progress || p.seconds - last_report < a.progress_interval) return;
+    last_report = p.seconds;
+    FitRunProgress r;
+    r.objects_done = done_before + p.objects_done;
+    r.objects_total = total;
+    r.seconds = p.seconds;
+    r.objects_per_second = p.objects_done / std::max(p.seconds, 1e-9);
+    r.eta_seconds = (total - r.objects_done) / std::max(r.objects_per_second, 1e-9);
+    a.on_progress(r);
+  };
+  summary.setup_seconds = since(start);
+  const PipelineSummary fitted = run_pipeline(*source, sink, make_fitter, po, progress);
+  const Clock::time_point finish_start = Clock::now();
+  if (writer) writer->finish();
+  if (!cfg.fft_wisdom.empty() && !save_fftw_wisdom(cfg.fft_wisdom) && !a.quiet)
+    warn("could not write FFTW wisdom to '" + cfg.fft_wisdom + "'");
+  summary.by_status = sink.by_status;
+  summary.objects = fitted.objects;
+  summary.batches = fitted.batches;
+  summary.threads = fitted.threads;
+  summary.pipeline_seconds = fitted.seconds;
+  summary.finish_seconds = since(finish_start);
+  summary.total_seconds = since(start);
+  return summary;
+}
+
+}  // namespace stampede::app

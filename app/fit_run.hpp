@@ -1,0 +1,62 @@
+// A fit run: the composition of `stampede fit` for any front end (the command line, later the
+// Python module and the MPI driver). It chooses the source (a stamp grid, or an image with a
+// catalogue), sets up the PSF, the writer and its fingerprint, runs the pipeline with the
+// requested threads in a task arena of its own, saves the images named by save_images, and
+// returns a RunSummary. It prints nothing and never exits: progress and warnings go to the
+// callbacks the caller gives; a systemic failure throws the error types of io/ (ConfigError,
+// FitsError, CatalogError) or std::runtime_error.
+#pragma once
+
+#include <functional>
+#include <span>
+#include <string>
+#include <utility>
+
+#include "app/run_summary.hpp"
+#include "engine/pipeline/object_record.hpp"
+#include "io/run_config.hpp"
+
+namespace stampede::app {
+
+struct FitRunProgress {
+  long long objects_done = 0;   // committed, including the resumed ones
+  long long objects_total = 0;
+  double seconds = 0;           // since the pipeline started
+  double objects_per_second = 0;  // fitted by this run
+  double eta_seconds = 0;
+  // "D/T objects (P%), R objects/s, ETA E s   " (padded so that a shorter line overwrites it).
+  std::string Line() const;
+};
+
+struct FitRunOptions {
+  std::string input;        // a grid of stamps, or with `catalog` the image to cut them from
+  std::string catalog;      // FITS table or text 'id x y' of objects in `input`; "" = grid input
+  std::string weight;       // inverse-variance image of input's shape; "" = config's noise_sigma
+  std::string output;       // FITS table; "" = none: rows only go to on_rows (no resume, no save_images)
+  std::string text_output;  // the table also as whitespace text; "" = none
+  bool resume = false;      // continue the interrupted run at `output` (same input and options)
+  int threads = 0;          // worker threads; 0 = all of the calling task arena's (all cores by default)
+  bool quiet = false;       // no end-of-run warnings (FFTW wisdom not saved); input warnings still go out
+  io::RunConfig config;     // validated by run(); stamp_size from the grid's STAMPSZ unless set
+
+  // Called from the pipeline's writer thread, at most every progress_interval seconds.
+  std::function<void(const FitRunProgress&)> on_progress;
+  double progress_interval = 0.5;
+  // A problem that does not stop the run (e.g. the input records another PSF); the text has no prefix.
+  std::function<void(const std::string&)> on_warning;
+  // Every batch's rows, in input order, from the writer thread, after they are written.
+  std::function<void(std::span<const ObjectRecord>)> on_rows;
+};
+
+class FitRun {
+ public:
+  explicit FitRun(FitRunOptions options) : options_(std::move(options)) {}
+  // Fits every object (after the committed ones, with resume). Each call is a complete run with its
+  // own PSF, writer and threads; nothing outlives it but the outputs.
+  RunSummary run() const;
+
+ private:
+  FitRunOptions options_;
+};
+
+}  // namespace stampede::app

@@ -1,0 +1,165 @@
+// FitRun over a small grid: the summary's counts match the table, its brief report is the line
+// `stampede fit` prints, and two runs in one process with different thread counts give identical
+// tables and leave no process-wide threading state behind.
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <regex>
+#include <string>
+#include <vector>
+
+#include "app/fit_run.hpp"
+#include "io/fits_file.hpp"
+#include "io/psf_keys.hpp"
+#include "support/command_runner.hpp"
+#include "support/scratch_dir.hpp"
+
+namespace {
+
+using namespace stampede;
+
+constexpr int kNx = 6, kNy = 2, kStamp = 39;
+
+// The first kNx x kNy stamps of the GREAT08-mini S/N 40 set as a grid of their own, with the set's
+// PSF record; stamp 0 has a NaN pixel and stamp 1 is empty, so the table has several statuses.
+void write_small_grid(const std::string& path) {
+  io::FitsFile in = io::FitsFile::open_read(std::string(STAMPEDE_DATA_DIR) + "/galsim-great08-mini/snr40/set_0.fits");
+  const auto shape = in.image_shape();
+  const std::vector<double> all = in.read_image();
+  std::vector<double> part;
+  for (long y = 0; y < kNy * kStamp; ++y)
+    part.insert(part.end(), all.begin() + y * shape.nx, all.begin() + y * shape.nx + kNx * kStamp);
+  part[kStamp / 2 * kNx * kStamp + kStamp / 2] = NAN;  // stamp 0: a bad pixel
+  for (int y = 0; y < kStamp; ++y)                    // stamp 1: no flux
+    std::fill_n(part.begin() + y * kNx * kStamp + kStamp, kStamp, 0.0);
+  io::FitsFile out = io::FitsFile::create(path, true);
+  out.write_image(kNx * kStamp, kNy * kStamp, part);
+  out.write_key("STAMPSZ", kStamp, "stamp size");
+  io::write_psf_keys(out, io::read_psf_keys(in));
+}
+
+// A cheap configuration: the results need only be identical.
+const std::vector<std::string> kSets = {"psf_beta=3", "psf_fwhm=2.85", "psf_e2=0.05", "noise_sigma=1",
+                                        "upsampling=2", "n_central_pixels_to_upsample=1", "padding=0",
+                                        "minimizer_max_iterations=10", "batch_size=5"};
+
+class FitRunTest : public ::testing::Test {
+ protected:
+  void SetUp() override { write_small_grid(input); }
+  app::FitRunOptions options(const std::string& output, int threads) const {
+    app::FitRunOptions o;
+    o.input = input;
+    o.output = output;
+    o.threads = threads;
+    for (const auto& s : kSets) io::apply_set(o.config, s);
+    return o;
+  }
+  stampede::testing::ScratchDir scratch{"stampede_fit_run_"};
+  std::string input = scratch.path("grid.fits");
+};
+
+std::vector<double> column(const std::string& file, const std::string& name) {
+  io::FitsFile f = io::FitsFile::open_read(file);
+  f.move_to("RESULTS");
+  return f.read_column(name);
+}
+
+bool same_bits(double a, double b) { return (std::isnan(a) && std::isnan(b)) || std::memcmp(&a, &b, sizeof a) == 0; }
+
+TEST_F(FitRunTest, SummaryCountsMatchTheTable) {
+  const std::string out = scratch.path("out.fits");
+  long long rows_seen = 0;
+  app::FitRunOptions o = options(out, 2);
+  o.on_rows = [&](std::span<const ObjectRecord> rows) {
+    for (const ObjectRecord& r : rows) EXPECT_EQ(r.id, rows_seen++);  // input order
+  };
+  const app::RunSummary s = app::FitRun(o).run();
+  EXPECT_EQ(s.objects, kNx * kNy);
+  EXPECT_EQ(rows_seen, kNx * kNy);
+  EXPECT_EQ(s.resumed, 0);
+  EXPECT_EQ(s.batches, (kNx * kNy + 4) / 5);
+  EXPECT_EQ(s.threads, 2);
+  EXPECT_EQ(s.output, out);
+  std::array<long long, kFitStatusCount> from_table{};
+  for (double st : column(out, "status")) ++from_table[static_cast<int>(st)];
+  EXPECT_EQ(s.by_status, from_table);
+  int statuses = 0;
+  for (long long c : from_table) statuses += c > 0;
+  EXPECT_GE(statuses, 3) << s.FullReport();  // the comparison covers more than one status
+  EXPECT_GT(s.setup_seconds, 0);
+  EXPECT_GT(s.pipeline_seconds, 0);
+  EXPECT_GE(s.total_seconds, s.setup_seconds + s.pipeline_seconds + s.finish_seconds);
+}
+
+TEST_F(FitRunTest, BriefReportIsTheLineTheCommandPrints) {
+  const app::RunSummary s = app::FitRun(options(scratch.path("lib.fits"), 2)).run();
+  std::vector<std::string> args = {input, "-o", scratch.path("lib.fits"), "--threads", "2"};
+  for (const auto& set : kSets) args.insert(args.end(), {"--set", set});
+  const std::string err = scratch.path("err.txt");
+  const stampede::testing::RunResult r = stampede::testing::finish(stampede::testing::spawn(args, err), err);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // The timings differ between two runs; everything else must be the same text.
+  const std::regex timing("in [0-9.]+ s, [0-9.]+ objects/s");
+  EXPECT_EQ(std::regex_replace(r.err, timing, "in T s, R objects/s"),
+            std::regex_replace(s.BriefReport(), timing, "in T s, R objects/s") + "\n");
+}
+
+TEST_F(FitRunTest, TwoRunsInOneProcessWithDifferentThreadsAreIdentical) {
+  const std::size_t parallelism = tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
+  std::vector<ObjectRecord> rows[2];
+  const int threads[2] = {3, 1};
+  for (int k = 0; k < 2; ++k) {
+    app::FitRunOptions o = options(scratch.path("t" + std::to_string(threads[k]) + ".fits"), threads[k]);
+    o.on_rows = [&, k](std::span<const ObjectRecord> batch) { rows[k].insert(rows[k].end(), batch.begin(), batch.end()); };
+    const app::RunSummary s = app::FitRun(o).run();
+    EXPECT_EQ(s.threads, threads[k]);
+    // No process-wide limit set or left behind by the run.
+    EXPECT_EQ(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism), parallelism);
+  }
+  ASSERT_EQ(rows[0].size(), static_cast<std::size_t>(kNx * kNy));
+  ASSERT_EQ(rows[1].size(), rows[0].size());
+  for (std::size_t i = 0; i < rows[0].size(); ++i) {
+    const ObjectRecord &a = rows[0][i], &b = rows[1][i];
+    EXPECT_EQ(a.id, b.id);
+    EXPECT_EQ(a.fit.status, b.fit.status);
+    EXPECT_EQ(a.flags, b.flags);
+    EXPECT_EQ(a.fit.iterations, b.fit.iterations);
+    for (int p = 0; p < kNumParams; ++p) EXPECT_TRUE(same_bits(a.fit.params[p], b.fit.params[p])) << i << " " << p;
+    EXPECT_TRUE(same_bits(a.fit.chi2, b.fit.chi2)) << i;
+  }
+  for (const char* name : {"e1", "e2", "radius", "chi2", "status", "flags", "snr"}) {
+    const auto x = column(scratch.path("t3.fits"), name), y = column(scratch.path("t1.fits"), name);
+    ASSERT_EQ(x.size(), y.size());
+    for (std::size_t i = 0; i < x.size(); ++i) EXPECT_TRUE(same_bits(x[i], y[i])) << name << " row " << i;
+  }
+}
+
+TEST_F(FitRunTest, WithoutAnOutputTheRowsOnlyGoToTheCaller) {
+  app::FitRunOptions o = options("", 2);
+  long long n = 0;
+  o.on_rows = [&](std::span<const ObjectRecord> rows) { n += static_cast<long long>(rows.size()); };
+  const app::RunSummary s = app::FitRun(o).run();
+  EXPECT_EQ(n, kNx * kNy);
+  EXPECT_EQ(s.BriefReport().find("wrote"), std::string::npos);
+  o.resume = true;
+  EXPECT_THROW(app::FitRun(o).run(), std::invalid_argument);
+}
+
+TEST_F(FitRunTest, WarningsGoToTheCallback) {
+  // The grid records the set's PSF (FWHM 2.85): a run with another FWHM is warned about through
+  // on_warning, without the command's prefix, and the run goes on.
+  app::FitRunOptions o = options(scratch.path("w.fits"), 1);
+  io::apply_set(o.config, "psf_fwhm=3");
+  std::vector<std::string> warnings;
+  o.on_warning = [&](const std::string& w) { warnings.push_back(w); };
+  const app::RunSummary s = app::FitRun(o).run();
+  EXPECT_EQ(s.objects, kNx * kNy);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0].find(input + "[HDU 0] records a PSF other than the run's: PSFFWHM = 2.85 (psf_fwhm = 3)"), 0u)
+      << warnings[0];
+}
+
+}  // namespace
