@@ -1,9 +1,6 @@
 // The calibration build; see calibration_build.hpp.
 #include "app/calibration_build.hpp"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -18,6 +15,7 @@
 #include "engine/pipeline/pipeline.hpp"
 #include "engine/pipeline/stamp_fitter.hpp"
 #include "io/calibration_table.hpp"
+#include "io/durable_file.hpp"
 
 namespace stampede::app {
 
@@ -45,17 +43,14 @@ class BuildCheckpoint {
         done_.push_back(b);
         valid_bytes += static_cast<long long>(line.size()) + 1;
       }
-      fd_ = ::open(path_.c_str(), O_WRONLY);
-      if (fd_ < 0 || ::ftruncate(fd_, valid_bytes) != 0 || ::lseek(fd_, 0, SEEK_END) < 0)
-        throw std::runtime_error("cannot reopen '" + path_ + "' for writing");
+      file_ = io::DurableFile::open(path_, io::DurableFile::Mode::kReadWrite);
+      file_.truncate(valid_bytes);
+      file_.seek_to_end();
     } else {
-      fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (fd_ < 0) throw std::runtime_error("cannot create '" + path_ + "' (is the directory writable?)");
+      file_ = io::DurableFile::create(path_, "calibration progress file");
+      io::sync_directory_of(path_);  // the new file's name must survive a crash too
       append(header_ + "\n");
     }
-  }
-  ~BuildCheckpoint() {
-    if (fd_ >= 0) ::close(fd_);
   }
   const std::vector<PointBias>& done() const { return done_; }
   void add(int point, const PointBias& b) {
@@ -66,18 +61,19 @@ class BuildCheckpoint {
     done_.push_back(b);
   }
   void remove() {
-    ::close(fd_);
-    fd_ = -1;
-    std::remove(path_.c_str());
+    file_.close();
+    io::remove_if_present(path_);
   }
 
  private:
+  // One record per fsync (io/durable_file.hpp's append-only log): a kill leaves whole records
+  // and at most one cut line, which resume drops.
   void append(const std::string& text) {
-    if (::write(fd_, text.data(), text.size()) != static_cast<ssize_t>(text.size()) || ::fsync(fd_) != 0)
-      throw std::runtime_error("cannot write '" + path_ + "'");
+    file_.write_all(text);
+    file_.sync();
   }
   std::string path_, header_;
-  int fd_ = -1;
+  io::DurableFile file_;
   std::vector<PointBias> done_;
 };
 
