@@ -32,7 +32,7 @@ struct Data {
     stamps = std::move(g.pixels);
     size = g.size;
     options.render.stamp_size = size;
-    PsfOptions p;
+    PsfModel p;
     p.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};
     FftPlanCache plans(FftPlanning::kEstimate);
     std::string err;

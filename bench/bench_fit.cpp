@@ -32,7 +32,7 @@ void run_fits(benchmark::State& state, kernels::Isa isa, FftPlanning planning) {
   FitterOptions options;
   options.render.stamp_size = s.size;
   options.render.simd = isa;
-  PsfOptions p;
+  PsfModel p;
   p.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};
   FftPlanCache plans(planning);
   std::string err;

@@ -170,8 +170,8 @@ int run_build(int argc, char** argv) {
   if (!config.empty()) io::load_ini(cfg, config);
   for (const auto& s : sets) io::apply_set(cfg, s);
   io::validate(cfg);
-  if (cfg.psf_input != io::PsfInput::kMoffat && cfg.psf_input != io::PsfInput::kAiry)
-    throw io::ConfigError("option 'psf_input' = '" + std::string(io::psf_input_name(cfg.psf_input)) +
+  if (cfg.psf_from_catalogue || cfg.psf_kind == PsfKind::kImage)
+    throw io::ConfigError("option 'psf_input' = '" + io::psf_input_value(cfg) +
                           "': calibrate build simulates analytic PSFs only (moffat or airy)");
   if (!(cfg.fitter.noise_sigma > 0))
     throw io::ConfigError("option 'noise_sigma' = 0: the calibration fits (and the science run's) must be weighted; "
@@ -180,10 +180,9 @@ int run_build(int argc, char** argv) {
   g.stamp_size = cfg.fitter.render.stamp_size;
   g.bulge_radius_ratio = cfg.fitter.params.spec[index(Param::kRadiusRatio)].start;
 
-  const GridGeometry geometry(cfg.fitter.render);
   FftPlanCache setup_plans(FftPlanning::kEstimate);
-  const tools::SharedPsf psf = tools::build_shared_psf(cfg, geometry, setup_plans);
-  g.psf = psf.options;
+  const tools::SharedPsf psf = tools::build_shared_psf(cfg, setup_plans);
+  g.psf = psf.model;
   const CalibrationGrid grid(g);  // validates the grid options
 
   CalibrationTable table;
@@ -223,7 +222,7 @@ int run_build(int argc, char** argv) {
     po.batch_size = cfg.batch_size;
     po.stamp_size = g.stamp_size;
     const FitterOptions fitter_options = cfg.fitter;
-    std::shared_ptr<const PsfKernel> kernel = psf.kernel;
+    std::shared_ptr<const PreparedPsf> kernel = psf.prepared;
     auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
       return std::make_unique<StampFitter>(fitter_options, kernel, nullptr, FftPlanning::kEstimate, psf.e1, psf.e2,
                                            psf.fwhm);

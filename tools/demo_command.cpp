@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "engine/fit/fitter.hpp"
+#include "engine/render/psf_kernel.hpp"
 #include "io/fits_file.hpp"
 #include "io/stamp_grid.hpp"
 
@@ -73,7 +74,7 @@ int run_demo_command(int argc, char** argv) {
   FitterOptions options;
   options.render.stamp_size = grid.stamp_size();
   options.noise_sigma = header.key_double("NOISESIG");
-  PsfOptions psf;
+  PsfModel psf;
   psf.moffat = {header.key_double("PSFBETA"), header.key_double("PSFFWHM"), header.key_double("PSFE1"),
                 header.key_double("PSFE2"), header.read_key_double("PSFTRUNC").value_or(0.0)};
   io::FitsFile truth = io::FitsFile::open_read(truth_path);
