@@ -13,6 +13,7 @@
 
 #include "engine/pipeline/pipeline.hpp"
 #include "engine/pipeline/stamp_fitter.hpp"
+#include "engine/render/psf_kernel.hpp"
 #include "great08_stamps.hpp"
 
 namespace {

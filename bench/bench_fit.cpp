@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "engine/fit/fitter.hpp"
+#include "engine/render/psf_kernel.hpp"
 #include "great08_stamps.hpp"
 
 namespace {

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "engine/render/psf_kernel.hpp"
 #include "support/reference_data.hpp"
 
 namespace stampede {

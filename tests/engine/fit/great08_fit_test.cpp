@@ -8,6 +8,7 @@
 #include <cstdio>
 
 #include "engine/fit/fitter.hpp"
+#include "engine/render/psf_kernel.hpp"
 #include "io/stamp_grid.hpp"
 #include "support/reference_data.hpp"
 

@@ -245,7 +245,8 @@ TYPED_TEST(RendererContract, NoiseFreeFitRecoversGalSimReferenceCases) {
 
 // A renderer refuses to draw before it has a PSF and refuses another kind's or grid's PSF.
 TYPED_TEST(RendererContract, NeedsItsOwnPreparedPsf) {
-  auto bare = make_renderer(TypeParam::kKind, TypeParam::options(25, Resolution::kDefault), ModelOptions{}, this->plans_);
+  auto bare =
+      make_renderer(TypeParam::kKind, TypeParam::options(25, Resolution::kDefault), ModelOptions{}, this->plans_);
   std::vector<double> model(25 * 25);
   EXPECT_EQ(bare->render(default_params(), model), RenderStatus::kNoPsf);
   auto other = this->make(TypeParam::options(31, Resolution::kDefault), this->moffat());
