@@ -137,8 +137,8 @@ CalibrationBuild::CalibrationBuild(CalibrationBuildOptions options) : options_(s
   if (!options_.overwrite && !options_.resume && std::filesystem::exists(options_.output))
     throw std::invalid_argument("'" + options_.output + "' exists (use --overwrite to replace it)");
   io::validate(cfg);
-  if (cfg.psf_input != io::PsfInput::kMoffat && cfg.psf_input != io::PsfInput::kAiry)
-    throw io::ConfigError("option 'psf_input' = '" + std::string(io::psf_input_name(cfg.psf_input)) +
+  if (cfg.psf_from_catalogue || cfg.psf_kind == PsfKind::kImage)
+    throw io::ConfigError("option 'psf_input' = '" + io::psf_input_value(cfg) +
                           "': calibrate build simulates analytic PSFs only (moffat or airy)");
   if (!(cfg.fitter.noise_sigma > 0))
     throw io::ConfigError("option 'noise_sigma' = 0: the calibration fits (and the science run's) must be weighted; "
@@ -147,10 +147,9 @@ CalibrationBuild::CalibrationBuild(CalibrationBuildOptions options) : options_(s
   g.stamp_size = cfg.fitter.render.stamp_size;
   g.bulge_radius_ratio = cfg.fitter.params.spec[index(Param::kRadiusRatio)].start;
 
-  const GridGeometry geometry(cfg.fitter.render);
   FftPlanCache setup_plans(FftPlanning::kEstimate);
-  psf_ = tools::build_shared_psf(cfg, geometry, setup_plans);
-  g.psf = psf_.options;
+  psf_ = tools::build_shared_psf(cfg, setup_plans);
+  g.psf = psf_.model;
   grid_ = std::make_unique<CalibrationGrid>(g);  // validates the grid options
   checkpoint_ = std::make_unique<BuildCheckpoint>(options_.output + ".partial",
                                                   calibration_build_fingerprint(g, io::effective_options(cfg)),
@@ -194,7 +193,7 @@ CalibrationBuildSummary CalibrationBuild::run(const std::function<void(const Cal
     const FitterOptions fitter_options = cfg.fitter;
     const tools::SharedPsf& psf = psf_;
     auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
-      return std::make_unique<StampFitter>(fitter_options, psf.kernel, nullptr, FftPlanning::kEstimate, psf.e1, psf.e2,
+      return std::make_unique<StampFitter>(fitter_options, psf.prepared, nullptr, FftPlanning::kEstimate, psf.e1, psf.e2,
                                            psf.fwhm);
     };
     double last_report = -1;

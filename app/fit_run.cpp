@@ -16,7 +16,7 @@
 #include "engine/pipeline/pipeline.hpp"
 #include "engine/pipeline/stamp_fitter.hpp"
 #include "engine/render/psf_cache.hpp"
-#include "engine/render/upsampled_renderer.hpp"
+#include "engine/render/renderer_factory.hpp"
 #include "io/catalog_writer.hpp"
 #include "io/catalogue_source.hpp"
 #include "io/fits_error.hpp"
@@ -37,7 +37,7 @@ double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 class WriterSink final : public BatchSink {
  public:
   WriterSink(io::CatalogWriter* writer, const FitRunOptions& run, const io::RunConfig& cfg,
-             std::shared_ptr<const PsfKernel> shared_psf, PsfKernelCache* psf_cache, const std::string& images_path)
+             std::shared_ptr<const PreparedPsf> shared_psf, PsfCache* psf_cache, const std::string& images_path)
       : writer_(writer), run_(run), cfg_(cfg), shared_psf_(std::move(shared_psf)), psf_cache_(psf_cache) {
     for (std::int64_t id : io::save_image_ids(cfg)) wanted_.insert(id);
     if (!wanted_.empty()) images_ = std::make_unique<io::FitsFile>(io::FitsFile::create(images_path, true));
@@ -57,14 +57,12 @@ class WriterSink final : public BatchSink {
  private:
   void save(const StampBatch& batch, int k) {
     const ObjectRecord& r = batch.records[k];
-    std::shared_ptr<const PsfKernel> psf = shared_psf_;
+    if (!renderer_) renderer_ = make_renderer(cfg_.fitter.renderer, cfg_.fitter.render, cfg_.fitter.model, plans_);
+    std::shared_ptr<const PreparedPsf> psf = shared_psf_;
     std::string error;
-    if (psf_cache_) psf = psf_cache_->moffat(batch.psf[k], plans_, &error);
+    if (psf_cache_) psf = psf_cache_->get(batch.psf[k], *renderer_, &error);
     if (!psf) return;
-    if (!renderer_)
-      renderer_ = std::make_unique<UpsampledRenderer>(cfg_.fitter.render, cfg_.fitter.model, psf, plans_);
-    else
-      renderer_->set_psf(psf);
+    renderer_->set_psf(psf);
     const std::size_t npix = batch.npix();
     std::vector<double> data(batch.stamp(k), batch.stamp(k) + npix), model(npix), resid(npix);
     if (renderer_->render(r.fit.params, model) != RenderStatus::kOk) return;
@@ -78,12 +76,12 @@ class WriterSink final : public BatchSink {
   io::CatalogWriter* writer_;
   const FitRunOptions& run_;
   const io::RunConfig& cfg_;
-  std::shared_ptr<const PsfKernel> shared_psf_;
-  PsfKernelCache* psf_cache_;
+  std::shared_ptr<const PreparedPsf> shared_psf_;
+  PsfCache* psf_cache_;
   std::set<std::int64_t> wanted_;
   std::unique_ptr<io::FitsFile> images_;
   FftPlanCache plans_{FftPlanning::kEstimate};
-  std::unique_ptr<UpsampledRenderer> renderer_;
+  std::unique_ptr<Renderer> renderer_;
 };
 
 // OUT.fits -> OUT.images.fits (any other name: NAME.images.fits).
@@ -112,7 +110,7 @@ RunSummary FitRun::run() const {
 
   // Input first: its header may fix the stamp size, and a bad file should fail before anything.
   std::unique_ptr<StampSource> source;
-  std::optional<PsfOptions> recorded_psf;  // the PSF the input's header records, if any
+  std::optional<PsfModel> recorded_psf;  // the PSF the input's header records, if any
   std::string recorded_where;              // its file and HDU
   if (a.catalog.empty()) {
     auto grid = std::make_unique<io::GridStampSource>(a.input, a.weight,
@@ -130,7 +128,7 @@ RunSummary FitRun::run() const {
     cols.id = cfg.catalog_id_column;
     cols.x = cfg.catalog_x_column;
     cols.y = cfg.catalog_y_column;
-    cols.with_psf = cfg.psf_input == io::PsfInput::kMoffatCatalog;
+    cols.with_psf = cfg.psf_from_catalogue;
     cols.psf_beta = cfg.catalog_psf_beta_column;
     cols.psf_fwhm = cfg.catalog_psf_fwhm_column;
     cols.psf_e1 = cfg.catalog_psf_e1_column;
@@ -138,28 +136,27 @@ RunSummary FitRun::run() const {
     source = std::make_unique<io::CatalogueStampSource>(a.input, a.weight, a.catalog, cfg.fitter.render.stamp_size, cols);
   }
   io::validate(cfg);
-  if (cfg.psf_input == io::PsfInput::kMoffatCatalog && a.catalog.empty())
+  if (cfg.psf_from_catalogue && a.catalog.empty())
     throw io::ConfigError("option 'psf_input' = 'moffat_catalog' needs --catalog");
   if (a.output.empty() && !cfg.save_images.empty())
     throw io::ConfigError("option 'save_images' needs an output (the images go beside it)");
 
   const FftPlanning planning = cfg.fft_wisdom.empty() ? FftPlanning::kEstimate : FftPlanning::kMeasure;
   if (!cfg.fft_wisdom.empty()) load_fftw_wisdom(cfg.fft_wisdom);  // a missing file is fine: it is made at the end
-  const GridGeometry geometry(cfg.fitter.render);
   FftPlanCache setup_plans(planning);
-  std::shared_ptr<const PsfKernel> shared_psf;
-  std::unique_ptr<PsfKernelCache> psf_cache;
+  std::shared_ptr<const PreparedPsf> shared_psf;
+  std::unique_ptr<PsfCache> psf_cache;
   double psf_e1 = NAN, psf_e2 = NAN, psf_fwhm = NAN;
-  if (cfg.psf_input == io::PsfInput::kMoffatCatalog) {
-    psf_cache = std::make_unique<PsfKernelCache>(geometry, 1024);
+  if (cfg.psf_from_catalogue) {
+    psf_cache = std::make_unique<PsfCache>(1024);
   } else {
-    const tools::SharedPsf psf = tools::build_shared_psf(cfg, geometry, setup_plans);
-    shared_psf = psf.kernel;
+    const tools::SharedPsf psf = tools::build_shared_psf(cfg, setup_plans);
+    shared_psf = psf.prepared;
     psf_e1 = psf.e1, psf_e2 = psf.e2, psf_fwhm = psf.fwhm;
     // A set written by `stampede sim` or GalSim records its PSF; fitting it with another (e.g. the
     // default round Moffat) is almost always a forgotten option, and biases c by the difference.
     if (recorded_psf) {
-      const std::vector<std::string> diff = tools::psf_differences(*recorded_psf, psf.options);
+      const std::vector<std::string> diff = tools::psf_differences(*recorded_psf, psf.model);
       if (!diff.empty()) {
         std::string list;
         for (const auto& d : diff) list += (list.empty() ? "" : ", ") + d;
@@ -201,7 +198,7 @@ RunSummary FitRun::run() const {
   po.per_object_psf = static_cast<bool>(psf_cache);
   po.stamp_size = cfg.fitter.render.stamp_size;
   const FitterOptions fitter_options = cfg.fitter;
-  PsfKernelCache* cache = psf_cache.get();
+  PsfCache* cache = psf_cache.get();
   auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
     return std::make_unique<StampFitter>(fitter_options, shared_psf, cache, planning, psf_e1, psf_e2, psf_fwhm);
   };

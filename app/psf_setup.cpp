@@ -7,40 +7,35 @@
 #include <stdexcept>
 #include <string>
 
+#include "engine/render/renderer_factory.hpp"
 #include "io/fits_file.hpp"
 
 namespace stampede::tools {
 
-SharedPsf build_shared_psf(const io::RunConfig& cfg, const GridGeometry& geometry, FftPlanCache& plans) {
+SharedPsf build_shared_psf(const io::RunConfig& cfg, FftPlanCache& plans) {
+  if (cfg.psf_from_catalogue) throw std::logic_error("build_shared_psf: psf_input = moffat_catalog has no shared PSF");
   SharedPsf out;
-  PsfOptions& psf = out.options;
-  if (cfg.psf_input == io::PsfInput::kMoffat) {
-    psf.type = PsfType::kMoffat;
-    psf.moffat = cfg.moffat;
-    out.e1 = cfg.moffat.e1, out.e2 = cfg.moffat.e2, out.fwhm = cfg.moffat.fwhm;
-  } else if (cfg.psf_input == io::PsfInput::kAiry) {
-    psf.type = PsfType::kAiry;
-    psf.airy = cfg.airy;
-    out.e1 = out.e2 = 0.0;
-    out.fwhm = 1.028993969962188 * cfg.airy.lambda_over_d;  // FWHM of the unobscured Airy disc
-  } else if (cfg.psf_input == io::PsfInput::kImage) {
-    psf.type = PsfType::kImage;
-    io::FitsFile f = io::FitsFile::open_read(cfg.psf_image);
-    const auto shape = f.image_shape();
-    auto img = std::make_shared<PsfImage>();
-    img->nx = static_cast<int>(shape.nx);
-    img->ny = static_cast<int>(shape.ny);
-    img->pixels = f.read_image();
-    img->oversampling = cfg.psf_upsampling;
-    img->pixel_integrated = cfg.psf_pixel_integrated;
-    psf.image = img;
-  } else {
-    throw std::logic_error("build_shared_psf: psf_input = moffat_catalog has no shared PSF");
+  switch (cfg.psf_kind) {
+    case PsfKind::kMoffat: out.model = PsfModel::Moffat(cfg.moffat); break;
+    case PsfKind::kAiry: out.model = PsfModel::Airy(cfg.airy); break;
+    case PsfKind::kImage: {
+      io::FitsFile f = io::FitsFile::open_read(cfg.psf_image);
+      const auto shape = f.image_shape();
+      auto img = std::make_shared<PsfImage>();
+      img->nx = static_cast<int>(shape.nx);
+      img->ny = static_cast<int>(shape.ny);
+      img->pixels = f.read_image();
+      img->oversampling = cfg.psf_upsampling;
+      img->pixel_integrated = cfg.psf_pixel_integrated;
+      out.model = PsfModel::Image(std::move(img));
+      break;
+    }
   }
+  out.e1 = out.model.e1(), out.e2 = out.model.e2(), out.fwhm = out.model.fwhm();
   std::string error;
-  out.kernel = PsfKernel::build(psf, geometry, plans, &error);
-  if (!out.kernel)
-    throw std::runtime_error("PSF (psf_input = " + std::string(io::psf_input_name(cfg.psf_input)) + "): " + error);
+  out.prepared =
+      make_renderer(cfg.fitter.renderer, cfg.fitter.render, cfg.fitter.model, plans)->prepare_psf(out.model, &error);
+  if (!out.prepared) throw std::runtime_error("PSF (psf_input = " + io::psf_input_value(cfg) + "): " + error);
   return out;
 }
 
@@ -54,19 +49,19 @@ std::string number(double v) {
 
 }  // namespace
 
-std::vector<std::string> psf_differences(const PsfOptions& recorded, const PsfOptions& run) {
+std::vector<std::string> psf_differences(const PsfModel& recorded, const PsfModel& run) {
   std::vector<std::string> out;
-  if (run.type == PsfType::kImage) return out;
-  auto type_name = [](PsfType t) { return t == PsfType::kMoffat ? "moffat" : t == PsfType::kAiry ? "airy" : "image"; };
-  if (recorded.type != run.type) {
-    out.push_back(std::string("PSFTYPE = '") + type_name(recorded.type) + "' (psf_input = " + type_name(run.type) + ")");
+  if (run.kind == PsfKind::kImage) return out;
+  if (recorded.kind != run.kind) {
+    out.push_back(std::string("PSFTYPE = '") + psf_kind_name(recorded.kind) + "' (psf_input = " +
+                  psf_kind_name(run.kind) + ")");
     return out;
   }
   auto compare = [&](const char* key, double a, const char* option, double b) {
     if (!(std::abs(a - b) <= 1e-9 * std::max(std::abs(a), std::abs(b))))
       out.push_back(std::string(key) + " = " + number(a) + " (" + option + " = " + number(b) + ")");
   };
-  if (run.type == PsfType::kMoffat) {
+  if (run.kind == PsfKind::kMoffat) {
     compare("PSFBETA", recorded.moffat.beta, "psf_beta", run.moffat.beta);
     compare("PSFFWHM", recorded.moffat.fwhm, "psf_fwhm", run.moffat.fwhm);
     compare("PSFE1", recorded.moffat.e1, "psf_e1", run.moffat.e1);

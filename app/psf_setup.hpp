@@ -7,24 +7,27 @@
 #include <string>
 #include <vector>
 
-#include "engine/render/psf_kernel.hpp"
+#include "engine/model/psf_model.hpp"
+#include "engine/render/fft_plans.hpp"
+#include "engine/render/renderer.hpp"
 #include "io/run_config.hpp"
 
 namespace stampede::tools {
 
 struct SharedPsf {
-  PsfOptions options;
-  std::shared_ptr<const PsfKernel> kernel;
+  PsfModel model;
+  std::shared_ptr<const PreparedPsf> prepared;  // by the run's renderer kind
   double e1 = NAN, e2 = NAN, fwhm = NAN;  // as written to the output rows (NaN: unknown, image PSF)
 };
 
 // Reads psf_image when psf_input = image. Throws (naming psf_input, or the image file) when the PSF
 // cannot be built. Not for psf_input = moffat_catalog.
-SharedPsf build_shared_psf(const io::RunConfig& cfg, const GridGeometry& geometry, FftPlanCache& plans);
+// A renderer of the run's kind and options prepares it, with `plans`.
+SharedPsf build_shared_psf(const io::RunConfig& cfg, FftPlanCache& plans);
 
 // Where a PSF recorded in an input's header (io::read_psf_keys) differs from the run's analytic
 // PSF: one "KEY = recorded (option = run's)" per differing parameter, in header order; empty when
 // they agree to 1e-9 relative. A run with an image PSF has nothing to compare: empty.
-std::vector<std::string> psf_differences(const PsfOptions& recorded, const PsfOptions& run);
+std::vector<std::string> psf_differences(const PsfModel& recorded, const PsfModel& run);
 
 }  // namespace stampede::tools

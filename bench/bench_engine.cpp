@@ -13,6 +13,7 @@
 
 #include "engine/pipeline/pipeline.hpp"
 #include "engine/pipeline/stamp_fitter.hpp"
+#include "engine/render/psf_kernel.hpp"
 #include "great08_stamps.hpp"
 
 namespace {
@@ -32,7 +33,7 @@ struct Data {
     stamps = std::move(g.pixels);
     size = g.size;
     options.render.stamp_size = size;
-    PsfOptions p;
+    PsfModel p;
     p.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};
     FftPlanCache plans(FftPlanning::kEstimate);
     std::string err;

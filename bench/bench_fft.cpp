@@ -82,7 +82,7 @@ struct Convolution {
   std::vector<double> stamp;
   explicit Convolution(int stamp_size) {
     ro.stamp_size = stamp_size;
-    PsfOptions o;
+    PsfModel o;
     o.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};
     std::string err;
     psf = PsfKernel::build(o, GridGeometry(ro), plans, &err);

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "engine/fit/fitter.hpp"
+#include "engine/render/psf_kernel.hpp"
 #include "great08_stamps.hpp"
 
 namespace {
@@ -32,7 +33,7 @@ void run_fits(benchmark::State& state, kernels::Isa isa, FftPlanning planning) {
   FitterOptions options;
   options.render.stamp_size = s.size;
   options.render.simd = isa;
-  PsfOptions p;
+  PsfModel p;
   p.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};
   FftPlanCache plans(planning);
   std::string err;

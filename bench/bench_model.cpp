@@ -16,7 +16,7 @@ struct Setup {
   std::unique_ptr<UpsampledRenderer> renderer;
   ParamVector p;
   Setup() {
-    PsfOptions o;
+    PsfModel o;
     o.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};
     std::string err;
     psf = PsfKernel::build(o, GridGeometry(ro), plans, &err);

@@ -158,7 +158,7 @@ bool CatalogueStampSource::fill(StampBatch& batch) {
   while (batch.count < batch.capacity() && next_ < total_ && next_entry(&e)) {
     const int k = batch.count++;
     cut(e, k, batch);
-    if (columns_.with_psf) batch.psf[k] = {e.beta, e.fwhm, e.e1, e.e2, 0.0};
+    if (columns_.with_psf) batch.psf[k] = PsfModel::Moffat({e.beta, e.fwhm, e.e1, e.e2, 0.0});
     ++next_;
   }
   return batch.count > 0;

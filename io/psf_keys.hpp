@@ -5,17 +5,17 @@
 
 #include <optional>
 
-#include "engine/render/psf_kernel.hpp"
+#include "engine/model/psf_model.hpp"
 #include "io/fits_file.hpp"
 
 namespace stampede::io {
 
 // Into the current HDU. Analytic PSFs only (an image PSF has no keywords: throws).
-void write_psf_keys(FitsFile& f, const PsfOptions& psf);
+void write_psf_keys(FitsFile& f, const PsfModel& psf);
 // From the current HDU; without PSFTYPE a Moffat (GalSim's sets), PSFTRUNC and PSFOBSC default to 0.
 // Throws FitsError naming the file and the missing or bad keyword.
-PsfOptions read_psf_keys(FitsFile& f);
+PsfModel read_psf_keys(FitsFile& f);
 // The same where the HDU records a PSF at all (PSFTYPE, PSFBETA or PSFLOD present); nullopt otherwise.
-std::optional<PsfOptions> read_psf_keys_if_present(FitsFile& f);
+std::optional<PsfModel> read_psf_keys_if_present(FitsFile& f);
 
 }  // namespace stampede::io

@@ -10,7 +10,7 @@
 #include <system_error>
 #include <tuple>
 
-#include "engine/render/psf_kernel.hpp"
+#include "engine/model/psf_model.hpp"
 
 namespace stampede::io {
 namespace {
@@ -21,6 +21,9 @@ std::string trim(std::string_view s) {
   const auto last = s.find_last_not_of(" \t\r\n\f\v");
   return std::string(s.substr(first, last - first + 1));
 }
+
+// psf_input's value for a catalogue source of Moffat PSFs (psf_kind_name names the kinds).
+constexpr const char* kMoffatCatalog = "moffat_catalog";
 
 std::string lower(std::string_view s) {
   std::string out(s);
@@ -220,6 +223,14 @@ void add_parameter_entries(std::vector<Entry>* entries) {
 std::vector<Entry> make_registry() {
   std::vector<Entry> r;
   const char* render = "Rendering (paper section 4.1)";
+  r.push_back({"renderer",
+               std::string("the fitter's renderer: ") + renderer_kind_names() +
+                   " (the paper's upsampled grid, FFT convolution with the PSF, block average)",
+               render, [](const RunConfig& c) { return std::string(renderer_kind_name(c.fitter.renderer)); },
+               [](RunConfig& c, const std::string& v) {
+                 if (parse_renderer_kind(v, &c.fitter.renderer)) return std::string();
+                 return std::string("expected ") + renderer_kind_names();
+               }});
   r.push_back(int_entry(render, "stamp_size",
                         "data pixels per stamp side; when not set, the input file's STAMPSZ header",
                         [](auto& c) -> auto& { return c.fitter.render.stamp_size; }));
@@ -277,10 +288,17 @@ std::vector<Entry> make_registry() {
   r.push_back({"psf_input",
                "moffat (psf_* keys), airy (airy_* keys), moffat_catalog (a Moffat per object from the "
                "catalog_psf_* columns) or image (psf_image)",
-               psf, [](const RunConfig& c) { return std::string(psf_input_name(c.psf_input)); },
+               psf, [](const RunConfig& c) { return psf_input_value(c); },
                [](RunConfig& c, const std::string& v) {
-                 if (parse_psf_input(v, &c.psf_input)) return std::string();
-                 return std::string("expected moffat, airy, moffat_catalog or image");
+                 if (lower(v) == kMoffatCatalog) {
+                   c.psf_kind = PsfKind::kMoffat;
+                   c.psf_from_catalogue = true;
+                 } else if (parse_psf_kind(v, &c.psf_kind)) {
+                   c.psf_from_catalogue = false;
+                 } else {
+                   return std::string("expected moffat, airy, moffat_catalog or image");
+                 }
+                 return std::string();
                }});
   r.push_back(double_entry(psf, "psf_beta", "Moffat beta, > 1", DoubleKind::kFinite,
                            [](auto& c) -> auto& { return c.moffat.beta; }));
@@ -392,25 +410,8 @@ ConfigError unknown_option(const std::string& key) {
 
 }  // namespace
 
-const char* psf_input_name(PsfInput p) {
-  switch (p) {
-    case PsfInput::kMoffat: return "moffat";
-    case PsfInput::kAiry: return "airy";
-    case PsfInput::kMoffatCatalog: return "moffat_catalog";
-    case PsfInput::kImage: return "image";
-  }
-  return "?";
-}
-
-bool parse_psf_input(const std::string& name, PsfInput* out) {
-  const std::string s = lower(name);
-  for (PsfInput p : {PsfInput::kMoffat, PsfInput::kAiry, PsfInput::kMoffatCatalog, PsfInput::kImage}) {
-    if (s == psf_input_name(p)) {
-      *out = p;
-      return true;
-    }
-  }
-  return false;
+std::string psf_input_value(const RunConfig& config) {
+  return config.psf_from_catalogue ? kMoffatCatalog : psf_kind_name(config.psf_kind);
 }
 
 const std::vector<OptionInfo>& run_config_options() {
@@ -494,22 +495,16 @@ void validate(const RunConfig& config) {
     }
   }
 
-  PsfOptions psf;
-  psf.moffat = config.moffat;
-  psf.airy = config.airy;
-  switch (config.psf_input) {
-    case PsfInput::kMoffat:
-    // The catalogue replaces beta, fwhm, e1, e2 per object; the configured Moffat must still be
-    // valid, as its truncation applies.
-    case PsfInput::kMoffatCatalog:
-      psf.type = PsfType::kMoffat;
-      if (!psf.IsValid(&why)) fail(config, why);
+  switch (config.psf_kind) {
+    // A catalogue source replaces beta, fwhm, e1, e2 per object; the configured Moffat must still
+    // be valid, as its truncation applies.
+    case PsfKind::kMoffat:
+      if (!PsfModel::Moffat(config.moffat).IsValid(&why)) fail(config, why);
       break;
-    case PsfInput::kAiry:
-      psf.type = PsfType::kAiry;
-      if (!psf.IsValid(&why)) fail(config, why);
+    case PsfKind::kAiry:
+      if (!PsfModel::Airy(config.airy).IsValid(&why)) fail(config, why);
       break;
-    case PsfInput::kImage:
+    case PsfKind::kImage:
       if (config.psf_image.empty()) fail(config, "psf_input = image needs psf_image, the path of a FITS PSF image");
       break;
   }

@@ -23,6 +23,7 @@
 
 #include "engine/common/error.hpp"
 #include "engine/fit/fitter.hpp"
+#include "engine/model/psf_model.hpp"
 #include "kernels/psf_profile.hpp"
 
 namespace stampede::io {
@@ -34,21 +35,13 @@ class ConfigError : public Error {
   using Error::Error;
 };
 
-// Where each object's PSF comes from.
-enum class PsfInput {
-  kMoffat,         // one Moffat for every object: psf_beta psf_fwhm psf_e1 psf_e2 psf_truncation
-  kAiry,           // one Airy for every object: airy_lambda_over_d airy_obscuration
-  kMoffatCatalog,  // a Moffat per object from the catalog_psf_* columns; psf_truncation still applies
-  kImage,          // one sampled PSF image: psf_image psf_upsampling psf_pixel_integrated
-};
-// "moffat", "airy", "moffat_catalog", "image".
-const char* psf_input_name(PsfInput p);
-// Case-insensitive inverse of psf_input_name; false for anything else.
-bool parse_psf_input(const std::string& name, PsfInput* out);
-
 struct RunConfig {
   FitterOptions fitter;  // render, model, lm, params, noise_sigma (defaults as in those structs)
-  PsfInput psf_input = PsfInput::kMoffat;
+  // psf_input = moffat | airy | image names the kind of the run's one PSF (from the psf_* keys, the
+  // airy_* keys or psf_image); psf_input = moffat_catalog is not a kind but a source: a Moffat per
+  // object from the catalog_psf_* columns (psf_kind is then kMoffat; see psf_input_value).
+  PsfKind psf_kind = PsfKind::kMoffat;
+  bool psf_from_catalogue = false;
   kernels::MoffatProfile moffat;      // psf_beta psf_fwhm psf_e1 psf_e2 psf_truncation
   kernels::AiryProfile airy;          // airy_lambda_over_d airy_obscuration
   std::string psf_image;              // path of a FITS PSF image (psf_input = image)
@@ -77,6 +70,9 @@ struct OptionInfo {
   std::string help;
 };
 
+// The text of psf_input: "moffat_catalog" for a catalogue source, else psf_kind_name(psf_kind).
+std::string psf_input_value(const RunConfig& config);
+
 // Every key, in documentation order (the order of the template and of effective_options).
 const std::vector<OptionInfo>& run_config_options();
 
@@ -101,7 +97,7 @@ void load_ini(RunConfig& config, const std::string& path);
 // Errors are set_option's prefixed by "--set key=value: ".
 void apply_set(RunConfig& config, const std::string& assignment);
 
-// Whole-config validation once all keys are set: FitterOptions::IsValid and PsfOptions::IsValid
+// Whole-config validation once all keys are set: FitterOptions::IsValid and PsfModel::IsValid
 // (the engine's messages, which name the key and value), then the run options: automatic bounds
 // only for x0 and y0, psf_upsampling >= 1, psf_image given when psf_input = image, batch_size in
 // [1, 100000], non-empty catalogue column names, parseable save_images. Throws ConfigError naming

@@ -66,8 +66,8 @@ int run_demo_command(int argc, char** argv) {
   io::StampGridReader grid(image_path);
   io::FitsFile& header = grid.file();
   run.config.fitter.noise_sigma = header.key_double("NOISESIG");
-  const PsfOptions psf = io::read_psf_keys(header);
-  run.config.psf_input = psf.type == PsfType::kAiry ? io::PsfInput::kAiry : io::PsfInput::kMoffat;
+  const PsfModel psf = io::read_psf_keys(header);
+  run.config.psf_kind = psf.kind == PsfKind::kAiry ? PsfKind::kAiry : PsfKind::kMoffat;
   run.config.moffat = psf.moffat;
   run.config.airy = psf.airy;
   io::FitsFile truth = io::FitsFile::open_read(truth_path);
@@ -80,7 +80,7 @@ int run_demo_command(int argc, char** argv) {
                              std::to_string(n) + " stamps");
 
   std::printf("stampede demo: %d stamps of %d x %d from %s\n", n, grid.stamp_size(), grid.stamp_size(), image_path.c_str());
-  if (psf.type == PsfType::kAiry)
+  if (psf.kind == PsfKind::kAiry)
     std::printf("PSF: Airy lambda/D %.2f obscuration %.2f; noise sigma %g\n", psf.airy.lambda_over_d,
                 psf.airy.obscuration, run.config.fitter.noise_sigma);
   else

@@ -44,10 +44,10 @@ struct Row {
 
 std::vector<Row> figure_rows(int figure) {
   std::vector<Row> rows;
-  PsfOptions round_psf, paper_psf;
+  PsfModel round_psf, paper_psf;
   round_psf.moffat = {3.5, 2.85, 0.0, 0.0, 0.0};
   paper_psf.moffat = {3.0, 2.85, 0.03, 0.03, 0.0};
-  auto base = [&](const PsfOptions& psf, int stamp) {
+  auto base = [&](const PsfModel& psf, int stamp) {
     RingStudyConfig c;
     c.psf = psf;
     c.fit.render.stamp_size = stamp;

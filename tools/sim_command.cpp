@@ -113,8 +113,8 @@ int run_sim_command(int argc, char** argv) {
     else if (a == "--noise-pairs") o.noise_pairs = true;
     else if (a == "--psf") {
       const std::string v = tools::option_value(argc, argv, &i);
-      if (v == "moffat") o.psf.type = PsfType::kMoffat;
-      else if (v == "airy") o.psf.type = PsfType::kAiry;
+      if (v == "moffat") o.psf.kind = PsfKind::kMoffat;
+      else if (v == "airy") o.psf.kind = PsfKind::kAiry;
       else throw std::invalid_argument("option --psf: '" + v + "' is not moffat or airy");
     } else if (a == "--psf-beta") o.psf.moffat.beta = number_value(argc, argv, &i);
     else if (a == "--psf-fwhm") o.psf.moffat.fwhm = number_value(argc, argv, &i);

@@ -13,19 +13,19 @@
 namespace stampede {
 namespace {
 
-double psf_fwhm(const PsfOptions& psf) {
-  if (psf.type == PsfType::kMoffat) return psf.moffat.fwhm;
-  if (psf.type == PsfType::kAiry) return 1.028993969962188 * psf.airy.lambda_over_d;  // unobscured
+double psf_fwhm(const PsfModel& psf) {
+  if (psf.kind == PsfKind::kMoffat) return psf.moffat.fwhm;
+  if (psf.kind == PsfKind::kAiry) return 1.028993969962188 * psf.airy.lambda_over_d;  // unobscured
   throw std::invalid_argument("size ratio needs an analytic PSF");
 }
 
 }  // namespace
 
-double convolved_fwhm(const RingGalaxy& galaxy, const PsfOptions& psf_in, FftPlanCache& plans) {
+double convolved_fwhm(const RingGalaxy& galaxy, const PsfModel& psf_in, FftPlanCache& plans) {
   // Draw in units of 1/10 pixel so the output "pixels" hardly blur the profile; the centre sits on
   // a pixel centre and the FWHM comes from the profile along +x.
   constexpr double kScale = 10.0;
-  PsfOptions psf = psf_in;
+  PsfModel psf = psf_in;
   psf.moffat.e1 = psf.moffat.e2 = 0.0;  // the definition uses round profiles
   psf.moffat.fwhm *= kScale;
   psf.moffat.truncation *= kScale;
@@ -63,7 +63,7 @@ double convolved_fwhm(const RingGalaxy& galaxy, const PsfOptions& psf_in, FftPla
   throw std::runtime_error("convolved_fwhm: profile does not fall to half maximum on the grid");
 }
 
-double disc_radius_for_size_ratio(RingGalaxy galaxy, double ratio, const PsfOptions& psf, FftPlanCache& plans) {
+double disc_radius_for_size_ratio(RingGalaxy galaxy, double ratio, const PsfModel& psf, FftPlanCache& plans) {
   const double target = ratio * psf_fwhm(psf);
   double lo = 0.01, hi = 20.0;
   galaxy.disc_radius = hi;
@@ -77,7 +77,7 @@ double disc_radius_for_size_ratio(RingGalaxy galaxy, double ratio, const PsfOpti
   return 0.5 * (lo + hi);
 }
 
-double half_light_radius_for_size_ratio(double n, double ratio, const PsfOptions& psf, FftPlanCache& plans) {
+double half_light_radius_for_size_ratio(double n, double ratio, const PsfModel& psf, FftPlanCache& plans) {
   RingGalaxy g;
   g.bulge_fraction = 1.0;
   g.bulge_index = n;

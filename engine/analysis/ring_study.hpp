@@ -28,7 +28,7 @@ struct RingStudyConfig {
   double shear1 = 0.02, shear2 = 0.01;
   int n_angles = 4;  // orientations over 180 degrees (0, 45, 90, 135 for 4)
   RingGalaxy galaxy;
-  PsfOptions psf;
+  PsfModel psf;
   FitterOptions fit;  // the fitter under test (its stamp_size is the stamp)
   // The truth renderer: well beyond the fitter's defaults.
   int truth_upsampling = 25, truth_central = 25, truth_central_upsampling = 25, truth_padding = 8;
@@ -42,10 +42,10 @@ struct RingStudyResult {
 RingStudyResult run_ring_study(const RingStudyConfig& config, FftPlanCache& plans);
 
 // FWHM (pixels) of the round version of `galaxy` convolved with the round PSF, without pixel.
-double convolved_fwhm(const RingGalaxy& galaxy, const PsfOptions& psf, FftPlanCache& plans);
+double convolved_fwhm(const RingGalaxy& galaxy, const PsfModel& psf, FftPlanCache& plans);
 // The disc radius (bulge radius following radius_ratio) giving FWHM(gal (x) PSF) / FWHM(PSF) = ratio.
-double disc_radius_for_size_ratio(RingGalaxy galaxy, double ratio, const PsfOptions& psf, FftPlanCache& plans);
+double disc_radius_for_size_ratio(RingGalaxy galaxy, double ratio, const PsfModel& psf, FftPlanCache& plans);
 // Single-component shorthand: the half-light radius of a Sérsic n with that size ratio.
-double half_light_radius_for_size_ratio(double n, double ratio, const PsfOptions& psf, FftPlanCache& plans);
+double half_light_radius_for_size_ratio(double n, double ratio, const PsfModel& psf, FftPlanCache& plans);
 
 }  // namespace stampede

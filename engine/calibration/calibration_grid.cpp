@@ -53,7 +53,7 @@ bool CalibrationGridOptions::IsValid(std::string* why) const {
     m << "stamp_size " << stamp_size << ": must be in [8, 512]";
   else if (!(bulge_radius_ratio > 0.01 && bulge_radius_ratio <= 100))
     m << "radius_ratio " << bulge_radius_ratio << ": must be in (0.01, 100]";
-  else if (psf.type == PsfType::kImage)
+  else if (psf.kind == PsfKind::kImage)
     m << "psf_input: the calibration simulations draw analytic PSFs only (moffat, airy)";
   else if (!psf.IsValid(&psf_why))
     m << psf_why;

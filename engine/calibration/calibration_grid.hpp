@@ -23,7 +23,7 @@
 
 #include "engine/sim/sim_renderer.hpp"
 #include "engine/pipeline/object_record.hpp"
-#include "engine/render/psf_kernel.hpp"
+#include "engine/model/psf_model.hpp"
 #include "engine/pipeline/stamp_batch.hpp"
 
 namespace stampede {
@@ -38,7 +38,7 @@ struct CalibrationGridOptions {
   int realisations = 16;  // noise pairs (n, -n) per grid point
   int stamp_size = 39;
   double bulge_radius_ratio = 1.0;  // bulge / disc half-light radius: the fitter's fixed ratio
-  PsfOptions psf;                   // Moffat or Airy (the simulator draws analytic PSFs)
+  PsfModel psf;                     // Moffat or Airy (the simulator draws analytic PSFs)
   std::uint64_t seed = 11;
   // Message names the option as on the command line (--radii, --snr, ...), its value and the rule.
   bool IsValid(std::string* why) const;

@@ -92,7 +92,7 @@ NoiseBiasModel::NoiseBiasModel(const CalibrationTable& table) {
   f_max_ = g.bulge_fractions.back();
   e_max_ = g.e_max;
   snr_ref_ = g.snr;
-  if (g.psf.type == PsfType::kMoffat) psf_e0_ = {g.psf.moffat.e1, g.psf.moffat.e2};
+  if (g.psf.kind == PsfKind::kMoffat) psf_e0_ = {g.psf.moffat.e1, g.psf.moffat.e2};
 }
 
 Bias NoiseBiasModel::at(const GalaxyProperties& galaxy, bool* clamped) const {

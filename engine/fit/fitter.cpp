@@ -89,14 +89,15 @@ class Fitter::Problem final : public LeastSquaresProblem {
   std::array<double*, kMaxFree> column_ptr_{};
 };
 
-Fitter::Fitter(const FitterOptions& options, std::shared_ptr<const PsfKernel> psf, FftPlanCache& plans)
-    : options_(options), psf_(std::move(psf)), plans_(plans) {
+Fitter::Fitter(const FitterOptions& options, std::shared_ptr<const PreparedPsf> psf, FftPlanCache& plans)
+    : options_(options), psf_(std::move(psf)) {
   std::string why;
   if (!options_.IsValid(&why)) throw std::invalid_argument(why);
   least_squares_ = &kernels::least_squares_kernels(options_.render.simd);
   const int s = options_.render.stamp_size;
   const int npix = s * s;
-  if (psf_) renderer_ = std::make_unique<UpsampledRenderer>(options_.render, options_.model, psf_, plans);
+  renderer_ = make_renderer(options_.renderer, options_.render, options_.model, plans);
+  if (psf_) renderer_->set_psf(psf_);
   problem_ = std::make_unique<Problem>(*this, npix);
   weight_.assign(npix, 0.0);
   start_bulge_.assign(npix, 0.0);
@@ -118,13 +119,9 @@ Fitter::Fitter(const FitterOptions& options, std::shared_ptr<const PsfKernel> ps
 
 Fitter::~Fitter() = default;
 
-void Fitter::set_psf(std::shared_ptr<const PsfKernel> psf) {
+void Fitter::set_psf(std::shared_ptr<const PreparedPsf> psf) {
   psf_ = std::move(psf);
-  if (!psf_) return;
-  if (renderer_)
-    renderer_->set_psf(psf_);
-  else
-    renderer_ = std::make_unique<UpsampledRenderer>(options_.render, options_.model, psf_, plans_);
+  if (psf_) renderer_->set_psf(psf_);
 }
 
 FitStatus Fitter::prepare_weights(std::span<const double> pixels, std::span<const double> weight, std::uint32_t* flags) {
@@ -316,16 +313,11 @@ FitResult Fitter::run(std::span<const double> pixels, const ParamVector& start, 
     if (std::abs(p[i] - lower_[i]) < 1e-6 || std::abs(p[i] - upper_[i]) < 1e-6) flags |= kFlagAtBound;
   }
   // Report the effective (mirrored, softened) values the model was drawn with.
-  ModelComponents comp;
-  renderer_->galaxy_model().components(p, &comp);
   if (std::hypot(p[index(Param::kE1)], p[index(Param::kE2)]) > options_.model.ellipticity_mirror) flags |= kFlagMirrored;
-  r.params = p;
-  r.params[index(Param::kE1)] = comp.e1;
-  r.params[index(Param::kE2)] = comp.e2;
-  r.params[index(Param::kRadius)] = comp.disc_radius;
+  renderer_->effective_params(p, &r.params);
   r.e1_err = r.errors[index(Param::kE1)];
   r.e2_err = r.errors[index(Param::kE2)];
-  renderer_->galaxy_model().fluxes(p, &r.bulge_flux, &r.disc_flux);
+  renderer_->component_fluxes(p, &r.bulge_flux, &r.disc_flux);
   r.flux = r.bulge_flux + r.disc_flux;
   r.chi2 = chi2;
   r.likelihood = -0.5 * chi2;

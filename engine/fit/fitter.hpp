@@ -9,19 +9,21 @@
 #include <string>
 #include <vector>
 
-#include "engine/render/upsampled_renderer.hpp"
 #include "engine/fit/fit_result.hpp"
 #include "engine/model/galaxy_model.hpp"
-#include "engine/solver/levenberg_marquardt.hpp"
 #include "engine/model/parameters.hpp"
-#include "engine/render/psf_kernel.hpp"
+#include "engine/render/fft_plans.hpp"
 #include "engine/render/render_options.hpp"
+#include "engine/render/renderer.hpp"
+#include "engine/render/renderer_factory.hpp"
+#include "engine/solver/levenberg_marquardt.hpp"
 #include "kernels/aligned_vector.hpp"
 #include "kernels/least_squares.hpp"
 
 namespace stampede {
 
 struct FitterOptions {
+  RendererKind renderer = RendererKind::kUpsampled;
   RenderOptions render;
   ModelOptions model;
   LmOptions lm;
@@ -33,9 +35,10 @@ struct FitterOptions {
 
 class Fitter {
  public:
-  // options must be valid. psf may be null (it could not be built): every fit then reports kPsfFailure.
-  Fitter(const FitterOptions& options, std::shared_ptr<const PsfKernel> psf, FftPlanCache& plans);
-  
+  // options must be valid. psf (prepared by a renderer of options.renderer's kind and options) may
+  // be null (it could not be built): every fit then reports kPsfFailure. `plans` must outlive it.
+  Fitter(const FitterOptions& options, std::shared_ptr<const PreparedPsf> psf, FftPlanCache& plans);
+
   ~Fitter();
 
   // pixels: stamp_size^2, row-major. weight: empty (use noise_sigma) or inverse variance per pixel,
@@ -47,10 +50,10 @@ class Fitter {
   // The starting point fit() would use (exposed for tests and diagnostics); flags may gain kFlagDefaultStart.
   ParamVector starting_point(std::span<const double> pixels, std::span<const double> weight, std::uint32_t* flags);
 
-  // Swaps the PSF for the following fits (null: they report kPsfFailure). Allocates nothing once
-  // the first PSF has been set.
-  void set_psf(std::shared_ptr<const PsfKernel> psf);
+  // Swaps the PSF for the following fits (null: they report kPsfFailure). Allocates nothing.
+  void set_psf(std::shared_ptr<const PreparedPsf> psf);
 
+  // The renderer the fits use, e.g. to prepare PSFs for set_psf (Renderer::prepare_psf).
   Renderer& renderer() { return *renderer_; }
   const FitterOptions& options() const { return options_; }
 
@@ -63,9 +66,8 @@ class Fitter {
   void solve_start_amplitudes(std::span<const double> pixels, ParamVector* p);
 
   FitterOptions options_;
-  std::shared_ptr<const PsfKernel> psf_;
-  FftPlanCache& plans_;
-  std::unique_ptr<UpsampledRenderer> renderer_;
+  std::shared_ptr<const PreparedPsf> psf_;
+  std::unique_ptr<Renderer> renderer_;
   const kernels::LeastSquaresKernels* least_squares_;  // options_.render.simd's build
   std::unique_ptr<Problem> problem_;
   kernels::AlignedVector<double> weight_;

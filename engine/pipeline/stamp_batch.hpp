@@ -5,8 +5,8 @@
 #include <cstddef>
 #include <vector>
 
+#include "engine/model/psf_model.hpp"
 #include "engine/pipeline/object_record.hpp"
-#include "kernels/psf_profile.hpp"
 
 namespace stampede {
 
@@ -18,9 +18,11 @@ struct StampBatch {
   bool has_weights = false;
   std::vector<double> pixels;   // capacity * stamp_size^2
   std::vector<double> weights;  // same layout when has_weights
-  std::vector<kernels::MoffatProfile> psf;  // per-object PSF (psf_input = moffat_catalog)
-  std::vector<ObjectRecord> records;        // input identity, then fit results
-  StampBatch* next = nullptr;               // intrusive link for the writer hand-off
+  // Per-object PSFs (psf_input = moffat_catalog), any kind: assigning an analytic model allocates
+  // nothing; an image model shares its immutable image.
+  std::vector<PsfModel> psf;
+  std::vector<ObjectRecord> records;  // input identity, then fit results
+  StampBatch* next = nullptr;         // intrusive link for the writer hand-off
 
   StampBatch(int capacity, int stamp, bool per_object_psf)
       : stamp_size(stamp),

@@ -5,8 +5,8 @@
 
 namespace stampede {
 
-StampFitter::StampFitter(const FitterOptions& options, std::shared_ptr<const PsfKernel> shared_psf,
-                         PsfKernelCache* per_object, FftPlanning planning, double psf_e1, double psf_e2,
+StampFitter::StampFitter(const FitterOptions& options, std::shared_ptr<const PreparedPsf> shared_psf,
+                         PsfCache* per_object, FftPlanning planning, double psf_e1, double psf_e2,
                          double psf_fwhm)
     : options_(options),
       plans_(planning),
@@ -29,12 +29,13 @@ void StampFitter::fit(StampBatch& batch) {
     rec.psf_fwhm = psf_fwhm_;
     if (per_object_) {
       std::string error;
-      auto kernel = per_object_->moffat(batch.psf[k], plans_, &error);
-      if (!kernel) input_flags |= kFlagPsfFailure;
-      fitter_->set_psf(kernel);
-      rec.psf_e1 = batch.psf[k].e1;
-      rec.psf_e2 = batch.psf[k].e2;
-      rec.psf_fwhm = batch.psf[k].fwhm;
+      const PsfModel& psf = batch.psf[k];
+      auto prepared = per_object_->get(psf, fitter_->renderer(), &error);
+      if (!prepared) input_flags |= kFlagPsfFailure;
+      fitter_->set_psf(prepared);
+      rec.psf_e1 = psf.e1();
+      rec.psf_e2 = psf.e2();
+      rec.psf_fwhm = psf.fwhm();
     }
     const std::span<const double> pixels(batch.stamp(k), npix);
     const std::span<const double> weight = batch.has_weights ? std::span<const double>(batch.weight(k), npix)

@@ -12,17 +12,17 @@ namespace stampede {
 class StampFitter final : public BatchFitter {
  public:
   // Either `shared_psf` (one PSF for every object; may be null if it could not be built) or
-  // `per_object` (kernels for each object's catalogue PSF) is used.
+  // `per_object` (prepared PSFs of each object's batch PSF model) is used.
   // psf_e1/e2/fwhm describe the shared PSF in the output (NaN when unknown, e.g. an image PSF).
-  StampFitter(const FitterOptions& options, std::shared_ptr<const PsfKernel> shared_psf, PsfKernelCache* per_object,
+  StampFitter(const FitterOptions& options, std::shared_ptr<const PreparedPsf> shared_psf, PsfCache* per_object,
               FftPlanning planning, double psf_e1 = NAN, double psf_e2 = NAN, double psf_fwhm = NAN);
   void fit(StampBatch& batch) override;
 
  private:
   FitterOptions options_;
   FftPlanCache plans_;
-  std::shared_ptr<const PsfKernel> shared_psf_;
-  PsfKernelCache* per_object_;
+  std::shared_ptr<const PreparedPsf> shared_psf_;
+  PsfCache* per_object_;
   std::unique_ptr<Fitter> fitter_;
   double psf_e1_, psf_e2_, psf_fwhm_;
 };

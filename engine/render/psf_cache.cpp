@@ -1,31 +1,44 @@
-// Shared PSF kernel cache; see psf_cache.hpp.
+// Shared prepared-PSF cache; see psf_cache.hpp.
 #include "engine/render/psf_cache.hpp"
 
 namespace stampede {
 
-std::shared_ptr<const PsfKernel> PsfKernelCache::moffat(const kernels::MoffatProfile& psf, FftPlanCache& plans,
-                                                        std::string* error) {
-  const Key key{psf.beta, psf.fwhm, psf.e1, psf.e2, psf.truncation};
+PsfCache::Key PsfCache::key_of(const PsfModel& psf) {
+  switch (psf.kind) {
+    case PsfKind::kMoffat: {
+      const kernels::MoffatProfile& m = psf.moffat;
+      return {static_cast<int>(psf.kind), m.beta, m.fwhm, m.e1, m.e2, m.truncation, nullptr};
+    }
+    case PsfKind::kAiry:
+      return {static_cast<int>(psf.kind), psf.airy.lambda_over_d, psf.airy.obscuration, 0.0, 0.0, 0.0, nullptr};
+    case PsfKind::kImage: break;
+  }
+  return {static_cast<int>(psf.kind), 0.0, 0.0, 0.0, 0.0, 0.0, psf.image.get()};
+}
+
+std::shared_ptr<const PreparedPsf> PsfCache::get(const PsfModel& psf, Renderer& renderer, std::string* error) {
+  const Key key = key_of(psf);
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    auto it = kernels_.find(key);
-    if (it != kernels_.end()) return it->second;
+    auto it = entries_.find(key);
+    if (it != entries_.end()) return it->second.prepared;
   }
-  PsfOptions options;
-  options.type = PsfType::kMoffat;
-  options.moffat = psf;
-  auto kernel = PsfKernel::build(options, geometry_, plans, error);
-  if (!kernel) return nullptr;
+  auto prepared = renderer.prepare_psf(psf, error);
+  if (!prepared) return nullptr;
   std::lock_guard<std::mutex> lock(mutex_);
-  auto [it, inserted] = kernels_.emplace(key, kernel);
-  if (inserted) {
-    order_.push_back(key);
-    while (order_.size() > capacity_) {
-      kernels_.erase(order_.front());
-      order_.pop_front();
-    }
+  auto [it, inserted] = entries_.emplace(key, Entry{prepared, psf.kind == PsfKind::kImage ? psf.image : nullptr});
+  if (!inserted) return it->second.prepared;  // another thread stored it first
+  order_.push_back(key);
+  while (order_.size() > capacity_) {
+    entries_.erase(order_.front());
+    order_.pop_front();
   }
-  return it->second;
+  return prepared;
+}
+
+std::size_t PsfCache::size() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return entries_.size();
 }
 
 }  // namespace stampede

@@ -1,4 +1,4 @@
-// PSF descriptions and the convolution kernel built from them, once per PSF.
+// The upsampled renderer's PSF kernel, built once per PSF model.
 //
 // The kernel is the PSF at model (sub-pixel) resolution times the sub-pixel top-hat (paper
 // appendix A, "Fourier sampling kernel"), as an r2c half-spectrum on the model grid, with FFTW's
@@ -10,38 +10,17 @@
 #include <string>
 #include <vector>
 
+#include "engine/model/psf_model.hpp"
 #include "engine/render/fft_plans.hpp"
 #include "engine/render/render_options.hpp"
-#include "kernels/psf_profile.hpp"
+#include "engine/render/renderer.hpp"
 
 namespace stampede {
 
-enum class PsfType { kMoffat, kAiry, kImage };
-const char* psf_type_name(PsfType t);
-bool parse_psf_type(const std::string& name, PsfType* out);
-
-// A user PSF image. Pixels are row-major nx x ny at `oversampling` samples per data pixel.
-struct PsfImage {
-  int nx = 0, ny = 0;
-  std::vector<double> pixels;
-  double centre_x = NAN, centre_y = NAN;  // PSF centre in image pixels (0-based); NaN = (n - 1) / 2
-  int oversampling = 1;
-  bool pixel_integrated = true;  // true: each sample is a pixel integral (its top-hat is divided out)
-};
-
-struct PsfOptions {
-  PsfType type = PsfType::kMoffat;
-  kernels::MoffatProfile moffat;
-  kernels::AiryProfile airy;
-  std::shared_ptr<const PsfImage> image;
-
-  bool IsValid(std::string* why) const;
-};
-
-class PsfKernel {
+class PsfKernel final : public PreparedPsf {
  public:
   // Null, with *error set, when the PSF cannot be normalised (zero, negative or non-finite flux).
-  static std::shared_ptr<const PsfKernel> build(const PsfOptions& psf, const GridGeometry& geometry,
+  static std::shared_ptr<const PsfKernel> build(const PsfModel& psf, const GridGeometry& geometry,
                                                 FftPlanCache& plans, std::string* error);
 
   const GridGeometry& geometry() const { return geometry_; }
@@ -51,9 +30,9 @@ class PsfKernel {
   // Flux of the PSF captured by the model grid (analytic PSFs are normalised on the infinite plane).
   double grid_flux() const { return grid_flux_; }
   // Adaptive second moments of the pixel-convolved PSF, pixels^2 (starting-point size correction).
-  double xx() const { return xx_; }
-  double xy() const { return xy_; }
-  double yy() const { return yy_; }
+  double xx() const override { return xx_; }
+  double xy() const override { return xy_; }
+  double yy() const override { return yy_; }
 
  private:
   explicit PsfKernel(const GridGeometry& g) : geometry_(g) {}

@@ -1,17 +1,39 @@
-// The narrow interface between the fitter and whatever draws model images: parameters in, model
-// image and Jacobian images at data resolution out. A faster renderer can be swapped in behind it
-// and compared with the reference one.
+// The seam between the fitter and whatever draws model images: parameters in, model image and
+// Jacobian images at data resolution out, plus everything else the fitter asks of a model (the
+// PSF, the effective parameters, the component fluxes). Renderers are made by
+// render/renderer_factory from the `renderer` option and must pass
+// tests/engine/render/renderer_contract_test.cpp.
+//
+// PSFs: a renderer turns a PsfModel into its own prepared form (an FFT kernel, a tabulated
+// transform...) with prepare_psf, once per distinct PSF; the result is immutable and shared
+// read-only by every thread's renderer of the same kind and options (render/psf_cache keeps them
+// for per-object PSFs). set_psf then swaps it in without allocating.
 #pragma once
 
+#include <memory>
 #include <span>
+#include <string>
 
 #include "engine/model/parameters.hpp"
+#include "engine/model/psf_model.hpp"
 
 namespace stampede {
 
 enum class RenderStatus {
   kOk,
   kInvalidModel,  // no model exists for these parameters (non-finite, |e| >= 1 after offsets)
+  kNoPsf,         // no PSF has been set (set_psf)
+};
+
+// A PSF as one renderer kind prepared it. What every kind provides is what the fitter needs of the
+// PSF besides the images: its adaptive second moments (for the starting point's size correction).
+class PreparedPsf {
+ public:
+  virtual ~PreparedPsf() = default;
+  // Adaptive second moments of the pixel-convolved PSF, pixels^2.
+  virtual double xx() const = 0;
+  virtual double xy() const = 0;
+  virtual double yy() const = 0;
 };
 
 class Renderer {
@@ -19,12 +41,25 @@ class Renderer {
   virtual ~Renderer() = default;
   virtual int stamp_size() const = 0;
 
+  // This renderer kind's form of `psf` for its options; null, with *error, when it cannot be
+  // built (an invalid or unnormalisable PSF). Uses this renderer's per-thread scratch only.
+  virtual std::shared_ptr<const PreparedPsf> prepare_psf(const PsfModel& psf, std::string* error) = 0;
+  // Swaps the PSF for the following renders. Throws std::invalid_argument for a PSF another kind
+  // or another grid prepared. Allocates nothing.
+  virtual void set_psf(std::shared_ptr<const PreparedPsf> psf) = 0;
+
   // model: stamp_size^2 pixels, flux per pixel.
   virtual RenderStatus render(const ParamVector& p, std::span<double> model) = 0;
 
   // model as above; jacobian[k] (stamp_size^2 each) = d model / d free[k].
   virtual RenderStatus render_with_jacobian(const ParamVector& p, std::span<const Param> free, std::span<double> model,
                                             std::span<double* const> jacobian) = 0;
+
+  // The values p is drawn with: p with e1, e2 and the radius replaced by their effective
+  // (mirrored, softened) values. False when no model exists for p (*out is then still filled).
+  virtual bool effective_params(const ParamVector& p, ParamVector* out) const = 0;
+  // Analytic total flux of each component at p (before the PSF and the stamp's edge).
+  virtual void component_fluxes(const ParamVector& p, double* bulge, double* disc) const = 0;
 };
 
 }  // namespace stampede

@@ -5,29 +5,62 @@
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
-
-#include "kernels/downsample.hpp"
+#include <string>
 
 namespace stampede {
 
-UpsampledRenderer::UpsampledRenderer(const RenderOptions& options, const ModelOptions& model, std::shared_ptr<const PsfKernel> psf,
-                         FftPlanCache& plans)
+UpsampledRenderer::UpsampledRenderer(const RenderOptions& options, const ModelOptions& model,
+                                     std::shared_ptr<const PsfKernel> psf, FftPlanCache& plans)
     : options_(options),
       geometry_(options),
       model_(model, geometry_.step()),
-      psf_(std::move(psf)),
+      plans_(plans),
       fft_(plans.get(geometry_.grid_size())),
       profile_kernels_(&kernels::profile_kernels(options.simd)),
       downsampler_(geometry_, options.simd) {
-  if (!psf_ || !(psf_->geometry() == geometry_)) throw std::invalid_argument("PSF kernel built for another model grid");
+  if (psf) set_psf(std::move(psf));
   for (auto& g : grid_images_) g = fft_.make_real_buffer();
   const std::size_t npix = static_cast<std::size_t>(geometry_.stamp_size) * geometry_.stamp_size;
   for (auto& s : stamp_images_) s.assign(npix, 0.0);
 }
 
-void UpsampledRenderer::set_psf(std::shared_ptr<const PsfKernel> psf) {
-  if (!psf || !(psf->geometry() == geometry_)) throw std::invalid_argument("PSF kernel built for another model grid");
+std::shared_ptr<const PreparedPsf> UpsampledRenderer::prepare_psf(const PsfModel& psf, std::string* error) {
+  return PsfKernel::build(psf, geometry_, plans_, error);
+}
+
+void UpsampledRenderer::set_psf(std::shared_ptr<const PreparedPsf> psf) {
+  const auto* kernel = dynamic_cast<const PsfKernel*>(psf.get());
+  if (!kernel) throw std::invalid_argument("UpsampledRenderer: the PSF was not prepared by an upsampled renderer");
+  if (!(kernel->geometry() == geometry_)) throw std::invalid_argument("PSF kernel built for another model grid");
+  kernel_ = kernel;
   psf_ = std::move(psf);
+}
+
+bool UpsampledRenderer::effective_params(const ParamVector& p, ParamVector* out) const {
+  ModelComponents comp;
+  const bool ok = model_.components(p, &comp);
+  *out = p;
+  (*out)[index(Param::kE1)] = comp.e1;
+  (*out)[index(Param::kE2)] = comp.e2;
+  (*out)[index(Param::kRadius)] = comp.disc_radius;
+  return ok;
+}
+
+void UpsampledRenderer::component_fluxes(const ParamVector& p, double* bulge, double* disc) const {
+  model_.fluxes(p, bulge, disc);
+}
+
+int UpsampledRenderer::image_of(Param p) {
+  switch (p) {
+    case Param::kX0: return kShapeImage + kernels::kDx0;
+    case Param::kY0: return kShapeImage + kernels::kDy0;
+    case Param::kE1: return kShapeImage + kernels::kDe1;
+    case Param::kE2: return kShapeImage + kernels::kDe2;
+    case Param::kRadius: return kShapeImage + kernels::kDr;
+    case Param::kBulgeA: return kBulgeImage;
+    case Param::kDiscA: return kDiscImage;
+    default: return -1;
+  }
 }
 
 kernels::GridRegion UpsampledRenderer::central_region(double x0, double y0) const {
@@ -56,7 +89,7 @@ std::array<kernels::GridRegion, 5> UpsampledRenderer::partition(double x0, doubl
 }
 
 void UpsampledRenderer::convolve_and_downsample(double* grid_image, double* out) {
-  downsampler_.apply(fft_.transform(grid_image), psf_->folded_spectrum(), out);
+  downsampler_.apply(fft_.transform(grid_image), kernel_->folded_spectrum(), out);
 }
 
 void UpsampledRenderer::set_floor(kernels::SersicDerivativeBlock* c, int supersample, double radius) const {
@@ -66,10 +99,11 @@ void UpsampledRenderer::set_floor(kernels::SersicDerivativeBlock* c, int supersa
 }
 
 RenderStatus UpsampledRenderer::render(const ParamVector& p, std::span<double> model) {
+  if (!kernel_) return RenderStatus::kNoPsf;
   ModelComponents comp;
   if (!model_.components(p, &comp)) return RenderStatus::kInvalidModel;
   const kernels::SubpixelGrid g = geometry_.subpixel_grid();
-  double* grid = image(0);
+  double* grid = image(kBulgeImage);
   std::memset(grid, 0, sizeof(double) * static_cast<std::size_t>(g.size) * g.size);
   const auto regions = partition(comp.disc.shape.x0, comp.disc.shape.y0);
   const int u2 = options_.n_central_pixel_upsampling;
@@ -86,11 +120,13 @@ RenderStatus UpsampledRenderer::render(const ParamVector& p, std::span<double> m
 }
 
 RenderStatus UpsampledRenderer::render_with_jacobian(const ParamVector& p, std::span<const Param> free,
-                                               std::span<double> model, std::span<double* const> jacobian) {
+                                                     std::span<double> model, std::span<double* const> jacobian) {
+  if (!kernel_) return RenderStatus::kNoPsf;
   ModelComponents comp;
   if (!model_.components(p, &comp)) return RenderStatus::kInvalidModel;
   const kernels::SubpixelGrid g = geometry_.subpixel_grid();
-  const std::array<double*, kernels::kNumShapeDerivatives> deriv = {image(2), image(3), image(4), image(5), image(6)};
+  std::array<double*, kernels::kNumShapeDerivatives> deriv;
+  for (int d = 0; d < kernels::kNumShapeDerivatives; ++d) deriv[d] = image(kShapeImage + d);
   const auto regions = partition(comp.disc.shape.x0, comp.disc.shape.y0);
   const int u2 = options_.n_central_pixel_upsampling;
   for (int r = 0; r < 5; ++r) {
@@ -99,41 +135,27 @@ RenderStatus UpsampledRenderer::render_with_jacobian(const ParamVector& p, std::
     set_floor(&comp.disc, ss, comp.disc_radius);
     // The regions partition the grid: the bulge's pass writes every derivative sub-pixel once (no
     // clearing needed), the disc's adds to it.
-    profile_kernels_->accumulate_derivatives(g, regions[r], ss, comp.bulge, image(0), deriv, true);
-    profile_kernels_->accumulate_derivatives(g, regions[r], ss, comp.disc, image(1), deriv, false);
+    profile_kernels_->accumulate_derivatives(g, regions[r], ss, comp.bulge, image(kBulgeImage), deriv, true);
+    profile_kernels_->accumulate_derivatives(g, regions[r], ss, comp.disc, image(kDiscImage), deriv, false);
   }
   // Which convolved images are needed: the two components always (the model), shape derivatives
   // only when their parameter is free.
-  std::array<bool, 7> needed = {true, true, false, false, false, false, false};
+  std::array<bool, kNumImages> needed{};
+  needed[kBulgeImage] = needed[kDiscImage] = true;
   for (Param f : free) {
-    switch (f) {
-      case Param::kX0: needed[2] = true; break;
-      case Param::kY0: needed[3] = true; break;
-      case Param::kE1: needed[4] = true; break;
-      case Param::kE2: needed[5] = true; break;
-      case Param::kRadius: needed[6] = true; break;
-      default: break;
-    }
+    const int i = image_of(f);
+    if (i < 0) throw std::invalid_argument("render_with_jacobian: parameter has no derivative image");
+    needed[i] = true;
   }
-  for (int k = 0; k < 7; ++k)
+  for (int k = 0; k < kNumImages; ++k)
     if (needed[k]) convolve_and_downsample(image(k), stamp_images_[k].data());
   const double ab = comp.bulge.amplitude, ad = comp.disc.amplitude;
-  const auto& bulge = stamp_images_[0];
-  const auto& disc = stamp_images_[1];
+  const auto& bulge = stamp_images_[kBulgeImage];
+  const auto& disc = stamp_images_[kDiscImage];
   for (std::size_t i = 0; i < model.size(); ++i) model[i] = ab * bulge[i] + ad * disc[i];
   for (std::size_t k = 0; k < free.size(); ++k) {
-    const std::vector<double>* src = nullptr;
-    switch (free[k]) {
-      case Param::kX0: src = &stamp_images_[2]; break;
-      case Param::kY0: src = &stamp_images_[3]; break;
-      case Param::kE1: src = &stamp_images_[4]; break;
-      case Param::kE2: src = &stamp_images_[5]; break;
-      case Param::kRadius: src = &stamp_images_[6]; break;
-      case Param::kBulgeA: src = &bulge; break;
-      case Param::kDiscA: src = &disc; break;
-      default: throw std::invalid_argument("render_with_jacobian: parameter has no derivative image");
-    }
-    std::copy(src->begin(), src->end(), jacobian[k]);
+    const std::vector<double>& src = stamp_images_[image_of(free[k])];
+    std::copy(src.begin(), src.end(), jacobian[k]);
   }
   return RenderStatus::kOk;
 }

@@ -4,7 +4,8 @@
 // images are drawn analytically on the same grid and go through the same convolution and
 // downsampling, so the Jacobian is exact for the discretised model.
 //
-// One renderer per thread: it owns its scratch images; the PSF kernel is shared read-only.
+// One renderer per thread: it owns its scratch images; the PSF kernel (render/psf_kernel, its
+// PreparedPsf) is shared read-only.
 #pragma once
 
 #include <array>
@@ -22,41 +23,51 @@ namespace stampede {
 
 class UpsampledRenderer final : public Renderer {
  public:
-  // options and psf must describe the same grid (psf->geometry() == GridGeometry(options)).
+  // psf may be null (set_psf before rendering); otherwise it must be built for this grid
+  // (psf->geometry() == GridGeometry(options)). `plans` must outlive the renderer.
   UpsampledRenderer(const RenderOptions& options, const ModelOptions& model, std::shared_ptr<const PsfKernel> psf,
-              FftPlanCache& plans);
+                    FftPlanCache& plans);
 
   int stamp_size() const override { return geometry_.stamp_size; }
+  // A PsfKernel on this renderer's grid, with this thread's plans.
+  std::shared_ptr<const PreparedPsf> prepare_psf(const PsfModel& psf, std::string* error) override;
+  void set_psf(std::shared_ptr<const PreparedPsf> psf) override;
   RenderStatus render(const ParamVector& p, std::span<double> model) override;
   RenderStatus render_with_jacobian(const ParamVector& p, std::span<const Param> free, std::span<double> model,
                                     std::span<double* const> jacobian) override;
+  bool effective_params(const ParamVector& p, ParamVector* out) const override;
+  void component_fluxes(const ParamVector& p, double* bulge, double* disc) const override;
 
-  const GalaxyModel& galaxy_model() const { return model_; }
-  // Swaps the PSF (same grid); for per-object PSFs.
-  void set_psf(std::shared_ptr<const PsfKernel> psf);
   const GridGeometry& geometry() const { return geometry_; }
 
-  // The sub-pixel block integrated at U2 for a galaxy centred at (x0, y0) (exposed for tests).
-  kernels::GridRegion central_region(double x0, double y0) const;
-
  private:
+  // The sub-pixel block integrated at U2 for a galaxy centred at (x0, y0).
+  kernels::GridRegion central_region(double x0, double y0) const;
   // The grid cut into the central block and the four rectangles around it.
   std::array<kernels::GridRegion, 5> partition(double x0, double y0) const;
   double* image(int k) { return static_cast<double*>(grid_images_[k].data()); }
   void convolve_and_downsample(double* grid_image, double* out);
   // The cusp floor (profile_render.hpp, SersicBlock::u_floor) for samples spaced step / supersample.
   void set_floor(kernels::SersicDerivativeBlock* c, int supersample, double radius) const;
+  // The image whose convolution is d model / d p (an amplitude's is its component's unit image);
+  // -1 when p has none.
+  static int image_of(Param p);
 
   RenderOptions options_;
   GridGeometry geometry_;
   GalaxyModel model_;
-  std::shared_ptr<const PsfKernel> psf_;
+  std::shared_ptr<const PreparedPsf> psf_;  // holds kernel_
+  const PsfKernel* kernel_ = nullptr;
+  FftPlanCache& plans_;
   FftConvolver& fft_;
   const kernels::ProfileKernels* profile_kernels_;  // options_.simd's build
   FourierDownsampler downsampler_;
-  // Grid images: 0 bulge, 1 disc, 2..6 shape derivatives (x0, y0, e1, e2, r).
-  std::array<AlignedBuffer, 7> grid_images_;
-  std::array<std::vector<double>, 7> stamp_images_;
+  // Grid images: kBulgeImage, kDiscImage, then the shape derivatives from kShapeImage on in
+  // kernels::ShapeDerivative order (x0, y0, e1, e2, r).
+  static constexpr int kBulgeImage = 0, kDiscImage = 1, kShapeImage = 2;
+  static constexpr int kNumImages = kShapeImage + kernels::kNumShapeDerivatives;
+  std::array<AlignedBuffer, kNumImages> grid_images_;
+  std::array<std::vector<double>, kNumImages> stamp_images_;
 };
 
 }  // namespace stampede

@@ -53,9 +53,9 @@ bool parse_sim_galaxy_type(const std::string& name, SimGalaxyType* out) {
   return false;
 }
 
-PsfOptions Great08SimOptions::default_psf() {
-  PsfOptions p;
-  p.type = PsfType::kMoffat;
+PsfModel Great08SimOptions::default_psf() {
+  PsfModel p;
+  p.kind = PsfKind::kMoffat;
   p.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};
   return p;
 }
@@ -75,7 +75,7 @@ bool Great08SimOptions::IsValid(std::string* why) const {
     m << "--noise-sigma " << noise_sigma << ": must be positive";
   else if (!(size_ratio > 1.0 && size_ratio <= 10.0))
     m << "--size " << size_ratio << ": Rgp/Rp must be in (1, 10]";
-  else if (psf.type == PsfType::kImage)
+  else if (psf.kind == PsfKind::kImage)
     m << "--psf: the simulator draws analytic PSFs only (moffat, airy)";
   else if (!psf.IsValid(&psf_why))
     m << psf_why;

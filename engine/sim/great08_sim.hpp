@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "engine/model/psf_model.hpp"
 #include "engine/sim/sim_renderer.hpp"
-#include "engine/render/psf_kernel.hpp"
 
 namespace stampede {
 
@@ -42,7 +42,7 @@ struct Great08SimOptions {
   // far smaller scatter; expectations are unchanged (the noise is symmetric).
   bool noise_pairs = false;
   double size_ratio = 1.4;   // Rgp/Rp: FWHM(round galaxy (x) PSF) / FWHM(PSF), no pixel; > 1
-  PsfOptions psf = default_psf();
+  PsfModel psf = default_psf();
   SimGalaxyType galaxy_type = SimGalaxyType::kBulgeDisc;
   double e_sigma = 0.25;   // intrinsic e per component ~ N(0, e_sigma), redrawn until |e| < e_max
   double e_max = 0.9;
@@ -56,7 +56,7 @@ struct Great08SimOptions {
   double bd_offset = 0.3;
   std::uint64_t seed = 7;
 
-  static PsfOptions default_psf();  // Moffat beta 3, FWHM 2.85 px, e = (0, 0.05), as GREAT08-mini
+  static PsfModel default_psf();  // Moffat beta 3, FWHM 2.85 px, e = (0, 0.05), as GREAT08-mini
   // Message names the option as on the command line (--snr, --grid, ...), its value and the rule.
   bool IsValid(std::string* why) const;
 };

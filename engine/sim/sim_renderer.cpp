@@ -83,12 +83,12 @@ bool SimRenderer::Options::IsValid(std::string* why) const {
   return false;
 }
 
-SimRenderer::SimRenderer(const PsfOptions& psf, const Options& options) : psf_(psf) {
+SimRenderer::SimRenderer(const PsfModel& psf, const Options& options) : psf_(psf) {
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument("SimRenderer: " + why);
   if (!psf.IsValid(&why)) throw std::invalid_argument("SimRenderer PSF: " + why);
-  if (psf.type == PsfType::kImage) throw std::invalid_argument("the simulator draws analytic PSFs only (Moffat, Airy)");
-  if (psf.type == PsfType::kMoffat) {
+  if (psf.kind == PsfKind::kImage) throw std::invalid_argument("the simulator draws analytic PSFs only (Moffat, Airy)");
+  if (psf.kind == PsfKind::kMoffat) {
     const auto& m = psf.moffat;
     psf_alpha_ = kernels::moffat_alpha(m.fwhm, m.beta);
     const double t = m.truncation > 0 ? m.truncation / psf_alpha_ : 0.0;
@@ -144,13 +144,13 @@ const kernels::LogTable* SimRenderer::table_for(double n) const {
 }
 
 double SimRenderer::psf_round_transform(double k) const {
-  if (psf_.type == PsfType::kAiry) return kernels::airy_fourier(k * psf_alpha_ / (2 * kPi));
+  if (psf_.kind == PsfKind::kAiry) return kernels::airy_fourier(k * psf_alpha_ / (2 * kPi));
   const double x = k * psf_alpha_;
   return x > moffat_table_.q_max() ? 0.0 : moffat_table_(x);
 }
 
 double SimRenderer::psf_transform(double kx, double ky) const {
-  if (psf_.type == PsfType::kAiry) return psf_round_transform(std::hypot(kx, ky));
+  if (psf_.kind == PsfKind::kAiry) return psf_round_transform(std::hypot(kx, ky));
   const double sx = psf_shear_[0] * kx + psf_shear_[1] * ky, sy = psf_shear_[1] * kx + psf_shear_[2] * ky;
   return psf_round_transform(std::hypot(sx, sy));
 }

@@ -17,7 +17,8 @@
 #include <span>
 #include <vector>
 
-#include "engine/render/psf_kernel.hpp"
+#include "engine/model/psf_model.hpp"
+#include "engine/render/fft_plans.hpp"
 #include "kernels/fourier_profiles.hpp"
 
 namespace stampede {
@@ -62,7 +63,7 @@ class SimRenderer {
   };
 
   // Throws std::invalid_argument for an image PSF, an obscured Airy disc, or invalid options.
-  SimRenderer(const PsfOptions& psf, const Options& options);
+  SimRenderer(const PsfModel& psf, const Options& options);
 
   // size x size pixel integrals (flux per pixel) of the sum of `components` convolved with the PSF.
   // Components must use one of the tabulated indices.
@@ -88,7 +89,7 @@ class SimRenderer {
   void draw(std::span<const SimComponent> components, bool with_psf_only, int size, double step, double cx,
             double cy, bool with_pixel, double tail_radius, std::span<double> out, SimWorkspace& ws) const;
 
-  PsfOptions psf_;
+  PsfModel psf_;
   double psf_alpha_ = 1.0;        // Moffat alpha, or lambda / D for Airy
   double psf_shear_[3] = {1, 0, 1};  // symmetric S: k -> (s00 kx + s01 ky, s01 kx + s11 ky)
   double psf_stretch_ = 1.0;      // largest |S^-1 k| / |k|

@@ -69,7 +69,7 @@ TEST_F(CalibrationTableTest, RoundTripIsBitwise) {
   EXPECT_EQ(r.grid.stamp_size, 33);
   EXPECT_EQ(r.grid.bulge_radius_ratio, 0.8);
   EXPECT_EQ(r.grid.seed, 99u);
-  EXPECT_EQ(r.grid.psf.type, PsfType::kMoffat);
+  EXPECT_EQ(r.grid.psf.kind, PsfKind::kMoffat);
   EXPECT_EQ(r.grid.psf.moffat.beta, 3.5);
   EXPECT_EQ(r.grid.psf.moffat.e2, -0.04);
   EXPECT_EQ(r.grid.psf.moffat.truncation, 6.0);

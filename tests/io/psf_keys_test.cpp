@@ -35,25 +35,25 @@ class PsfKeysTest : public ::testing::Test {
 };
 
 TEST_F(PsfKeysTest, AnalyticPsfsRoundTripBitwise) {
-  PsfOptions moffat;
-  moffat.type = PsfType::kMoffat;
+  PsfModel moffat;
+  moffat.kind = PsfKind::kMoffat;
   moffat.moffat = {3.5, 2.85, -0.0123456789012345, 0.05, 4.25};
-  PsfOptions airy;
-  airy.type = PsfType::kAiry;
+  PsfModel airy;
+  airy.kind = PsfKind::kAiry;
   airy.airy = {1.7, 0.3};
   auto f = FitsFile::open_read(image_with("moffat.fits", [&](FitsFile& g) { write_psf_keys(g, moffat); }));
-  const std::optional<PsfOptions> m = read_psf_keys_if_present(f);
+  const std::optional<PsfModel> m = read_psf_keys_if_present(f);
   ASSERT_TRUE(m.has_value());
-  EXPECT_EQ(m->type, PsfType::kMoffat);
+  EXPECT_EQ(m->kind, PsfKind::kMoffat);
   EXPECT_EQ(m->moffat.beta, moffat.moffat.beta);
   EXPECT_EQ(m->moffat.fwhm, moffat.moffat.fwhm);
   EXPECT_EQ(m->moffat.e1, moffat.moffat.e1);
   EXPECT_EQ(m->moffat.e2, moffat.moffat.e2);
   EXPECT_EQ(m->moffat.truncation, moffat.moffat.truncation);
   auto g = FitsFile::open_read(image_with("airy.fits", [&](FitsFile& h) { write_psf_keys(h, airy); }));
-  const std::optional<PsfOptions> a = read_psf_keys_if_present(g);
+  const std::optional<PsfModel> a = read_psf_keys_if_present(g);
   ASSERT_TRUE(a.has_value());
-  EXPECT_EQ(a->type, PsfType::kAiry);
+  EXPECT_EQ(a->kind, PsfKind::kAiry);
   EXPECT_EQ(a->airy.lambda_over_d, 1.7);
   EXPECT_EQ(a->airy.obscuration, 0.3);
 }
@@ -65,9 +65,9 @@ TEST_F(PsfKeysTest, GalSimSetsRecordAnUntypedMoffat) {
     g.write_key("PSFE1", 0.0, "");
     g.write_key("PSFE2", 0.05, "");
   }));
-  const std::optional<PsfOptions> m = read_psf_keys_if_present(f);
+  const std::optional<PsfModel> m = read_psf_keys_if_present(f);
   ASSERT_TRUE(m.has_value());
-  EXPECT_EQ(m->type, PsfType::kMoffat);
+  EXPECT_EQ(m->kind, PsfKind::kMoffat);
   EXPECT_EQ(m->moffat.e2, 0.05);
   EXPECT_EQ(m->moffat.truncation, 0.0);
 }

@@ -61,7 +61,9 @@ TEST(RunConfigDefaults, EqualTheEngineStructDefaults) {
   EXPECT_EQ(c.fitter.render.padding, f.render.padding);
   EXPECT_EQ(c.fitter.lm.max_iterations, f.lm.max_iterations);
   EXPECT_EQ(c.fitter.noise_sigma, 0.0);
-  EXPECT_EQ(c.psf_input, PsfInput::kMoffat);
+  EXPECT_EQ(c.psf_kind, PsfKind::kMoffat);
+  EXPECT_FALSE(c.psf_from_catalogue);
+  EXPECT_EQ(c.fitter.renderer, RendererKind::kUpsampled);
   EXPECT_EQ(c.batch_size, 32);
   EXPECT_TRUE(c.explicitly_set.empty());
 
@@ -124,7 +126,7 @@ TEST(RunConfigRegistry, ListsEveryKeyOnceWithItsDefaultAndHelp) {
     EXPECT_FALSE(o.help.empty()) << o.name;
   }
   for (const char* key :
-       {"stamp_size", "upsampling", "n_central_pixels_to_upsample", "n_central_pixel_upsampling", "padding",
+       {"renderer", "stamp_size", "upsampling", "n_central_pixels_to_upsample", "n_central_pixel_upsampling", "padding",
         "noise_sigma", "levmar_eps1", "levmar_eps2", "levmar_eps3", "levmar_eps4", "levmar_LM_INIT_MU",
         "minimizer_max_iterations", "ellipticity_mirror", "radius_softening", "psf_input", "psf_beta", "psf_fwhm",
         "psf_e1", "psf_e2", "psf_truncation", "airy_lambda_over_d", "airy_obscuration", "psf_image",
@@ -137,7 +139,7 @@ TEST(RunConfigRegistry, ListsEveryKeyOnceWithItsDefaultAndHelp) {
     for (const char* suffix : {"_start", "_min", "_max", "_free"})
       EXPECT_TRUE(names.contains(n + suffix)) << n + suffix;
   }
-  EXPECT_EQ(options.size(), 36u + 4u * kNumParams);
+  EXPECT_EQ(options.size(), 37u + 4u * kNumParams);
 }
 
 // --- get / set -----------------------------------------------------------------------------------
@@ -192,7 +194,14 @@ TEST(RunConfigSet, ParsesEachKindAndRecordsExplicitKeys) {
   set_option(c, "noise_sigma", "2.5e-1");
   EXPECT_EQ(c.fitter.noise_sigma, 0.25);
   set_option(c, "psf_input", "Moffat_Catalog");
-  EXPECT_EQ(c.psf_input, PsfInput::kMoffatCatalog);
+  EXPECT_TRUE(c.psf_from_catalogue);
+  EXPECT_EQ(c.psf_kind, PsfKind::kMoffat);
+  EXPECT_EQ(get_option(c, "psf_input"), "moffat_catalog");
+  set_option(c, "psf_input", "image");
+  EXPECT_FALSE(c.psf_from_catalogue);
+  EXPECT_EQ(c.psf_kind, PsfKind::kImage);
+  set_option(c, "renderer", "Upsampled");
+  EXPECT_EQ(get_option(c, "renderer"), "upsampled");
   for (const char* t : {"true", "TRUE", "Yes", "1"}) {
     set_option(c, "psf_pixel_integrated", "false");
     set_option(c, "psf_pixel_integrated", t);
@@ -241,6 +250,7 @@ TEST(RunConfigSet, RejectsBadValuesAndLeavesTheConfigUnchanged) {
       {"psf_pixel_integrated", "maybe", "expected true/false"},
       {"psf_pixel_integrated", "", "expected true/false"},
       {"psf_input", "gaussian", "expected moffat, airy, moffat_catalog or image"},
+      {"renderer", "exact", "expected upsampled"},
       {"simd", "avx3", "expected best, scalar, sse4.2, avx2 or avx512"},
       {"save_images", "3,,4", "comma-separated"},
       {"save_images", "3,x", "comma-separated"},
@@ -300,7 +310,7 @@ TEST_F(RunConfigFile, ParsesCommentsBlankLinesAndSections) {
   load_ini(c, path);
   EXPECT_EQ(c.fitter.render.upsampling, 7);
   EXPECT_EQ(c.fitter.render.padding, 2);
-  EXPECT_EQ(c.psf_input, PsfInput::kAiry);
+  EXPECT_EQ(c.psf_kind, PsfKind::kAiry);
   EXPECT_EQ(c.airy.lambda_over_d, 1.75);
   EXPECT_EQ(c.psf_image, "");
   EXPECT_EQ(c.fitter.params[Param::kRadiusRatio].start, 1.5);

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "engine/fit/fitter.hpp"
-#include "engine/render/psf_kernel.hpp"
+#include "engine/model/psf_model.hpp"
 #include "io/fits_file.hpp"
 #include "kernels/sersic.hpp"
 #include <cstdio>
@@ -47,9 +47,9 @@ inline std::vector<RenderCase> load_render_cases() {
   return cases;
 }
 
-inline PsfOptions case_psf(const RenderCase& c) {
-  PsfOptions psf;
-  psf.type = PsfType::kMoffat;
+inline PsfModel case_psf(const RenderCase& c) {
+  PsfModel psf;
+  psf.kind = PsfKind::kMoffat;
   psf.moffat = {c.psf_beta, c.psf_fwhm, c.psf_e1, c.psf_e2, 0.0};
   return psf;
 }

@@ -13,7 +13,7 @@ namespace {
 // interpolates the profile linearly, hence the 1% tolerance).
 TEST(RingStudy, SizeRatioMatchesGalSimCalibration) {
   FftPlanCache plans(FftPlanning::kEstimate);
-  PsfOptions psf;
+  PsfModel psf;
   psf.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};
   const double disc = half_light_radius_for_size_ratio(1.0, 1.4, psf, plans);
   const double bulge = half_light_radius_for_size_ratio(4.0, 1.4, psf, plans);
@@ -28,7 +28,7 @@ TEST(RingStudy, SizeRatioMatchesGalSimCalibration) {
 // A co-elliptical bulge + disc (the model itself) must also show no additive bias with a round PSF.
 TEST(RingStudy, Figure2RequirementsHoldAtDefaults) {
   FftPlanCache plans(FftPlanning::kEstimate);
-  PsfOptions psf;
+  PsfModel psf;
   psf.moffat = {3.5, 2.85, 0.0, 0.0, 0.0};
   struct Galaxy {
     double bulge_fraction, n, size;
@@ -57,7 +57,7 @@ TEST(RingStudy, Figure2RequirementsHoldAtDefaults) {
 // between them; m changes sign across both. Size 1.2, Moffat beta 3 FWHM 2.85 e = (0.03, 0.03).
 TEST(RingStudy, Figure4BiasVanishesAtTheModelsIndices) {
   FftPlanCache plans(FftPlanning::kEstimate);
-  PsfOptions psf;
+  PsfModel psf;
   psf.moffat = {3.0, 2.85, 0.03, 0.03, 0.0};
   auto m_at = [&](double n) {
     RingStudyConfig cfg;

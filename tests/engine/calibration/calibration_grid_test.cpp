@@ -20,7 +20,7 @@ CalibrationGridOptions small_grid() {
   o.e_max = 0.6;
   o.realisations = 3;
   o.stamp_size = 31;
-  o.psf.type = PsfType::kMoffat;
+  o.psf.kind = PsfKind::kMoffat;
   o.psf.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};
   return o;
 }
@@ -193,7 +193,7 @@ TEST(CalibrationGrid, InvalidOptionsNameTheOption) {
   o.realisations = 1;
   EXPECT_NE(message(o).find("--realisations 1"), std::string::npos);
   o = small_grid();
-  o.psf.type = PsfType::kImage;
+  o.psf.kind = PsfKind::kImage;
   EXPECT_NE(message(o).find("psf_input"), std::string::npos);
   EXPECT_THROW(CalibrationGrid{o}, std::invalid_argument);
 }

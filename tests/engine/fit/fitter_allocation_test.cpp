@@ -7,6 +7,7 @@
 #include <new>
 
 #include "engine/fit/fitter.hpp"
+#include "engine/render/psf_kernel.hpp"
 #include "support/reference_data.hpp"
 
 namespace {

@@ -1,4 +1,5 @@
-// Fitting one stamp: noise-free recovery of the GalSim reference cases, bad input, option checks.
+// Fitting one stamp: errors and S/N, bad input, option checks (the noise-free recovery of the GalSim
+// reference cases is in tests/engine/render/renderer_contract_test.cpp, per renderer).
 #include "engine/fit/fitter.hpp"
 
 #include <gtest/gtest.h>
@@ -7,45 +8,17 @@
 #include <cstdio>
 #include <limits>
 
+#include "engine/render/psf_kernel.hpp"
 #include "support/reference_data.hpp"
 
 namespace stampede {
 namespace {
 
-std::shared_ptr<const PsfKernel> kernel_for(const FitterOptions& fo, const PsfOptions& psf, FftPlanCache& plans) {
+std::shared_ptr<const PsfKernel> kernel_for(const FitterOptions& fo, const PsfModel& psf, FftPlanCache& plans) {
   std::string err;
   auto k = PsfKernel::build(psf, GridGeometry(fo.render), plans, &err);
   EXPECT_TRUE(k) << err;
   return k;
-}
-
-// Must-show 4: from a perturbed start, every reference case is recovered to |de| <= 2e-3 and
-// |dx| <= 1e-2 px at the default settings.
-TEST(Fitter, RecoversGalSimReferenceCasesFromPerturbedStart) {
-  FftPlanCache plans(FftPlanning::kEstimate);
-  double worst_e = 0, worst_x = 0;
-  for (const auto& c : testing::load_render_cases()) {
-    FitterOptions fo;
-    fo.render.stamp_size = c.stamp;
-    Fitter fitter(fo, kernel_for(fo, testing::case_psf(c), plans), plans);
-    ParamVector start = testing::case_truth(c);
-    start[index(Param::kX0)] += 0.3;
-    start[index(Param::kY0)] -= 0.2;
-    start[index(Param::kE1)] += 0.05;
-    start[index(Param::kE2)] -= 0.05;
-    start[index(Param::kRadius)] *= 1.2;
-    start[index(Param::kBulgeA)] = 0.8 * start[index(Param::kBulgeA)] + 10;
-    start[index(Param::kDiscA)] = 1.1 * start[index(Param::kDiscA)] + 1;
-    const FitResult r = fitter.fit_from(c.image, {}, start);
-    EXPECT_TRUE(IsUsable(r.status)) << "case " << c.id << ": " << ToString(r.status);
-    const double de = std::max(std::abs(r.params[index(Param::kE1)] - c.e1), std::abs(r.params[index(Param::kE2)] - c.e2));
-    const double dx = std::max(std::abs(r.params[index(Param::kX0)] - c.x0), std::abs(r.params[index(Param::kY0)] - c.y0));
-    EXPECT_LE(de, 2e-3) << "case " << c.id;
-    EXPECT_LE(dx, 1e-2) << "case " << c.id;
-    worst_e = std::max(worst_e, de);
-    worst_x = std::max(worst_x, dx);
-  }
-  std::printf("worst |de| = %.2e, worst |dx| = %.2e px over the 22 cases\n", worst_e, worst_x);
 }
 
 // The reported errors and S/N follow the weights: with noise sigma, snr = sqrt(sum m^2) / sigma.
@@ -116,8 +89,8 @@ TEST_F(FitterBadInput, AllZeroOrZeroWeightGiveNoData) {
 }
 
 TEST_F(FitterBadInput, UnnormalisablePsfImageGivesPsfFailure) {
-  PsfOptions psf;
-  psf.type = PsfType::kImage;
+  PsfModel psf;
+  psf.kind = PsfKind::kImage;
   auto img = std::make_shared<PsfImage>();
   img->nx = img->ny = 9;
   img->pixels.assign(81, 0.0);
@@ -168,15 +141,15 @@ TEST(FitterOptions, InvalidOptionsNameTheOption) {
     FftPlanCache plans(FftPlanning::kEstimate);
     EXPECT_THROW(Fitter(o, nullptr, plans), std::invalid_argument);
   }
-  PsfOptions psf;
+  PsfModel psf;
   psf.moffat.beta = 0.8;
   std::string why;
   EXPECT_FALSE(psf.IsValid(&why));
   EXPECT_NE(why.find("psf_beta = 0.8"), std::string::npos) << why;
-  PsfType t;
-  EXPECT_FALSE(parse_psf_type("gaussian", &t));
-  EXPECT_TRUE(parse_psf_type("airy", &t));
-  EXPECT_EQ(t, PsfType::kAiry);
+  PsfKind t;
+  EXPECT_FALSE(parse_psf_kind("gaussian", &t));
+  EXPECT_TRUE(parse_psf_kind("airy", &t));
+  EXPECT_EQ(t, PsfKind::kAiry);
 }
 
 }  // namespace

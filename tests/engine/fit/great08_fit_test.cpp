@@ -8,6 +8,7 @@
 #include <cstdio>
 
 #include "engine/fit/fitter.hpp"
+#include "engine/render/psf_kernel.hpp"
 #include "io/stamp_grid.hpp"
 #include "support/reference_data.hpp"
 
@@ -25,7 +26,7 @@ TEST(Great08Mini, NoiseFreeSetsRecoverTrueEllipticities) {
     fo.render.stamp_size = grid.stamp_size();
     fo.noise_sigma = h.key_double("NOISESIG");
     ASSERT_EQ(fo.noise_sigma, 0.0);
-    PsfOptions psf;
+    PsfModel psf;
     psf.moffat = {h.key_double("PSFBETA"), h.key_double("PSFFWHM"), h.key_double("PSFE1"), h.key_double("PSFE2"), 0.0};
     io::FitsFile truth = io::FitsFile::open_read(dir + "truth_" + std::to_string(set) + ".fits");
     truth.move_to("TRUTH");

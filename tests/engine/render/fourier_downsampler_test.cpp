@@ -27,7 +27,7 @@ TEST(FourierDownsampler, EqualsFullInverseThenBlockAverage) {
         const GridGeometry g(ro);
         ASSERT_EQ(g.size % upsampling, 0);
         FftPlanCache plans(FftPlanning::kEstimate);
-        PsfOptions psf;
+        PsfModel psf;
         psf.moffat = {3.0, 2.85, 0.05, -0.02, 0.0};
         std::string err;
         auto kernel = PsfKernel::build(psf, g, plans, &err);

@@ -14,7 +14,7 @@
 namespace stampede {
 namespace {
 
-std::vector<double> render_with(const PsfOptions& psf, const RenderOptions& ro, FftPlanCache& plans) {
+std::vector<double> render_with(const PsfModel& psf, const RenderOptions& ro, FftPlanCache& plans) {
   std::string err;
   auto kernel = PsfKernel::build(psf, GridGeometry(ro), plans, &err);
   EXPECT_TRUE(kernel) << err;
@@ -55,13 +55,13 @@ std::shared_ptr<PsfImage> read_psf_image(io::FitsFile& f, int oversampling, bool
 TEST(PsfKernel, ImagePsfsMatchTheAnalyticMoffat) {
   FftPlanCache plans(FftPlanning::kEstimate);
   RenderOptions ro;
-  PsfOptions moffat;
+  PsfModel moffat;
   moffat.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};
   const std::vector<double> reference = render_with(moffat, ro, plans);
 
   io::FitsFile f = io::FitsFile::open_read(testing::data_path("galsim-great08-mini/nf/psf_0.fits"));
-  PsfOptions image;
-  image.type = PsfType::kImage;
+  PsfModel image;
+  image.kind = PsfKind::kImage;
   image.image = read_psf_image(f, 1, true);  // primary HDU: pixel-integrated, data resolution
   const double data_res = worst_over_peak(render_with(image, ro, plans), reference);
   f.move_to("PSF_NOPIX_OS");
@@ -78,8 +78,8 @@ TEST(PsfKernel, ImagePsfsMatchTheAnalyticMoffat) {
 
 TEST(PsfKernel, RejectsMalformedImagesAndOptions) {
   FftPlanCache plans(FftPlanning::kEstimate);
-  PsfOptions psf;
-  psf.type = PsfType::kImage;
+  PsfModel psf;
+  psf.kind = PsfKind::kImage;
   std::string why;
   EXPECT_FALSE(psf.IsValid(&why));
   EXPECT_NE(why.find("needs a PSF image"), std::string::npos) << why;
@@ -94,8 +94,8 @@ TEST(PsfKernel, RejectsMalformedImagesAndOptions) {
   EXPECT_TRUE(psf.IsValid(&why));
   EXPECT_FALSE(PsfKernel::build(psf, GridGeometry(RenderOptions{}), plans, &why));
   EXPECT_NE(why.find("cannot be normalised"), std::string::npos) << why;
-  PsfOptions airy;
-  airy.type = PsfType::kAiry;
+  PsfModel airy;
+  airy.kind = PsfKind::kAiry;
   airy.airy.obscuration = 1.0;
   EXPECT_FALSE(airy.IsValid(&why));
   EXPECT_NE(why.find("airy_obscuration = 1"), std::string::npos) << why;

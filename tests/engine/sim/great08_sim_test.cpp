@@ -275,7 +275,7 @@ TEST(Great08Sim, InvalidOptionsNameTheOption) {
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("--size 0.9"), std::string::npos) << why;
   o = Great08SimOptions{};
-  o.psf.type = PsfType::kAiry;
+  o.psf.kind = PsfKind::kAiry;
   o.psf.airy.obscuration = 0.3;
   EXPECT_THROW(Great08Simulator{o}, std::invalid_argument);
 }

@@ -69,9 +69,9 @@ TEST(SimRenderer, MatchesGalSimReferenceCases) {
   std::printf("worst over all cases: %.2e of the peak\n", overall);
 }
 
-PsfOptions moffat(double beta, double fwhm, double e1 = 0, double e2 = 0) {
-  PsfOptions p;
-  p.type = PsfType::kMoffat;
+PsfModel moffat(double beta, double fwhm, double e1 = 0, double e2 = 0) {
+  PsfModel p;
+  p.kind = PsfKind::kMoffat;
   p.moffat = {beta, fwhm, e1, e2, 0.0};
   return p;
 }
@@ -79,8 +79,8 @@ PsfOptions moffat(double beta, double fwhm, double e1 = 0, double e2 = 0) {
 TEST(SimRenderer, PsfFwhmIsTheAnalyticOne) {
   EXPECT_NEAR(SimRenderer(moffat(3.0, 2.85), small_galaxies()).round_fwhm({}), 2.85, 1e-7);
   EXPECT_NEAR(SimRenderer(moffat(4.5, 1.7), small_galaxies()).round_fwhm({}), 1.7, 1e-7);
-  PsfOptions airy;
-  airy.type = PsfType::kAiry;
+  PsfModel airy;
+  airy.kind = PsfKind::kAiry;
   airy.airy.lambda_over_d = 2.5;
   // FWHM of the unobscured Airy disc: 1.02899397 lambda / D.
   EXPECT_NEAR(SimRenderer(airy, small_galaxies()).round_fwhm({}), 1.028993969962188 * 2.5, 1e-6);
@@ -135,7 +135,7 @@ TEST(SimRenderer, ConventionsForShearRotationAndShift) {
 // Each analytic PSF alone, against a direct midpoint quadrature of its intensity over the central
 // pixels (300^2 points per pixel: the reference's own error is ~7e-7 of the peak).
 TEST(SimRenderer, PsfImagesMatchDirectPixelQuadrature) {
-  auto worst_central = [](const PsfOptions& p) {
+  auto worst_central = [](const PsfModel& p) {
     SimRenderer r(p, small_galaxies());
     SimWorkspace ws;
     const int s = 25, c = 12, kSub = 300;
@@ -148,25 +148,25 @@ TEST(SimRenderer, PsfImagesMatchDirectPixelQuadrature) {
         for (int j = 0; j < kSub; ++j)
           for (int i = 0; i < kSub; ++i) {
             const double dx = x - c - 0.5 + (i + 0.5) / kSub, dy = y - c - 0.5 + (j + 0.5) / kSub;
-            sum += p.type == PsfType::kAiry ? kernels::airy_intensity(p.airy, dx, dy) : kernels::moffat_intensity(p.moffat, dx, dy);
+            sum += p.kind == PsfKind::kAiry ? kernels::airy_intensity(p.airy, dx, dy) : kernels::moffat_intensity(p.moffat, dx, dy);
           }
         worst = std::max(worst, std::abs(sum / (kSub * kSub) - image[y * s + x]));
       }
     return worst / image[c * s + c];
   };
-  PsfOptions p = moffat(3.0, 2.85, 0.05, -0.03);
+  PsfModel p = moffat(3.0, 2.85, 0.05, -0.03);
   EXPECT_LT(worst_central(p), 2e-6);
   p.moffat.truncation = 8.0;  // 2.8 FWHM: the transform rings; five aliases are summed
   EXPECT_LT(worst_central(p), 3e-6);
-  PsfOptions airy;
-  airy.type = PsfType::kAiry;
+  PsfModel airy;
+  airy.kind = PsfKind::kAiry;
   airy.airy.lambda_over_d = 2.77;
   EXPECT_LT(worst_central(airy), 5e-6);  // r^-3 wings: the period is ~1200 px
 }
 
 TEST(SimRenderer, RejectsWhatItCannotDraw) {
-  PsfOptions image_psf;
-  image_psf.type = PsfType::kImage;
+  PsfModel image_psf;
+  image_psf.kind = PsfKind::kImage;
   EXPECT_THROW(SimRenderer(image_psf, small_galaxies()), std::invalid_argument);
   SimRenderer r(moffat(3.0, 2.85), small_galaxies());
   SimWorkspace ws;

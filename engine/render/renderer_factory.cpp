@@ -1,0 +1,40 @@
+// The renderer factory; see renderer_factory.hpp.
+#include "engine/render/renderer_factory.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <string>
+
+#include "engine/render/upsampled_renderer.hpp"
+
+namespace stampede {
+
+const char* renderer_kind_name(RendererKind kind) {
+  switch (kind) {
+    case RendererKind::kUpsampled: return "upsampled";
+  }
+  return "?";
+}
+
+bool parse_renderer_kind(std::string_view name, RendererKind* out) {
+  std::string s(name);
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  for (RendererKind k : {RendererKind::kUpsampled})
+    if (s == renderer_kind_name(k)) {
+      *out = k;
+      return true;
+    }
+  return false;
+}
+
+const char* renderer_kind_names() { return "upsampled"; }
+
+std::unique_ptr<Renderer> make_renderer(RendererKind kind, const RenderOptions& render, const ModelOptions& model,
+                                        FftPlanCache& plans) {
+  switch (kind) {
+    case RendererKind::kUpsampled: return std::make_unique<UpsampledRenderer>(render, model, nullptr, plans);
+  }
+  throw std::invalid_argument("make_renderer: unknown renderer kind");
+}
+
+}  // namespace stampede
