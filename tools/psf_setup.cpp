@@ -8,6 +8,7 @@
 #include <string>
 
 #include "io/fits_file.hpp"
+#include "kernels/math/airy.hpp"
 
 namespace stampede::tools {
 
@@ -22,7 +23,7 @@ SharedPsf build_shared_psf(const io::RunConfig& cfg, const GridGeometry& geometr
     psf.type = PsfType::kAiry;
     psf.airy = cfg.airy;
     out.e1 = out.e2 = 0.0;
-    out.fwhm = 1.028993969962188 * cfg.airy.lambda_over_d;  // FWHM of the unobscured Airy disc
+    out.fwhm = kernels::kAiryFwhmOverLambdaOverD * cfg.airy.lambda_over_d;  // FWHM of the unobscured Airy disc
   } else if (cfg.psf_input == io::PsfInput::kImage) {
     psf.type = PsfType::kImage;
     io::FitsFile f = io::FitsFile::open_read(cfg.psf_image);

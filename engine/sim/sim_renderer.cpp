@@ -13,7 +13,8 @@
 #include <stdexcept>
 
 #include "engine/common/parallel_indices.hpp"
-#include "engine/render/render_options.hpp"
+#include "kernels/math/fft_size.hpp"
+#include "kernels/math/sinc.hpp"
 #include "kernels/sersic.hpp"
 
 namespace stampede {
@@ -22,8 +23,6 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 constexpr double kPsfTransformFloor = 1e-12;  // aliases are summed out to here
 constexpr int kMaxGrid = 2048;
-
-double sinc(double x) { return std::abs(x) < 1e-8 ? 1.0 - x * x / 6 : std::sin(x) / x; }
 
 // Radius beyond which a Sérsic's surface brightness is below 1e-6 of its value at r_e.
 double sersic_tail_radius(double n, double hlr) {
@@ -181,7 +180,7 @@ void SimRenderer::draw(std::span<const SimComponent> components, bool psf_only, 
   if (size < 1 || out.size() != static_cast<std::size_t>(size) * size)
     throw std::invalid_argument("SimRenderer: output does not hold size^2 pixels");
   const double reach = tail_radius + psf_tail_radius_ + 2.0;  // pixels
-  const int n = fft_friendly_size(std::min(kMaxGrid, size + static_cast<int>(std::ceil(reach / step))));
+  const int n = kernels::fft_friendly_size(std::min(kMaxGrid, size + static_cast<int>(std::ceil(reach / step))));
   if (n < size) throw std::invalid_argument("SimRenderer: stamp larger than the largest grid");
   SimWorkspace::Grid& grid = ws.grid(n);
   auto* spectrum = static_cast<std::complex<double>*>(grid.spectrum.data());
@@ -221,7 +220,7 @@ void SimRenderer::draw(std::span<const SimComponent> components, bool psf_only, 
           if (kx * kx + ky * ky > k_bound * k_bound) continue;
           double psf = psf_transform(kx, ky);
           if (psf == 0.0) continue;
-          if (with_pixel) psf *= sinc(0.5 * kx) * sinc(0.5 * ky);
+          if (with_pixel) psf *= kernels::sinc(0.5 * kx) * kernels::sinc(0.5 * ky);
           if (psf_only) {
             sum += psf * std::polar(1.0, -(kx * cx + ky * cy) * step);
             continue;
