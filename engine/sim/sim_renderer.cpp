@@ -14,6 +14,7 @@
 
 #include "engine/common/parallel_indices.hpp"
 #include "kernels/math/fft_size.hpp"
+#include "kernels/math/gauss_legendre.hpp"
 #include "kernels/math/sinc.hpp"
 #include "kernels/sersic.hpp"
 
@@ -28,12 +29,6 @@ constexpr int kMaxGrid = 2048;
 double sersic_tail_radius(double n, double hlr) {
   return hlr * std::pow(1.0 + std::log(1e6) / kernels::sersic_b(n), n);
 }
-
-// 12-point Gauss-Legendre on [-1, 1] (nodes to double precision; weights sum to 2).
-constexpr double kGlX[6] = {0.1252334085114689, 0.3678314989981802, 0.5873179542866175,
-                            0.7699026741943047, 0.9041172563704749, 0.9815606342467192};
-constexpr double kGlW[6] = {0.2491470458134028, 0.2334925365383548, 0.2031674267230659,
-                            0.1600783285433462, 0.1069393259953184, 0.0471753363865118};
 
 }  // namespace
 
@@ -252,9 +247,9 @@ double SimRenderer::round_fwhm(std::span<const SimComponent> components) const {
   std::vector<double> nodes, coeffs;
   for (double a = 0; a < k_limit_; a += kPanel) {
     const double mid = a + 0.5 * kPanel, h = 0.5 * kPanel;
-    for (int i = 0; i < 6; ++i)
-      for (double sgn : {-1.0, 1.0}) {
-        const double k = mid + sgn * h * kGlX[i];
+    const kernels::GaussLegendre12& gl = kernels::gauss_legendre_12();
+    for (int i = 0; i < kernels::GaussLegendre12::kN; ++i) {
+        const double k = mid + h * gl.x[i];
         double f = psf_round_transform(k);
         if (!components.empty()) {
           double g = 0;
@@ -263,7 +258,7 @@ double SimRenderer::round_fwhm(std::span<const SimComponent> components) const {
           f *= g;
         }
         nodes.push_back(k);
-        coeffs.push_back(kGlW[i] * h * k * f);
+        coeffs.push_back(gl.w[i] * h * k * f);
       }
   }
   auto intensity = [&](double r) {
