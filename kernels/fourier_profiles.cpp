@@ -4,11 +4,11 @@
 #include <math.h>  // j0: glibc's is ~15x faster than std::cyl_bessel_j and agrees to 1e-12
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
 
+#include "kernels/math/gauss_legendre.hpp"
 #include "kernels/sersic.hpp"
 
 namespace stampede::kernels {
@@ -19,44 +19,6 @@ constexpr double kPi = std::numbers::pi;
 double log_gamma(double x) {
   int sign = 0;
   return ::lgamma_r(x, &sign);  // reentrant: the tables may be built on several threads
-}
-
-// 12-point Gauss-Legendre rule on [-1, 1], nodes by Newton iteration on P_12.
-struct GaussLegendre {
-  static constexpr int kN = 12;
-  std::array<double, kN> x{}, w{};
-  GaussLegendre() {
-    for (int i = 0; i < kN; ++i) {
-      double z = std::cos(kPi * (i + 0.75) / (kN + 0.5));
-      double dp = 0;
-      for (int it = 0; it < 100; ++it) {
-        double p0 = 1, p1 = z;
-        for (int k = 2; k <= kN; ++k) {
-          const double p2 = ((2 * k - 1) * z * p1 - (k - 1) * p0) / k;
-          p0 = p1;
-          p1 = p2;
-        }
-        dp = kN * (z * p1 - p0) / (z * z - 1);
-        const double dz = p1 / dp;
-        z -= dz;
-        if (std::abs(dz) < 1e-16) break;
-      }
-      x[i] = z;
-      w[i] = 2 / ((1 - z * z) * dp * dp);
-    }
-  }
-  template <class F>
-  double integrate(double a, double b, F&& f) const {
-    const double mid = 0.5 * (a + b), half = 0.5 * (b - a);
-    double s = 0;
-    for (int i = 0; i < kN; ++i) s += w[i] * f(mid + half * x[i]);
-    return s * half;
-  }
-};
-
-const GaussLegendre& gauss_legendre() {
-  static const GaussLegendre rule;  // immutable after (thread-safe) initialisation
-  return rule;
 }
 
 }  // namespace
@@ -78,7 +40,7 @@ double sersic_fourier(double n, double q) {
   auto weight = [&](double u) { return u > 0 ? std::exp(-u + (a - 1) * std::log(u) - lg) : 0.0; };
   auto phase = [&](double u) { return q * std::pow(u / b, n); };
   auto u_at_phase = [&](double p) { return b * std::pow(p / q, 1.0 / n); };
-  const GaussLegendre& gl = gauss_legendre();
+  const GaussLegendre12& gl = gauss_legendre_12();
   constexpr double kMaxPanel = 0.5;  // resolves the Gamma density
   constexpr double kTolerance = 1e-12;  // absolute, on F(0) = 1
   double sum = 0, u = 0;
@@ -119,7 +81,7 @@ double moffat_fourier(double beta, double truncation_over_alpha, double x) {
   const double t = truncation_over_alpha;
   const double norm = (1 - std::pow(1 + t * t, 1 - beta)) / (2 * (beta - 1));
   const double panel = x > 0 ? std::min(0.25, kPi / x) : 0.25;
-  const GaussLegendre& gl = gauss_legendre();
+  const GaussLegendre12& gl = gauss_legendre_12();
   double sum = 0;
   for (double r = 0; r < t; r += panel) {
     sum += gl.integrate(r, std::min(t, r + panel),

@@ -8,15 +8,16 @@
 #include <vector>
 
 #include "engine/render/upsampled_renderer.hpp"
+#include "kernels/math/lensing.hpp"
 #include "kernels/sersic.hpp"
 
 namespace stampede {
 namespace {
 
 double psf_fwhm(const PsfModel& psf) {
-  if (psf.kind == PsfKind::kMoffat) return psf.moffat.fwhm;
-  if (psf.kind == PsfKind::kAiry) return 1.028993969962188 * psf.airy.lambda_over_d;  // unobscured
-  throw std::invalid_argument("size ratio needs an analytic PSF");
+  const double fwhm = psf.fwhm();  // NaN for an image
+  if (std::isnan(fwhm)) throw std::invalid_argument("size ratio needs an analytic PSF");
+  return fwhm;
 }
 
 }  // namespace
@@ -112,7 +113,7 @@ RingStudyResult run_ring_study(const RingStudyConfig& cfg, FftPlanCache& plans) 
       const double theta = M_PI * a / cfg.n_angles;
       auto sheared = [&](double magnitude) {
         const std::complex<double> e_int = std::polar(magnitude, 2.0 * theta);
-        return (e_int + shear) / (1.0 + std::conj(shear) * e_int);
+        return kernels::lens_ellipticity(e_int, shear);
       };
       // Each component drawn alone (the other's amplitude 0), then summed.
       std::fill(image.begin(), image.end(), 0.0);

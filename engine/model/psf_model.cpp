@@ -8,6 +8,7 @@
 
 #include "kernels/ellipse.hpp"
 #include "kernels/fourier_profiles.hpp"
+#include "kernels/math/airy.hpp"
 
 namespace stampede {
 namespace {
@@ -186,7 +187,7 @@ double PsfModel::e2() const {
 
 double PsfModel::fwhm() const {
   if (kind == PsfKind::kMoffat) return moffat.fwhm;
-  if (kind == PsfKind::kAiry) return 1.028993969962188 * airy.lambda_over_d;  // the unobscured disc's
+  if (kind == PsfKind::kAiry) return kernels::kAiryFwhmOverLambdaOverD * airy.lambda_over_d;  // the unobscured disc's
   return NAN;
 }
 

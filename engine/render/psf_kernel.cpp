@@ -7,12 +7,13 @@
 #include <cmath>
 #include <numbers>
 
+#include "kernels/math/sinc.hpp"
 #include "kernels/moments.hpp"
 
 namespace stampede {
 namespace {
 
-inline double sinc(double x) { return std::abs(x) < 1e-12 ? 1.0 : std::sin(x) / x; }
+using kernels::sinc;
 inline int signed_frequency(int k, int n) { return k <= n / 2 ? k : k - n; }
 
 // Multiplies a half-spectrum by the sub-pixel top-hat sinc(pi k / n) per axis and by 1/n^2.

@@ -1,19 +1,9 @@
 // Render option validation; see render_options.hpp.
 #include "engine/render/render_options.hpp"
 
-#include <algorithm>
 #include <sstream>
 
 namespace stampede {
-
-int fft_friendly_size(int n) {
-  for (int m = std::max(n, 1);; ++m) {
-    int r = m;
-    for (int f : {2, 3, 5, 7})
-      while (r % f == 0) r /= f;
-    if (r == 1) return m;
-  }
-}
 
 bool RenderOptions::IsValid(std::string* why) const {
   std::ostringstream msg;

@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include "kernels/math/fft_size.hpp"
 #include "kernels/profile_render.hpp"
 
 namespace stampede {
@@ -25,9 +26,6 @@ struct RenderOptions {
   bool IsValid(std::string* why) const;
 };
 
-// Smallest n' >= n whose only prime factors are 2, 3, 5 and 7 (FFTW's fast sizes).
-int fft_friendly_size(int n);
-
 // The upsampled model grid: upsampling x M sub-pixels per side, M the FFT-friendly size at least
 // stamp_size + 2 padding (a whole number of data pixels, so the downsampling can be done in
 // Fourier space); the stamp sits in the middle (the margins may differ by one sub-pixel).
@@ -42,7 +40,7 @@ struct GridGeometry {
       : stamp_size(o.stamp_size),
         upsampling(o.upsampling),
         padding(o.padding),
-        size(o.upsampling * fft_friendly_size(o.stamp_size + 2 * o.padding)),
+        size(o.upsampling * kernels::fft_friendly_size(o.stamp_size + 2 * o.padding)),
         offset((size - o.upsampling * o.stamp_size) / 2) {}
   int grid_size() const { return size; }
   double step() const { return 1.0 / upsampling; }

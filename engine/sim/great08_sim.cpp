@@ -9,14 +9,13 @@
 
 #include "engine/common/parallel_indices.hpp"
 #include "engine/common/random_stream.hpp"
+#include "kernels/math/lensing.hpp"
 
 namespace stampede {
 namespace {
 
 // Purposes of the random streams (the last key of each).
 enum StreamPurpose : std::uint64_t { kShearStream = 1, kGalaxyStream = 2, kNoiseStream = 3 };
-
-std::complex<double> lens(std::complex<double> e, std::complex<double> g) { return (e + g) / (1.0 + std::conj(g) * e); }
 
 // Intrinsic e: each component N(0, sigma), redrawn until |e| < e_max.
 std::complex<double> draw_ellipticity(RandomStream& rng, double sigma, double e_max) {
@@ -243,7 +242,7 @@ SimSet Great08Simulator::simulate_set(int k) const {
           const double sign = member == 0 ? 1.0 : -1.0;
           const std::complex<double> turn90 = member == 0 ? 1.0 : std::complex<double>(0, 1);
           const std::complex<double> ed = sign * e_disc, eb = sign * e_bulge;
-          const std::complex<double> ed_obs = lens(ed, g), eb_obs = lens(eb, g);
+          const std::complex<double> ed_obs = kernels::lens_ellipticity(ed, g), eb_obs = kernels::lens_ellipticity(eb, g);
           const std::complex<double> ob = turn90 * offset_bulge;
           const std::complex<double> ob_obs(sm[0] * ob.real() + sm[1] * ob.imag(),
                                             sm[1] * ob.real() + sm[2] * ob.imag());

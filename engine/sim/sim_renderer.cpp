@@ -13,7 +13,9 @@
 #include <stdexcept>
 
 #include "engine/common/parallel_indices.hpp"
-#include "engine/render/render_options.hpp"
+#include "kernels/math/fft_size.hpp"
+#include "kernels/math/gauss_legendre.hpp"
+#include "kernels/math/sinc.hpp"
 #include "kernels/sersic.hpp"
 
 namespace stampede {
@@ -23,18 +25,10 @@ constexpr double kPi = std::numbers::pi;
 constexpr double kPsfTransformFloor = 1e-12;  // aliases are summed out to here
 constexpr int kMaxGrid = 2048;
 
-double sinc(double x) { return std::abs(x) < 1e-8 ? 1.0 - x * x / 6 : std::sin(x) / x; }
-
 // Radius beyond which a Sérsic's surface brightness is below 1e-6 of its value at r_e.
 double sersic_tail_radius(double n, double hlr) {
   return hlr * std::pow(1.0 + std::log(1e6) / kernels::sersic_b(n), n);
 }
-
-// 12-point Gauss-Legendre on [-1, 1] (nodes to double precision; weights sum to 2).
-constexpr double kGlX[6] = {0.1252334085114689, 0.3678314989981802, 0.5873179542866175,
-                            0.7699026741943047, 0.9041172563704749, 0.9815606342467192};
-constexpr double kGlW[6] = {0.2491470458134028, 0.2334925365383548, 0.2031674267230659,
-                            0.1600783285433462, 0.1069393259953184, 0.0471753363865118};
 
 }  // namespace
 
@@ -181,7 +175,7 @@ void SimRenderer::draw(std::span<const SimComponent> components, bool psf_only, 
   if (size < 1 || out.size() != static_cast<std::size_t>(size) * size)
     throw std::invalid_argument("SimRenderer: output does not hold size^2 pixels");
   const double reach = tail_radius + psf_tail_radius_ + 2.0;  // pixels
-  const int n = fft_friendly_size(std::min(kMaxGrid, size + static_cast<int>(std::ceil(reach / step))));
+  const int n = kernels::fft_friendly_size(std::min(kMaxGrid, size + static_cast<int>(std::ceil(reach / step))));
   if (n < size) throw std::invalid_argument("SimRenderer: stamp larger than the largest grid");
   SimWorkspace::Grid& grid = ws.grid(n);
   auto* spectrum = static_cast<std::complex<double>*>(grid.spectrum.data());
@@ -221,7 +215,7 @@ void SimRenderer::draw(std::span<const SimComponent> components, bool psf_only, 
           if (kx * kx + ky * ky > k_bound * k_bound) continue;
           double psf = psf_transform(kx, ky);
           if (psf == 0.0) continue;
-          if (with_pixel) psf *= sinc(0.5 * kx) * sinc(0.5 * ky);
+          if (with_pixel) psf *= kernels::sinc(0.5 * kx) * kernels::sinc(0.5 * ky);
           if (psf_only) {
             sum += psf * std::polar(1.0, -(kx * cx + ky * cy) * step);
             continue;
@@ -253,9 +247,9 @@ double SimRenderer::round_fwhm(std::span<const SimComponent> components) const {
   std::vector<double> nodes, coeffs;
   for (double a = 0; a < k_limit_; a += kPanel) {
     const double mid = a + 0.5 * kPanel, h = 0.5 * kPanel;
-    for (int i = 0; i < 6; ++i)
-      for (double sgn : {-1.0, 1.0}) {
-        const double k = mid + sgn * h * kGlX[i];
+    const kernels::GaussLegendre12& gl = kernels::gauss_legendre_12();
+    for (int i = 0; i < kernels::GaussLegendre12::kN; ++i) {
+        const double k = mid + h * gl.x[i];
         double f = psf_round_transform(k);
         if (!components.empty()) {
           double g = 0;
@@ -264,7 +258,7 @@ double SimRenderer::round_fwhm(std::span<const SimComponent> components) const {
           f *= g;
         }
         nodes.push_back(k);
-        coeffs.push_back(kGlW[i] * h * k * f);
+        coeffs.push_back(gl.w[i] * h * k * f);
       }
   }
   auto intensity = [&](double r) {

@@ -19,59 +19,26 @@
 #include <vector>
 
 #include "io/fits_file.hpp"
-#include "support/command_runner.hpp"
-#include "support/scratch_dir.hpp"
+#include "support/fit_output.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
+using stampede::testing::column;
+using stampede::testing::expect_tables_equal;
 using stampede::testing::finish;
+using stampede::testing::kGreat08Psf;
 using stampede::testing::RunResult;
 using stampede::testing::spawn;
+using stampede::testing::operator+;
+using FitCommand = stampede::testing::FitCommandTest;
 
 std::string data(const std::string& rel) { return std::string(STAMPEDE_DATA_DIR) + "/" + rel; }
 
-class FitCommand : public ::testing::Test {
- protected:
-  std::string path(const std::string& name) const { return scratch.path(name); }
-  RunResult run(std::vector<std::string> args) { return finish(spawn(args, path("stderr.txt")), path("stderr.txt")); }
-  stampede::testing::ScratchDir scratch{std::string("stampede_fit_") +
-                                          ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_"};
-};
-
-const std::vector<std::string> kGreat08Psf = {"--set", "psf_beta=3", "--set", "psf_fwhm=2.85", "--set", "psf_e1=0",
-                                             "--set", "psf_e2=0.05"};
 // A cheap configuration for the engine-level tests (results need not be accurate, only identical).
 const std::vector<std::string> kCheap = {"--set", "upsampling=2", "--set", "n_central_pixels_to_upsample=1", "--set",
                                         "padding=0", "--set", "minimizer_max_iterations=20"};
-
-std::vector<std::string> operator+(std::vector<std::string> a, const std::vector<std::string>& b) {
-  a.insert(a.end(), b.begin(), b.end());
-  return a;
-}
-
-std::vector<double> column(const std::string& file, const std::string& name) {
-  auto f = stampede::io::FitsFile::open_read(file);
-  f.move_to("RESULTS");
-  return f.read_column(name);
-}
-
-void expect_tables_equal(const std::string& a, const std::string& b) {
-  auto fa = stampede::io::FitsFile::open_read(a);
-  fa.move_to("RESULTS");
-  ASSERT_EQ(fa.table_rows(), stampede::io::FitsFile::open_read(b + "[RESULTS]").table_rows());
-  for (const char* name : {"id", "ix", "iy", "x0", "y0", "e1", "e2", "radius", "bulge_A", "disc_A", "bulge_flux", "disc_flux",
-                           "flux", "e1_err", "e2_err", "snr", "chi2", "likelihood", "n_iter", "n_eval", "stop_reason",
-                           "status", "flags", "psf_e1", "psf_e2", "psf_fwhm"}) {
-    const auto x = column(a, name), y = column(b, name);
-    ASSERT_EQ(x.size(), y.size()) << name;
-    for (std::size_t i = 0; i < x.size(); ++i) {
-      const bool same = (std::isnan(x[i]) && std::isnan(y[i])) || std::memcmp(&x[i], &y[i], sizeof(double)) == 0;
-      ASSERT_TRUE(same) << name << " row " << i << ": " << x[i] << " vs " << y[i];
-    }
-  }
-}
 
 // Must-show 1: both GREAT08-mini sets give 400 rows; the noise-free mean e matches the truth.
 TEST_F(FitCommand, Great08MiniSetsEndToEnd) {

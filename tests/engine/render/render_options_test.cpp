@@ -1,25 +1,10 @@
-// Grid geometry: FFT-friendly sizes and the sub-pixel coordinate convention.
+// Grid geometry: the FFT grid's size and the sub-pixel coordinate convention.
 #include "engine/render/render_options.hpp"
 
 #include <gtest/gtest.h>
 
 namespace stampede {
 namespace {
-
-TEST(RenderOptions, FftFriendlySizes) {
-  EXPECT_EQ(fft_friendly_size(195), 196);  // 2^2 7^2
-  EXPECT_EQ(fft_friendly_size(235), 240);  // 235 = 5 * 47
-  EXPECT_EQ(fft_friendly_size(211), 216);  // 211 is prime
-  EXPECT_EQ(fft_friendly_size(1), 1);
-  for (int n = 1; n < 2000; ++n) {
-    const int m = fft_friendly_size(n);
-    EXPECT_GE(m, n);
-    int r = m;
-    for (int f : {2, 3, 5, 7})
-      while (r % f == 0) r /= f;
-    EXPECT_EQ(r, 1) << n;
-  }
-}
 
 TEST(RenderOptions, SubpixelCentresFollowTheDataConvention) {
   RenderOptions ro;  // 39 px, U1 = 5, padding 4: 235 -> 240 sub-pixels, stamp from sub-pixel 22
