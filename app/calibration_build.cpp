@@ -148,7 +148,7 @@ CalibrationBuild::CalibrationBuild(CalibrationBuildOptions options) : options_(s
   g.bulge_radius_ratio = cfg.fitter.params.spec[index(Param::kRadiusRatio)].start;
 
   FftPlanCache setup_plans(FftPlanning::kEstimate);
-  psf_ = tools::build_shared_psf(cfg, setup_plans);
+  psf_ = app::build_shared_psf(cfg, setup_plans);
   g.psf = psf_.model;
   grid_ = std::make_unique<CalibrationGrid>(g);  // validates the grid options
   checkpoint_ = std::make_unique<BuildCheckpoint>(options_.output + ".partial",
@@ -191,7 +191,7 @@ CalibrationBuildSummary CalibrationBuild::run(const std::function<void(const Cal
     po.batch_size = cfg.batch_size;
     po.stamp_size = options_.grid.stamp_size;
     const FitterOptions fitter_options = cfg.fitter;
-    const tools::SharedPsf& psf = psf_;
+    const app::SharedPsf& psf = psf_;
     auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
       return std::make_unique<StampFitter>(fitter_options, psf.prepared, nullptr, FftPlanning::kEstimate, psf.e1, psf.e2,
                                            psf.fwhm);

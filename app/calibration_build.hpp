@@ -70,7 +70,7 @@ class CalibrationBuild {
 
  private:
   CalibrationBuildOptions options_;
-  tools::SharedPsf psf_;
+  app::SharedPsf psf_;
   std::unique_ptr<CalibrationGrid> grid_;
   std::unique_ptr<BuildCheckpoint> checkpoint_;
 };

@@ -150,13 +150,13 @@ RunSummary FitRun::run() const {
   if (cfg.psf_from_catalogue) {
     psf_cache = std::make_unique<PsfCache>(1024);
   } else {
-    const tools::SharedPsf psf = tools::build_shared_psf(cfg, setup_plans);
+    const app::SharedPsf psf = app::build_shared_psf(cfg, setup_plans);
     shared_psf = psf.prepared;
     psf_e1 = psf.e1, psf_e2 = psf.e2, psf_fwhm = psf.fwhm;
     // A set written by `stampede sim` or GalSim records its PSF; fitting it with another (e.g. the
     // default round Moffat) is almost always a forgotten option, and biases c by the difference.
     if (recorded_psf) {
-      const std::vector<std::string> diff = tools::psf_differences(*recorded_psf, psf.model);
+      const std::vector<std::string> diff = app::psf_differences(*recorded_psf, psf.model);
       if (!diff.empty()) {
         std::string list;
         for (const auto& d : diff) list += (list.empty() ? "" : ", ") + d;

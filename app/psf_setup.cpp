@@ -10,7 +10,7 @@
 #include "engine/render/renderer_factory.hpp"
 #include "io/fits_file.hpp"
 
-namespace stampede::tools {
+namespace stampede::app {
 
 SharedPsf build_shared_psf(const io::RunConfig& cfg, FftPlanCache& plans) {
   if (cfg.psf_from_catalogue) throw std::logic_error("build_shared_psf: psf_input = moffat_catalog has no shared PSF");
@@ -74,4 +74,4 @@ std::vector<std::string> psf_differences(const PsfModel& recorded, const PsfMode
   return out;
 }
 
-}  // namespace stampede::tools
+}  // namespace stampede::app

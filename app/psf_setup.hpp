@@ -12,7 +12,7 @@
 #include "engine/render/renderer.hpp"
 #include "io/run_config.hpp"
 
-namespace stampede::tools {
+namespace stampede::app {
 
 struct SharedPsf {
   PsfModel model;
@@ -30,4 +30,4 @@ SharedPsf build_shared_psf(const io::RunConfig& cfg, FftPlanCache& plans);
 // they agree to 1e-9 relative. A run with an image PSF has nothing to compare: empty.
 std::vector<std::string> psf_differences(const PsfModel& recorded, const PsfModel& run);
 
-}  // namespace stampede::tools
+}  // namespace stampede::app

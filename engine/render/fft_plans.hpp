@@ -3,7 +3,7 @@
 // Layout: real images are n x n row-major (x fastest, the FFTW "last dimension"); spectra are the
 // r2c half-spectrum of n rows x (n/2 + 1) columns. Plans are made at construction under a
 // process-wide planner lock (FFTW's planner is not thread-safe, its execute functions are), and
-// executed with the new-array interface on any buffer from `AlignedBuffer`, so one convolver
+// executed with the new-array interface on any buffer from `AlignedBuffer` (engine/common/fftw_support.hpp), so one convolver
 // serves every image of its shape on its thread.
 #pragma once
 
@@ -11,35 +11,10 @@
 #include <cstddef>
 #include <map>
 #include <memory>
-#include <mutex>
-#include <string>
+
+#include "engine/common/fftw_support.hpp"
 
 namespace stampede {
-
-// The one lock around every FFTW planner call in the process.
-std::mutex& fftw_planner_mutex();
-
-// FFTW wisdom: plans made with kMeasure are recorded, and a later run that loads the same wisdom
-// makes the same plans (so its results are bitwise identical). False when the file is missing or
-// unreadable (load) or cannot be written (save).
-bool load_fftw_wisdom(const std::string& path);
-bool save_fftw_wisdom(const std::string& path);
-
-// fftw_malloc'd storage: SIMD-aligned as the plans expect.
-class AlignedBuffer {
- public:
-  AlignedBuffer() = default;
-  explicit AlignedBuffer(std::size_t bytes);
-  AlignedBuffer(AlignedBuffer&& other) noexcept;
-  AlignedBuffer& operator=(AlignedBuffer&& other) noexcept;
-  AlignedBuffer(const AlignedBuffer&) = delete;
-  AlignedBuffer& operator=(const AlignedBuffer&) = delete;
-  ~AlignedBuffer();
-  void* data() const { return data_; }
-
- private:
-  void* data_ = nullptr;
-};
 
 enum class FftPlanning { kEstimate, kMeasure };
 

@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "engine/model/psf_model.hpp"
-#include "engine/render/fft_plans.hpp"
+#include "engine/common/fftw_support.hpp"
 #include "kernels/fourier_profiles.hpp"
 
 namespace stampede {
