@@ -187,11 +187,12 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
   if (n_ < stamp_size_) throw std::invalid_argument("ExactRenderer: period below the stamp size");
   if (!bulge_table_ && bulge_index_ != 1.0) throw std::invalid_argument("ExactRenderer: no table for the bulge index");
   const std::size_t spectrum = static_cast<std::size_t>(n_) * terms_->row_stride;
-  for (int k = 0; k < kernels::kNumKSpaceImages; ++k) {
-    spectrum_re_[k] = AlignedBuffer(sizeof(double) * spectrum);
-    spectrum_im_[k] = AlignedBuffer(sizeof(double) * spectrum);
-    std::memset(spectrum_re_[k].data(), 0, sizeof(double) * spectrum);
-    std::memset(spectrum_im_[k].data(), 0, sizeof(double) * spectrum);
+  // Each image's real and imaginary parts in one buffer, the imaginary `spectrum` doubles after
+  // the real: FFTW's new-array execute needs the same ii - ri separation as at planning.
+  spectrum_size_ = spectrum;
+  for (auto& b : spectra_) {
+    b = AlignedBuffer(2 * sizeof(double) * spectrum);
+    std::memset(b.data(), 0, 2 * sizeof(double) * spectrum);
   }
   grid_ = AlignedBuffer(sizeof(double) * static_cast<std::size_t>(n_) * n_);
   // Split-complex c2r with padded input rows: row stride row_stride, output rows of n.
@@ -199,9 +200,8 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
   const unsigned flags = (options.planning == FftPlanning::kMeasure ? FFTW_MEASURE : FFTW_ESTIMATE) | FFTW_DESTROY_INPUT;
   {
     std::lock_guard<std::mutex> lock(fftw_planner_mutex());
-    plan_ = fftw_plan_guru_split_dft_c2r(2, dims, 0, nullptr, static_cast<double*>(spectrum_re_[0].data()),
-                                         static_cast<double*>(spectrum_im_[0].data()), static_cast<double*>(grid_.data()),
-                                         flags);
+    plan_ = fftw_plan_guru_split_dft_c2r(2, dims, 0, nullptr, spectrum_re(0), spectrum_im(0),
+                                         static_cast<double*>(grid_.data()), flags);
   }
   if (!plan_) throw std::runtime_error("FFTW could not plan the exact renderer's inverse transform");
   // FFTW_MEASURE overwrote the planning arrays; the spectra are rewritten every render anyway.
@@ -293,8 +293,8 @@ bool ExactRenderer::prepare(const ParamVector& p, kernels::KSpaceModel* m) {
 }
 
 void ExactRenderer::inverse(int k, double* stamp) {
-  fftw_execute_split_dft_c2r(static_cast<fftw_plan>(plan_), static_cast<double*>(spectrum_re_[k].data()),
-                             static_cast<double*>(spectrum_im_[k].data()), static_cast<double*>(grid_.data()));
+  fftw_execute_split_dft_c2r(static_cast<fftw_plan>(plan_), spectrum_re(k), spectrum_im(k),
+                             static_cast<double*>(grid_.data()));
   const double* g = static_cast<const double*>(grid_.data());
   for (int y = 0; y < stamp_size_; ++y)
     std::copy_n(g + static_cast<std::size_t>(y) * n_, stamp_size_, stamp + static_cast<std::size_t>(y) * stamp_size_);
@@ -304,8 +304,8 @@ RenderStatus ExactRenderer::render(const ParamVector& p, std::span<double> model
   kernels::KSpaceModel m;
   if (!prepare(p, &m)) return RenderStatus::kInvalidModel;
   kernels::KSpaceSpectra out;
-  out.re[0] = static_cast<double*>(spectrum_re_[0].data());
-  out.im[0] = static_cast<double*>(spectrum_im_[0].data());
+  out.re[0] = spectrum_re(0);
+  out.im[0] = spectrum_im(0);
   kernels_->accumulate_model(*terms_, m, out);
   inverse(0, model.data());
   return RenderStatus::kOk;
@@ -317,8 +317,8 @@ RenderStatus ExactRenderer::render_with_jacobian(const ParamVector& p, std::span
   if (!prepare(p, &m)) return RenderStatus::kInvalidModel;
   kernels::KSpaceSpectra out;
   for (int k = 0; k < kernels::kNumKSpaceImages; ++k) {
-    out.re[k] = static_cast<double*>(spectrum_re_[k].data());
-    out.im[k] = static_cast<double*>(spectrum_im_[k].data());
+    out.re[k] = spectrum_re(k);
+    out.im[k] = spectrum_im(k);
   }
   kernels_->accumulate_jacobian(*terms_, m, out);
   inverse(kernels::kKBulge, component_stamps_[0].data());

@@ -97,7 +97,10 @@ class ExactRenderer final : public Renderer {
   double bulge_index_;
   const kernels::KSpaceKernels* kernels_;
   void* plan_ = nullptr;  // fftw_plan: split-complex c2r, rows of terms_->row_stride
-  std::array<AlignedBuffer, kernels::kNumKSpaceImages> spectrum_re_, spectrum_im_;
+  double* spectrum_re(int k) const { return static_cast<double*>(spectra_[k].data()); }
+  double* spectrum_im(int k) const { return spectrum_re(k) + spectrum_size_; }
+  std::size_t spectrum_size_ = 0;  // n * row_stride
+  std::array<AlignedBuffer, kernels::kNumKSpaceImages> spectra_;  // split complex: real, then imaginary
   AlignedBuffer grid_;  // one N x N real image, reused per inverse
   std::vector<double> phase_x_re_, phase_x_im_, phase_y_re_, phase_y_im_;
   std::array<std::vector<double>, 2> component_stamps_;  // bulge, disc per unit amplitude
