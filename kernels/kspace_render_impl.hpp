@@ -37,8 +37,13 @@ struct IndexBatch {
 };
 template <class A>
 inline IndexBatch<A> split_index(xsimd::batch<double, A> t) {
-  const xsimd::batch<double, A> f = xsimd::floor(t);
-  return {xsimd::to_int(f), t - f};
+  using B = xsimd::batch<double, A>;
+  using I = xsimd::batch<std::int64_t, A>;
+  const B f = xsimd::floor(t);
+  // 0 <= f < 2^52: f + 2^52 holds f in its mantissa bits (AVX2 has no double -> int64 convert,
+  // xsimd's to_int goes through memory there).
+  const B magic(0x1p52);
+  return {xsimd::bitwise_cast<I>(f + magic) - xsimd::bitwise_cast<I>(magic), t - f};
 }
 
 inline double gather(const double* p, std::int64_t i) { return p[i]; }
