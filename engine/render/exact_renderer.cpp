@@ -165,8 +165,9 @@ std::shared_ptr<const kernels::SersicKTable> build_sersic_k_table(double n, doub
 }
 
 std::shared_ptr<const kernels::SersicKTable> de_vaucouleurs_k_table() {
-  // q = k r_e up to 2000: k below ~10 rad/pixel where the PSF terms live, r_e up to ~30 pixels at
-  // |e| = 0.95 (stretch 6.2); beyond, the power-law tail (F ~ q^-2.3 there).
+  // q = k r_e up to 2,000: k below ~10 rad/pixel where the PSF terms live, r_e up to ~30 pixels
+  // at |e| = 0.95 (stretch 6.2). Beyond, the power law through the last two nodes (slope -1.96):
+  // measured against the quadrature, 0.5 % of F (3e-8 of F(0)) at q = 3,000, 4 % (6e-8) at 6,000.
   static const std::shared_ptr<const kernels::SersicKTable> table = build_sersic_k_table(4.0, 2000.0);
   return table;
 }

@@ -55,7 +55,7 @@ int exact_period(int stamp_size);
 std::shared_ptr<const kernels::KSpaceTerms> build_kspace_terms(const PsfOptions& psf, int period, double tolerance);
 
 // The de Vaucouleurs (n = 4) transform table, built once per process on first use (thread-safe)
-// and immutable after (294 nodes to q = 2,113: 2.2 s on 2 threads here).
+// and immutable after (294 nodes to q = 2,113: 2.2-3.8 s on this shared 2-core machine).
 std::shared_ptr<const kernels::SersicKTable> de_vaucouleurs_k_table();
 // A table for any index n >= 1 covering q = k r_e up to q_max (nodes computed in parallel).
 std::shared_ptr<const kernels::SersicKTable> build_sersic_k_table(double n, double q_max);
