@@ -25,6 +25,8 @@ bool FitterOptions::IsValid(std::string* why) const {
   return true;
 }
 
+static_assert(kNumParams <= kMaxFree, "the solver's fixed storage must hold every model parameter");
+
 // The least-squares problem of one stamp in the free parameters.
 class Fitter::Problem final : public LeastSquaresProblem {
  public:
@@ -226,19 +228,24 @@ void Fitter::solve_start_amplitudes(std::span<const double> pixels, ParamVector*
   }
 }
 
+bool Fitter::ready(std::span<const double> pixels, std::span<const double> weight, FitResult* r, std::uint32_t* flags) {
+  if (!psf_) {
+    r->status = FitStatus::kPsfFailure;
+    return false;
+  }
+  const FitStatus input = prepare_weights(pixels, weight, flags);
+  if (input != FitStatus::kOk) {
+    r->status = input;
+    r->flags = *flags;
+    return false;
+  }
+  return true;
+}
+
 FitResult Fitter::fit(std::span<const double> pixels, std::span<const double> weight) {
   std::uint32_t flags = 0;
   FitResult r;
-  if (!psf_) {
-    r.status = FitStatus::kPsfFailure;
-    return r;
-  }
-  const FitStatus input = prepare_weights(pixels, weight, &flags);
-  if (input != FitStatus::kOk) {
-    r.status = input;
-    r.flags = flags;
-    return r;
-  }
+  if (!ready(pixels, weight, &r, &flags)) return r;
   const ParamVector start = start_from_prepared(pixels, &flags);
   return run(pixels, start, flags);
 }
@@ -246,16 +253,7 @@ FitResult Fitter::fit(std::span<const double> pixels, std::span<const double> we
 FitResult Fitter::fit_from(std::span<const double> pixels, std::span<const double> weight, const ParamVector& start) {
   std::uint32_t flags = 0;
   FitResult r;
-  if (!psf_) {
-    r.status = FitStatus::kPsfFailure;
-    return r;
-  }
-  const FitStatus input = prepare_weights(pixels, weight, &flags);
-  if (input != FitStatus::kOk) {
-    r.status = input;
-    r.flags = flags;
-    return r;
-  }
+  if (!ready(pixels, weight, &r, &flags)) return r;
   return run(pixels, start, flags);
 }
 

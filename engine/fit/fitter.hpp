@@ -60,6 +60,8 @@ class Fitter {
  private:
   class Problem;
   // Fills weight_ from the inputs; returns a status other than kOk when nothing can be fitted.
+  // The PSF and weight checks fit() and fit_from() share; false, with *r filled, when nothing can be fitted.
+  bool ready(std::span<const double> pixels, std::span<const double> weight, FitResult* r, std::uint32_t* flags);
   FitStatus prepare_weights(std::span<const double> pixels, std::span<const double> weight, std::uint32_t* flags);
   FitResult run(std::span<const double> pixels, const ParamVector& start, std::uint32_t flags);
   ParamVector start_from_prepared(std::span<const double> pixels, std::uint32_t* flags);
