@@ -16,6 +16,7 @@
 
 #include "kernels/ellipse.hpp"
 #include "kernels/fourier_profiles.hpp"
+#include "support/image_compare.hpp"
 
 namespace stampede::kernels {
 namespace {
@@ -82,14 +83,9 @@ struct Spectra {
   }
 };
 
-// Worst |a - b| over the spectrum's largest |b|, in epsilons.
+// Worst |a - b| over the reference's peak, in epsilons.
 double worst_in_peak_eps(const std::vector<double>& a, const std::vector<double>& b) {
-  double peak = 0, worst = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    peak = std::max(peak, std::abs(b[i]));
-    worst = std::max(worst, std::abs(a[i] - b[i]));
-  }
-  return peak > 0 ? worst / (peak * kEps) : 0.0;
+  return testing::worst_over_peak(a, b) / kEps;
 }
 
 TEST(KSpaceKernelsIsa, ScalarReferenceAndBestAreAvailable) {

@@ -13,6 +13,7 @@
 
 #include "engine/solver/levenberg_marquardt.hpp"
 #include "kernels/sersic.hpp"
+#include "support/image_compare.hpp"
 #include "support/reference_data.hpp"
 
 namespace stampede {
@@ -41,14 +42,7 @@ struct ExactSetup {
   }
 };
 
-double worst_over_peak(const std::vector<double>& a, const std::vector<double>& b) {
-  double peak = 0, worst = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    peak = std::max(peak, std::abs(b[i]));
-    worst = std::max(worst, std::abs(a[i] - b[i]));
-  }
-  return worst / peak;
-}
+using testing::worst_over_peak;
 
 TEST(ExactRenderer, DeVaucouleursTableBuildTime) {
   const auto t0 = std::chrono::steady_clock::now();

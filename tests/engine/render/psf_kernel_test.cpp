@@ -9,6 +9,7 @@
 
 #include "engine/render/upsampled_renderer.hpp"
 #include "kernels/sersic.hpp"
+#include "support/image_compare.hpp"
 #include "support/reference_data.hpp"
 
 namespace stampede {
@@ -32,14 +33,7 @@ std::vector<double> render_with(const PsfModel& psf, const RenderOptions& ro, Ff
   return model;
 }
 
-double worst_over_peak(const std::vector<double>& a, const std::vector<double>& b) {
-  double peak = 0, worst = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    peak = std::max(peak, std::abs(b[i]));
-    worst = std::max(worst, std::abs(a[i] - b[i]));
-  }
-  return worst / peak;
-}
+using testing::worst_over_peak;
 
 std::shared_ptr<PsfImage> read_psf_image(io::FitsFile& f, int oversampling, bool pixel_integrated) {
   auto img = std::make_shared<PsfImage>();
