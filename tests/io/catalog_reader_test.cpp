@@ -16,6 +16,7 @@
 
 #include "io/catalog_writer.hpp"
 #include "support/error_assertions.hpp"
+#include "support/result_records.hpp"
 #include "support/scratch_dir.hpp"
 
 namespace stampede::io {
@@ -24,45 +25,7 @@ namespace {
 using stampede::testing::Contains;
 using stampede::testing::error_of;
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-// Rows with NaN, -0, inf, ids beyond 2^53 (catalogue), flags with bit 31 set.
-std::vector<ObjectRecord> make_records(long long n, PositionColumns positions) {
-  std::vector<ObjectRecord> rows;
-  for (long long i = 0; i < n; ++i) {
-    ObjectRecord r;
-    if (positions == PositionColumns::kGrid) {
-      r.id = i;
-      r.ix = static_cast<std::int32_t>(i % 17);
-      r.iy = static_cast<std::int32_t>(i / 17);
-    } else {
-      r.id = (1LL << 53) + 1 + 3 * i;
-      r.x_image = 1.0 + static_cast<double>(i) / 3.0;
-      r.y_image = 4096.25 - 0.1 * static_cast<double>(i);
-    }
-    const double t = static_cast<double>(i);
-    r.fit.status = static_cast<FitStatus>(i % 7);
-    r.fit.stop_reason = static_cast<StopReason>(i % 9);
-    for (int p = 0; p < 7; ++p) r.fit.params[p] = i % 10 == 0 ? -0.0 : std::sin(t + p) / 3.0;
-    r.fit.e1_err = i % 8 == 0 ? kNaN : 1e-300 * t;
-    r.fit.e2_err = 2.5e-2 / (t + 1.0);
-    r.fit.bulge_flux = 12.0 * t;
-    r.fit.disc_flux = 1e10 / 3.0;
-    r.fit.flux = r.fit.bulge_flux + r.fit.disc_flux;
-    r.fit.snr = i % 13 == 0 ? std::numeric_limits<double>::infinity() : 20.0 + t;
-    r.fit.chi2 = 1521.0 + 1.0 / 3.0;
-    r.fit.likelihood = -r.fit.chi2 / 2;
-    r.fit.iterations = static_cast<int>(i % 200);
-    r.fit.evaluations = static_cast<int>((3 * i) % 500);
-    r.flags = (i % 5 == 0 ? 1u << 31 : 0u) | static_cast<std::uint32_t>(i % 3);
-    r.time_us = i % 6 == 0 ? kNaN : 1234.5678 + t / 7.0;
-    r.psf_e1 = -0.01 * static_cast<double>(i % 5);
-    r.psf_e2 = 0.02;
-    r.psf_fwhm = 2.85;
-    rows.push_back(r);
-  }
-  return rows;
-}
+using stampede::testing::make_records;
 
 bool same_double(double a, double b) {
   return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b) ||
