@@ -4,13 +4,15 @@
 //   BM_Fit/<simd>    time per fit with the profile kernels of that instruction set (scalar = the
 //                    reference build); counters: evaluations and Jacobians per fit
 //   BM_FitMeasured   the best set with FFTW_MEASURE plans (what `stampede fit` uses with fft_wisdom)
+//   BM_FitExact/<period>  renderer = exact, best set (period 0: its rule), beside the upsampled
+//                    renderer's BM_Fit in one run
 #include <benchmark/benchmark.h>
 
 #include <string>
 #include <vector>
 
 #include "engine/fit/fitter.hpp"
-#include "engine/render/psf_kernel.hpp"
+#include "engine/render/renderer_factory.hpp"
 #include "great08_stamps.hpp"
 
 namespace {
@@ -24,20 +26,26 @@ const bench::Great08Stamps& stamps() {
   return s;
 }
 
-void run_fits(benchmark::State& state, kernels::Isa isa, FftPlanning planning) {
+void run_fits(benchmark::State& state, RendererKind kind, kernels::Isa isa, FftPlanning planning, int period = 0) {
   if (!kernels::profile_kernels_for(isa)) {
     state.SkipWithError("instruction set not available");
     return;
   }
   const bench::Great08Stamps& s = stamps();
   FitterOptions options;
+  options.renderer = kind;
   options.render.stamp_size = s.size;
   options.render.simd = isa;
+  options.render.exact.period = period;
   PsfModel p;
   p.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};
   FftPlanCache plans(planning);
   std::string err;
-  auto psf = PsfKernel::build(p, GridGeometry(options.render), plans, &err);
+  auto psf = make_renderer(kind, options.render, options.model, plans)->prepare_psf(p, &err);
+  if (!psf) {
+    state.SkipWithError(err.c_str());
+    return;
+  }
   Fitter fitter(options, psf, plans);
   const std::size_t npix = static_cast<std::size_t>(s.size) * s.size;
   double evaluations = 0, iterations = 0;
@@ -57,7 +65,7 @@ void run_fits(benchmark::State& state, kernels::Isa isa, FftPlanning planning) {
 }
 
 void BM_Fit(benchmark::State& state) {
-  run_fits(state, static_cast<kernels::Isa>(state.range(0)), FftPlanning::kEstimate);
+  run_fits(state, RendererKind::kUpsampled, static_cast<kernels::Isa>(state.range(0)), FftPlanning::kEstimate);
 }
 BENCHMARK(BM_Fit)
     ->ArgName("isa")
@@ -66,8 +74,15 @@ BENCHMARK(BM_Fit)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
-void BM_FitMeasured(benchmark::State& state) { run_fits(state, kernels::Isa::kBest, FftPlanning::kMeasure); }
+void BM_FitMeasured(benchmark::State& state) {
+  run_fits(state, RendererKind::kUpsampled, kernels::Isa::kBest, FftPlanning::kMeasure);
+}
 BENCHMARK(BM_FitMeasured)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_FitExact(benchmark::State& state) {
+  run_fits(state, RendererKind::kExact, kernels::Isa::kBest, FftPlanning::kEstimate, static_cast<int>(state.range(0)));
+}
+BENCHMARK(BM_FitExact)->ArgName("period")->Arg(0)->Arg(96)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 

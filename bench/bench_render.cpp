@@ -2,7 +2,8 @@
 // 39-pixel stamp (Moffat beta 3, FWHM 2.85, e = (0, 0.05); bulge + disc, r = 1.5 px, e = (0.2, 0.1)),
 // the exact renderer beside the paper's upsampled one, single thread.
 //   BM_Upsampled/<simd>         the paper's renderer (U1 = 5, N_u = 3, U2 = 7, padding 4)
-//   BM_Exact/<simd>/<period>    the exact renderer (period 0: the rule, exact_period(39) = 160)
+//   BM_Exact/<simd>/<period>/<wrap_rings>  the exact renderer (period 0: the rule, exact_period(39);
+//                               wrap_rings 0: no subtraction of the copies' light)
 //   BM_ExactModel/<period>      render() alone: one model-only term pass + one inverse FFT
 //   BM_SplitC2R/<period>        one split-complex c2r inverse FFT of the period (FFTW_ESTIMATE):
 //                               the exact renderer does 7 of them per render_with_jacobian
@@ -66,33 +67,35 @@ void BM_Upsampled(benchmark::State& state) {
 }
 BENCHMARK(BM_Upsampled)->ArgName("simd")->Arg(static_cast<int>(kernels::Isa::kScalar))->Arg(static_cast<int>(kernels::Isa::kBest))->Unit(benchmark::kMicrosecond);
 
-std::unique_ptr<ExactRenderer> make_exact(kernels::Isa isa, int period) {
+std::unique_ptr<ExactRenderer> make_exact(kernels::Isa isa, int period, int wrap_rings = ExactRenderOptions{}.wrap_rings) {
   RenderOptions ro;
   ro.stamp_size = kStamp;
   ro.simd = isa;
-  ExactRenderOptions eo;
-  eo.period = period;
-  const int n = period > 0 ? period : exact_period(kStamp);
-  return std::make_unique<ExactRenderer>(ro, ModelOptions{}, eo, build_kspace_terms(fiducial_psf(), n, eo.psf_tolerance),
-                                         de_vaucouleurs_k_table());
+  ro.exact.period = period;
+  ro.exact.wrap_rings = wrap_rings;
+  auto r = std::make_unique<ExactRenderer>(ro, ModelOptions{});
+  std::string error;
+  r->set_psf(r->prepare_psf(fiducial_psf(), &error));
+  return r;
 }
 
 void BM_Exact(benchmark::State& state) {
   const auto isa = static_cast<kernels::Isa>(state.range(0));
   if (!kernels::kspace_kernels_for(isa)) return state.SkipWithError("instruction set not available");
-  auto r = make_exact(isa, static_cast<int>(state.range(1)));
+  auto r = make_exact(isa, static_cast<int>(state.range(1)), static_cast<int>(state.range(2)));
   Images im;
   const ParamVector p = fiducial_params();
   for (auto _ : state) benchmark::DoNotOptimize(r->render_with_jacobian(p, kFree, im.model, im.cols));
   state.counters["N"] = r->period();
-  state.counters["terms"] = static_cast<double>(r->terms().entries() * kernels::kKBlock);
+  state.counters["terms"] = static_cast<double>(r->psf()->terms().entries() * kernels::kKBlock);
 }
 BENCHMARK(BM_Exact)
-    ->ArgNames({"simd", "period"})
-    ->Args({static_cast<int>(kernels::Isa::kScalar), 0})
-    ->Args({static_cast<int>(kernels::Isa::kBest), 0})
-    ->Args({static_cast<int>(kernels::Isa::kBest), 64})
-    ->Args({static_cast<int>(kernels::Isa::kBest), 48})
+    ->ArgNames({"simd", "period", "wrap_rings"})
+    ->Args({static_cast<int>(kernels::Isa::kScalar), 0, 6})
+    ->Args({static_cast<int>(kernels::Isa::kBest), 0, 6})
+    ->Args({static_cast<int>(kernels::Isa::kBest), 0, 0})
+    ->Args({static_cast<int>(kernels::Isa::kBest), 96, 6})
+    ->Args({static_cast<int>(kernels::Isa::kBest), 160, 0})
     ->Unit(benchmark::kMicrosecond);
 
 void BM_ExactModel(benchmark::State& state) {
@@ -102,7 +105,7 @@ void BM_ExactModel(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(r->render(p, im.model));
   state.counters["N"] = r->period();
 }
-BENCHMARK(BM_ExactModel)->ArgName("period")->Arg(0)->Arg(64)->Arg(48)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ExactModel)->ArgName("period")->Arg(0)->Arg(72)->Arg(80)->Unit(benchmark::kMicrosecond);
 
 void BM_SplitC2R(benchmark::State& state) {
   const int n = state.range(0) > 0 ? static_cast<int>(state.range(0)) : exact_period(kStamp);
@@ -121,7 +124,7 @@ void BM_SplitC2R(benchmark::State& state) {
   std::lock_guard<std::mutex> lock(fftw_planner_mutex());
   fftw_destroy_plan(plan);
 }
-BENCHMARK(BM_SplitC2R)->ArgName("period")->Arg(0)->Arg(64)->Arg(48)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SplitC2R)->ArgName("period")->Arg(0)->Arg(72)->Arg(80)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

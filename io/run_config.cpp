@@ -225,7 +225,8 @@ std::vector<Entry> make_registry() {
   const char* render = "Rendering (paper section 4.1)";
   r.push_back({"renderer",
                std::string("the fitter's renderer: ") + renderer_kind_names() +
-                   " (the paper's upsampled grid, FFT convolution with the PSF, block average)",
+                   " (upsampled: the paper's sub-pixel grid, FFT convolution with the PSF, block average; exact: pixel "
+                   "values from the continuous transform of galaxy x PSF x pixel, at data resolution)",
                render, [](const RunConfig& c) { return std::string(renderer_kind_name(c.fitter.renderer)); },
                [](RunConfig& c, const std::string& v) {
                  if (parse_renderer_kind(v, &c.fitter.renderer)) return std::string();
@@ -254,6 +255,20 @@ std::vector<Entry> make_registry() {
                  if (kernels::parse_isa(v.c_str(), &c.fitter.render.simd)) return std::string();
                  return std::string("expected best, scalar, sse4.2, avx2 or avx512");
                }});
+  r.push_back(double_entry(render, "exact_psf_tolerance",
+                           "renderer = exact: PSF x pixel transform terms at most this are dropped (1e-7: 4e-8 of "
+                           "the peak)",
+                           DoubleKind::kFinite, [](auto& c) -> auto& { return c.fitter.render.exact.psf_tolerance; }));
+  r.push_back(int_entry(render, "exact_period",
+                        "renderer = exact: period of its Fourier grid, pixels; 0 = the rule (stamp_size + 33, "
+                        "FFT-friendly)",
+                        [](auto& c) -> auto& { return c.fitter.render.exact.period; }));
+  r.push_back(int_entry(render, "exact_wrap_rings",
+                        "renderer = exact: rings of periodic copies whose light is subtracted (at most); 0 = none",
+                        [](auto& c) -> auto& { return c.fitter.render.exact.wrap_rings; }));
+  r.push_back(int_entry(render, "exact_wrap_nodes",
+                        "renderer = exact: Chebyshev nodes per stamp side for the copies' light",
+                        [](auto& c) -> auto& { return c.fitter.render.exact.wrap_nodes; }));
   r.push_back(double_entry(render, "noise_sigma",
                            "per-pixel noise sigma when no weight map is given; 0 = unweighted (noise-free data)",
                            DoubleKind::kFinite, [](auto& c) -> auto& { return c.fitter.noise_sigma; }));

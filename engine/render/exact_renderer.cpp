@@ -8,6 +8,8 @@
 #include <complex>
 #include <cstring>
 #include <functional>
+#include <map>
+#include <mutex>
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
@@ -23,134 +25,15 @@ namespace stampede {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-
-using kernels::sinc;
-
-// The PSF's transform (PSF(0) = 1) as a function of (kx, ky), and the |k| beyond which it stays
-// at most `tolerance`.
-struct PsfTransform {
-  std::function<double(double, double)> at;
-  double k_bound = 0;
-};
-
-PsfTransform psf_transform(const PsfModel& psf, double tolerance) {
-  PsfTransform out;
-  if (psf.kind == PsfKind::kMoffat) {
-    const kernels::MoffatProfile& m = psf.moffat;
-    const double alpha = kernels::moffat_alpha(m.fwhm, m.beta);
-    const double t = m.truncation > 0 ? m.truncation / alpha : 0.0;
-    // |S k| for the sheared profile: S^2 is the real-space form of the opposite shear at r = 1.
-    const kernels::EllipseQuadratic s2 = kernels::ellipse_quadratic(-m.e1, -m.e2, 1.0);
-    const double e = std::hypot(m.e1, m.e2), stretch = std::sqrt((1 + e) / (1 - e));
-    // Largest x = k alpha with |transform| above the tolerance, scanned outwards (a truncated
-    // Moffat's transform rings, so it is capped as in the simulator: five pixel-frequency aliases).
-    const double x_cap = 10 * kPi * alpha;
-    double x_limit = 1.0;
-    for (double x = 0.25; x <= x_cap; x += 0.25)
-      if (std::abs(kernels::moffat_fourier(m.beta, t, x)) > tolerance) x_limit = x + 0.25;
-    x_limit = std::min(x_limit, x_cap);
-    out.k_bound = x_limit / alpha * stretch;
-    if (t == 0) {
-      out.at = [=](double kx, double ky) {
-        const double x = std::sqrt(std::max(0.0, s2(kx, ky))) * alpha;
-        return x > x_limit ? 0.0 : kernels::moffat_fourier(m.beta, 0.0, x);
-      };
-    } else {
-      // The truncated transform is a quadrature: tabulated as in the simulator (400 nodes per
-      // decade keep >= 10 nodes per period of its ringing).
-      auto table = std::make_shared<kernels::LogTable>([&](double x) { return kernels::moffat_fourier(m.beta, t, x); },
-                                                       kernels::LogGrid::covering(1e-4, x_limit, 400));
-      out.at = [=](double kx, double ky) {
-        const double x = std::sqrt(std::max(0.0, s2(kx, ky))) * alpha;
-        return x > table->q_max() ? 0.0 : (*table)(x);
-      };
-    }
-    return out;
-  }
-  if (psf.kind == PsfKind::kAiry && psf.airy.obscuration == 0.0) {
-    const double l = psf.airy.lambda_over_d;
-    out.k_bound = 2 * kPi / l;  // the pupil's cut-off: exactly 0 beyond
-    out.at = [=](double kx, double ky) { return kernels::airy_fourier(std::hypot(kx, ky) * l / (2 * kPi)); };
-    return out;
-  }
-  throw std::invalid_argument(
-      "the exact renderer's term list needs an analytic PSF transform (Moffat, unobscured Airy); image and "
-      "obscured Airy PSFs are not supported yet");
-}
-
-// Signed frequency index of half-spectrum row jy (FFTW order).
-int signed_row(int jy, int n) { return jy <= n / 2 ? jy : jy - n; }
+// Wrap-correction images: bulge, disc, then the five shape derivatives.
+constexpr int kWrapImages = 2 + kernels::kWingDerivatives;
 
 }  // namespace
 
-bool ExactRenderOptions::IsValid(std::string* why) const {
-  std::ostringstream msg;
-  if (!(psf_tolerance > 0 && psf_tolerance < 1e-2))
-    msg << "exact_psf_tolerance = " << psf_tolerance << ": must be in (0, 1e-2)";
-  else if (period < 0 || period > 4096)
-    msg << "exact_period = " << period << ": must be 0 (the rule) or a grid size up to 4096 pixels";
-  if (msg.str().empty()) return true;
-  if (why) *why = msg.str();
-  return false;
-}
 
-int exact_period(int stamp_size) { return kernels::fft_friendly_size(4 * stamp_size); }
+int exact_period(int stamp_size) { return kernels::fft_friendly_size(stamp_size + kExactPeriodMargin); }
 
-std::shared_ptr<const kernels::KSpaceTerms> build_kspace_terms(const PsfModel& psf, int n, double tolerance) {
-  std::string why;
-  if (!psf.IsValid(&why)) throw std::invalid_argument("exact renderer PSF: " + why);
-  if (n < 8) throw std::invalid_argument("exact renderer: period below 8 pixels");
-  const PsfTransform p = psf_transform(psf, tolerance);
-  auto terms = std::make_shared<kernels::KSpaceTerms>();
-  const int half = n / 2 + 1;
-  const int stride = (half + kernels::kKBlock - 1) / kernels::kKBlock * kernels::kKBlock;
-  const int per_row = stride / kernels::kKBlock;
-  const double dk = 2 * kPi / n;
-  // Aliases out to where the PSF has fallen below the tolerance (sinc <= 1 only lowers it).
-  const int m_max = static_cast<int>(std::ceil(p.k_bound / (2 * kPi) + 0.5));
-  const int aliases = 2 * m_max + 1;
-  terms->n = n;
-  terms->row_stride = stride;
-  terms->kx_values.resize(static_cast<std::size_t>(aliases) * stride);
-  terms->ky_values.resize(static_cast<std::size_t>(aliases) * n);
-  for (int a = 0; a < aliases; ++a) {
-    for (int jx = 0; jx < stride; ++jx) terms->kx_values[static_cast<std::size_t>(a) * stride + jx] = 2 * kPi * (a - m_max) + dk * jx;
-    for (int jy = 0; jy < n; ++jy)
-      terms->ky_values[static_cast<std::size_t>(a) * n + jy] = 2 * kPi * (a - m_max) + dk * signed_row(jy, n);
-  }
-  const double norm = 1.0 / (static_cast<double>(n) * n);  // FFTW's unnormalised inverse
-  terms->block_begin.reserve(static_cast<std::size_t>(n) * per_row + 1);
-  for (int jy = 0; jy < n; ++jy)
-    for (int b = 0; b < per_row; ++b) {
-      terms->block_begin.push_back(static_cast<std::int32_t>(terms->entry_ix.size()));
-      for (int ay = 0; ay < aliases; ++ay) {
-        const int iy = ay * n + jy;
-        const double ky = terms->ky_values[static_cast<std::size_t>(iy)];
-        if (std::abs(ky) > p.k_bound) continue;
-        for (int ax = 0; ax < aliases; ++ax) {
-          const int ix = ax * stride + b * kernels::kKBlock;
-          std::array<double, kernels::kKBlock> v{};
-          double largest = 0;
-          for (int l = 0; l < kernels::kKBlock; ++l) {
-            const int jx = b * kernels::kKBlock + l;
-            const double kx = terms->kx_values[static_cast<std::size_t>(ix + l)];
-            if (jx >= half || std::hypot(kx, ky) > p.k_bound) continue;  // padding column, or beyond the PSF
-            v[l] = p.at(kx, ky) * sinc(0.5 * kx) * sinc(0.5 * ky);
-            largest = std::max(largest, std::abs(v[l]));
-          }
-          if (!(largest > tolerance)) continue;
-          terms->entry_ix.push_back(ix);
-          terms->entry_iy.push_back(iy);
-          for (double x : v) {
-            terms->ppi_re.push_back(x * norm);
-            terms->ppi_im.push_back(0.0);  // centrosymmetric analytic PSFs have real transforms
-          }
-        }
-      }
-    }
-  terms->block_begin.push_back(static_cast<std::int32_t>(terms->entry_ix.size()));
-  return terms;
-}
+int exact_uncorrected_period(int stamp_size) { return kernels::fft_friendly_size(4 * stamp_size); }
 
 std::shared_ptr<const kernels::SersicKTable> build_sersic_k_table(double n, double q_max) {
   // 40 nodes per decade from q = 1e-4: interpolation error ~1e-10 of F(0) (as the simulator's).
@@ -173,45 +56,57 @@ std::shared_ptr<const kernels::SersicKTable> de_vaucouleurs_k_table() {
   return table;
 }
 
-ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& model, const ExactRenderOptions& options,
-                             std::shared_ptr<const kernels::KSpaceTerms> terms,
-                             std::shared_ptr<const kernels::SersicKTable> bulge_table, double bulge_index)
+std::shared_ptr<const kernels::SersicKTable> sersic_k_table(double n) {
+  if (n == 4.0) return de_vaucouleurs_k_table();
+  static std::mutex mutex;
+  static std::map<double, std::shared_ptr<const kernels::SersicKTable>> tables;
+  std::lock_guard<std::mutex> lock(mutex);
+  auto& t = tables[n];
+  if (!t) t = build_sersic_k_table(n, 2000.0);
+  return t;
+}
+
+ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& model)
     : stamp_size_(render.stamp_size),
-      n_(terms ? terms->n : 0),
+      n_(render.exact.period > 0 ? render.exact.period : exact_period(render.stamp_size)),
+      options_(render.exact),
       model_(model, 1.0 / render.upsampling),
-      terms_(std::move(terms)),
-      bulge_table_(std::move(bulge_table)),
-      bulge_index_(bulge_index),
       kernels_(&kernels::kspace_kernels(render.simd)) {
   std::string why;
-  if (!options.IsValid(&why)) throw std::invalid_argument("ExactRenderer: " + why);
-  if (!terms_) throw std::invalid_argument("ExactRenderer: no term list");
-  if (n_ < stamp_size_) throw std::invalid_argument("ExactRenderer: period below the stamp size");
-  if (!bulge_table_ && bulge_index_ != 1.0) throw std::invalid_argument("ExactRenderer: no table for the bulge index");
-  const std::size_t spectrum = static_cast<std::size_t>(n_) * terms_->row_stride;
-  // Each image's real and imaginary parts in one buffer, the imaginary `spectrum` doubles after
-  // the real: FFTW's new-array execute needs the same ii - ri separation as at planning.
-  spectrum_size_ = spectrum;
+  if (!options_.IsValid(&why)) throw std::invalid_argument("ExactRenderer: " + why);
+  if (stamp_size_ < 1) throw std::invalid_argument("ExactRenderer: stamp_size must be positive");
+  if (n_ < stamp_size_) throw std::invalid_argument("ExactRenderer: exact_period is below the stamp size");
+  // The grid's shape is the term lists' (kernels::KSpaceTerms): rows of n / 2 + 1 padded to kKBlock.
+  row_stride_ = (n_ / 2 + 1 + kernels::kKBlock - 1) / kernels::kKBlock * kernels::kKBlock;
+  spectrum_size_ = static_cast<std::size_t>(n_) * row_stride_;
+  // Each image's real and imaginary parts in one buffer, the imaginary `spectrum` doubles after the real.
   for (auto& b : spectra_) {
-    b = AlignedBuffer(2 * sizeof(double) * spectrum);
-    std::memset(b.data(), 0, 2 * sizeof(double) * spectrum);
+    b = AlignedBuffer(2 * sizeof(double) * spectrum_size_);
+    std::memset(b.data(), 0, 2 * sizeof(double) * spectrum_size_);
   }
   grid_ = AlignedBuffer(sizeof(double) * static_cast<std::size_t>(n_) * n_);
-  // Split-complex c2r with padded input rows: row stride row_stride, output rows of n.
-  fftw_iodim dims[2] = {{n_, terms_->row_stride, n_}, {n_, 1, 1}};
-  const unsigned flags = (options.planning == FftPlanning::kMeasure ? FFTW_MEASURE : FFTW_ESTIMATE) | FFTW_DESTROY_INPUT;
+  // FFTW's own interleaved half-spectrum layout: its c2r plans for it run 1.3-3.5x faster than a
+  // split-complex guru plan over the kernels' padded rows (measured at N = 64-128), so each
+  // spectrum is interleaved into `complex_` before its inverse.
+  const int half = n_ / 2 + 1;
+  complex_ = AlignedBuffer(sizeof(fftw_complex) * static_cast<std::size_t>(n_) * half);
+  // FFTW_ESTIMATE: plans (hence rounding) independent of timing, so fits are bitwise repeatable.
+  const unsigned flags = FFTW_ESTIMATE | FFTW_DESTROY_INPUT;
   {
     std::lock_guard<std::mutex> lock(fftw_planner_mutex());
-    plan_ = fftw_plan_guru_split_dft_c2r(2, dims, 0, nullptr, spectrum_re(0), spectrum_im(0),
-                                         static_cast<double*>(grid_.data()), flags);
+    plan_ = fftw_plan_dft_c2r_2d(n_, n_, static_cast<fftw_complex*>(complex_.data()), static_cast<double*>(grid_.data()),
+                                 flags);
   }
   if (!plan_) throw std::runtime_error("FFTW could not plan the exact renderer's inverse transform");
-  // FFTW_MEASURE overwrote the planning arrays; the spectra are rewritten every render anyway.
-  phase_x_re_.resize(terms_->kx_values.size());
-  phase_x_im_.resize(terms_->kx_values.size());
-  phase_y_re_.resize(terms_->ky_values.size());
-  phase_y_im_.resize(terms_->ky_values.size());
   for (auto& s : component_stamps_) s.assign(static_cast<std::size_t>(stamp_size_) * stamp_size_, 0.0);
+  if (options_.wrap_rings > 0) {
+    wrap_nodes_ = kernels::ChebyshevStamp(stamp_size_, options_.wrap_nodes);
+    wrap_values_.assign(static_cast<std::size_t>(kWrapImages) * options_.wrap_nodes * options_.wrap_nodes, 0.0);
+    wrap_scratch_.assign(static_cast<std::size_t>(options_.wrap_nodes) * stamp_size_, 0.0);
+    const std::size_t copies = static_cast<std::size_t>(2 * options_.wrap_rings + 1) * (2 * options_.wrap_rings + 1);
+    bulge_copies_.reserve(copies);
+    disc_copies_.reserve(copies);
+  }
 }
 
 ExactRenderer::~ExactRenderer() {
@@ -219,19 +114,64 @@ ExactRenderer::~ExactRenderer() {
   fftw_destroy_plan(static_cast<fftw_plan>(plan_));
 }
 
-void ExactRenderer::set_terms(std::shared_ptr<const kernels::KSpaceTerms> terms) {
-  if (!terms || terms->n != n_ || terms->row_stride != terms_->row_stride ||
-      terms->kx_values.size() != terms_->kx_values.size() || terms->ky_values.size() != terms_->ky_values.size())
-    throw std::invalid_argument("ExactRenderer::set_terms: a term list for another grid");
-  terms_ = std::move(terms);
+std::shared_ptr<const PreparedPsf> ExactRenderer::prepare_psf(const PsfModel& psf, std::string* error) {
+  auto prepared = build_exact_psf(psf, n_, options_.psf_tolerance, error);
+  if (!prepared) return nullptr;
+  if (!prepared->finite_blur() && n_ < exact_uncorrected_period(stamp_size_)) {
+    if (error) {
+      std::ostringstream msg;
+      msg << "the exact renderer cannot subtract the wrapped light of a PSF whose second moments diverge (the Airy "
+             "disc, Moffat beta <= 2) on its "
+          << n_ << "-pixel period: set exact_period >= " << exact_uncorrected_period(stamp_size_)
+          << " or renderer = upsampled";
+      *error = msg.str();
+    }
+    return nullptr;
+  }
+  return prepared;
 }
 
-bool ExactRenderer::prepare(const ParamVector& p, kernels::KSpaceModel* m) {
+void ExactRenderer::set_psf(std::shared_ptr<const PreparedPsf> psf) {
+  auto exact = std::dynamic_pointer_cast<const ExactPsf>(psf);
+  if (!exact) throw std::invalid_argument("ExactRenderer::set_psf: a PSF prepared by another renderer kind");
+  const kernels::KSpaceTerms& t = exact->terms();
+  if (t.n != n_ || t.row_stride != row_stride_)
+    throw std::invalid_argument("ExactRenderer::set_psf: a PSF prepared for another period");
+  // The phase tables follow the term list's alias count, fixed per PSF: sized here, once per
+  // distinct alias count (a PSF cache's PSFs of one kind share it).
+  if (phase_x_re_.size() != t.kx_values.size()) {
+    phase_x_re_.resize(t.kx_values.size());
+    phase_x_im_.resize(t.kx_values.size());
+  }
+  if (phase_y_re_.size() != t.ky_values.size()) {
+    phase_y_re_.resize(t.ky_values.size());
+    phase_y_im_.resize(t.ky_values.size());
+  }
+  psf_ = std::move(exact);
+}
+
+bool ExactRenderer::effective_params(const ParamVector& p, ParamVector* out) const {
   ModelComponents comp;
-  if (!model_.components(p, &comp)) return false;
+  const bool ok = model_.components(p, &comp);
+  *out = p;
+  (*out)[index(Param::kE1)] = comp.e1;
+  (*out)[index(Param::kE2)] = comp.e2;
+  (*out)[index(Param::kRadius)] = comp.disc_radius;
+  return ok;
+}
+
+void ExactRenderer::component_fluxes(const ParamVector& p, double* bulge, double* disc) const {
+  model_.fluxes(p, bulge, disc);
+}
+
+bool ExactRenderer::prepare(const ParamVector& p, kernels::KSpaceModel* m, ModelComponents* comp) {
+  if (!model_.components(p, comp)) return false;
   const double bulge_n = p[index(Param::kBulgeIndex)], disc_n = p[index(Param::kDiscIndex)];
-  if (bulge_n != bulge_index_ || disc_n != 1.0)
-    throw std::invalid_argument("ExactRenderer: Sérsic indices other than the tabulated bulge's and 1 for the disc");
+  if (disc_n != 1.0) throw std::invalid_argument("ExactRenderer: a disc index other than 1");
+  if (bulge_n != bulge_index_) {  // once per run: the index is fixed by the options
+    bulge_table_ = bulge_n == 1.0 ? nullptr : sersic_k_table(bulge_n);
+    bulge_index_ = bulge_n;
+  }
   // k-space form W = Q^-1 of the real-space form Q (u = dx^T Q dx), dW/de = -W (dQ/de) W.
   auto fill = [](const kernels::SersicDerivativeBlock& b, double radius, double n, const kernels::SersicKTable* table,
                  kernels::KSpaceComponent* c) {
@@ -255,27 +195,28 @@ bool ExactRenderer::prepare(const ParamVector& p, kernels::KSpaceModel* m) {
     c->flux_per_amplitude = kernels::sersic_flux_per_amplitude(radius, n);
     c->flux = b.amplitude * c->flux_per_amplitude;
   };
-  fill(comp.bulge, comp.bulge_radius, bulge_n, bulge_index_ == 1.0 ? nullptr : bulge_table_.get(), &m->bulge);
-  fill(comp.disc, comp.disc_radius, disc_n, nullptr, &m->disc);
-  m->dlnr = -0.5 * comp.disc.du_dr_over_u;  // du/dr / u = -2 d ln r / dr
+  fill(comp->bulge, comp->bulge_radius, bulge_n, bulge_table_.get(), &m->bulge);
+  fill(comp->disc, comp->disc_radius, disc_n, nullptr, &m->disc);
+  m->dlnr = -0.5 * comp->disc.du_dr_over_u;  // du/dr / u = -2 d ln r / dr
   // Phases e^{-i k x0} by recurrence along each alias's run of frequencies (two sincos per axis
   // and alias group instead of one per value; the rounding grows by ~1 ulp per step).
+  const kernels::KSpaceTerms& terms = psf_->terms();
   const double dk = 2 * kPi / n_;
   const double x0 = p[index(Param::kX0)], y0 = p[index(Param::kY0)];
-  const int stride = terms_->row_stride;
-  const int groups_x = static_cast<int>(terms_->kx_values.size()) / stride;
+  const int stride = row_stride_;
+  const int groups_x = static_cast<int>(terms.kx_values.size()) / stride;
   const std::complex<double> step_x = std::polar(1.0, -dk * x0), step_y = std::polar(1.0, -dk * y0);
   for (int g = 0; g < groups_x; ++g) {
-    std::complex<double> z = std::polar(1.0, -terms_->kx_values[static_cast<std::size_t>(g) * stride] * x0);
+    std::complex<double> z = std::polar(1.0, -terms.kx_values[static_cast<std::size_t>(g) * stride] * x0);
     for (int j = 0; j < stride; ++j, z *= step_x) {
       phase_x_re_[static_cast<std::size_t>(g) * stride + j] = z.real();
       phase_x_im_[static_cast<std::size_t>(g) * stride + j] = z.imag();
     }
   }
-  const int groups_y = static_cast<int>(terms_->ky_values.size()) / n_;
+  const int groups_y = static_cast<int>(terms.ky_values.size()) / n_;
   for (int g = 0; g < groups_y; ++g) {
     const std::size_t base = static_cast<std::size_t>(g) * n_;
-    const std::complex<double> z0 = std::polar(1.0, -terms_->ky_values[base] * y0);  // row 0: ky = 2 pi m
+    const std::complex<double> z0 = std::polar(1.0, -terms.ky_values[base] * y0);  // row 0: ky = 2 pi m
     std::complex<double> z = z0;
     for (int jy = 0; jy <= n_ / 2; ++jy, z *= step_y) {
       phase_y_re_[base + jy] = z.real();
@@ -295,51 +236,149 @@ bool ExactRenderer::prepare(const ParamVector& p, kernels::KSpaceModel* m) {
 }
 
 void ExactRenderer::inverse(int k, double* stamp) {
-  fftw_execute_split_dft_c2r(static_cast<fftw_plan>(plan_), spectrum_re(k), spectrum_im(k),
-                             static_cast<double*>(grid_.data()));
+  const int half = n_ / 2 + 1;
+  auto* c = static_cast<double*>(complex_.data());
+  const double* re = spectrum_re(k);
+  const double* im = spectrum_im(k);
+  for (int jy = 0; jy < n_; ++jy) {
+    const double* r = re + static_cast<std::size_t>(jy) * row_stride_;
+    const double* i = im + static_cast<std::size_t>(jy) * row_stride_;
+    double* o = c + 2 * static_cast<std::size_t>(jy) * half;
+    for (int jx = 0; jx < half; ++jx) {
+      o[2 * jx] = r[jx];
+      o[2 * jx + 1] = i[jx];
+    }
+  }
+  fftw_execute_dft_c2r(static_cast<fftw_plan>(plan_), static_cast<fftw_complex*>(complex_.data()),
+                       static_cast<double*>(grid_.data()));
   const double* g = static_cast<const double*>(grid_.data());
   for (int y = 0; y < stamp_size_; ++y)
     std::copy_n(g + static_cast<std::size_t>(y) * n_, stamp_size_, stamp + static_cast<std::size_t>(y) * stamp_size_);
 }
 
+namespace {
+
+kernels::WingComponent wing_of(const kernels::SersicDerivativeBlock& b) {
+  kernels::WingComponent w;
+  w.x0 = b.shape.x0;
+  w.y0 = b.shape.y0;
+  w.q = b.shape.q;
+  w.b = b.shape.b;
+  w.s = b.shape.inv_2n;
+  w.root = b.shape.root;
+  w.dq_de1 = b.dq_de1;
+  w.dq_de2 = b.dq_de2;
+  w.du_dr_over_u = b.du_dr_over_u;
+  return w;
+}
+
+}  // namespace
+
+void ExactRenderer::find_copies(const ModelComponents& comp) {
+  const kernels::BlurMoments& m = psf_->blur();
+  const double blur = 0.5 * (m.xx + m.yy);
+  auto find = [&](const kernels::SersicDerivativeBlock& b, double radius, double n, std::vector<kernels::CopyOffset>* out) {
+    // Copies below 1e-8 of the component's blurred peak (flux / (2 pi (r^2 + sigma^2)), unit
+    // amplitude) are left out: even fifty of them stay below 5e-7 of it.
+    const double peak = kernels::sersic_flux_per_amplitude(radius, n) / (2 * kPi * (radius * radius + blur));
+    kernels::significant_copies(wing_of(b), n_, stamp_size_, options_.wrap_rings, 1e-8 * std::min(1.0, peak), out);
+  };
+  find(comp.bulge, comp.bulge_radius, bulge_index_, &bulge_copies_);
+  find(comp.disc, comp.disc_radius, 1.0, &disc_copies_);
+}
+
+void ExactRenderer::subtract_wrap(const ModelComponents& comp, double* model) {
+  find_copies(comp);
+  if (bulge_copies_.empty() && disc_copies_.empty()) return;
+  const int p = wrap_nodes_.nodes();
+  double* v = wrap_values_.data();
+  const kernels::WingComponent bulge = wing_of(comp.bulge), disc = wing_of(comp.disc);
+  const double ab = comp.bulge.amplitude, ad = comp.disc.amplitude;
+  for (int jy = 0; jy < p; ++jy)
+    for (int jx = 0; jx < p; ++jx) {
+      const double x = wrap_nodes_.node(jx), y = wrap_nodes_.node(jy);
+      double s = 0;
+      if (ab != 0) s += ab * kernels::wrapped_wings(bulge, psf_->blur(), bulge_copies_, x, y, nullptr);
+      if (ad != 0) s += ad * kernels::wrapped_wings(disc, psf_->blur(), disc_copies_, x, y, nullptr);
+      v[jy * p + jx] = -s;
+    }
+  wrap_nodes_.add_interpolated(v, model, wrap_scratch_.data());
+}
+
+void ExactRenderer::subtract_wrap(const ModelComponents& comp, double* bulge_image, double* disc_image,
+                                  const std::array<double*, 5>& shape) {
+  find_copies(comp);
+  if (bulge_copies_.empty() && disc_copies_.empty()) return;
+  const int p = wrap_nodes_.nodes();
+  const std::size_t per = static_cast<std::size_t>(p) * p;
+  double* v = wrap_values_.data();  // kWrapImages blocks: bulge, disc, then the five derivatives
+  const kernels::WingComponent bulge = wing_of(comp.bulge), disc = wing_of(comp.disc);
+  const double ab = comp.bulge.amplitude, ad = comp.disc.amplitude;
+  std::array<double, kernels::kWingDerivatives> db{}, dd{};
+  for (int jy = 0; jy < p; ++jy)
+    for (int jx = 0; jx < p; ++jx) {
+      const double x = wrap_nodes_.node(jx), y = wrap_nodes_.node(jy);
+      const std::size_t i = static_cast<std::size_t>(jy) * p + jx;
+      v[i] = -kernels::wrapped_wings(bulge, psf_->blur(), bulge_copies_, x, y, &db);
+      v[per + i] = -kernels::wrapped_wings(disc, psf_->blur(), disc_copies_, x, y, &dd);
+      for (int k = 0; k < kernels::kWingDerivatives; ++k) v[(2 + k) * per + i] = -(ab * db[k] + ad * dd[k]);
+    }
+  double* scratch = wrap_scratch_.data();
+  if (!bulge_copies_.empty()) wrap_nodes_.add_interpolated(v, bulge_image, scratch);
+  if (!disc_copies_.empty()) wrap_nodes_.add_interpolated(v + per, disc_image, scratch);
+  for (int k = 0; k < kernels::kWingDerivatives; ++k)
+    if (shape[static_cast<std::size_t>(k)]) wrap_nodes_.add_interpolated(v + (2 + k) * per, shape[static_cast<std::size_t>(k)], scratch);
+}
+
 RenderStatus ExactRenderer::render(const ParamVector& p, std::span<double> model) {
+  if (!psf_) return RenderStatus::kNoPsf;
   kernels::KSpaceModel m;
-  if (!prepare(p, &m)) return RenderStatus::kInvalidModel;
+  ModelComponents comp;
+  if (!prepare(p, &m, &comp)) return RenderStatus::kInvalidModel;
   kernels::KSpaceSpectra out;
   out.re[0] = spectrum_re(0);
   out.im[0] = spectrum_im(0);
-  kernels_->accumulate_model(*terms_, m, out);
+  kernels_->accumulate_model(psf_->terms(), m, out);
   inverse(0, model.data());
+  if (corrects_wrap()) subtract_wrap(comp, model.data());
   return RenderStatus::kOk;
 }
 
 RenderStatus ExactRenderer::render_with_jacobian(const ParamVector& p, std::span<const Param> free,
                                                  std::span<double> model, std::span<double* const> jacobian) {
+  if (!psf_) return RenderStatus::kNoPsf;
   kernels::KSpaceModel m;
-  if (!prepare(p, &m)) return RenderStatus::kInvalidModel;
+  ModelComponents comp;
+  if (!prepare(p, &m, &comp)) return RenderStatus::kInvalidModel;
   kernels::KSpaceSpectra out;
   for (int k = 0; k < kernels::kNumKSpaceImages; ++k) {
     out.re[k] = spectrum_re(k);
     out.im[k] = spectrum_im(k);
   }
-  kernels_->accumulate_jacobian(*terms_, m, out);
+  kernels_->accumulate_jacobian(psf_->terms(), m, out);
   inverse(kernels::kKBulge, component_stamps_[0].data());
   inverse(kernels::kKDisc, component_stamps_[1].data());
+  std::array<double*, 5> shape{};  // x0, y0, e1, e2, radius images, where wanted
+  for (std::size_t k = 0; k < free.size(); ++k) {
+    switch (free[k]) {
+      case Param::kX0: inverse(kernels::kKX0, shape[0] = jacobian[k]); break;
+      case Param::kY0: inverse(kernels::kKY0, shape[1] = jacobian[k]); break;
+      case Param::kE1: inverse(kernels::kKE1, shape[2] = jacobian[k]); break;
+      case Param::kE2: inverse(kernels::kKE2, shape[3] = jacobian[k]); break;
+      case Param::kRadius: inverse(kernels::kKRadius, shape[4] = jacobian[k]); break;
+      case Param::kBulgeA:
+      case Param::kDiscA: break;
+      default: throw std::invalid_argument("render_with_jacobian: parameter has no derivative image");
+    }
+  }
+  if (corrects_wrap()) subtract_wrap(comp, component_stamps_[0].data(), component_stamps_[1].data(), shape);
   const double ab = p[index(Param::kBulgeA)], ad = p[index(Param::kDiscA)];
   const auto& bulge = component_stamps_[0];
   const auto& disc = component_stamps_[1];
   for (std::size_t i = 0; i < model.size(); ++i) model[i] = ab * bulge[i] + ad * disc[i];
   for (std::size_t k = 0; k < free.size(); ++k) {
-    switch (free[k]) {
-      case Param::kX0: inverse(kernels::kKX0, jacobian[k]); break;
-      case Param::kY0: inverse(kernels::kKY0, jacobian[k]); break;
-      case Param::kE1: inverse(kernels::kKE1, jacobian[k]); break;
-      case Param::kE2: inverse(kernels::kKE2, jacobian[k]); break;
-      case Param::kRadius: inverse(kernels::kKRadius, jacobian[k]); break;
-      case Param::kBulgeA: std::copy(bulge.begin(), bulge.end(), jacobian[k]); break;
-      case Param::kDiscA: std::copy(disc.begin(), disc.end(), jacobian[k]); break;
-      default: throw std::invalid_argument("render_with_jacobian: parameter has no derivative image");
-    }
+    if (free[k] == Param::kBulgeA) std::copy(bulge.begin(), bulge.end(), jacobian[k]);
+    if (free[k] == Param::kDiscA) std::copy(disc.begin(), disc.end(), jacobian[k]);
   }
   return RenderStatus::kOk;
 }

@@ -5,6 +5,21 @@
 
 namespace stampede {
 
+bool ExactRenderOptions::IsValid(std::string* why) const {
+  std::ostringstream msg;
+  if (!(psf_tolerance > 0 && psf_tolerance < 1e-2))
+    msg << "exact_psf_tolerance = " << psf_tolerance << ": must be in (0, 1e-2)";
+  else if (period < 0 || period > 4096)
+    msg << "exact_period = " << period << ": must be 0 (the rule) or a grid size up to 4096 pixels";
+  else if (wrap_rings < 0 || wrap_rings > 64)
+    msg << "exact_wrap_rings = " << wrap_rings << ": must be 0 (no wrap correction) to 64";
+  else if (wrap_nodes < 2 || wrap_nodes > 64)
+    msg << "exact_wrap_nodes = " << wrap_nodes << ": must be 2 to 64";
+  if (msg.str().empty()) return true;
+  if (why) *why = msg.str();
+  return false;
+}
+
 bool RenderOptions::IsValid(std::string* why) const {
   std::ostringstream msg;
   if (stamp_size < 3 || stamp_size > 4096)

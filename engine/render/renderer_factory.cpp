@@ -5,6 +5,7 @@
 #include <cctype>
 #include <string>
 
+#include "engine/render/exact_renderer.hpp"
 #include "engine/render/upsampled_renderer.hpp"
 
 namespace stampede {
@@ -12,6 +13,7 @@ namespace stampede {
 const char* renderer_kind_name(RendererKind kind) {
   switch (kind) {
     case RendererKind::kUpsampled: return "upsampled";
+    case RendererKind::kExact: return "exact";
   }
   return "?";
 }
@@ -19,7 +21,7 @@ const char* renderer_kind_name(RendererKind kind) {
 bool parse_renderer_kind(std::string_view name, RendererKind* out) {
   std::string s(name);
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  for (RendererKind k : {RendererKind::kUpsampled})
+  for (RendererKind k : {RendererKind::kUpsampled, RendererKind::kExact})
     if (s == renderer_kind_name(k)) {
       *out = k;
       return true;
@@ -27,12 +29,13 @@ bool parse_renderer_kind(std::string_view name, RendererKind* out) {
   return false;
 }
 
-const char* renderer_kind_names() { return "upsampled"; }
+const char* renderer_kind_names() { return "upsampled, exact"; }
 
 std::unique_ptr<Renderer> make_renderer(RendererKind kind, const RenderOptions& render, const ModelOptions& model,
                                         FftPlanCache& plans) {
   switch (kind) {
     case RendererKind::kUpsampled: return std::make_unique<UpsampledRenderer>(render, model, nullptr, plans);
+    case RendererKind::kExact: return std::make_unique<ExactRenderer>(render, model);
   }
   throw std::invalid_argument("make_renderer: unknown renderer kind");
 }

@@ -14,12 +14,13 @@ namespace stampede {
 
 enum class RendererKind {
   kUpsampled,  // render/upsampled_renderer: the paper's upsampled grid, FFT convolution
+  kExact,      // render/exact_renderer: the continuous transform at data resolution
 };
-// "upsampled".
+// "upsampled", "exact".
 const char* renderer_kind_name(RendererKind kind);
 // Case-insensitive inverse of renderer_kind_name; false for anything else.
 bool parse_renderer_kind(std::string_view name, RendererKind* out);
-// The allowed names, comma-separated, for messages and help ("upsampled").
+// The allowed names, comma-separated, for messages and help ("upsampled, exact").
 const char* renderer_kind_names();
 
 // A renderer without a PSF (set_psf before rendering). `plans` are the calling thread's and must

@@ -1,0 +1,217 @@
+// The exact renderer's prepared PSF; see exact_psf.hpp.
+#include "engine/render/exact_psf.hpp"
+
+#include <fftw3.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <complex>
+#include <functional>
+#include <mutex>
+#include <numbers>
+#include <stdexcept>
+#include <vector>
+
+#include "engine/common/fftw_support.hpp"
+#include "kernels/ellipse.hpp"
+#include "kernels/fourier_profiles.hpp"
+#include "kernels/math/gauss_legendre.hpp"
+#include "kernels/math/sinc.hpp"
+#include "kernels/moments.hpp"
+#include "kernels/psf_profile.hpp"
+
+namespace stampede {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+using kernels::sinc;
+
+// The PSF's transform (PSF(0) = 1) as a function of (kx, ky), and the |k| beyond which it stays
+// at most `tolerance`.
+struct PsfTransform {
+  std::function<double(double, double)> at;
+  double k_bound = 0;
+};
+
+PsfTransform psf_transform(const PsfModel& psf, double tolerance) {
+  PsfTransform out;
+  if (psf.kind == PsfKind::kMoffat) {
+    const kernels::MoffatProfile& m = psf.moffat;
+    const double alpha = kernels::moffat_alpha(m.fwhm, m.beta);
+    const double t = m.truncation > 0 ? m.truncation / alpha : 0.0;
+    // |S k| for the sheared profile: S^2 is the real-space form of the opposite shear at r = 1.
+    const kernels::EllipseQuadratic s2 = kernels::ellipse_quadratic(-m.e1, -m.e2, 1.0);
+    const double e = std::hypot(m.e1, m.e2), stretch = std::sqrt((1 + e) / (1 - e));
+    // Largest x = k alpha with |transform| above the tolerance, scanned outwards (a truncated
+    // Moffat's transform rings, so it is capped as in the simulator: five pixel-frequency aliases).
+    const double x_cap = 10 * kPi * alpha;
+    double x_limit = 1.0;
+    for (double x = 0.25; x <= x_cap; x += 0.25)
+      if (std::abs(kernels::moffat_fourier(m.beta, t, x)) > tolerance) x_limit = x + 0.25;
+    x_limit = std::min(x_limit, x_cap);
+    out.k_bound = x_limit / alpha * stretch;
+    if (t == 0) {
+      out.at = [=](double kx, double ky) {
+        const double x = std::sqrt(std::max(0.0, s2(kx, ky))) * alpha;
+        return x > x_limit ? 0.0 : kernels::moffat_fourier(m.beta, 0.0, x);
+      };
+    } else {
+      // The truncated transform is a quadrature: tabulated as in the simulator (400 nodes per
+      // decade keep >= 10 nodes per period of its ringing).
+      auto table = std::make_shared<kernels::LogTable>([&](double x) { return kernels::moffat_fourier(m.beta, t, x); },
+                                                       kernels::LogGrid::covering(1e-4, x_limit, 400));
+      out.at = [=](double kx, double ky) {
+        const double x = std::sqrt(std::max(0.0, s2(kx, ky))) * alpha;
+        return x > table->q_max() ? 0.0 : (*table)(x);
+      };
+    }
+    return out;
+  }
+  if (psf.kind == PsfKind::kAiry && psf.airy.obscuration == 0.0) {
+    const double l = psf.airy.lambda_over_d;
+    out.k_bound = 2 * kPi / l;  // the pupil's cut-off: exactly 0 beyond
+    out.at = [=](double kx, double ky) { return kernels::airy_fourier(std::hypot(kx, ky) * l / (2 * kPi)); };
+    return out;
+  }
+  throw std::invalid_argument(
+      "the exact renderer's term list needs an analytic PSF transform (Moffat, unobscured Airy); image and "
+      "obscured Airy PSFs are not supported yet");
+}
+
+// Signed frequency index of half-spectrum row jy (FFTW order).
+int signed_row(int jy, int n) { return jy <= n / 2 ? jy : jy - n; }
+
+// <r^2> of the round Moffat (1 + r^2 / alpha^2)^-beta cut at r = t alpha (t = 0: none), in units
+// of alpha^2; infinite for an untruncated beta <= 2.
+double moffat_mean_r2(double beta, double t) {
+  if (t == 0) return beta > 2 ? 1.0 / (beta - 2) : INFINITY;
+  // With s = 1 + r^2 / alpha^2 both integrals are elementary: int s^-beta ds and int (s - 1) s^-beta ds
+  // over [1, 1 + t^2].
+  const double top = 1 + t * t;
+  auto power_integral = [&](double p) {  // int_1^top s^p ds
+    return p == -1 ? std::log(top) : (std::pow(top, p + 1) - 1) / (p + 1);
+  };
+  const double flux = power_integral(-beta);
+  return (power_integral(1 - beta) - flux) / flux;
+}
+
+}  // namespace
+
+std::shared_ptr<const kernels::KSpaceTerms> build_kspace_terms(const PsfModel& psf, int n, double tolerance) {
+  std::string why;
+  if (!psf.IsValid(&why)) throw std::invalid_argument("exact renderer PSF: " + why);
+  if (n < 8) throw std::invalid_argument("exact renderer: period below 8 pixels");
+  const PsfTransform p = psf_transform(psf, tolerance);
+  auto terms = std::make_shared<kernels::KSpaceTerms>();
+  const int half = n / 2 + 1;
+  const int stride = (half + kernels::kKBlock - 1) / kernels::kKBlock * kernels::kKBlock;
+  const int per_row = stride / kernels::kKBlock;
+  const double dk = 2 * kPi / n;
+  // Aliases out to where the PSF has fallen below the tolerance (sinc <= 1 only lowers it).
+  const int m_max = static_cast<int>(std::ceil(p.k_bound / (2 * kPi) + 0.5));
+  const int aliases = 2 * m_max + 1;
+  terms->n = n;
+  terms->row_stride = stride;
+  terms->kx_values.resize(static_cast<std::size_t>(aliases) * stride);
+  terms->ky_values.resize(static_cast<std::size_t>(aliases) * n);
+  for (int a = 0; a < aliases; ++a) {
+    for (int jx = 0; jx < stride; ++jx) terms->kx_values[static_cast<std::size_t>(a) * stride + jx] = 2 * kPi * (a - m_max) + dk * jx;
+    for (int jy = 0; jy < n; ++jy)
+      terms->ky_values[static_cast<std::size_t>(a) * n + jy] = 2 * kPi * (a - m_max) + dk * signed_row(jy, n);
+  }
+  const double norm = 1.0 / (static_cast<double>(n) * n);  // FFTW's unnormalised inverse
+  terms->block_begin.reserve(static_cast<std::size_t>(n) * per_row + 1);
+  for (int jy = 0; jy < n; ++jy)
+    for (int b = 0; b < per_row; ++b) {
+      terms->block_begin.push_back(static_cast<std::int32_t>(terms->entry_ix.size()));
+      for (int ay = 0; ay < aliases; ++ay) {
+        const int iy = ay * n + jy;
+        const double ky = terms->ky_values[static_cast<std::size_t>(iy)];
+        if (std::abs(ky) > p.k_bound) continue;
+        for (int ax = 0; ax < aliases; ++ax) {
+          const int ix = ax * stride + b * kernels::kKBlock;
+          std::array<double, kernels::kKBlock> v{};
+          double largest = 0;
+          for (int l = 0; l < kernels::kKBlock; ++l) {
+            const int jx = b * kernels::kKBlock + l;
+            const double kx = terms->kx_values[static_cast<std::size_t>(ix + l)];
+            if (jx >= half || std::hypot(kx, ky) > p.k_bound) continue;  // padding column, or beyond the PSF
+            v[l] = p.at(kx, ky) * sinc(0.5 * kx) * sinc(0.5 * ky);
+            largest = std::max(largest, std::abs(v[l]));
+          }
+          if (!(largest > tolerance)) continue;
+          terms->entry_ix.push_back(ix);
+          terms->entry_iy.push_back(iy);
+          for (double x : v) {
+            terms->ppi_re.push_back(x * norm);
+            terms->ppi_im.push_back(0.0);  // centrosymmetric analytic PSFs have real transforms
+          }
+        }
+      }
+    }
+  terms->block_begin.push_back(static_cast<std::int32_t>(terms->entry_ix.size()));
+  return terms;
+}
+
+bool blur_moments(const PsfModel& psf, kernels::BlurMoments* out) {
+  if (psf.kind != PsfKind::kMoffat) return false;  // the Airy disc's second moments diverge
+  const kernels::MoffatProfile& m = psf.moffat;
+  const double alpha = kernels::moffat_alpha(m.fwhm, m.beta);
+  const double r2 = moffat_mean_r2(m.beta, m.truncation > 0 ? m.truncation / alpha : 0.0);
+  if (!std::isfinite(r2)) return false;
+  // The sheared profile's covariance is sigma^2 Q(e)^-1 = sigma^2 Q(-e) (area-preserving, det 1),
+  // sigma^2 = <r^2> / 2 per axis of the round one; the pixel box adds 1/12 per axis.
+  const double s2 = 0.5 * r2 * alpha * alpha;
+  const kernels::EllipseQuadratic c = kernels::ellipse_quadratic(-m.e1, -m.e2, 1.0);
+  out->xx = s2 * c.xx + 1.0 / 12.0;
+  out->xy = s2 * c.xy;
+  out->yy = s2 * c.yy + 1.0 / 12.0;
+  return true;
+}
+
+std::shared_ptr<const ExactPsf> build_exact_psf(const PsfModel& psf, int period, double tolerance,
+                                                std::string* error) {
+  std::shared_ptr<const kernels::KSpaceTerms> terms;
+  try {
+    terms = build_kspace_terms(psf, period, tolerance);
+  } catch (const std::invalid_argument& e) {
+    if (error) *error = e.what();
+    return nullptr;
+  }
+  // PSF x pixel centred on pixel (c, c), c = n / 2: its spectrum is the alias sum times e^{-i k c}
+  // (aliases add multiples of 2 pi to k, which leave the phase of an integer c alone).
+  const int n = terms->n, half = n / 2 + 1, stride = terms->row_stride, per_row = stride / kernels::kKBlock;
+  std::vector<std::complex<double>> spectrum(static_cast<std::size_t>(n) * half);
+  for (int b = 0; b < terms->blocks(); ++b) {
+    const int jy = b / per_row, jx0 = (b % per_row) * kernels::kKBlock;
+    for (int e = terms->block_begin[static_cast<std::size_t>(b)]; e < terms->block_begin[static_cast<std::size_t>(b) + 1]; ++e)
+      for (int l = 0; l < kernels::kKBlock; ++l) {
+        const int jx = jx0 + l;
+        if (jx >= half) continue;
+        const std::size_t v = static_cast<std::size_t>(e) * kernels::kKBlock + l;
+        const double angle = -2 * kPi * (static_cast<double>(jx) + signed_row(jy, n)) * (n / 2) / n;
+        spectrum[static_cast<std::size_t>(jy) * half + jx] +=
+            std::polar(1.0, angle) * std::complex<double>(terms->ppi_re[v], terms->ppi_im[v]);
+      }
+  }
+  std::vector<double> image(static_cast<std::size_t>(n) * n), ones(image.size(), 1.0);
+  {
+    std::lock_guard<std::mutex> lock(fftw_planner_mutex());
+    fftw_plan plan = fftw_plan_dft_c2r_2d(n, n, reinterpret_cast<fftw_complex*>(spectrum.data()), image.data(),
+                                          FFTW_ESTIMATE | FFTW_DESTROY_INPUT);
+    fftw_execute(plan);
+    fftw_destroy_plan(plan);
+  }
+  const kernels::ImageMoments m = kernels::adaptive_moments(image, ones, n);
+  if (!m.valid) {
+    if (error) *error = "the PSF's adaptive moments did not converge";
+    return nullptr;
+  }
+  kernels::BlurMoments blur;
+  const bool finite = blur_moments(psf, &blur);
+  return std::make_shared<const ExactPsf>(std::move(terms), finite, blur, m.xx, m.xy, m.yy);
+}
+
+}  // namespace stampede
