@@ -3,11 +3,12 @@
 // wings otherwise wrap around; see engine/render/exact_renderer.hpp).
 //
 // Far from its centre a component convolved with the PSF and the pixel box is smooth on the
-// blur's scale, so it is its unblurred profile plus the second-order term of the blur,
-//   (I * B)(x) = I(x) + 1/2 M : grad grad I(x) + O(|M|^2 grad^4 I),
+// blur's scale, so it is its unblurred profile times the exponential of the blur's second-order
+// term (the cumulant form, exact for an exponential wing under a Gaussian blur; saturated where the
+// profile is steep on the blur's scale, see blurred_wing):
+//   (I * B)(x) = I(x) exp(1/2 M : grad grad I(x) / I(x)) (1 + O(|M|^2 grad^4)),
 // M the second moments of PSF x pixel (finite for Moffat beta > 2, truncated Moffats; not for the
-// Airy disc). The copies are at d_min >= N - stamp from every stamp pixel, where the fourth-order
-// term is below ~(sigma / d)^4 of the wing.
+// Airy disc). The copies are at d_min >= N - stamp from every stamp pixel.
 //
 // The copies' light is smooth across the stamp, so it is evaluated at p x p Chebyshev nodes and
 // interpolated to the pixels with two small matrix products per image.
@@ -53,8 +54,9 @@ struct CopyOffset {
 };
 
 // The copies of `c` (rings 0 < max(|i|, |j|) <= max_rings, outwards until a ring adds none) whose
-// unblurred value anywhere on the stamp [0, size - 1]^2 can exceed `floor`: a bound from the
-// nearest stamp point and the ellipse's smallest axis, so the copies left out are each below it.
+// blurred value anywhere on the stamp [0, size - 1]^2 can exceed `floor`: a bound from the nearest
+// stamp point, the ellipse's smallest axis and the blur's largest factor (e^2), so the copies left
+// out are each below it.
 // `out` is cleared, then filled (reserve (2 max_rings + 1)^2 to keep this allocation-free).
 void significant_copies(const WingComponent& c, int period, int size, int max_rings, double floor,
                         std::vector<CopyOffset>* out);
