@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "kernels/ellipse.hpp"
+#include "kernels/isa.hpp"
 #include "kernels/profile_render.hpp"
 
 namespace stampede::kernels {
@@ -43,11 +44,6 @@ struct WingComponent {
 // The five shape derivatives, in the order of kernels/profile_render.hpp's ShapeDerivative.
 inline constexpr int kWingDerivatives = 5;  // x0, y0, e1, e2, radius
 
-// The blurred far-field value of one component centred at (x0, y0) at point (x, y), and its five
-// derivatives (null: value only).
-double blurred_wing(const WingComponent& c, const BlurMoments& m, double x, double y,
-                    std::array<double, kWingDerivatives>* derivatives);
-
 // The offset of one periodic copy, (i N, j N).
 struct CopyOffset {
   double dx = 0, dy = 0;
@@ -55,13 +51,37 @@ struct CopyOffset {
 
 // The copies of `c` (rings 0 < max(|i|, |j|) <= max_rings, outwards until a ring adds none) whose
 // blurred value anywhere on the stamp [0, size - 1]^2 can exceed `floor`: a bound from the nearest
-// stamp point, the ellipse's smallest axis and the blur's largest factor (e^2), so the copies left
-// out are each below it.
+// stamp point, the ellipse's smallest axis and the saturated blur's largest factor (e^sqrt(6)), so
+// the copies left out are each below it.
 // `out` is cleared, then filled (reserve (2 max_rings + 1)^2 to keep this allocation-free).
 void significant_copies(const WingComponent& c, int period, int size, int max_rings, double floor,
                         std::vector<CopyOffset>* out);
 
-// The light of the copies at c's centre + offset, summed at (x, y).
+// The kernels, one build per instruction set from one source (wrapped_wings_impl.hpp):
+// add_wings: for points j < count, value[j] += value_scale * W(x[j], y[j]) (value null: skipped)
+// and, with derivative non-null, derivative[k][j] += derivative_scale * dW/dp_k for the five shape
+// parameters, W the light of the copies at c's centre + copies[i], blurred to second order (the
+// cumulant form, saturated; see the implementation).
+struct WrapKernels {
+  const char* name = "";
+  int lanes = 1;
+  void (*add_wings)(const WingComponent& c, const BlurMoments& m, const CopyOffset* copies, int ncopies,
+                    const double* x, const double* y, int count, double value_scale, double* value,
+                    double derivative_scale, double* const* derivative) = nullptr;
+  // ChebyshevStamp::add_interpolated's two matrix products.
+  void (*interpolate)(int size, int nodes, const double* basis, const double* basis_t, const double* values,
+                      double* out, double* scratch) = nullptr;
+};
+// The kernels for a set; nullptr when it was not compiled in or this CPU lacks it.
+const WrapKernels* wrap_kernels_for(Isa isa);
+// wrap_kernels_for(isa), or the scalar kernels when that set is unavailable.
+const WrapKernels& wrap_kernels(Isa isa = Isa::kBest);
+
+// Scalar conveniences over the scalar kernels: the blurred far-field value of one component
+// centred at (x0, y0) at point (x, y), and of the copies at c's centre + offset summed there, with
+// their five derivatives (null: value only).
+double blurred_wing(const WingComponent& c, const BlurMoments& m, double x, double y,
+                    std::array<double, kWingDerivatives>* derivatives);
 double wrapped_wings(const WingComponent& c, const BlurMoments& m, std::span<const CopyOffset> copies, double x,
                      double y, std::array<double, kWingDerivatives>* derivatives);
 
@@ -70,7 +90,8 @@ double wrapped_wings(const WingComponent& c, const BlurMoments& m, std::span<con
 class ChebyshevStamp {
  public:
   ChebyshevStamp() = default;
-  ChebyshevStamp(int size, int nodes);
+  // isa: the set add_interpolated runs on.
+  ChebyshevStamp(int size, int nodes, Isa isa = Isa::kBest);
   int size() const { return size_; }
   int nodes() const { return nodes_; }
   // Node coordinate j (pixels), the same on both axes.
@@ -82,7 +103,9 @@ class ChebyshevStamp {
  private:
   int size_ = 0, nodes_ = 0;
   std::vector<double> node_;
-  std::vector<double> basis_;  // basis_[x * nodes + j] = Lagrange basis j at pixel x
+  std::vector<double> basis_;    // basis_[x * nodes + j] = Lagrange basis j at pixel x
+  std::vector<double> basis_t_;  // basis_t_[j * size + x], the same transposed
+  const WrapKernels* kernels_ = nullptr;
 };
 
 }  // namespace stampede::kernels

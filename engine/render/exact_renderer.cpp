@@ -71,7 +71,8 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
       n_(render.exact.period > 0 ? render.exact.period : exact_period(render.stamp_size)),
       options_(render.exact),
       model_(model, 1.0 / render.upsampling),
-      kernels_(&kernels::kspace_kernels(render.simd)) {
+      kernels_(&kernels::kspace_kernels(render.simd)),
+      wrap_kernels_(&kernels::wrap_kernels(render.simd)) {
   std::string why;
   if (!options_.IsValid(&why)) throw std::invalid_argument("ExactRenderer: " + why);
   if (stamp_size_ < 1) throw std::invalid_argument("ExactRenderer: stamp_size must be positive");
@@ -100,7 +101,12 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
   if (!plan_) throw std::runtime_error("FFTW could not plan the exact renderer's inverse transform");
   for (auto& s : component_stamps_) s.assign(static_cast<std::size_t>(stamp_size_) * stamp_size_, 0.0);
   if (options_.wrap_rings > 0) {
-    wrap_nodes_ = kernels::ChebyshevStamp(stamp_size_, options_.wrap_nodes);
+    wrap_nodes_ = kernels::ChebyshevStamp(stamp_size_, options_.wrap_nodes, render.simd);
+    for (int jy = 0; jy < options_.wrap_nodes; ++jy)
+      for (int jx = 0; jx < options_.wrap_nodes; ++jx) {
+        node_x_.push_back(wrap_nodes_.node(jx));
+        node_y_.push_back(wrap_nodes_.node(jy));
+      }
     wrap_values_.assign(static_cast<std::size_t>(kWrapImages) * options_.wrap_nodes * options_.wrap_nodes, 0.0);
     wrap_scratch_.assign(static_cast<std::size_t>(options_.wrap_nodes) * stamp_size_, 0.0);
     const std::size_t copies = static_cast<std::size_t>(2 * options_.wrap_rings + 1) * (2 * options_.wrap_rings + 1);
@@ -290,18 +296,16 @@ void ExactRenderer::find_copies(const ModelComponents& comp) {
 void ExactRenderer::subtract_wrap(const ModelComponents& comp, double* model) {
   find_copies(comp);
   if (bulge_copies_.empty() && disc_copies_.empty()) return;
-  const int p = wrap_nodes_.nodes();
+  const int count = wrap_nodes_.nodes() * wrap_nodes_.nodes();
   double* v = wrap_values_.data();
-  const kernels::WingComponent bulge = wing_of(comp.bulge), disc = wing_of(comp.disc);
-  const double ab = comp.bulge.amplitude, ad = comp.disc.amplitude;
-  for (int jy = 0; jy < p; ++jy)
-    for (int jx = 0; jx < p; ++jx) {
-      const double x = wrap_nodes_.node(jx), y = wrap_nodes_.node(jy);
-      double s = 0;
-      if (ab != 0) s += ab * kernels::wrapped_wings(bulge, psf_->blur(), bulge_copies_, x, y, nullptr);
-      if (ad != 0) s += ad * kernels::wrapped_wings(disc, psf_->blur(), disc_copies_, x, y, nullptr);
-      v[jy * p + jx] = -s;
-    }
+  std::fill_n(v, count, 0.0);
+  auto add = [&](const kernels::SersicDerivativeBlock& b, const std::vector<kernels::CopyOffset>& copies) {
+    if (copies.empty() || b.amplitude == 0) return;
+    wrap_kernels_->add_wings(wing_of(b), psf_->blur(), copies.data(), static_cast<int>(copies.size()), node_x_.data(),
+                             node_y_.data(), count, -b.amplitude, v, 0.0, nullptr);
+  };
+  add(comp.bulge, bulge_copies_);
+  add(comp.disc, disc_copies_);
   wrap_nodes_.add_interpolated(v, model, wrap_scratch_.data());
 }
 
@@ -309,20 +313,20 @@ void ExactRenderer::subtract_wrap(const ModelComponents& comp, double* bulge_ima
                                   const std::array<double*, 5>& shape) {
   find_copies(comp);
   if (bulge_copies_.empty() && disc_copies_.empty()) return;
-  const int p = wrap_nodes_.nodes();
-  const std::size_t per = static_cast<std::size_t>(p) * p;
+  const int count = wrap_nodes_.nodes() * wrap_nodes_.nodes();
+  const std::size_t per = static_cast<std::size_t>(count);
   double* v = wrap_values_.data();  // kWrapImages blocks: bulge, disc, then the five derivatives
-  const kernels::WingComponent bulge = wing_of(comp.bulge), disc = wing_of(comp.disc);
-  const double ab = comp.bulge.amplitude, ad = comp.disc.amplitude;
-  std::array<double, kernels::kWingDerivatives> db{}, dd{};
-  for (int jy = 0; jy < p; ++jy)
-    for (int jx = 0; jx < p; ++jx) {
-      const double x = wrap_nodes_.node(jx), y = wrap_nodes_.node(jy);
-      const std::size_t i = static_cast<std::size_t>(jy) * p + jx;
-      v[i] = -kernels::wrapped_wings(bulge, psf_->blur(), bulge_copies_, x, y, &db);
-      v[per + i] = -kernels::wrapped_wings(disc, psf_->blur(), disc_copies_, x, y, &dd);
-      for (int k = 0; k < kernels::kWingDerivatives; ++k) v[(2 + k) * per + i] = -(ab * db[k] + ad * dd[k]);
-    }
+  std::fill_n(v, kWrapImages * per, 0.0);
+  std::array<double*, kernels::kWingDerivatives> d;
+  for (int k = 0; k < kernels::kWingDerivatives; ++k) d[static_cast<std::size_t>(k)] = v + (2 + k) * per;
+  auto add = [&](const kernels::SersicDerivativeBlock& b, const std::vector<kernels::CopyOffset>& copies, double* image) {
+    if (copies.empty()) return;
+    // The component image per unit amplitude; the shape derivatives at the model's amplitude.
+    wrap_kernels_->add_wings(wing_of(b), psf_->blur(), copies.data(), static_cast<int>(copies.size()), node_x_.data(),
+                             node_y_.data(), count, -1.0, image, -b.amplitude, d.data());
+  };
+  add(comp.bulge, bulge_copies_, v);
+  add(comp.disc, disc_copies_, v + per);
   double* scratch = wrap_scratch_.data();
   if (!bulge_copies_.empty()) wrap_nodes_.add_interpolated(v, bulge_image, scratch);
   if (!disc_copies_.empty()) wrap_nodes_.add_interpolated(v + per, disc_image, scratch);

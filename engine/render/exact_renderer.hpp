@@ -99,6 +99,7 @@ class ExactRenderer final : public Renderer {
   std::shared_ptr<const kernels::SersicKTable> bulge_table_;
   double bulge_index_ = 0;
   const kernels::KSpaceKernels* kernels_;
+  const kernels::WrapKernels* wrap_kernels_;
   void* plan_ = nullptr;  // fftw_plan: c2r from complex_ into grid_
   int row_stride_ = 0;
   double* spectrum_re(int k) const { return static_cast<double*>(spectra_[k].data()); }
@@ -111,7 +112,8 @@ class ExactRenderer final : public Renderer {
   std::vector<double> phase_x_re_, phase_x_im_, phase_y_re_, phase_y_im_;
   std::array<std::vector<double>, 2> component_stamps_;  // bulge, disc per unit amplitude
   kernels::ChebyshevStamp wrap_nodes_;
-  std::vector<double> wrap_values_;   // per wrap image: nodes^2 values
+  std::vector<double> node_x_, node_y_;  // the nodes^2 Chebyshev points, row by row
+  std::vector<double> wrap_values_;      // per wrap image: nodes^2 values
   std::vector<double> wrap_scratch_;  // nodes * stamp_size
   std::vector<kernels::CopyOffset> bulge_copies_, disc_copies_;  // reserved for every ring
 };
