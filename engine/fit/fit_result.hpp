@@ -12,7 +12,7 @@ enum class FitStatus : int {
   kOk = 0,             // converged by a tolerance rule: parameters usable
   kMaxIterations = 1,  // stopped at minimizer_max_iterations: best point found, use with caution
   kBadPixels = 2,      // NaN/Inf pixel or invalid weight on an unmasked pixel: nothing fitted
-  kNoData = 3,         // all pixels masked, zero total weight, or no positive flux: nothing fitted
+  kNoData = 3,         // all pixels masked or a flat stamp (every used pixel equal, zero included): nothing fitted
   kModelFailure = 4,   // no valid model at the starting point: nothing fitted
   kSolverFailure = 5,  // normal equations could not be solved: parameters not usable
   kPsfFailure = 6,     // the PSF could not be normalised: nothing fitted

@@ -35,30 +35,34 @@ class Fitter::Problem final : public LeastSquaresProblem {
       : f_(f), data_(npix), model_(npix), columns_(kMaxFree * kernels::aligned_stride<double>(npix)) {
     for (int k = 0; k < kMaxFree; ++k) column_ptr_[k] = columns_.data() + k * kernels::aligned_stride<double>(npix);
   }
-  void reset(std::span<const double> data, const ParamVector& full, int npix_used) {
-    // Masked pixels may hold NaN; as zeros they keep the least-squares kernels on their fast path.
-    for (std::size_t i = 0; i < data.size(); ++i) data_[i] = f_.weight_[i] != 0.0 ? data[i] : 0.0;
-    full_ = full;
+  // The stamp in the fit's units; masked pixels may hold NaN, and as zeros they keep the
+  // least-squares kernels on their fast path.
+  void set_data(std::span<const double> data, double data_unit, int npix_used) {
+    for (std::size_t i = 0; i < data.size(); ++i) data_[i] = f_.weight_[i] != 0.0 ? data[i] / data_unit : 0.0;
     npix_used_ = npix_used;
   }
+  // The full parameter vector (internal units) the free ones are set in.
+  void reset(const ParamVector& full) { full_ = full; }
   int num_pixels() const override { return npix_used_; }
+  std::span<const double> data() const { return data_; }
 
+  // x (internal units) in the full vector; false outside the bounds (data units; the units are
+  // powers of two, so the comparison is exact).
   bool expand(const LmVector& x, ParamVector* p) const {
     *p = full_;
     for (int k = 0; k < f_.num_free_; ++k) {
       const int i = index(f_.free_[k]);
-      if (!(x[k] >= f_.lower_[i] && x[k] <= f_.upper_[i])) return false;  // out of range: no model
+      const double v = x[k] * f_.units_.of(f_.free_[k]);
+      if (!(v >= f_.lower_[i] && v <= f_.upper_[i])) return false;  // out of range: no model
       (*p)[i] = x[k];
     }
     return true;
   }
-  // The paper's convention: a model that cannot be made scores chi2 = 2 per pixel. The solver also
-  // gets `false` and rejects the step outright, since 2 per pixel would look like an improvement
-  // to an unweighted fit of bright data.
+  // A model that cannot be made has no chi2 (NaN); the solver gets `false` and rejects the step.
   bool chi2(const LmVector& x, double* chi2) override {
     ParamVector p;
     if (!expand(x, &p) || f_.renderer_->render(p, model_) != RenderStatus::kOk) {
-      *chi2 = 2.0 * npix_used_;
+      *chi2 = NAN;
       return false;
     }
     *chi2 = f_.least_squares_->weighted_chi2(data_, model_, f_.weight_);
@@ -70,7 +74,7 @@ class Fitter::Problem final : public LeastSquaresProblem {
     if (!expand(x, &p) ||
         f_.renderer_->render_with_jacobian(p, std::span<const Param>(f_.free_.data(), nf), model_,
                                            std::span<double* const>(column_ptr_.data(), nf)) != RenderStatus::kOk) {
-      *chi2 = 2.0 * npix_used_;
+      *chi2 = NAN;
       return false;
     }
     alpha->resize(nf, nf);
@@ -134,7 +138,9 @@ FitStatus Fitter::prepare_weights(std::span<const double> pixels, std::span<cons
   const double w0 = sigma > 0 ? 1.0 / (sigma * sigma) : 1.0;
   if (weight.empty() && sigma == 0) *flags |= kFlagUnweighted;
   int used = 0;
-  bool any_signal = false;
+  bool flat = true;  // every used pixel equal (all zero included): no galaxy to fit
+  double first = NAN, max_abs = 0.0, max_weight = 0.0;
+  units_ = FitUnits{};
   for (std::size_t i = 0; i < npix; ++i) {
     const double w = weight.empty() ? w0 : weight[i];
     if (!(w >= 0.0) || !std::isfinite(w)) return FitStatus::kBadPixels;
@@ -144,24 +150,34 @@ FitStatus Fitter::prepare_weights(std::span<const double> pixels, std::span<cons
       continue;
     }
     if (!std::isfinite(pixels[i])) return FitStatus::kBadPixels;
-    ++used;
-    any_signal |= pixels[i] != 0.0;
+    if (used++ == 0) first = pixels[i];
+    flat &= pixels[i] == first;
+    max_abs = std::max(max_abs, std::abs(pixels[i]));
+    max_weight = std::max(max_weight, w);
   }
-  if (used == 0 || !any_signal) return FitStatus::kNoData;
+  if (used == 0 || flat) return FitStatus::kNoData;
+  // Fit in units where the largest |pixel| and weight are in [1, 2): see fit_units.hpp.
+  units_ = FitUnits::for_stamp(max_abs, max_weight);
+  for (double& w : weight_) w /= units_.weight;
+  problem_->set_data(pixels, units_.data, used);
   return FitStatus::kOk;
 }
 
 ParamVector Fitter::starting_point(std::span<const double> pixels, std::span<const double> weight,
                                    std::uint32_t* flags) {
-  if (prepare_weights(pixels, weight, flags) != FitStatus::kOk) *flags |= kFlagDefaultStart;
-  return start_from_prepared(pixels, flags);
+  if (prepare_weights(pixels, weight, flags) != FitStatus::kOk) {
+    *flags |= kFlagDefaultStart;
+    problem_->set_data(zeros_, 1.0, 0);  // nothing to take moments of
+  }
+  return units_.to_data(start_from_prepared(flags));
 }
 
-ParamVector Fitter::start_from_prepared(std::span<const double> pixels, std::uint32_t* flags) {
+ParamVector Fitter::start_from_prepared(std::uint32_t* flags) {
   const int s = options_.render.stamp_size;
   const ParameterSet& ps = options_.params;
   ParamVector p;
-  for (int k = 0; k < kNumParams; ++k) p[k] = ps.spec[k].start;
+  for (int k = 0; k < kNumParams; ++k) p[k] = ps.spec[k].start / units_.of(static_cast<Param>(k));
+  const std::span<const double> pixels = problem_->data();
   const kernels::ImageMoments m = kernels::adaptive_moments(pixels, weight_, s);
   double x = 0.5 * (s - 1), y = 0.5 * (s - 1), e1 = 0, e2 = 0, r = 1.5;
   double flux = m.flux;
@@ -203,21 +219,22 @@ ParamVector Fitter::start_from_prepared(std::span<const double> pixels, std::uin
   set_if_unset(Param::kBulgeA, bulge_free ? share * flux / kernels::sersic_flux_per_amplitude(rb, p[index(Param::kBulgeIndex)]) : 0.0);
   set_if_unset(Param::kDiscA, disc_free ? share * flux / kernels::sersic_flux_per_amplitude(rd, p[index(Param::kDiscIndex)]) : 0.0);
   for (int k = 0; k < kNumParams; ++k) {
-    if (!std::isnan(lower_[k])) p[k] = std::max(p[k], lower_[k]);
-    if (!std::isnan(upper_[k])) p[k] = std::min(p[k], upper_[k]);
+    const double unit = units_.of(static_cast<Param>(k));
+    if (!std::isnan(lower_[k])) p[k] = std::max(p[k], lower_[k] / unit);
+    if (!std::isnan(upper_[k])) p[k] = std::min(p[k], upper_[k] / unit);
   }
-  if (amplitudes_unset && bulge_free && disc_free) solve_start_amplitudes(pixels, &p);
+  if (amplitudes_unset && bulge_free && disc_free) solve_start_amplitudes(&p);
   return p;
 }
 
-void Fitter::solve_start_amplitudes(std::span<const double> pixels, ParamVector* p) {
+void Fitter::solve_start_amplitudes(ParamVector* p) {
   // The model is linear in the amplitudes: at the starting shape, take the weighted least-squares
   // amplitudes (a 2 x 2 solve) instead of an arbitrary flux split.
   const std::array<Param, 2> amps = {Param::kBulgeA, Param::kDiscA};
   std::array<double*, 2> cols = {start_bulge_.data(), start_disc_.data()};
   if (renderer_->render_with_jacobian(*p, amps, start_model_, cols) != RenderStatus::kOk) return;
   double a[4], b[2];
-  least_squares_->normal_equations(pixels, zeros_, weight_, cols.data(), 2, a, b);
+  least_squares_->normal_equations(problem_->data(), zeros_, weight_, cols.data(), 2, a, b);
   const double det = a[0] * a[3] - a[1] * a[2];
   if (!(std::abs(det) > 1e-12 * std::abs(a[0] * a[3])) || !std::isfinite(det)) return;
   const double ab = (b[0] * a[3] - a[1] * b[1]) / det, ad = (a[0] * b[1] - a[2] * b[0]) / det;
@@ -246,35 +263,36 @@ FitResult Fitter::fit(std::span<const double> pixels, std::span<const double> we
   std::uint32_t flags = 0;
   FitResult r;
   if (!ready(pixels, weight, &r, &flags)) return r;
-  const ParamVector start = start_from_prepared(pixels, &flags);
-  return run(pixels, start, flags);
+  const ParamVector start = start_from_prepared(&flags);
+  return run(start, flags);
 }
 
 FitResult Fitter::fit_from(std::span<const double> pixels, std::span<const double> weight, const ParamVector& start) {
   std::uint32_t flags = 0;
   FitResult r;
   if (!ready(pixels, weight, &r, &flags)) return r;
-  return run(pixels, start, flags);
+  return run(units_.to_internal(start), flags);
 }
 
-FitResult Fitter::run(std::span<const double> pixels, const ParamVector& start, std::uint32_t flags) {
+FitResult Fitter::run(const ParamVector& start, std::uint32_t flags) {
   FitResult r;
-  int used = 0;
-  for (double w : weight_) used += w > 0 ? 1 : 0;
-  problem_->reset(pixels, start, used);
+  const int used = problem_->num_pixels();
+  problem_->reset(start);
   LmVector x0(num_free_);
-  for (int k = 0; k < num_free_; ++k) x0[k] = start[index(free_[k])];
-  LmSummary sum = levenberg_marquardt(*problem_, x0, options_.lm);
+  LmUnits units{units_.chi2(), LmVector(num_free_)};
+  for (int k = 0; k < num_free_; ++k) {
+    x0[k] = start[index(free_[k])];
+    units.param[k] = units_.of(free_[k]);
+  }
+  LmSummary sum = levenberg_marquardt(*problem_, x0, options_.lm, units);
   r.stop_reason = sum.reason;
   r.stop_value = sum.stop_value;
   r.stop_threshold = sum.stop_threshold;
   r.iterations = sum.iterations;
   r.evaluations = sum.evaluations;
   r.n_pixels = used;
-  if (sum.reason == StopReason::kInvalidStart) {
+  if (sum.reason == StopReason::kInvalidStart) {  // no model, so no chi2: it stays NaN
     r.status = FitStatus::kModelFailure;
-    r.chi2 = 2.0 * used;
-    r.likelihood = -0.5 * r.chi2;
     r.flags = flags;
     return r;
   }
@@ -300,30 +318,37 @@ FitResult Fitter::run(std::span<const double> pixels, const ParamVector& start, 
   }
   ParamVector p;
   problem_->expand(sum.x, &p);
-  // Errors from the inverse of J^T W J.
+  // Errors from the inverse of J^T W J, in data units: chi2 = units_.chi2() chi2_internal, so
+  // cov(x_data) = unit_k unit_l cov(x_internal) / units_.chi2().
   Eigen::LDLT<LmMatrix> ldlt(alpha);
   LmMatrix cov = ldlt.solve(LmMatrix::Identity(num_free_, num_free_));
   const bool cov_ok = ldlt.info() == Eigen::Success && cov.allFinite() && (cov.diagonal().array() > 0).all();
   if (!cov_ok) flags |= kFlagNoErrors;
   for (int k = 0; k < num_free_; ++k) {
     const int i = index(free_[k]);
-    if (cov_ok) r.errors[i] = std::sqrt(cov(k, k));
-    if (std::abs(p[i] - lower_[i]) < 1e-6 || std::abs(p[i] - upper_[i]) < 1e-6) flags |= kFlagAtBound;
+    const double unit = units_.of(free_[k]);
+    if (cov_ok) r.errors[i] = unit * std::sqrt(cov(k, k) / units_.chi2());
+    // Within 1e-6 of a bound in the fit's units, so the test does not depend on the data's scale.
+    if (std::abs(p[i] - lower_[i] / unit) < 1e-6 || std::abs(p[i] - upper_[i] / unit) < 1e-6) flags |= kFlagAtBound;
   }
-  // Report the effective (mirrored, softened) values the model was drawn with.
+  // Report the effective (mirrored, softened) values the model was drawn with, in data units.
   if (std::hypot(p[index(Param::kE1)], p[index(Param::kE2)]) > options_.model.ellipticity_mirror) flags |= kFlagMirrored;
-  renderer_->effective_params(p, &r.params);
+  ParamVector effective;
+  renderer_->effective_params(p, &effective);
+  r.params = units_.to_data(effective);
   r.e1_err = r.errors[index(Param::kE1)];
   r.e2_err = r.errors[index(Param::kE2)];
   renderer_->component_fluxes(p, &r.bulge_flux, &r.disc_flux);
+  r.bulge_flux *= units_.data;
+  r.disc_flux *= units_.data;
   r.flux = r.bulge_flux + r.disc_flux;
-  r.chi2 = chi2;
-  r.likelihood = -0.5 * chi2;
+  r.chi2 = chi2 * units_.chi2();
+  r.likelihood = -0.5 * r.chi2;
   if (!(flags & kFlagUnweighted)) {
     double s2 = 0;
     const auto& m = problem_->model();
     for (std::size_t i = 0; i < m.size(); ++i) s2 += weight_[i] * m[i] * m[i];
-    r.snr = std::sqrt(s2);
+    r.snr = std::sqrt(s2 * units_.chi2());
   }
   switch (sum.reason) {
     case StopReason::kMaxIterations:

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "engine/fit/fit_result.hpp"
+#include "engine/fit/fit_units.hpp"
 #include "engine/model/galaxy_model.hpp"
 #include "engine/model/parameters.hpp"
 #include "engine/render/fft_plans.hpp"
@@ -59,20 +60,23 @@ class Fitter {
 
  private:
   class Problem;
-  // Fills weight_ from the inputs; returns a status other than kOk when nothing can be fitted.
   // The PSF and weight checks fit() and fit_from() share; false, with *r filled, when nothing can be fitted.
   bool ready(std::span<const double> pixels, std::span<const double> weight, FitResult* r, std::uint32_t* flags);
+  // Sets units_ from the stamp and fills weight_ and the problem's data in them; returns a status
+  // other than kOk when nothing can be fitted.
   FitStatus prepare_weights(std::span<const double> pixels, std::span<const double> weight, std::uint32_t* flags);
-  FitResult run(std::span<const double> pixels, const ParamVector& start, std::uint32_t flags);
-  ParamVector start_from_prepared(std::span<const double> pixels, std::uint32_t* flags);
-  void solve_start_amplitudes(std::span<const double> pixels, ParamVector* p);
+  // start, and the fit inside, in the units of units_ (amplitudes over units_.data).
+  FitResult run(const ParamVector& start, std::uint32_t flags);
+  ParamVector start_from_prepared(std::uint32_t* flags);
+  void solve_start_amplitudes(ParamVector* p);
 
   FitterOptions options_;
   std::shared_ptr<const PreparedPsf> psf_;
   std::unique_ptr<Renderer> renderer_;
   const kernels::LeastSquaresKernels* least_squares_;  // options_.render.simd's build
   std::unique_ptr<Problem> problem_;
-  kernels::AlignedVector<double> weight_;
+  FitUnits units_;                         // of the stamp being fitted
+  kernels::AlignedVector<double> weight_;  // in units_.weight
   std::vector<double> start_bulge_, start_disc_, start_model_, zeros_;
   std::array<Param, kNumParams> free_{};
   int num_free_ = 0;

@@ -67,9 +67,11 @@ void LmDamping::reject() {
   nu_ *= 2.0;
 }
 
-LmSummary levenberg_marquardt(LeastSquaresProblem& problem, const LmVector& x0, const LmOptions& options) {
+LmSummary levenberg_marquardt(LeastSquaresProblem& problem, const LmVector& x0, const LmOptions& options,
+                              const LmUnits& units) {
   LmSummary s;
   const int n = static_cast<int>(x0.size());
+  const LmVector unit = units.param.size() == n ? units.param : LmVector::Ones(n);
   s.x = x0;
   LmMatrix alpha(n, n);
   LmVector beta(n), step(n), trial(n), diag(n);
@@ -115,16 +117,19 @@ LmSummary levenberg_marquardt(LeastSquaresProblem& problem, const LmVector& x0, 
         if (d.allFinite()) gn_decrease = std::abs(d.dot(beta));
       }
     }
-    const double grad = beta.cwiseAbs().maxCoeff();
+    const double grad = (beta.cwiseQuotient(unit) * units.chi2_unit).cwiseAbs().maxCoeff();
     if (options.eps1 > 0 && grad <= options.eps1) {
       stop(StopReason::kGradient, grad, options.eps1);
       break;
     }
-    if (options.eps3 > 0 && chi2 <= options.eps3) {
-      stop(StopReason::kChi2, chi2, options.eps3);
+    if (options.eps3 > 0 && chi2 * units.chi2_unit <= options.eps3) {
+      stop(StopReason::kChi2, chi2 * units.chi2_unit, options.eps3);
       break;
     }
     // Marquardt scaling, floored so a parameter without influence cannot make the system singular.
+    // The floor compares parameters of different units, so it depends on them: engine/fit solves
+    // in units where the data's scale is 1 (fit_units.hpp), else bright data floors (and all but
+    // freezes) the amplitudes, whose diagonal does not grow with the data as the shape's does.
     const double dmax = alpha.diagonal().maxCoeff();
     for (int k = 0; k < n; ++k) diag[k] = std::max(alpha(k, k), 1e-12 * dmax + 1e-300);
     bool accepted = false;
@@ -141,7 +146,7 @@ LmSummary levenberg_marquardt(LeastSquaresProblem& problem, const LmVector& x0, 
         damping.reject();
         continue;
       }
-      const double step_sq = step.squaredNorm(), x_sq = s.x.squaredNorm();
+      const double step_sq = step.cwiseProduct(unit).squaredNorm(), x_sq = s.x.cwiseProduct(unit).squaredNorm();
       if (options.eps2 > 0 && step_sq <= options.eps2 * options.eps2 * x_sq) {
         stop(StopReason::kRelativeStep, std::sqrt(step_sq / std::max(x_sq, 1e-300)), options.eps2);
         break;
@@ -160,8 +165,8 @@ LmSummary levenberg_marquardt(LeastSquaresProblem& problem, const LmVector& x0, 
         chi2 = trial_chi2;
         accepted = true;
         have_jacobian = false;
-        if (options.eps3 > 0 && chi2 <= options.eps3) {
-          stop(StopReason::kChi2, chi2, options.eps3);
+        if (options.eps3 > 0 && chi2 * units.chi2_unit <= options.eps3) {
+          stop(StopReason::kChi2, chi2 * units.chi2_unit, options.eps3);
           break;
         }
         const double rel = (prev - chi2) / prev;

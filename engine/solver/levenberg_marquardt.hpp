@@ -27,7 +27,7 @@ using LmVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxFree, 1>;
 using LmMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxFree, kMaxFree>;
 
 struct LmOptions {
-  double eps1 = 0.0;            // levmar_eps1: gradient threshold (flux^2 / sigma^2 units); 0 = off
+  double eps1 = 0.0;            // levmar_eps1: gradient threshold (chi2 per parameter unit); 0 = off
   // eps2 is off by default: |p| is dominated by the bulge amplitude (~1e5), so a relative step
   // rule stops fits whose ellipticity is still moving (the paper's warning about scaling).
   double eps2 = 0.0;            // levmar_eps2: relative step size; 0 = off
@@ -82,6 +82,15 @@ class LmDamping {
   double nu_ = 2.0;
 };
 
+// The units the tolerances are stated in when the problem is solved in rescaled ones:
+// x_stated[k] = param[k] * x[k] and chi2_stated = chi2_unit * chi2. eps1, eps2 and eps3 are
+// absolute, so they are tested (and their values reported) in the stated units; eps4 and the
+// damping are relative and need none.
+struct LmUnits {
+  double chi2_unit = 1.0;
+  LmVector param;  // empty: every parameter in the stated units
+};
+
 struct LmSummary {
   LmVector x;               // best parameters
   double chi2 = NAN;
@@ -95,6 +104,7 @@ struct LmSummary {
   double stop_threshold = NAN;  // and its threshold
 };
 
-LmSummary levenberg_marquardt(LeastSquaresProblem& problem, const LmVector& x0, const LmOptions& options);
+LmSummary levenberg_marquardt(LeastSquaresProblem& problem, const LmVector& x0, const LmOptions& options,
+                              const LmUnits& units = {});
 
 }  // namespace stampede

@@ -88,6 +88,22 @@ TEST_F(FitterBadInput, AllZeroOrZeroWeightGiveNoData) {
   EXPECT_TRUE(std::isnan(r.params[index(Param::kE1)]));  // NaN: not computed
 }
 
+// A flat stamp holds no galaxy (the model has no background to fit it with): like an all-zero
+// stamp it is not fitted, whatever its level, and a masked pixel does not make it a galaxy.
+TEST_F(FitterBadInput, FlatStampGivesNoData) {
+  Fitter fitter(fo, kernel_for(fo, testing::case_psf(c), plans), plans);
+  for (double level : {3e38, 1e-38, 1.0, -2.5}) {
+    std::vector<double> flat(c.image.size(), level);
+    const FitResult r = fitter.fit(flat);
+    EXPECT_EQ(r.status, FitStatus::kNoData) << "flat stamp of " << level;
+    EXPECT_TRUE(std::isnan(r.params[index(Param::kE1)])) << "flat stamp of " << level;
+    std::vector<double> w(flat.size(), 1.0);
+    w[7] = 0.0;
+    flat[7] = std::numeric_limits<double>::quiet_NaN();
+    EXPECT_EQ(fitter.fit(flat, w).status, FitStatus::kNoData) << "masked flat stamp of " << level;
+  }
+}
+
 TEST_F(FitterBadInput, UnnormalisablePsfImageGivesPsfFailure) {
   PsfModel psf;
   psf.kind = PsfKind::kImage;
@@ -109,7 +125,10 @@ TEST_F(FitterBadInput, StartWithoutAModelGivesModelFailure) {
   start[index(Param::kRadiusRatio)] = NAN;
   const FitResult r = fitter.fit_from(c.image, {}, start);
   EXPECT_EQ(r.status, FitStatus::kModelFailure);
-  EXPECT_EQ(r.chi2, 2.0 * c.stamp * c.stamp);  // the paper's "chi2 = 2 per pixel"
+  // No model, no chi2: NaN, not the paper's "2 per pixel", which reads as a good fit of faint data.
+  EXPECT_TRUE(std::isnan(r.chi2)) << r.chi2;
+  EXPECT_TRUE(std::isnan(r.likelihood)) << r.likelihood;
+  EXPECT_EQ(r.n_pixels, c.stamp * c.stamp);
 }
 
 // Invalid options are rejected up front with the option's name, its value and the constraint.

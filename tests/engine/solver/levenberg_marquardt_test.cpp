@@ -361,6 +361,62 @@ TEST(LevenbergMarquardt, InvariantToWeightScale) {
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(a.x[k], b.x[k], 1e-10);
 }
 
+// The exponential problem solved in rescaled units, x_stated = unit * x and chi2_stated = c * chi2,
+// as engine/fit solves a stamp in units where its largest pixel is ~1.
+class RescaledProblem : public LeastSquaresProblem {
+ public:
+  RescaledProblem(const LmVector& unit, double chi2_unit) : unit_(unit), c_(chi2_unit) {}
+  int num_pixels() const override { return inner_.num_pixels(); }
+  bool chi2(const LmVector& x, double* chi2) override {
+    if (!inner_.chi2(x.cwiseProduct(unit_), chi2)) return false;
+    *chi2 /= c_;
+    return true;
+  }
+  bool normal_equations(const LmVector& x, double* chi2, LmMatrix* alpha, LmVector* beta) override {
+    if (!inner_.normal_equations(x.cwiseProduct(unit_), chi2, alpha, beta)) return false;
+    *chi2 /= c_;
+    *alpha = unit_.asDiagonal() * *alpha * unit_.asDiagonal() / c_;
+    *beta = unit_.cwiseProduct(*beta) / c_;
+    return true;
+  }
+  LmUnits units() const { return LmUnits{c_, unit_}; }
+
+ private:
+  ExponentialProblem inner_;
+  LmVector unit_;
+  double c_;
+};
+
+TEST(LevenbergMarquardt, AbsoluteRulesAreTestedInTheStatedUnits) {
+  // eps1, eps2 and eps3 mean the same, and record the same values, whether the problem is solved
+  // in the stated units or in rescaled ones described by LmUnits.
+  const LmVector unit = vec3(1024.0, 1.0, 1.0 / 64);
+  const double c = 4096.0;
+  const LmVector start = kPoorStart.cwiseQuotient(unit);
+  ExponentialProblem probe;
+  double chi2 = 0;
+  LmMatrix alpha;
+  LmVector beta;
+  probe.normal_equations(kPoorStart, &chi2, &alpha, &beta);
+  LmOptions gradient, step, absolute;
+  gradient.eps1 = 2.0 * beta.cwiseAbs().maxCoeff();
+  step.eps2 = 0.9;
+  absolute.eps3 = 1e-3;
+  absolute.eps4 = 0.0;
+  for (const LmOptions& o : {gradient, step, absolute}) {
+    ExponentialProblem stated;
+    RescaledProblem rescaled(unit, c);
+    const LmSummary a = levenberg_marquardt(stated, kPoorStart, o);
+    const LmSummary b = levenberg_marquardt(rescaled, start, o, rescaled.units());
+    ASSERT_EQ(a.reason, b.reason) << ToString(a.reason) << " vs " << ToString(b.reason);
+    EXPECT_EQ(a.iterations, b.iterations) << ToString(a.reason);
+    EXPECT_NEAR(b.stop_value, a.stop_value, 1e-12 * a.stop_value) << ToString(a.reason);
+    EXPECT_EQ(b.stop_threshold, a.stop_threshold);
+    EXPECT_NEAR(b.chi2 * c, a.chi2, 1e-12 * a.chi2) << ToString(a.reason);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(b.x[k] * unit[k], a.x[k], 1e-10) << ToString(a.reason) << " parameter " << k;
+  }
+}
+
 TEST(LevenbergMarquardt, Eps4ThresholdIsPerPixel) {
   // A loose eps4 = 0.2 over 24 pixels: the rule is rel < 0.2 / 24, not rel < 0.2. The recorded value
   // must be below the recorded per-pixel threshold.
