@@ -180,13 +180,13 @@ std::string text_header_line(std::span<const ResultColumn> columns) {
 }
 
 // ": it records 'A', this run has 'B'" for the first line where two fingerprints differ ("" when
-// only the layout or the text output differs).
+// only the layout or the text output differs). A line may name a file: shown whole, as paths are.
 std::string first_difference(std::string_view recorded, std::string_view current) {
   while (!recorded.empty() || !current.empty()) {
     const std::string_view a = recorded.substr(0, recorded.find('\n')), b = current.substr(0, current.find('\n'));
     if (a != b) {
-      return ": it records " + (recorded.empty() ? std::string("nothing more") : quoted_value(a)) + ", this run has " +
-             (current.empty() ? std::string("nothing more") : quoted_value(b));
+      return ": it records " + (recorded.empty() ? std::string("nothing more") : quoted_value(a, kQuotedPathMaxBytes)) +
+             ", this run has " + (current.empty() ? std::string("nothing more") : quoted_value(b, kQuotedPathMaxBytes));
     }
     recorded.remove_prefix(std::min(recorded.size(), a.size() + 1));
     current.remove_prefix(std::min(current.size(), b.size() + 1));
