@@ -16,6 +16,7 @@
 #include "engine/pipeline/stamp_fitter.hpp"
 #include "io/calibration_table.hpp"
 #include "io/durable_file.hpp"
+#include "io/output_check.hpp"
 
 namespace stampede::app {
 
@@ -134,8 +135,8 @@ std::string CalibrationBuildSummary::FullReport() const {
 CalibrationBuild::CalibrationBuild(CalibrationBuildOptions options) : options_(std::move(options)) {
   const io::RunConfig& cfg = options_.config;
   CalibrationGridOptions& g = options_.grid;
-  if (!options_.overwrite && !options_.resume && std::filesystem::exists(options_.output))
-    throw std::invalid_argument("'" + options_.output + "' exists (use --overwrite to replace it)");
+  const io::RunOutput output{"-o", options_.output, {options_.output + ".partial", options_.output + ".tmp"}};
+  io::check_outputs(std::span(&output, 1), {}, options_.overwrite || options_.resume);
   io::validate(cfg);
   if (cfg.psf_from_catalogue || cfg.psf_kind == PsfKind::kImage)
     throw io::ConfigError("option 'psf_input' = '" + io::psf_input_value(cfg) +

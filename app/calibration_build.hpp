@@ -55,7 +55,8 @@ class CalibrationBuild {
  public:
   // Validates the options and configuration, builds the PSF and the grid, and opens (or with
   // resume, reads) the progress file. Throws io::ConfigError for a configuration the build cannot
-  // use, std::invalid_argument for an existing output, std::runtime_error for the progress file.
+  // use, io::FileError for an output it must not write (io/output_check.hpp), std::runtime_error
+  // for the progress file.
   explicit CalibrationBuild(CalibrationBuildOptions options);
   ~CalibrationBuild();
 

@@ -19,8 +19,12 @@
 #include "engine/render/renderer_factory.hpp"
 #include "io/catalog_writer.hpp"
 #include "io/catalogue_source.hpp"
+#include "io/durable_file.hpp"
+#include "io/fits_file.hpp"
 #include "io/fits_error.hpp"
 #include "io/grid_source.hpp"
+#include "io/output_check.hpp"
+#include "io/output_lock.hpp"
 #include "io/psf_keys.hpp"
 
 namespace stampede::app {
@@ -90,6 +94,27 @@ std::string images_path_for(std::string output) {
   return output + ".images.fits";
 }
 
+// The run's outputs and the files it writes beside them, as io::check_outputs takes them.
+std::vector<io::RunOutput> outputs_of(const FitRunOptions& a, const io::RunConfig& cfg) {
+  std::vector<io::RunOutput> out;
+  out.push_back({"-o", a.output, {a.output + ".partial", a.output + ".checkpoint", io::temporary_path(a.output + ".checkpoint"),
+                                  io::OutputLock::path_for(a.output)}});
+  if (!a.text_output.empty())
+    out.push_back({"--text", a.text_output, {a.text_output + ".partial", io::OutputLock::path_for(a.text_output)}});
+  if (!cfg.save_images.empty()) out.push_back({"save_images", images_path_for(a.output), {}});
+  return out;
+}
+
+// Every file the run reads, as it is on disk.
+std::vector<io::RunInput> inputs_of(const FitRunOptions& a, const io::RunConfig& cfg) {
+  std::vector<io::RunInput> in = {{"input", io::fits_root_name(a.input)}};
+  if (!a.catalog.empty()) in.push_back({"--catalog", io::fits_root_name(a.catalog)});
+  if (!a.weight.empty()) in.push_back({"--weight", io::fits_root_name(a.weight)});
+  if (!cfg.psf_image.empty()) in.push_back({"psf_image", io::fits_root_name(cfg.psf_image)});
+  if (!cfg.fft_wisdom.empty()) in.push_back({"fft_wisdom", cfg.fft_wisdom});
+  return in;
+}
+
 }  // namespace
 
 std::string FitRunProgress::Line() const {
@@ -107,6 +132,15 @@ RunSummary FitRun::run() const {
   };
   if (a.output.empty() && a.resume) throw std::invalid_argument("fit run: resume needs the output to resume");
   io::RunConfig cfg = a.config;
+
+  // The outputs before anything is read: a refused one costs nothing, and from here on no other
+  // run can write them (the locks are released last, after the writer is done).
+  std::vector<io::OutputLock> locks;
+  if (!a.output.empty()) {
+    io::check_outputs(outputs_of(a, cfg), inputs_of(a, cfg), a.overwrite || a.resume);
+    locks.push_back(io::OutputLock::acquire(a.output));
+    if (!a.text_output.empty()) locks.push_back(io::OutputLock::acquire(a.text_output));
+  }
 
   // Input first: its header may fix the stamp size, and a bad file should fail before anything.
   std::unique_ptr<StampSource> source;
@@ -182,7 +216,11 @@ RunSummary FitRun::run() const {
     wo.header.emplace_back("INPUT", a.input);
     if (!a.catalog.empty()) wo.header.emplace_back("CATALOG", a.catalog);
     if (!a.weight.empty()) wo.header.emplace_back("WEIGHTS", a.weight);
-    wo.fingerprint = fit_fingerprint(a.input, a.catalog, a.weight, wo.header);
+    std::vector<FingerprintFile> files = {{"input", a.input}};
+    if (!a.catalog.empty()) files.push_back({"catalog", a.catalog});
+    if (!a.weight.empty()) files.push_back({"weight", a.weight});
+    if (cfg.psf_kind == PsfKind::kImage && !cfg.psf_from_catalogue) files.push_back({"psf_image", cfg.psf_image});
+    wo.fingerprint = fit_fingerprint(files, wo.header);
     if (a.resume) {
       writer = io::CatalogWriter::resume(wo, &summary.resumed);
       source->skip_to(summary.resumed);
@@ -191,44 +229,52 @@ RunSummary FitRun::run() const {
     }
   }
 
-  WriterSink sink(writer.get(), a, cfg, shared_psf, psf_cache.get(), images_path_for(a.output));
-  PipelineOptions po;
-  po.threads = a.threads;
-  po.batch_size = cfg.batch_size;
-  po.per_object_psf = static_cast<bool>(psf_cache);
-  po.stamp_size = cfg.fitter.render.stamp_size;
-  const FitterOptions fitter_options = cfg.fitter;
-  PsfCache* cache = psf_cache.get();
-  auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
-    return std::make_unique<StampFitter>(fitter_options, shared_psf, cache, planning, psf_e1, psf_e2, psf_fwhm);
-  };
-  double last_report = -1;
-  const long long total = source->total_objects(), done_before = summary.resumed;
-  auto progress = [&](const PipelineProgress& p) {
-    if (!a.on_progress || p.seconds - last_report < a.progress_interval) return;
-    last_report = p.seconds;
-    FitRunProgress r;
-    r.objects_done = done_before + p.objects_done;
-    r.objects_total = total;
-    r.seconds = p.seconds;
-    r.objects_per_second = p.objects_done / std::max(p.seconds, 1e-9);
-    r.eta_seconds = (total - r.objects_done) / std::max(r.objects_per_second, 1e-9);
-    a.on_progress(r);
-  };
-  summary.setup_seconds = since(start);
-  const PipelineSummary fitted = run_pipeline(*source, sink, make_fitter, po, progress);
-  const Clock::time_point finish_start = Clock::now();
-  if (writer) writer->finish();
-  if (!cfg.fft_wisdom.empty() && !save_fftw_wisdom(cfg.fft_wisdom) && !a.quiet)
-    warn("could not write FFTW wisdom to '" + cfg.fft_wisdom + "'");
-  summary.by_status = sink.by_status;
-  summary.objects = fitted.objects;
-  summary.batches = fitted.batches;
-  summary.threads = fitted.threads;
-  summary.pipeline_seconds = fitted.seconds;
-  summary.finish_seconds = since(finish_start);
-  summary.total_seconds = since(start);
-  return summary;
+  // A run that fails with an error leaves no partial output (a killed one leaves it for --resume).
+  const std::string images_path = images_path_for(a.output);
+  try {
+    WriterSink sink(writer.get(), a, cfg, shared_psf, psf_cache.get(), images_path);
+    PipelineOptions po;
+    po.threads = a.threads;
+    po.batch_size = cfg.batch_size;
+    po.per_object_psf = static_cast<bool>(psf_cache);
+    po.stamp_size = cfg.fitter.render.stamp_size;
+    const FitterOptions fitter_options = cfg.fitter;
+    PsfCache* cache = psf_cache.get();
+    auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
+      return std::make_unique<StampFitter>(fitter_options, shared_psf, cache, planning, psf_e1, psf_e2, psf_fwhm);
+    };
+    double last_report = -1;
+    const long long total = source->total_objects(), done_before = summary.resumed;
+    auto progress = [&](const PipelineProgress& p) {
+      if (!a.on_progress || p.seconds - last_report < a.progress_interval) return;
+      last_report = p.seconds;
+      FitRunProgress r;
+      r.objects_done = done_before + p.objects_done;
+      r.objects_total = total;
+      r.seconds = p.seconds;
+      r.objects_per_second = p.objects_done / std::max(p.seconds, 1e-9);
+      r.eta_seconds = (total - r.objects_done) / std::max(r.objects_per_second, 1e-9);
+      a.on_progress(r);
+    };
+    summary.setup_seconds = since(start);
+    const PipelineSummary fitted = run_pipeline(*source, sink, make_fitter, po, progress);
+    const Clock::time_point finish_start = Clock::now();
+    if (writer) writer->finish();
+    if (!cfg.fft_wisdom.empty() && !save_fftw_wisdom(cfg.fft_wisdom) && !a.quiet)
+      warn("could not write FFTW wisdom to '" + cfg.fft_wisdom + "'");
+    summary.by_status = sink.by_status;
+    summary.objects = fitted.objects;
+    summary.batches = fitted.batches;
+    summary.threads = fitted.threads;
+    summary.pipeline_seconds = fitted.seconds;
+    summary.finish_seconds = since(finish_start);
+    summary.total_seconds = since(start);
+    return summary;
+  } catch (...) {
+    if (writer) writer->abandon();
+    if (writer && !cfg.save_images.empty()) io::remove_if_present(images_path);
+    throw;
+  }
 }
 
 }  // namespace stampede::app

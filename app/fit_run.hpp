@@ -4,7 +4,12 @@
 // requested threads in a task arena of its own, saves the images named by save_images, and
 // returns a RunSummary. It prints nothing and never exits: progress and warnings go to the
 // callbacks the caller gives; a systemic failure throws the error types of io/ (ConfigError,
-// FitsError, CatalogError) or std::runtime_error.
+// FitsError, CatalogError, FileError) or std::runtime_error.
+//
+// Outputs are checked before anything is read (io/output_check.hpp: not a directory, not an input,
+// not an existing file unless overwrite or resume) and locked for the run's life
+// (io/output_lock.hpp). A run that fails with an error removes its partial outputs; a killed one
+// leaves them for resume, whose fingerprint covers the inputs' contents (app/run_fingerprint.hpp).
 #pragma once
 
 #include <functional>
@@ -35,6 +40,7 @@ struct FitRunOptions {
   std::string output;       // FITS table; "" = none: rows only go to on_rows (no resume, no save_images)
   std::string text_output;  // the table also as whitespace text; "" = none
   bool resume = false;      // continue the interrupted run at `output` (same input and options)
+  bool overwrite = false;   // replace existing outputs (table, text, images); else they are refused
   int threads = 0;          // worker threads; 0 = all of the calling task arena's (all cores by default)
   bool quiet = false;       // no end-of-run warnings (FFTW wisdom not saved); input warnings still go out
   io::RunConfig config;     // validated by run(); stamp_size from the grid's STAMPSZ unless set

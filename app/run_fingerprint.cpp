@@ -3,6 +3,10 @@
 
 #include <cstdio>
 
+#include "app/version.hpp"
+#include "io/file_digest.hpp"
+#include "io/fits_file.hpp"
+
 namespace stampede::app {
 
 RunFingerprint& RunFingerprint::text(std::string_view bytes) {
@@ -31,14 +35,19 @@ std::string RunFingerprint::hex() const {
   return hex;
 }
 
-std::string fit_fingerprint(const std::string& input, const std::string& catalog, const std::string& weight,
+std::string fit_fingerprint(const std::vector<FingerprintFile>& files,
                             const std::vector<std::pair<std::string, std::string>>& header) {
-  return RunFingerprint().line(input).line(catalog).line(weight).options(header).hex();
+  std::string out = "stampede " + std::string(program_version()) + "\n";
+  for (const FingerprintFile& f : files)
+    out += f.role + " " + f.path + ": " + io::digest_file(io::fits_root_name(f.path)).text() + "\n";
+  for (const auto& [k, v] : header) out += k + "=" + v + "\n";
+  return out;
 }
 
 std::string calibration_build_fingerprint(const CalibrationGridOptions& grid,
                                           const std::vector<std::pair<std::string, std::string>>& config) {
   RunFingerprint f;
+  f.text("stampede ").line(program_version());
   for (const auto* list : {&grid.radii, &grid.bulge_fractions})
     for (double v : *list) f.number(v).text(",");
   f.text("|").number(grid.snr).text("|").number(grid.e_max).text("|").integer(grid.e_steps).text("|");

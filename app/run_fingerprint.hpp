@@ -1,8 +1,11 @@
-// The fingerprint a resumable run writes beside its partial output: 16 hex digits of the 64-bit
-// FNV-1a hash of everything that identifies the run (inputs, options), so `--resume` refuses the
-// leftovers of another run. One builder for every run kind; the byte sequences hashed are part of
-// the on-disk format (a partial output written by an earlier build must still resume), so the
-// functions below must not change what they feed the hash.
+// The fingerprint a resumable run writes beside its partial output, so that `--resume` refuses the
+// leftovers of another run: another program version, configuration, input path or input content.
+//   fit: lines of text (the catalogue writer's refusal quotes the first line that differs), each
+//        input file identified by its size and the XXH64 of its bytes (io/file_digest.hpp);
+//   calibrate build: 16 hex digits of the 64-bit FNV-1a hash of its grid and configuration (it has
+//        no input files).
+// The bytes are part of the on-disk format: changing what is fed in makes every partial output
+// written by an earlier build unresumable, so do it only to identify runs better (and say so).
 #pragma once
 
 #include <cstdint>
@@ -29,13 +32,23 @@ class RunFingerprint {
   std::uint64_t hash_ = 1469598103934665603ull;  // FNV-1a 64 offset basis
 };
 
-// `stampede fit`: the input, catalogue and weight paths (one line each, "" when absent), then the
-// output header's key=value pairs (the effective options and the INPUT/CATALOG/WEIGHTS keys).
-std::string fit_fingerprint(const std::string& input, const std::string& catalog, const std::string& weight,
+// A file a fit reads: its role ("input", "catalog", "weight", "psf_image") and its path as given
+// (CFITSIO syntax such as "in.fits[1]" allowed: the file on disk is digested).
+struct FingerprintFile {
+  std::string role;
+  std::string path;
+};
+
+// `stampede fit`: "stampede VERSION\n"; then per file, in the order given, "ROLE PATH: N bytes,
+// xxh64 H\n" (io::FileDigest::text()); then "key=value\n" per pair of the output header (the
+// effective options and the INPUT/CATALOG/WEIGHTS keys). Reads every file once; throws io::FileError
+// naming a file it cannot read.
+std::string fit_fingerprint(const std::vector<FingerprintFile>& files,
                             const std::vector<std::pair<std::string, std::string>>& header);
 
-// `stampede calibrate build`: the grid (radii and bulge fractions, each followed by ',', then
-// |snr|e_max|e_steps|realisations|seed|) and the configuration's key=value pairs.
+// `stampede calibrate build`: the program version line "stampede VERSION\n", the grid (radii and
+// bulge fractions, each followed by ',', then |snr|e_max|e_steps|realisations|seed|) and the
+// configuration's key=value pairs.
 std::string calibration_build_fingerprint(const CalibrationGridOptions& grid,
                                           const std::vector<std::pair<std::string, std::string>>& config);
 

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "engine/common/quoted_value.hpp"
 #include "io/fits_file.hpp"
 #include "io/psf_keys.hpp"
 
@@ -36,8 +37,8 @@ std::vector<double> split(FitsFile& f, const std::string& key) {
       if (used != item.size()) throw std::invalid_argument(item);
     } catch (const std::exception&) {
       f.move_to(0);
-      throw FitsError(f.describe() + ": header keyword '" + key + "' = '" + text +
-                               "' is not a comma-separated list of numbers");
+      throw FitsError(f.describe() + ": header keyword '" + key + "' = " + quoted_value(text) +
+                               " is not a comma-separated list of numbers");
     }
   }
   return out;
@@ -125,7 +126,7 @@ CalibrationTable read_calibration_table(const std::string& path) {
     // FITS drops trailing blanks: an empty value reads back as "key =".
     const auto eq = card->find(" =");
     if (eq == std::string::npos || eq == 0)
-      throw FitsError(f.describe() + ": " + key + " = '" + *card + "' is not 'key = value'");
+      throw FitsError(f.describe() + ": " + key + " = " + quoted_value(*card) + " is not 'key = value'");
     std::string value = card->substr(eq + 2);
     if (!value.empty() && value[0] == ' ') value.erase(0, 1);
     t.config.emplace_back(card->substr(0, eq), value);

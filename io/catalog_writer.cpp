@@ -22,6 +22,7 @@
 #include <string_view>
 #include <system_error>
 
+#include "engine/common/quoted_value.hpp"
 #include "io/durable_file.hpp"
 #include "io/fits_cards.hpp"
 #include "io/fits_error.hpp"
@@ -176,6 +177,21 @@ std::string text_header_line(std::span<const ResultColumn> columns) {
   std::string line = "#";
   for (const ResultColumn& c : columns) (line += ' ') += c.name;
   return line + "\n";
+}
+
+// ": it records 'A', this run has 'B'" for the first line where two fingerprints differ ("" when
+// only the layout or the text output differs). A line may name a file: shown whole, as paths are.
+std::string first_difference(std::string_view recorded, std::string_view current) {
+  while (!recorded.empty() || !current.empty()) {
+    const std::string_view a = recorded.substr(0, recorded.find('\n')), b = current.substr(0, current.find('\n'));
+    if (a != b) {
+      return ": it records " + (recorded.empty() ? std::string("nothing more") : quoted_value(a, kQuotedPathMaxBytes)) +
+             ", this run has " + (current.empty() ? std::string("nothing more") : quoted_value(b, kQuotedPathMaxBytes));
+    }
+    recorded.remove_prefix(std::min(recorded.size(), a.size() + 1));
+    current.remove_prefix(std::min(current.size(), b.size() + 1));
+  }
+  return "";
 }
 
 bool compressed_name(const std::string& path) {
@@ -543,7 +559,8 @@ std::unique_ptr<CatalogWriter> CatalogWriter::resume(const CatalogWriterOptions&
   const Checkpoint c = parse_checkpoint(bytes, s->checkpoint);
   if (c.fingerprint != options.fingerprint || c.positions != options.positions ||
       c.has_text != s->has_text()) {
-    fail(s->checkpoint + " was written by a different run (input or configuration changed)");
+    fail(s->checkpoint + " was written by a different run (input or configuration changed)" +
+         first_difference(c.fingerprint, options.fingerprint));
   }
   catalog_errors([&] {
     s->repair_fits(c.rows);
@@ -602,6 +619,15 @@ void CatalogWriter::finish() {
     s.failed = true;
     throw;
   }
+}
+
+void CatalogWriter::abandon() noexcept {
+  State& s = *s_;
+  s.close_quietly();
+  s.failed = true;
+  std::error_code ignored;
+  for (const std::string& p : {s.checkpoint, s.checkpoint_tmp, s.fits_partial, s.text_partial})
+    if (!p.empty()) std::filesystem::remove(p, ignored);
 }
 
 long long CatalogWriter::rows() const { return s_->rows; }

@@ -50,8 +50,9 @@ struct CatalogWriterOptions {
   // keys (NAXIS2, TTYPE3, EXTNAME, STATUS0, ...) are refused. Ignored by resume(): the partial
   // file already has them, and the fingerprint vouches that they are unchanged.
   std::vector<std::pair<std::string, std::string>> header;
-  // Identifies the run (input path + configuration): resume() refuses a checkpoint written with a
-  // different fingerprint, positions layout or text output.
+  // Identifies the run (its inputs' contents, configuration and program version), as lines of text:
+  // resume() refuses a checkpoint written with a different fingerprint, positions layout or text
+  // output, quoting the first line that differs.
   std::string fingerprint;
 };
 
@@ -66,7 +67,8 @@ class CatalogWriter {
   // checkpoint and stores that count in *rows_committed (if not null); the caller then appends
   // from that row on. Throws CatalogError:
   //   "nothing to resume at PATH: ..."  no checkpoint or no partial output;
-  //   "PATH.checkpoint was written by a different run (input or configuration changed)";
+  //   "PATH.checkpoint was written by a different run (input or configuration changed): it records
+  //    'LINE', this run has 'LINE'" (the first fingerprint line that differs);
   //   "... is corrupt: ..."  the checkpoint or a partial cannot be what this writer left there.
   static std::unique_ptr<CatalogWriter> resume(const CatalogWriterOptions& options,
                                                long long* rows_committed);
@@ -85,6 +87,10 @@ class CatalogWriter {
   // Closes the outputs, renames the partials to PATH (and TEXT_PATH), replacing existing files,
   // and removes the checkpoint. Further calls other than rows() throw.
   void finish();
+
+  // For a run that failed (an error, not a kill): closes and removes the partials and the checkpoint,
+  // so that nothing is left that looks resumable. Never throws; the writer is unusable after it.
+  void abandon() noexcept;
 
   // Committed rows.
   long long rows() const;

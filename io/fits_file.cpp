@@ -61,6 +61,8 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 }  // namespace
 
+std::string fits_root_name(const std::string& path) { return root_name(path); }
+
 // --- lifetime -------------------------------------------------------------------------------------
 
 FitsFile::FitsFile(void* fptr, std::string path, bool auto_image)

@@ -161,4 +161,8 @@ class FitsFile {
   bool auto_image_ = false;   // the lazy move to the first image HDU is still pending
 };
 
+// The file on disk that a CFITSIO path names: "a.fits[1]" -> "a.fits", "!a.fits" -> "a.fits"
+// (the path itself when CFITSIO cannot parse it).
+std::string fits_root_name(const std::string& path);
+
 }  // namespace stampede::io

@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "engine/common/quoted_value.hpp"
 #include "io/fits_error.hpp"
 
 namespace stampede::io {
@@ -37,7 +38,7 @@ PsfModel read_psf_keys(FitsFile& f) {
     psf.airy.lambda_over_d = f.key_double("PSFLOD");
     psf.airy.obscuration = f.read_key_double("PSFOBSC").value_or(0.0);
   } else {
-    throw FitsError(f.describe() + ": header keyword 'PSFTYPE' = '" + type + "' is not moffat or airy");
+    throw FitsError(f.describe() + ": header keyword 'PSFTYPE' = " + quoted_value(type) + " is not moffat or airy");
   }
   return psf;
 }

@@ -10,6 +10,7 @@
 #include <system_error>
 #include <tuple>
 
+#include "engine/common/quoted_value.hpp"
 #include "engine/model/psf_model.hpp"
 
 namespace stampede::io {
@@ -109,7 +110,7 @@ std::string parse_id_list(std::string_view text, std::vector<std::int64_t>* ids)
     const std::string item = trim(text.substr(pos, comma == std::string_view::npos ? text.npos : comma - pos));
     std::int64_t id = 0;
     if (item.empty() || !parse_integer(item, &id).empty())
-      return "expected comma-separated integer object ids, got '" + item + "'";
+      return "expected comma-separated integer object ids, got " + quoted_value(item);
     ids->push_back(id);
     if (comma == std::string_view::npos) return "";
     pos = comma + 1;
@@ -400,7 +401,7 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
 }
 
 ConfigError unknown_option(const std::string& key) {
-  std::string msg = "unknown option '" + key + "'";
+  std::string msg = "unknown option " + quoted_value(key);
   const Entry* best = nullptr;
   std::size_t best_d = 3;  // suggest only typos: at most two edits
   for (const Entry& e : registry()) {
@@ -443,7 +444,7 @@ void set_option(RunConfig& config, const std::string& key, const std::string& va
   const Entry* e = find_entry(key);
   if (!e) throw unknown_option(key);
   const std::string why = e->set(config, value);
-  if (!why.empty()) throw ConfigError("option '" + key + "' = '" + value + "': " + why);
+  if (!why.empty()) throw ConfigError("option " + quoted_value(key) + " = " + quoted_value(value) + ": " + why);
   config.explicitly_set[key] = "";
 }
 
@@ -468,7 +469,7 @@ void load_ini(RunConfig& config, const std::string& path) {
     const std::string key = eq == std::string::npos ? "" : trim(std::string_view(text).substr(0, eq));
     if (key.empty()) throw ConfigError(where + ": expected 'key = value'");
     if (auto [it, fresh] = line_of.emplace(key, number); !fresh)
-      throw ConfigError(where + ": option '" + key + "' is set twice (first on line " + std::to_string(it->second) +
+      throw ConfigError(where + ": option " + quoted_value(key) + " is set twice (first on line " + std::to_string(it->second) +
                         ")");
     try {
       set_option(updated, key, trim(std::string_view(text).substr(eq + 1)));
@@ -484,11 +485,11 @@ void load_ini(RunConfig& config, const std::string& path) {
 void apply_set(RunConfig& config, const std::string& assignment) {
   const std::size_t eq = assignment.find('=');
   const std::string key = eq == std::string::npos ? "" : trim(std::string_view(assignment).substr(0, eq));
-  if (key.empty()) throw ConfigError("--set " + assignment + ": expected key=value");
+  if (key.empty()) throw ConfigError("--set " + quoted_value(assignment) + ": expected key=value");
   try {
     set_option(config, key, trim(std::string_view(assignment).substr(eq + 1)));
   } catch (const ConfigError& e) {
-    throw ConfigError("--set " + assignment + ": " + e.what());
+    throw ConfigError("--set " + quoted_value(assignment) + ": " + e.what());
   }
   config.explicitly_set[key] = "--set";
 }
@@ -537,10 +538,10 @@ void validate(const RunConfig& config) {
       {"catalog_psf_e2_column", &config.catalog_psf_e2_column},
   };
   for (const auto& [key, column] : columns)
-    if (trim(*column).empty()) fail(config, std::string(key) + " = '" + *column + "': must name a catalogue column");
+    if (trim(*column).empty()) fail(config, std::string(key) + " = " + quoted_value(*column) + ": must name a catalogue column");
   std::vector<std::int64_t> ids;
   why = parse_id_list(config.save_images, &ids);
-  if (!why.empty()) fail(config, "save_images = '" + config.save_images + "': " + why);
+  if (!why.empty()) fail(config, "save_images = " + quoted_value(config.save_images) + ": " + why);
 }
 
 std::vector<std::pair<std::string, std::string>> effective_options(const RunConfig& config) {
@@ -572,7 +573,7 @@ std::string ini_template() {
 std::vector<std::int64_t> save_image_ids(const RunConfig& config) {
   std::vector<std::int64_t> ids;
   const std::string why = parse_id_list(config.save_images, &ids);
-  if (!why.empty()) throw ConfigError("save_images = '" + config.save_images + "': " + why);
+  if (!why.empty()) throw ConfigError("save_images = " + quoted_value(config.save_images) + ": " + why);
   return ids;
 }
 

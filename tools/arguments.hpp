@@ -1,4 +1,5 @@
-// Command-line helpers shared by the sub-commands.
+// Command-line helpers shared by the sub-commands. A user's text echoed in an error goes through
+// quoted_value() (engine/common/quoted_value.hpp): at most ~80 bytes of it, control bytes escaped.
 #pragma once
 
 #include <algorithm>
@@ -8,7 +9,11 @@
 #include <string>
 #include <vector>
 
+#include "engine/common/quoted_value.hpp"
+
 namespace stampede::tools {
+
+using stampede::quoted_value;
 
 // The value after option argv[*i] (advancing *i); a clear error when it is missing.
 inline std::string option_value(int argc, char** argv, int* i) {
@@ -23,7 +28,7 @@ inline double number_value(int argc, char** argv, int* i) {
   const char* begin = text.data() + (!text.empty() && text[0] == '+');
   const auto [ptr, ec] = std::from_chars(begin, text.data() + text.size(), v);
   if (ec != std::errc() || ptr != text.data() + text.size() || !std::isfinite(v))
-    throw std::invalid_argument("option " + option + ": '" + text + "' is not a finite number");
+    throw std::invalid_argument("option " + option + ": " + quoted_value(text) + " is not a finite number");
   return v;
 }
 
@@ -33,7 +38,7 @@ inline long long integer_value(int argc, char** argv, int* i) {
   const char* begin = text.data() + (!text.empty() && text[0] == '+');
   const auto [ptr, ec] = std::from_chars(begin, text.data() + text.size(), v);
   if (ec != std::errc() || ptr != text.data() + text.size())
-    throw std::invalid_argument("option " + option + ": '" + text + "' is not an integer");
+    throw std::invalid_argument("option " + option + ": " + quoted_value(text) + " is not an integer");
   return v;
 }
 
@@ -57,7 +62,7 @@ inline std::vector<double> number_list(const std::string& option, const std::str
     const char* first = text.data() + begin + (end > begin && text[begin] == '+');
     const auto [ptr, ec] = std::from_chars(first, text.data() + end, v);
     if (end == begin || ec != std::errc() || ptr != text.data() + end || !std::isfinite(v))
-      throw std::invalid_argument("option " + option + ": '" + text + "' is not a comma-separated list of numbers");
+      throw std::invalid_argument("option " + option + ": " + quoted_value(text) + " is not a comma-separated list of numbers");
     out.push_back(v);
     if (end == text.size()) return out;
     begin = end + 1;

@@ -20,6 +20,7 @@
 #include "io/calibration_table.hpp"
 #include "io/catalog_reader.hpp"
 #include "io/fits_file.hpp"
+#include "io/output_check.hpp"
 #include "io/run_config.hpp"
 #include "tools/arguments.hpp"
 
@@ -85,7 +86,7 @@ int run_build(int argc, char** argv) {
     else if (a == "--resume") resume = true;
     else if (a == "--overwrite") overwrite = true;
     else if (a == "--quiet") quiet = true;
-    else throw std::invalid_argument("unknown option '" + a + "' (see stampede calibrate build --help)");
+    else throw std::invalid_argument("unknown option " + tools::quoted_value(a) + " (see stampede calibrate build --help)");
   }
   if (output.empty()) throw std::invalid_argument("-o CAL.fits is required (see stampede calibrate build --help)");
 
@@ -181,16 +182,19 @@ int run_apply(int argc, char** argv) {
     else if (a == "-o" || a == "--output") output = tools::option_value(argc, argv, &i);
     else if (a == "--overwrite") overwrite = true;
     else if (a == "--quiet") quiet = true;
-    else if (!a.empty() && a[0] == '-') throw std::invalid_argument("unknown option '" + a + "' (see stampede calibrate apply --help)");
+    else if (!a.empty() && a[0] == '-') throw std::invalid_argument("unknown option " + tools::quoted_value(a) + " (see stampede calibrate apply --help)");
     else if (science.empty()) science = a;
-    else throw std::invalid_argument("unexpected argument '" + a + "' (one SCIENCE catalogue only)");
+    else throw std::invalid_argument("unexpected argument " + tools::quoted_value(a) + " (one SCIENCE catalogue only)");
   }
   if (science.empty() || calibration.empty() || output.empty())
     throw std::invalid_argument("SCIENCE.fits, --calibration and -o are required (see stampede calibrate apply --help)");
   if (per_object == !deep.empty())
     throw std::invalid_argument("give exactly one of --deep DEEP.fits (population mode) and --per-object");
-  if (!overwrite && std::filesystem::exists(output))
-    throw std::invalid_argument("'" + output + "' exists (use --overwrite to replace it)");
+  const std::vector<io::RunInput> inputs = {{"science catalogue", io::fits_root_name(science)},
+                                            {"--calibration", io::fits_root_name(calibration)},
+                                            {"--deep", io::fits_root_name(deep)}};
+  const std::vector<io::RunOutput> outputs = {{"-o", output, {output + ".partial"}}};
+  io::check_outputs(outputs, std::span(inputs.data(), deep.empty() ? 2 : 3), overwrite);
 
   const CalibrationTable table = io::read_calibration_table(calibration);
   const NoiseBiasModel model(table);

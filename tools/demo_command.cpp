@@ -54,7 +54,7 @@ int run_demo_command(int argc, char** argv) {
     } else if (a == "--threads") {
       threads = int_in(1, 4096);
     } else {
-      throw std::invalid_argument("unknown option '" + a + "' (see stampede demo --help)");
+      throw std::invalid_argument("unknown option " + tools::quoted_value(a) + " (see stampede demo --help)");
     }
   }
   const std::string image_path = dir + "/set_" + std::to_string(set) + ".fits";

@@ -19,7 +19,7 @@ using namespace stampede;
 constexpr const char* kUsage =
     "usage: stampede fit INPUT.fits -o OUT.fits [--config run.ini] [--set key=value ...]\n"
     "                    [--threads N] [--catalog CAT] [--weight W.fits] [--text OUT.txt]\n"
-    "                    [--resume] [--quiet]\n";
+    "                    [--resume] [--overwrite] [--quiet]\n";
 
 void print_help() {
   std::printf(
@@ -39,6 +39,7 @@ void print_help() {
       "  --weight W    inverse-variance image of INPUT's shape (0 masks a pixel); else noise_sigma\n"
       "  --text T      also write the table as whitespace text\n"
       "  --resume      continue an interrupted run (same input and options) from its last batch\n"
+      "  --overwrite   replace existing outputs (default: refuse); an output is never an input\n"
       "  --quiet       no progress or summary on stderr\n"
       "  --help-config print every option with its default as an ini file\n",
       kUsage);
@@ -75,14 +76,16 @@ int run_fit_command(int argc, char** argv) {
       r.text_output = value();
     } else if (s == "--resume") {
       r.resume = true;
+    } else if (s == "--overwrite") {
+      r.overwrite = true;
     } else if (s == "--quiet") {
       r.quiet = true;
     } else if (!s.empty() && s[0] == '-') {
-      throw std::invalid_argument("unknown option '" + s + "' (see stampede fit --help)");
+      throw std::invalid_argument("unknown option " + tools::quoted_value(s) + " (see stampede fit --help)");
     } else if (r.input.empty()) {
       r.input = s;
     } else {
-      throw std::invalid_argument("unexpected argument '" + s + "' (one INPUT only)");
+      throw std::invalid_argument("unexpected argument " + tools::quoted_value(s) + " (one INPUT only)");
     }
   }
   if (r.input.empty() || r.output.empty()) {

@@ -95,7 +95,7 @@ int run_metrics_command(int argc, char** argv) {
       const std::string v = value();
       const auto comma = v.find(',');
       if (comma == std::string::npos || comma == 0 || comma + 1 == v.size() || v.find(',', comma + 1) != std::string::npos)
-        throw std::invalid_argument("option --e-columns: '" + v + "' is not two column names 'E1,E2'");
+        throw std::invalid_argument("option --e-columns: " + tools::quoted_value(v) + " is not two column names 'E1,E2'");
       e1_column = v.substr(0, comma);
       e2_column = v.substr(comma + 1);
     } else if (a == "--bootstrap") {
@@ -103,7 +103,7 @@ int run_metrics_command(int argc, char** argv) {
     } else if (a == "--seed") {
       seed = static_cast<std::uint64_t>(tools::integer_in(argc, argv, &i, 0, std::numeric_limits<long long>::max()));
     } else {
-      throw std::invalid_argument("unknown option '" + a + "' (see stampede metrics --help)");
+      throw std::invalid_argument("unknown option " + tools::quoted_value(a) + " (see stampede metrics --help)");
     }
   }
   if (fits.empty() || fits.size() != truths.size())

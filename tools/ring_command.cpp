@@ -141,7 +141,7 @@ int run_ring_command(int argc, char** argv) {
     } else if (a == "--csv") {
       csv = value();
     } else {
-      throw std::invalid_argument("unknown option '" + a + "' (see stampede ring --help)");
+      throw std::invalid_argument("unknown option " + tools::quoted_value(a) + " (see stampede ring --help)");
     }
   }
   std::vector<Row> rows = figure_rows(figure);

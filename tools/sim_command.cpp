@@ -16,6 +16,7 @@
 
 #include "engine/sim/great08_sim.hpp"
 #include "io/great08_writer.hpp"
+#include "io/output_check.hpp"
 #include "tools/arguments.hpp"
 
 namespace {
@@ -88,7 +89,7 @@ int run_sim_command(int argc, char** argv) {
     return argc < 2 ? 2 : 0;
   }
   if (std::strcmp(argv[1], "great08") != 0)
-    throw std::invalid_argument(std::string("unknown simulation '") + argv[1] + "' (available: great08)");
+    throw std::invalid_argument("unknown simulation " + tools::quoted_value(argv[1]) + " (available: great08)");
   using tools::number_value;
   Great08SimOptions o;
   std::string out;
@@ -115,7 +116,7 @@ int run_sim_command(int argc, char** argv) {
       const std::string v = tools::option_value(argc, argv, &i);
       if (v == "moffat") o.psf.kind = PsfKind::kMoffat;
       else if (v == "airy") o.psf.kind = PsfKind::kAiry;
-      else throw std::invalid_argument("option --psf: '" + v + "' is not moffat or airy");
+      else throw std::invalid_argument("option --psf: " + tools::quoted_value(v) + " is not moffat or airy");
     } else if (a == "--psf-beta") o.psf.moffat.beta = number_value(argc, argv, &i);
     else if (a == "--psf-fwhm") o.psf.moffat.fwhm = number_value(argc, argv, &i);
     else if (a == "--psf-e1") o.psf.moffat.e1 = number_value(argc, argv, &i);
@@ -125,7 +126,7 @@ int run_sim_command(int argc, char** argv) {
     else if (a == "--galaxy") {
       const std::string v = tools::option_value(argc, argv, &i);
       if (!parse_sim_galaxy_type(v, &o.galaxy_type))
-        throw std::invalid_argument("option --galaxy: '" + v + "' is not bd, b+d, bulge or disc");
+        throw std::invalid_argument("option --galaxy: " + tools::quoted_value(v) + " is not bd, b+d, bulge or disc");
     } else if (a == "--size") o.size_ratio = number_value(argc, argv, &i);
     else if (a == "--bulge-fraction") {
       const std::string v = tools::option_value(argc, argv, &i);
@@ -135,7 +136,7 @@ int run_sim_command(int argc, char** argv) {
       } catch (const std::invalid_argument&) {
         // reported below, in this option's own terms
       }
-      if (range.size() != 2) throw std::invalid_argument("option --bulge-fraction: '" + v + "' is not MIN,MAX");
+      if (range.size() != 2) throw std::invalid_argument("option --bulge-fraction: " + tools::quoted_value(v) + " is not MIN,MAX");
       o.bulge_fraction_min = range[0];
       o.bulge_fraction_max = range[1];
     } else if (a == "--bd-radius-ratio") o.bd_radius_ratio = number_value(argc, argv, &i);
@@ -146,7 +147,7 @@ int run_sim_command(int argc, char** argv) {
     else if (a == "--centre-offset") o.centre_offset = number_value(argc, argv, &i);
     else if (a == "--shear-max") o.shear_max = number_value(argc, argv, &i);
     else if (a == "--seed")
-      o.seed = static_cast<std::uint64_t>(tools::integer_in(argc, argv, &i, 0, std::numeric_limits<long long>::max())); else throw std::invalid_argument("unknown option '" + a + "' (see stampede sim --help)");
+      o.seed = static_cast<std::uint64_t>(tools::integer_in(argc, argv, &i, 0, std::numeric_limits<long long>::max())); else throw std::invalid_argument("unknown option " + tools::quoted_value(a) + " (see stampede sim --help)");
   }
   if (out.empty()) throw std::invalid_argument("--out DIR is required (see stampede sim --help)");
   std::string why;
@@ -157,9 +158,7 @@ int run_sim_command(int argc, char** argv) {
   if (!overwrite)
     for (int k = first_set; k < first_set + o.sets; ++k)
       for (const char* stem : {"set_", "truth_", "psf_"}) {
-        const std::string path = out + "/" + stem + std::to_string(k) + ".fits";
-        if (std::filesystem::exists(path))
-          throw std::invalid_argument("'" + path + "' exists: use --overwrite to replace it");
+        io::refuse_to_replace(out + "/" + stem + std::to_string(k) + ".fits", overwrite);
       }
   const int n_threads = threads > 0 ? threads : tbb::info::default_concurrency();
   tbb::task_arena arena(n_threads);

@@ -4,6 +4,7 @@
 #include <exception>
 #include <string>
 
+#include "app/version.hpp"
 #include "tools/demo_command.hpp"
 #include "tools/ring_command.hpp"
 #include "tools/fit_command.hpp"
@@ -18,6 +19,7 @@ void print_usage(std::FILE* out) {
                "stampede: galaxy shape measurement for weak lensing (the im3shape method)\n"
                "\n"
                "usage: stampede <command> [options]\n"
+               "       stampede --version\n"
                "\n"
                "commands:\n"
                "  fit      fit every object of a stamp grid or image + catalogue; write a FITS table\n"
@@ -36,6 +38,11 @@ int main(int argc, char** argv) {
   if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
     print_usage(argc < 2 ? stderr : stdout);
     return argc < 2 ? 2 : 0;
+  }
+  if (!std::strcmp(argv[1], "--version")) {
+    std::printf("stampede %.*s\n", static_cast<int>(stampede::app::program_version().size()),
+                stampede::app::program_version().data());
+    return 0;
   }
   const std::string command = argv[1];
   try {

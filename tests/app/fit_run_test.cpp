@@ -1,20 +1,27 @@
 // FitRun over a small grid: the summary's counts match the table, its brief report is the line
 // `stampede fit` prints, and two runs in one process with different thread counts give identical
-// tables and leave no process-wide threading state behind.
+// tables and leave no process-wide threading state behind. Outputs: locked for the run's life
+// (a second run on them is refused), not replaced without overwrite, and a run that fails with an
+// error leaves no partial files.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <regex>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "app/fit_run.hpp"
+#include "io/durable_file.hpp"
 #include "io/fits_file.hpp"
+#include "io/output_lock.hpp"
 #include "io/psf_keys.hpp"
 #include "support/command_runner.hpp"
+#include "support/error_assertions.hpp"
 #include "support/scratch_dir.hpp"
 
 namespace {
@@ -96,7 +103,8 @@ TEST_F(FitRunTest, SummaryCountsMatchTheTable) {
 
 TEST_F(FitRunTest, BriefReportIsTheLineTheCommandPrints) {
   const app::RunSummary s = app::FitRun(options(scratch.path("lib.fits"), 2)).run();
-  std::vector<std::string> args = {input, "-o", scratch.path("lib.fits"), "--threads", "2"};
+  // The same output again: replaced only because --overwrite says so.
+  std::vector<std::string> args = {input, "-o", scratch.path("lib.fits"), "--threads", "2", "--overwrite"};
   for (const auto& set : kSets) args.insert(args.end(), {"--set", set});
   const std::string err = scratch.path("err.txt");
   const stampede::testing::RunResult r = stampede::testing::finish(stampede::testing::spawn(args, err), err);
@@ -160,6 +168,67 @@ TEST_F(FitRunTest, WarningsGoToTheCallback) {
   ASSERT_EQ(warnings.size(), 1u);
   EXPECT_EQ(warnings[0].find(input + "[HDU 0] records a PSF other than the run's: PSFFWHM = 2.85 (psf_fwhm = 3)"), 0u)
       << warnings[0];
+}
+
+// Files a run leaves beside its output.
+std::vector<std::string> leftovers(const std::string& out) {
+  std::vector<std::string> found;
+  for (const char* suffix : {"", ".partial", ".checkpoint", ".checkpoint.tmp", ".lock"})
+    if (io::file_exists(out + suffix)) found.push_back(out + suffix);
+  return found;
+}
+
+TEST_F(FitRunTest, AFailedRunRemovesItsPartialOutputs) {
+  const std::string out = scratch.path("failed.fits");
+  app::FitRunOptions o = options(out, 2);
+  o.text_output = scratch.path("failed.txt");
+  int batches = 0;
+  o.on_rows = [&](std::span<const ObjectRecord>) {
+    if (++batches == 2) throw std::runtime_error("the caller gave up");  // after a committed batch
+  };
+  EXPECT_TRUE(stampede::testing::Contains(stampede::testing::error_of<std::runtime_error>([&] { app::FitRun(o).run(); }),
+                                          "the caller gave up"));
+  EXPECT_EQ(batches, 2);
+  EXPECT_EQ(leftovers(out), std::vector<std::string>{});
+  EXPECT_EQ(leftovers(o.text_output), std::vector<std::string>{});
+  // Nothing is left to resume, and a fresh run goes through.
+  o.on_rows = nullptr;
+  EXPECT_EQ(app::FitRun(o).run().objects, kNx * kNy);
+  EXPECT_EQ(leftovers(out), std::vector<std::string>{out});
+}
+
+TEST_F(FitRunTest, TheOutputIsLockedForTheRunsLife) {
+  const std::string out = scratch.path("locked.fits");
+  app::FitRunOptions o = options(out, 1);
+  std::string second_run, lock_seen;
+  o.on_rows = [&](std::span<const ObjectRecord>) {
+    if (!second_run.empty()) return;
+    lock_seen = io::file_exists(io::OutputLock::path_for(out)) ? "yes" : "no";
+    app::FitRunOptions again = options(out, 1);
+    again.overwrite = true;  // not a way around the lock
+    second_run = stampede::testing::error_of<io::FileError>([&] { app::FitRun(again).run(); });
+  };
+  app::FitRun(o).run();
+  EXPECT_EQ(lock_seen, "yes");
+  EXPECT_TRUE(stampede::testing::Contains(second_run, "'" + out + "' is in use by another run: '" + out +
+                                                          ".lock' is held by 'pid " + std::to_string(getpid())));
+  EXPECT_EQ(leftovers(out), std::vector<std::string>{out});  // the lock is gone with the run
+  EXPECT_EQ(column(out, "id").size(), static_cast<std::size_t>(kNx * kNy));
+}
+
+TEST_F(FitRunTest, AnExistingOutputIsReplacedOnlyWithOverwrite) {
+  const std::string out = scratch.path("again.fits");
+  app::FitRun(options(out, 1)).run();
+  EXPECT_TRUE(stampede::testing::Contains(
+      stampede::testing::error_of<io::FileError>([&] { app::FitRun(options(out, 1)).run(); }),
+      "'" + out + "' exists (use --overwrite to replace it)"));
+  app::FitRunOptions o = options(out, 1);
+  o.overwrite = true;
+  EXPECT_EQ(app::FitRun(o).run().objects, kNx * kNy);
+  // The input itself is never an output, overwrite or not.
+  o.output = input;
+  EXPECT_TRUE(stampede::testing::Contains(stampede::testing::error_of<io::FileError>([&] { app::FitRun(o).run(); }),
+                                          "-o '" + input + "' is the input '" + input + "'"));
 }
 
 }  // namespace

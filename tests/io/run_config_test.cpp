@@ -282,10 +282,10 @@ TEST(RunConfigSet, ApplySetOverridesAndNamesTheAssignment) {
   apply_set(c, "psf_image=a=b.fits");  // split at the first '='
   EXPECT_EQ(c.psf_image, "a=b.fits");
   EXPECT_EQ(error_of<ConfigError>([&] { apply_set(c, "padding=abc"); }),
-            "--set padding=abc: option 'padding' = 'abc': expected an integer");
-  EXPECT_EQ(error_of<ConfigError>([&] { apply_set(c, "padding"); }), "--set padding: expected key=value");
-  EXPECT_EQ(error_of<ConfigError>([&] { apply_set(c, "=3"); }), "--set =3: expected key=value");
-  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { apply_set(c, "nokey=3"); }), "--set nokey=3: unknown option 'nokey'"));
+            "--set 'padding=abc': option 'padding' = 'abc': expected an integer");
+  EXPECT_EQ(error_of<ConfigError>([&] { apply_set(c, "padding"); }), "--set 'padding': expected key=value");
+  EXPECT_EQ(error_of<ConfigError>([&] { apply_set(c, "=3"); }), "--set '=3': expected key=value");
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { apply_set(c, "nokey=3"); }), "--set 'nokey=3': unknown option 'nokey'"));
 }
 
 // --- ini files -----------------------------------------------------------------------------------

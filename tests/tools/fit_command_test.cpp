@@ -245,4 +245,109 @@ TEST_F(FitCommand, BadInputGivesAClearErrorBeforeFitting) {
   }
 }
 
+// Issue 17 items 1 and 3: while a run writes an output, a second run on it is refused naming the
+// first's pid; after a kill -9 (the lock file left behind, its flock gone) --resume is not blocked,
+// but is refused, naming the file, when the input's content was replaced at the same path (same
+// size, one byte changed); with the original content back it completes to the uninterrupted table.
+TEST_F(FitCommand, LockedWhileRunningAndResumeChecksTheInputsContent) {
+  const std::string in = path("in.fits");
+  stampede::testing::write_great08_stamps(in, 10, 4);
+  const std::vector<std::string> opts = kGreat08Psf + std::vector<std::string>{"--set", "batch_size=2", "--threads", "1", "--quiet"};
+  ASSERT_EQ(run(std::vector<std::string>{in, "-o", path("full.fits")} + opts).exit_code, 0);
+  const std::string out = path("resumed.fits");
+  const pid_t pid = spawn(std::vector<std::string>{in, "-o", out} + opts, path("first.txt"));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!fs::exists(out + ".checkpoint") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  const RunResult second = run(std::vector<std::string>{in, "-o", out, "--overwrite"} + opts);
+  EXPECT_NE(second.exit_code, 0);
+  EXPECT_NE(second.err.find("'" + out + "' is in use by another run: '" + out + ".lock' is held by 'pid " +
+                            std::to_string(pid) + " on host "),
+            std::string::npos)
+      << second.err;
+  ASSERT_EQ(kill(pid, SIGKILL), 0);
+  ASSERT_EQ(finish(pid, path("first.txt")).exit_code, 128 + SIGKILL) << "the run finished before it could be killed";
+  ASSERT_TRUE(fs::exists(out + ".lock"));  // left by the killed run, no longer locked
+  ASSERT_TRUE(fs::exists(out + ".partial"));
+
+  // The same size, one data byte changed at the same path.
+  std::string bytes;
+  {
+    std::ifstream f(in, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+  }
+  std::string changed = bytes;
+  changed[changed.size() - 3000] ^= 0x10;
+  std::ofstream(in, std::ios::binary | std::ios::trunc) << changed;
+  const RunResult refused = run(std::vector<std::string>{in, "-o", out, "--resume"} + opts);
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.err.find("was written by a different run (input or configuration changed): it records 'input " + in +
+                             ": " + std::to_string(bytes.size()) + " bytes, xxh64 "),
+            std::string::npos)
+      << refused.err;
+  ASSERT_TRUE(fs::exists(out + ".partial")) << "a refused resume keeps the run resumable";
+
+  std::ofstream(in, std::ios::binary | std::ios::trunc) << bytes;
+  const RunResult resumed = run(std::vector<std::string>{in, "-o", out, "--resume"} + opts);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  expect_tables_equal(path("full.fits"), out);
+  for (const char* suffix : {".partial", ".checkpoint", ".lock"}) EXPECT_FALSE(fs::exists(out + suffix)) << suffix;
+}
+
+// Issue 17 item 2 and the up-front rejections: an output that is the input (by any name, or whose
+// partial is), a directory, or an existing file without --overwrite is refused before any fitting,
+// leaving the files as they were; --overwrite replaces an existing table.
+TEST_F(FitCommand, OutputsAreCheckedBeforeFitting) {
+  const std::vector<std::string> cheap = {"--set", "upsampling=1", "--set", "n_central_pixels_to_upsample=0", "--set",
+                                         "padding=0", "--set", "minimizer_max_iterations=3", "--quiet"};
+  write_grid(path("in.fits"), 2, 2, 9);
+  fs::create_symlink(path("in.fits"), path("alias.fits"));
+  fs::copy_file(path("in.fits"), path("t.fits.partial"));
+  fs::create_directory(path("outdir"));
+  std::ofstream(path("old.fits")) << "an earlier table";
+  const auto size = fs::file_size(path("in.fits"));
+  struct Case {
+    std::vector<std::string> args;
+    std::string expect;
+  };
+  const Case cases[] = {
+      {{path("in.fits"), "-o", path("in.fits"), "--overwrite"}, "is the input '" + path("in.fits") + "'"},
+      {{path("in.fits") + "[0]", "-o", path("alias.fits"), "--overwrite"}, "is the input '" + path("in.fits") + "'"},
+      {{path("in.fits"), "-o", path("o.fits"), "--text", path("in.fits"), "--overwrite"}, "--text '" + path("in.fits") + "' is the input"},
+      {{path("t.fits.partial"), "-o", path("t.fits")}, "the run writes '" + path("t.fits.partial") + "', which is the input"},
+      {{path("in.fits"), "-o", path("outdir")}, "-o '" + path("outdir") + "' is a directory"},
+      {{path("in.fits"), "-o", path("old.fits")}, "'" + path("old.fits") + "' exists (use --overwrite to replace it)"},
+  };
+  for (const Case& c : cases) {
+    const RunResult r = run(c.args + cheap);
+    EXPECT_NE(r.exit_code, 0) << c.expect;
+    EXPECT_NE(r.err.find(c.expect), std::string::npos) << "stderr '" << r.err << "' lacks '" << c.expect << "'";
+  }
+  EXPECT_EQ(fs::file_size(path("in.fits")), size);
+  EXPECT_EQ(fs::file_size(path("t.fits.partial")), size);
+  EXPECT_EQ(fs::file_size(path("old.fits")), std::string("an earlier table").size());
+  for (const char* left : {"outdir.partial", "outdir.checkpoint", "o.fits", "o.fits.partial", "t.fits", "old.fits.partial"})
+    EXPECT_FALSE(fs::exists(path(left))) << left;
+  const RunResult replaced = run(std::vector<std::string>{path("in.fits"), "-o", path("old.fits"), "--overwrite"} + cheap);
+  ASSERT_EQ(replaced.exit_code, 0) << replaced.err;
+  EXPECT_EQ(column(path("old.fits"), "id").size(), 4u);
+}
+
+// A bad value is echoed at most ~80 bytes of it, escaped: a 100 kB --set value, a 5 MB ini value.
+TEST_F(FitCommand, ErrorsQuoteABadValueShortAndEscaped) {
+  const std::string grid = data("galsim-great08-mini/nf/set_0.fits");
+  const RunResult set = run({grid, "-o", path("o.fits"), "--set", "psf_fwhm=" + std::string(100000, '7') + "\x01"});
+  EXPECT_NE(set.exit_code, 0);
+  EXPECT_NE(set.err.find("option 'psf_fwhm' = '7777"), std::string::npos) << set.err;
+  EXPECT_NE(set.err.find("77\\x01' (100001 bytes): "), std::string::npos) << set.err;
+  EXPECT_LT(set.err.size(), 400u) << set.err;
+  std::ofstream(path("run.ini")) << "psf_fwhm = " << std::string(5'000'000, '\x1b') << "\n";
+  const RunResult ini = run({grid, "-o", path("o.fits"), "--config", path("run.ini")});
+  EXPECT_NE(ini.exit_code, 0);
+  EXPECT_NE(ini.err.find(path("run.ini") + ":1: option 'psf_fwhm' = '\\x1b\\x1b"), std::string::npos) << ini.err.substr(0, 500);
+  EXPECT_NE(ini.err.find("' (5000000 bytes): expected a number"), std::string::npos) << ini.err.substr(0, 500);
+  EXPECT_LT(ini.err.size(), 600u);
+  EXPECT_EQ(ini.err.find('\x1b'), std::string::npos) << "no raw escape byte reaches the terminal";
+}
+
 }  // namespace

@@ -139,7 +139,7 @@ TEST_F(SimCommand, BadOptionsAreClearErrors) {
   ASSERT_EQ(sim(path("y"), {"--sets", "1", "--grid", "2", "--noise-free"}).exit_code, 0);
   r = sim(path("y"), {"--sets", "1", "--grid", "2"});
   EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.err.find("set_0.fits' exists: use --overwrite"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("set_0.fits' exists (use --overwrite to replace it)"), std::string::npos) << r.err;
   EXPECT_EQ(sim(path("y"), {"--sets", "1", "--grid", "2", "--overwrite"}).exit_code, 0);
 }
 
