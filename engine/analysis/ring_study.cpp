@@ -4,10 +4,13 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <memory>
 #include <stdexcept>
 #include <vector>
 
+#include "engine/render/renderer_factory.hpp"
 #include "engine/render/upsampled_renderer.hpp"
+#include "engine/sim/sim_renderer.hpp"
 #include "kernels/math/lensing.hpp"
 #include "kernels/sersic.hpp"
 
@@ -95,9 +98,17 @@ RingStudyResult run_ring_study(const RingStudyConfig& cfg, FftPlanCache& plans) 
   truth_ro.padding = cfg.truth_padding;
   std::string err;
   auto truth_psf = PsfKernel::build(cfg.psf, GridGeometry(truth_ro), plans, &err);
-  auto fit_psf = PsfKernel::build(cfg.psf, GridGeometry(cfg.fit.render), plans, &err);
+  auto fit_psf = make_renderer(cfg.fit.renderer, cfg.fit.render, cfg.fit.model, plans)->prepare_psf(cfg.psf, &err);
   if (!truth_psf || !fit_psf) throw std::invalid_argument("ring test PSF: " + err);
   UpsampledRenderer truth(truth_ro, ModelOptions{}, truth_psf, plans);
+  std::unique_ptr<SimRenderer> sim;
+  SimWorkspace sim_workspace;
+  if (cfg.truth == RingStudyConfig::Truth::kSimulator) {
+    SimRenderer::Options so;
+    so.sersic_indices = {1.0, cfg.galaxy.bulge_index};
+    so.max_half_light_radius = std::max(10.0, 2 * cfg.galaxy.disc_radius * std::max(1.0, cfg.galaxy.radius_ratio));
+    sim = std::make_unique<SimRenderer>(cfg.psf, so);
+  }
   Fitter fitter(cfg.fit, fit_psf, plans);
   const std::size_t npix = static_cast<std::size_t>(s) * s;
   std::vector<double> image(npix), part(npix);
@@ -130,7 +141,18 @@ RingStudyResult run_ring_study(const RingStudyConfig& cfg, FftPlanCache& plans) 
         p[index(Param::kDiscIndex)] = g.disc_index;
         p[index(Param::kBulgeA)] = bulge ? ab : 0.0;
         p[index(Param::kDiscA)] = bulge ? 0.0 : ad;
-        truth.render(p, part);
+        if (sim) {
+          SimComponent c;
+          c.sersic_n = bulge ? g.bulge_index : g.disc_index;
+          c.flux = g.flux * (bulge ? g.bulge_fraction : 1 - g.bulge_fraction);
+          c.half_light_radius = bulge ? rb : rd;
+          c.e1 = e.real();
+          c.e2 = e.imag();
+          c.x = c.y = 0.5 * (s - 1);
+          sim->render(std::span<const SimComponent>(&c, 1), s, part, sim_workspace);
+        } else {
+          truth.render(p, part);
+        }
         for (std::size_t i = 0; i < npix; ++i) image[i] += part[i];
       }
       const FitResult f = fitter.fit(image);

@@ -30,7 +30,11 @@ struct RingStudyConfig {
   RingGalaxy galaxy;
   PsfModel psf;
   FitterOptions fit;  // the fitter under test (its stamp_size is the stamp)
-  // The truth renderer: well beyond the fitter's defaults.
+  // The truth renderer: the upsampled renderer well beyond the fitter's defaults (the paper's
+  // figures), or the simulator's exact pixel integrals (engine/sim/sim_renderer, 1e-6 of GalSim's
+  // peak), which a fit by the exact renderer needs: the upsampled truth's own error is ~1e-4.
+  enum class Truth { kUpsampled, kSimulator };
+  Truth truth = Truth::kUpsampled;
   int truth_upsampling = 25, truth_central = 25, truth_central_upsampling = 25, truth_padding = 8;
 };
 
