@@ -97,7 +97,7 @@ CatalogueStampSource::CatalogueStampSource(const std::string& image_path, const 
         table_->read_column_rows(columns_.id, 0, std::span<long long>(&probe, 1));
         integer_ids_ = true;
       } catch (const FitsError&) {
-        // not an integer column: doubles, each checked to be integral (table_id)
+        // not an integer column: doubles, each checked to be integral (table_ids)
       }
     }
   }
@@ -110,7 +110,12 @@ void CatalogueStampSource::check_ids(std::span<const std::int64_t> save_images) 
   std::vector<std::pair<std::int64_t, long long>> ids;  // (id, line or 1-based row)
   if (fits_catalogue_) {
     ids.reserve(static_cast<std::size_t>(total_));
-    for (long long row = 0; row < total_; ++row) ids.emplace_back(table_id(row), row + 1);
+    std::vector<std::int64_t> chunk(4096);
+    for (long long first = 0; first < total_; first += static_cast<long long>(chunk.size())) {
+      const std::span<std::int64_t> part(chunk.data(), static_cast<std::size_t>(std::min<long long>(4096, total_ - first)));
+      table_ids(first, part);
+      for (std::size_t i = 0; i < part.size(); ++i) ids.emplace_back(part[i], first + static_cast<long long>(i) + 1);
+    }
   } else {
     text_.open(catalogue_path_);
     if (!text_) throw std::runtime_error("cannot open catalogue '" + catalogue_path_ + "'");
@@ -138,22 +143,22 @@ void CatalogueStampSource::check_ids(std::span<const std::int64_t> save_images) 
   }
 }
 
-std::int64_t CatalogueStampSource::table_id(long long row) {
+void CatalogueStampSource::table_ids(long long first_row, std::span<std::int64_t> out) {
   if (integer_ids_) {
-    long long id = 0;
-    table_->read_column_rows(columns_.id, row, std::span<long long>(&id, 1));
-    return id;
+    std::vector<long long> v(out.size());
+    table_->read_column_rows(columns_.id, first_row, v);
+    std::copy(v.begin(), v.end(), out.begin());
+    return;
   }
-  double v = NAN;
-  table_->read_column_rows(columns_.id, row, std::span<double>(&v, 1));
-  std::int64_t id = 0;
-  if (!integral_id(v, kTwoTo63, &id)) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    throw FitsError(table_->describe() + ": row " + std::to_string(row + 1) + ": id " + buf +
-                    " in column '" + columns_.id + "' is not a 64-bit integer");
-  }
-  return id;
+  std::vector<double> v(out.size());
+  table_->read_column_rows(columns_.id, first_row, v);
+  for (std::size_t i = 0; i < v.size(); ++i)
+    if (!integral_id(v[i], kTwoTo63, &out[i])) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%.17g", v[i]);
+      throw FitsError(table_->describe() + ": row " + std::to_string(first_row + static_cast<long long>(i) + 1) + ": id " +
+                      buf + " in column '" + columns_.id + "' is not a 64-bit integer");
+    }
 }
 
 CatalogueStampSource::~CatalogueStampSource() = default;
@@ -166,7 +171,7 @@ bool CatalogueStampSource::next_entry(Entry* e) {
       table_->read_column_rows(c, next_, std::span<double>(&v, 1));
       return v;
     };
-    e->id = table_id(next_);
+    table_ids(next_, std::span<std::int64_t>(&e->id, 1));
     e->x = read(columns_.x);
     e->y = read(columns_.y);
     if (columns_.with_psf) {
@@ -182,7 +187,7 @@ bool CatalogueStampSource::next_entry(Entry* e) {
     ++text_line_;
     const auto hash = line.find('#');
     if (hash != std::string::npos) line.erase(hash);
-    const std::string where = catalogue_path_ + ":" + std::to_string(text_line_) + ": ";
+    auto where = [&] { return catalogue_path_ + ":" + std::to_string(text_line_) + ": "; };
     std::vector<std::string_view> tokens;
     for (std::size_t pos = line.find_first_not_of(" \t\r\v\f"); pos != std::string::npos;) {
       const std::size_t end = std::min(line.find_first_of(" \t\r\v\f", pos), line.size());
@@ -192,14 +197,14 @@ bool CatalogueStampSource::next_entry(Entry* e) {
     if (tokens.empty()) continue;
     std::vector<double> v(tokens.size(), NAN);
     for (std::size_t i = 1; i < tokens.size(); ++i)
-      if (!parse_number(tokens[i], &v[i])) throw std::runtime_error(where + "'" + shown(tokens[i]) + "' is not a number");
+      if (!parse_number(tokens[i], &v[i])) throw std::runtime_error(where() + "'" + shown(tokens[i]) + "' is not a number");
     const std::size_t need = columns_.with_psf ? 7 : 3;
     if (v.size() < need)
-      throw std::runtime_error(where + "expected " + std::to_string(need) + " columns (id x y" +
+      throw std::runtime_error(where() + "expected " + std::to_string(need) + " columns (id x y" +
                                (columns_.with_psf ? " psf_beta psf_fwhm psf_e1 psf_e2" : "") + "), found " +
                                std::to_string(v.size()));
     std::int64_t id = 0;
-    if (!parse_id(tokens[0], &id)) throw std::runtime_error(where + "id '" + shown(tokens[0]) + "' is not a 64-bit integer");
+    if (!parse_id(tokens[0], &id)) throw std::runtime_error(where() + "id '" + shown(tokens[0]) + "' is not a 64-bit integer");
     *e = {id, v[1], v[2], NAN, NAN, NAN, NAN};
     if (columns_.with_psf) e->beta = v[3], e->fwhm = v[4], e->e1 = v[5], e->e2 = v[6];
     return true;

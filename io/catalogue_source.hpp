@@ -46,7 +46,8 @@ class CatalogueStampSource final : public StampSource {
     double x, y, beta, fwhm, e1, e2;
   };
   bool next_entry(Entry* e);
-  std::int64_t table_id(long long row);
+  // Ids of rows [first_row, first_row + out.size()) of a FITS catalogue; throws naming a non-integer one.
+  void table_ids(long long first_row, std::span<std::int64_t> out);
   void check_ids(std::span<const std::int64_t> save_images);
   void cut(const Entry& e, int k, StampBatch& batch);
 
@@ -58,7 +59,7 @@ class CatalogueStampSource final : public StampSource {
   long long total_ = 0;
   long long next_ = 0;
   bool fits_catalogue_ = false;
-  bool integer_ids_ = false;  // the FITS id column holds integers (else doubles, checked integral)
+  bool integer_ids_ = false;  // the FITS id column holds integers (else doubles, checked integral: table_ids)
   std::unique_ptr<FitsFile> table_;
   std::ifstream text_;
   long long text_line_ = 0;
