@@ -11,8 +11,11 @@
 #include <stdexcept>
 #include <vector>
 
+#include <tbb/task_arena.h>
+
 #include "app/psf_setup.hpp"
 #include "app/run_fingerprint.hpp"
+#include "app/run_memory.hpp"
 #include "engine/pipeline/pipeline.hpp"
 #include "engine/pipeline/stamp_fitter.hpp"
 #include "engine/render/psf_cache.hpp"
@@ -26,6 +29,8 @@
 #include "io/output_check.hpp"
 #include "io/output_lock.hpp"
 #include "io/psf_keys.hpp"
+#include "io/simulation_identity.hpp"
+#include "io/system_memory.hpp"
 
 namespace stampede::app {
 
@@ -132,6 +137,17 @@ RunSummary FitRun::run() const {
   };
   if (a.output.empty() && a.resume) throw std::invalid_argument("fit run: resume needs the output to resume");
   io::RunConfig cfg = a.config;
+  if (!a.weight.empty() && cfg.fitter.noise_sigma != 0) {
+    const auto where = cfg.explicitly_set.find("noise_sigma");
+    const std::string from = where != cfg.explicitly_set.end() && !where->second.empty() ? " (" + where->second + ")" : "";
+    throw io::ConfigError("option 'noise_sigma' = " + io::get_option(cfg, "noise_sigma") + from + " and --weight '" +
+                          a.weight + "' both give the noise; give one (noise_sigma = 0 with a weight map)");
+  }
+  // A stamp size the run sets is checked before the input is read: an invalid one (0, negative)
+  // must be refused, not replaced by the header's STAMPSZ.
+  const bool stamp_from_header = a.catalog.empty() && !cfg.explicitly_set.count("stamp_size");
+  if (!stamp_from_header) io::validate(cfg);
+  const std::vector<std::int64_t> saved_ids = io::save_image_ids(cfg);
 
   // The outputs before anything is read: a refused one costs nothing, and from here on no other
   // run can write them (the locks are released last, after the writer is done).
@@ -146,9 +162,9 @@ RunSummary FitRun::run() const {
   std::unique_ptr<StampSource> source;
   std::optional<PsfModel> recorded_psf;  // the PSF the input's header records, if any
   std::string recorded_where;              // its file and HDU
+  std::string input_set;                   // the simulated set the input is, if it says so
   if (a.catalog.empty()) {
-    auto grid = std::make_unique<io::GridStampSource>(a.input, a.weight,
-                                                      cfg.explicitly_set.count("stamp_size") ? cfg.fitter.render.stamp_size : 0);
+    auto grid = std::make_unique<io::GridStampSource>(a.input, a.weight, stamp_from_header ? 0 : cfg.fitter.render.stamp_size);
     cfg.fitter.render.stamp_size = grid->stamp_size();
     recorded_where = grid->header().describe();
     try {
@@ -156,6 +172,15 @@ RunSummary FitRun::run() const {
     } catch (const io::FitsError& e) {  // the record only feeds a check: the fit does not need it
       warn(std::string("the PSF record is unreadable, not checked: ") + e.what());
     }
+    try {
+      input_set = io::simulation_identity(grid->header());
+    } catch (const io::FitsError& e) {  // as the PSF record: only `metrics` checks it
+      warn(std::string("the simulated set's identity is unreadable, not recorded: ") + e.what());
+    }
+    for (std::int64_t id : saved_ids)
+      if (id < 0 || id >= grid->total_objects())
+        throw io::ConfigError("option 'save_images': object id " + std::to_string(id) + " is not in '" + a.input +
+                              "' (ids 0.." + std::to_string(grid->total_objects() - 1) + ")");
     source = std::move(grid);
   } else {
     io::CatalogueColumns cols;
@@ -167,13 +192,19 @@ RunSummary FitRun::run() const {
     cols.psf_fwhm = cfg.catalog_psf_fwhm_column;
     cols.psf_e1 = cfg.catalog_psf_e1_column;
     cols.psf_e2 = cfg.catalog_psf_e2_column;
-    source = std::make_unique<io::CatalogueStampSource>(a.input, a.weight, a.catalog, cfg.fitter.render.stamp_size, cols);
+    source = std::make_unique<io::CatalogueStampSource>(a.input, a.weight, a.catalog, cfg.fitter.render.stamp_size, cols,
+                                                        saved_ids);
   }
-  io::validate(cfg);
+  if (stamp_from_header) io::validate(cfg);
   if (cfg.psf_from_catalogue && a.catalog.empty())
     throw io::ConfigError("option 'psf_input' = 'moffat_catalog' needs --catalog");
   if (a.output.empty() && !cfg.save_images.empty())
     throw io::ConfigError("option 'save_images' needs an output (the images go beside it)");
+
+  // The machine must hold the run: refused now rather than swapping or killed mid-run.
+  const int threads = a.threads > 0 ? a.threads : tbb::this_task_arena::max_concurrency();
+  if (const auto available = io::available_memory_bytes())
+    check_fit_memory(estimate_fit_memory(cfg, threads, cfg.psf_from_catalogue), *available);
 
   const FftPlanning planning = cfg.fft_wisdom.empty() ? FftPlanning::kEstimate : FftPlanning::kMeasure;
   if (!cfg.fft_wisdom.empty()) load_fftw_wisdom(cfg.fft_wisdom);  // a missing file is fine: it is made at the end
@@ -221,6 +252,7 @@ RunSummary FitRun::run() const {
     if (!a.weight.empty()) files.push_back({"weight", a.weight});
     if (cfg.psf_kind == PsfKind::kImage && !cfg.psf_from_catalogue) files.push_back({"psf_image", cfg.psf_image});
     wo.fingerprint = fit_fingerprint(files, wo.header);
+    if (!input_set.empty()) wo.header.emplace_back(io::kInputSetKey, input_set);  // for `metrics` to match the truth
     if (a.resume) {
       writer = io::CatalogWriter::resume(wo, &summary.resumed);
       source->skip_to(summary.resumed);

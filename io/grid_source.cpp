@@ -12,11 +12,13 @@ GridStampSource::GridStampSource(const std::string& image_path, const std::strin
   const std::size_t row = static_cast<std::size_t>(image_.grid_nx()) * image_.stamp_size() * image_.stamp_size();
   row_.resize(row);
   if (!weight_path.empty()) {
-    weight_ = std::make_unique<StampGridReader>(weight_path, image_.stamp_size());
-    const auto a = image_.file().image_shape(), b = weight_->file().image_shape();
+    // The shape first: a weight map of another shape is that, whether or not the stamp size divides it.
+    FitsFile weight = FitsFile::open_read(weight_path);
+    const auto a = image_.file().image_shape(), b = weight.image_shape();
     if (a.nx != b.nx || a.ny != b.ny)
-      throw FitsError(weight_->file().describe() + ": weight image is " + std::to_string(b.nx) + " x " +
-                      std::to_string(b.ny) + ", the input image " + std::to_string(a.nx) + " x " + std::to_string(a.ny));
+      throw FitsError(weight.describe() + ": weight image is " + std::to_string(b.nx) + " x " + std::to_string(b.ny) +
+                      ", the input image " + std::to_string(a.nx) + " x " + std::to_string(a.ny));
+    weight_ = std::make_unique<StampGridReader>(weight_path, image_.stamp_size());
     weight_row_.resize(row);
   }
 }

@@ -15,6 +15,7 @@
 #include "engine/analysis/shear_metrics.hpp"
 #include "io/catalog_reader.hpp"
 #include "io/fits_file.hpp"
+#include "io/simulation_identity.hpp"
 
 namespace {
 
@@ -47,6 +48,13 @@ SetShear read_set(const std::string& fit_path, const std::string& truth_path, co
              pe2 = fit.column(F::kPsfE2);
   io::FitsFile truth = io::FitsFile::open_read(truth_path);
   const double g1 = truth.key_double("SHEAR1"), g2 = truth.key_double("SHEAR2");
+  // The set the fit was of (its input's SEED SETIDX NOISESD) must be the truth's: row-by-row ids
+  // cannot tell two sets of one grid apart.
+  const std::string fitted_set = fit.file().read_key_string(io::kInputSetKey).value_or("");
+  const std::string truth_set = io::simulation_identity(truth);
+  if (!fitted_set.empty() && fitted_set != truth_set)
+    throw std::runtime_error(fit.describe() + " is a fit of set '" + fitted_set + "' (" + io::kInputSetKey + "), but " +
+                             truth_path + " is the truth of set '" + truth_set + "': pair each fit with its own set's truth");
   truth.move_to("TRUTH");
   const auto index = truth.read_column("index");
   std::vector<double> pair_col;
@@ -68,7 +76,12 @@ SetShear read_set(const std::string& fit_path, const std::string& truth_path, co
     *psf_e1 = pe1[0];
     *psf_e2 = pe2[0];
   }
-  return estimate_set_shear(e1, e2, usable, pair, g1, g2, bootstrap, seed);
+  const SetShear set = estimate_set_shear(e1, e2, usable, pair, g1, g2, bootstrap, seed);
+  if (set.used == 0)
+    throw std::runtime_error(fit.describe() + ": all " + std::to_string(id.size()) +
+                             " rows are excluded (status not ok, flags 4/16/32/65536/131072, or e not finite), so the "
+                             "set has no shear estimate");
+  return set;
 }
 
 }  // namespace

@@ -22,6 +22,17 @@ bool FitterOptions::IsValid(std::string* why) const {
     }
     return false;
   }
+  // Every pixel's weight is 1/noise_sigma^2: refused where it (or chi2) would overflow or underflow,
+  // which would make every row bad_pixels or no_data.
+  if (noise_sigma > 0 && !(noise_sigma >= 1e-150 && noise_sigma <= 1e150)) {
+    if (why) {
+      std::ostringstream msg;
+      msg << "noise_sigma = " << noise_sigma << ": the pixel weight 1/noise_sigma^2 would "
+          << (noise_sigma < 1 ? "overflow" : "underflow") << "; must be 0 or in [1e-150, 1e150]";
+      *why = msg.str();
+    }
+    return false;
+  }
   return true;
 }
 
@@ -130,19 +141,21 @@ void Fitter::set_psf(std::shared_ptr<const PreparedPsf> psf) {
   if (psf_) renderer_->set_psf(psf_);
 }
 
-FitStatus Fitter::prepare_weights(std::span<const double> pixels, std::span<const double> weight, std::uint32_t* flags) {
+FitStatus Fitter::prepare_weights(std::span<const double> pixels, std::span<const double> weight, WeightKind kind,
+                                  std::uint32_t* flags) {
   const std::size_t npix = weight_.size();
   if (pixels.size() != npix || (!weight.empty() && weight.size() != npix))
     throw std::invalid_argument("stamp or weight size does not match stamp_size^2");
   const double sigma = options_.noise_sigma;
   const double w0 = sigma > 0 ? 1.0 / (sigma * sigma) : 1.0;
-  if (weight.empty() && sigma == 0) *flags |= kFlagUnweighted;
+  const bool mask = kind == WeightKind::kMask;
+  if ((weight.empty() || mask) && sigma == 0) *flags |= kFlagUnweighted;
   int used = 0;
   bool flat = true;  // every used pixel equal (all zero included): no galaxy to fit
   double first = NAN, max_abs = 0.0, max_weight = 0.0;
   units_ = FitUnits{};
   for (std::size_t i = 0; i < npix; ++i) {
-    const double w = weight.empty() ? w0 : weight[i];
+    const double w = weight.empty() ? w0 : mask ? (weight[i] != 0.0 ? w0 : 0.0) : weight[i];
     if (!(w >= 0.0) || !std::isfinite(w)) return FitStatus::kBadPixels;
     weight_[i] = w;
     if (w == 0.0) {
@@ -165,7 +178,7 @@ FitStatus Fitter::prepare_weights(std::span<const double> pixels, std::span<cons
 
 ParamVector Fitter::starting_point(std::span<const double> pixels, std::span<const double> weight,
                                    std::uint32_t* flags) {
-  if (prepare_weights(pixels, weight, flags) != FitStatus::kOk) {
+  if (prepare_weights(pixels, weight, WeightKind::kInverseVariance, flags) != FitStatus::kOk) {
     *flags |= kFlagDefaultStart;
     problem_->set_data(zeros_, 1.0, 0);  // nothing to take moments of
   }
@@ -245,12 +258,13 @@ void Fitter::solve_start_amplitudes(ParamVector* p) {
   }
 }
 
-bool Fitter::ready(std::span<const double> pixels, std::span<const double> weight, FitResult* r, std::uint32_t* flags) {
+bool Fitter::ready(std::span<const double> pixels, std::span<const double> weight, WeightKind kind, FitResult* r,
+                   std::uint32_t* flags) {
   if (!psf_) {
     r->status = FitStatus::kPsfFailure;
     return false;
   }
-  const FitStatus input = prepare_weights(pixels, weight, flags);
+  const FitStatus input = prepare_weights(pixels, weight, kind, flags);
   if (input != FitStatus::kOk) {
     r->status = input;
     r->flags = *flags;
@@ -259,10 +273,10 @@ bool Fitter::ready(std::span<const double> pixels, std::span<const double> weigh
   return true;
 }
 
-FitResult Fitter::fit(std::span<const double> pixels, std::span<const double> weight) {
+FitResult Fitter::fit(std::span<const double> pixels, std::span<const double> weight, WeightKind kind) {
   std::uint32_t flags = 0;
   FitResult r;
-  if (!ready(pixels, weight, &r, &flags)) return r;
+  if (!ready(pixels, weight, kind, &r, &flags)) return r;
   const ParamVector start = start_from_prepared(&flags);
   return run(start, flags);
 }
@@ -270,7 +284,7 @@ FitResult Fitter::fit(std::span<const double> pixels, std::span<const double> we
 FitResult Fitter::fit_from(std::span<const double> pixels, std::span<const double> weight, const ParamVector& start) {
   std::uint32_t flags = 0;
   FitResult r;
-  if (!ready(pixels, weight, &r, &flags)) return r;
+  if (!ready(pixels, weight, WeightKind::kInverseVariance, &r, &flags)) return r;
   return run(units_.to_internal(start), flags);
 }
 

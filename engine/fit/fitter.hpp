@@ -34,6 +34,11 @@ struct FitterOptions {
   bool IsValid(std::string* why) const;
 };
 
+// What a stamp's weight array holds: inverse variances, or a mask (0 masks a pixel, any other
+// value leaves it at noise_sigma's weight, unweighted when noise_sigma = 0), e.g. the image edge
+// of a cutout with no weight map, so a masked stamp follows the same weighting rules as a whole one.
+enum class WeightKind { kInverseVariance, kMask };
+
 class Fitter {
  public:
   // options must be valid. psf (prepared by a renderer of options.renderer's kind and options) may
@@ -42,9 +47,10 @@ class Fitter {
 
   ~Fitter();
 
-  // pixels: stamp_size^2, row-major. weight: empty (use noise_sigma) or inverse variance per pixel,
-  // 0 masking a pixel.
-  FitResult fit(std::span<const double> pixels, std::span<const double> weight = {});
+  // pixels: stamp_size^2, row-major. weight: empty (use noise_sigma) or, per pixel, what `kind`
+  // says, 0 masking a pixel.
+  FitResult fit(std::span<const double> pixels, std::span<const double> weight = {},
+                WeightKind kind = WeightKind::kInverseVariance);
   // As fit(), starting from `start` (a full parameter vector) instead of the moments.
   FitResult fit_from(std::span<const double> pixels, std::span<const double> weight, const ParamVector& start);
 
@@ -61,10 +67,12 @@ class Fitter {
  private:
   class Problem;
   // The PSF and weight checks fit() and fit_from() share; false, with *r filled, when nothing can be fitted.
-  bool ready(std::span<const double> pixels, std::span<const double> weight, FitResult* r, std::uint32_t* flags);
+  bool ready(std::span<const double> pixels, std::span<const double> weight, WeightKind kind, FitResult* r,
+             std::uint32_t* flags);
   // Sets units_ from the stamp and fills weight_ and the problem's data in them; returns a status
   // other than kOk when nothing can be fitted.
-  FitStatus prepare_weights(std::span<const double> pixels, std::span<const double> weight, std::uint32_t* flags);
+  FitStatus prepare_weights(std::span<const double> pixels, std::span<const double> weight, WeightKind kind,
+                            std::uint32_t* flags);
   // start, and the fit inside, in the units of units_ (amplitudes over units_.data).
   FitResult run(const ParamVector& start, std::uint32_t flags);
   ParamVector start_from_prepared(std::uint32_t* flags);

@@ -16,6 +16,7 @@ struct StampBatch {
   int count = 0;               // objects in this batch
   int stamp_size = 0;
   bool has_weights = false;
+  bool weights_are_mask = false;  // has_weights and they only mask pixels (WeightKind::kMask)
   std::vector<double> pixels;   // capacity * stamp_size^2
   std::vector<double> weights;  // same layout when has_weights
   // Per-object PSFs (psf_input = moffat_catalog), any kind: assigning an analytic model allocates

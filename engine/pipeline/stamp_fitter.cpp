@@ -40,7 +40,7 @@ void StampFitter::fit(StampBatch& batch) {
     const std::span<const double> pixels(batch.stamp(k), npix);
     const std::span<const double> weight = batch.has_weights ? std::span<const double>(batch.weight(k), npix)
                                                              : std::span<const double>();
-    rec.fit = fitter_->fit(pixels, weight);
+    rec.fit = fitter_->fit(pixels, weight, batch.weights_are_mask ? WeightKind::kMask : WeightKind::kInverseVariance);
     rec.flags = rec.fit.flags | input_flags;
     rec.time_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
   }
