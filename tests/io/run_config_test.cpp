@@ -139,7 +139,7 @@ TEST(RunConfigRegistry, ListsEveryKeyOnceWithItsDefaultAndHelp) {
     for (const char* suffix : {"_start", "_min", "_max", "_free"})
       EXPECT_TRUE(names.contains(n + suffix)) << n + suffix;
   }
-  EXPECT_EQ(options.size(), 37u + 4u * kNumParams);
+  EXPECT_EQ(options.size(), 41u + 4u * kNumParams);
 }
 
 // --- get / set -----------------------------------------------------------------------------------
@@ -250,7 +250,7 @@ TEST(RunConfigSet, RejectsBadValuesAndLeavesTheConfigUnchanged) {
       {"psf_pixel_integrated", "maybe", "expected true/false"},
       {"psf_pixel_integrated", "", "expected true/false"},
       {"psf_input", "gaussian", "expected moffat, airy, moffat_catalog or image"},
-      {"renderer", "exact", "expected upsampled"},
+      {"renderer", "gpu", "expected upsampled, exact"},
       {"simd", "avx3", "expected best, scalar, sse4.2, avx2 or avx512"},
       {"save_images", "3,,4", "comma-separated"},
       {"save_images", "3,x", "comma-separated"},

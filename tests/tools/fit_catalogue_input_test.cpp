@@ -68,8 +68,9 @@ class FitCatalogueInput : public stampede::testing::FitCommandTest {
  protected:
   void SetUp() override { stampede::testing::write_great08_stamps(path("image.fits"), kNx, kNy); }
   RunResult fit(const std::string& catalogue, const std::string& out, std::vector<std::string> extra = {}) {
-    return run(std::vector<std::string>{path("image.fits"), "-o", out, "--catalog", catalogue, "--quiet", "--threads",
-                                        "2"} +
+    // --overwrite: a test may fit several catalogues into one output.
+    return run(std::vector<std::string>{path("image.fits"), "-o", out, "--overwrite", "--catalog", catalogue, "--quiet",
+                                        "--threads", "2"} +
                kGreat08Psf + extra);
   }
   void write_text(const std::string& name, const std::string& text) { std::ofstream(path(name)) << text; }
@@ -91,7 +92,7 @@ TEST_F(FitCatalogueInput, WeightingFollowsTheGridsRules) {
                                            "e2_err", "snr", "chi2", "likelihood", "n_iter", "status", "flags"};
   for (const char* sigma : {"0", "2.5"}) {
     const std::vector<std::string> noise = {"--set", std::string("noise_sigma=") + sigma};
-    const RunResult g = run(std::vector<std::string>{path("image.fits"), "-o", path("grid.fits"), "--quiet"} + kGreat08Psf + noise);
+    const RunResult g = run(std::vector<std::string>{path("image.fits"), "-o", path("grid.fits"), "--overwrite", "--quiet"} + kGreat08Psf + noise);
     ASSERT_EQ(g.exit_code, 0) << g.err;
     const RunResult c = fit(path("cat.txt"), path("cat.fits"), noise);
     ASSERT_EQ(c.exit_code, 0) << c.err;

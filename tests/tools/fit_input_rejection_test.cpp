@@ -57,7 +57,7 @@ TEST_F(FitInputRejection, EachIsRefusedWithAMessageBeforeFitting) {
   }
   // The limits are not off by one: the extremes of the range run.
   for (const char* sigma : {"noise_sigma=1e-150", "noise_sigma=1e150"}) {
-    const RunResult r = run(std::vector<std::string>{path("grid.fits"), "-o", path("o.fits"), "--quiet", "--set", sigma,
+    const RunResult r = run(std::vector<std::string>{path("grid.fits"), "-o", path("o.fits"), "--overwrite", "--quiet", "--set", sigma,
                                                      "--set", "minimizer_max_iterations=2"} +
                             stampede::testing::kGreat08Psf);
     EXPECT_EQ(r.exit_code, 0) << sigma << ": " << r.err;
