@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Runs every fuzz target of BUILD_DIR for SECONDS each (two at a time), from the committed seeds;
 # fails, keeping the crashing inputs in BUILD_DIR/fuzz-findings/, if any target finds something.
-# usage: fuzz/smoke.sh [BUILD_DIR (build-fuzz)] [SECONDS (20)]
+# usage: fuzz/smoke.sh [BUILD_DIR (build-fuzz)] [SECONDS (15)]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 B="${1:-build-fuzz}"
-SECONDS_EACH="${2:-20}"
+SECONDS_EACH="${2:-15}"
 F="$B/fuzz-findings"
 mkdir -p "$F"
 declare -A dict=([run_config]=ini.dict [catalogue]=fits.dict [stamp_grid]=fits.dict [weight_map]=fits.dict

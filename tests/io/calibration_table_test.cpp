@@ -125,7 +125,7 @@ TEST_F(CalibrationTableTest, OtherFilesAreRefusedNamingTheKey) {
   EXPECT_TRUE(Contains(error_of<std::runtime_error>([&] { read_calibration_table(path("missing.fits")); }), "missing.fits"));
 }
 
-// Found by fuzz_calibration_table: integers beyond the int range went through static_cast<int>,
+// Found while writing fuzz_calibration_table: integers beyond the int range went through static_cast<int>,
 // a wrapped NREAL passing validation and a 2^40 pairs count being undefined behaviour.
 TEST_F(CalibrationTableTest, IntegersBeyondTheIntRangeAreRefusedNamingTheKeyOrRow) {
   write_calibration_table(path("cal.fits"), sample_table(), false);

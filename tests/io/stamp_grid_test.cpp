@@ -33,7 +33,7 @@ TEST(StampGridReader, ReadsTheStampSizeFromTheHeader) {
   EXPECT_EQ(grid.grid_ny(), 2);
 }
 
-// Found by fuzz_stamp_grid's surface: STAMPSZ = 2^32 + 8 went through an int and read as 8, so a
+// Found while writing fuzz_stamp_grid: STAMPSZ = 2^32 + 8 went through an int and read as 8, so a
 // corrupt header gave a 2 x 2 grid of 8-pixel stamps.
 TEST(StampGridReader, RefusesAStampSizeBeyondTheIntRange) {
   const stampede::testing::ScratchDir dir("stampede_stamp_grid_");
