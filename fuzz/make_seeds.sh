@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Rebuilds the seed corpora of fuzz/corpus/ with the project's own writers (a built `stampede`).
+# Rewrites the seed corpora of fuzz/corpus/ with the project's own writers (a built `stampede`); seeds
+# kept from findings (f<N>_*) stay.
 # usage: fuzz/make_seeds.sh [path/to/stampede]   (default: build/tools/stampede)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -7,7 +8,7 @@ S="$(realpath "${1:-build/tools/stampede}")"
 C=fuzz/corpus
 T="$(mktemp -d)"
 trap 'rm -rf "$T"' EXIT
-rm -rf "$C" && mkdir -p "$C"/{stamp_grid,weight_map,catalogue,run_config,psf_image,calibration_table,catalog_reader}
+mkdir -p "$C"/{stamp_grid,weight_map,catalogue,run_config,psf_image,calibration_table,catalog_reader}
 q=(--quiet --threads 1)
 
 # Grids: 2 x 2 stamps of 8 (16 x 16, the weight target's image shape) and 1 x 1 stamp of 8.
