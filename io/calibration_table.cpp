@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <sstream>
+#include <utility>
 
 #include "engine/common/quoted_value.hpp"
 #include "io/fits_file.hpp"
@@ -42,6 +43,35 @@ std::vector<double> split(FitsFile& f, const std::string& key) {
     }
   }
   return out;
+}
+
+// A header integer held as an int: a wider value had wrapped (NREAL = 2^32 + 16 read as 16).
+int key_int(FitsFile& f, const std::string& key) {
+  const long long v = f.key_long(key);
+  if (!std::in_range<int>(v))
+    throw FitsError(f.describe() + ": header keyword '" + key + "' = " + std::to_string(v) + " is out of range");
+  return static_cast<int>(v);
+}
+
+// An integer column's value (stored as a double by the writer) as an int: a NaN, fractional or
+// out-of-range one is an error naming the row, not a float-to-int conversion (undefined).
+int column_int(FitsFile& f, const char* column, std::size_t row, double v) {
+  if (!(v >= -2147483648.0 && v <= 2147483647.0 && v == std::trunc(v))) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    throw FitsError(f.describe() + ": row " + std::to_string(row + 1) + ": column '" + column + "' = " + buf +
+                    " is not an integer");
+  }
+  return static_cast<int>(v);
+}
+
+// The axis column: 0 (e along e1) or 1 (along e2), as written.
+BiasAxis column_axis(FitsFile& f, std::size_t row, double v) {
+  const int axis = column_int(f, "axis", row, v);
+  if (axis != 0 && axis != 1)
+    throw FitsError(f.describe() + ": row " + std::to_string(row + 1) + ": column 'axis' = " + std::to_string(axis) +
+                    " is neither 0 (e1) nor 1 (e2)");
+  return axis == 0 ? BiasAxis::kE1 : BiasAxis::kE2;
 }
 
 FitsFile::OutputColumn column(const std::string& name, bool integer = false) { return {name, integer, {}}; }
@@ -109,10 +139,10 @@ CalibrationTable read_calibration_table(const std::string& path) {
                              " is not a calibration format this version reads (" + std::to_string(kVersion) + ")");
   g.snr = f.key_double("SNRREF");
   g.noise_sigma = f.key_double("NOISESIG");
-  g.realisations = static_cast<int>(f.key_long("NREAL"));
-  g.e_steps = static_cast<int>(f.key_long("ESTEPS"));
+  g.realisations = key_int(f, "NREAL");
+  g.e_steps = key_int(f, "ESTEPS");
   g.e_max = f.key_double("EMAX");
-  g.stamp_size = static_cast<int>(f.key_long("STAMPSZ"));
+  g.stamp_size = key_int(f, "STAMPSZ");
   g.bulge_radius_ratio = f.key_double("RRATIO");
   g.seed = static_cast<std::uint64_t>(f.key_long("SEED"));
   g.radii = split(f, "RADII");
@@ -141,10 +171,10 @@ CalibrationTable read_calibration_table(const std::string& path) {
              used = f.read_column("pairs_used"), failed = f.read_column("pairs_failed");
   for (std::size_t i = 0; i < point.size(); ++i) {
     CalibrationPoint p;
-    p.index = static_cast<int>(point[i]);
+    p.index = column_int(f, "point", i, point[i]);
     p.radius = radius[i];
     p.bulge_fraction = fraction[i];
-    p.axis = axis[i] == 0 ? BiasAxis::kE1 : BiasAxis::kE2;
+    p.axis = column_axis(f, i, axis[i]);
     p.e_true = e_true[i];
     t.points.push_back(p);
     PointBias b;
@@ -152,8 +182,8 @@ CalibrationTable read_calibration_table(const std::string& path) {
     b.error[0] = e1[i];
     b.bias[1] = b2[i];
     b.error[1] = e2[i];
-    b.pairs_used = static_cast<int>(used[i]);
-    b.pairs_failed = static_cast<int>(failed[i]);
+    b.pairs_used = column_int(f, "pairs_used", i, used[i]);
+    b.pairs_failed = column_int(f, "pairs_failed", i, failed[i]);
     t.biases.push_back(b);
   }
 
@@ -166,14 +196,14 @@ CalibrationTable read_calibration_table(const std::string& path) {
     BiasCurve curve;
     curve.radius = c[0][i];
     curve.bulge_fraction = c[1][i];
-    curve.axis = c[2][i] == 0 ? BiasAxis::kE1 : BiasAxis::kE2;
-    curve.component = static_cast<int>(c[3][i]);
+    curve.axis = column_axis(f, i, c[2][i]);
+    curve.component = column_int(f, "component", i, c[3][i]);
     for (int k = 0; k < 4; ++k) {
       curve.coefficients[k] = c[4 + k][i];
       curve.errors[k] = c[8 + k][i];
     }
     curve.chi2 = c[12][i];
-    curve.points = static_cast<int>(c[13][i]);
+    curve.points = column_int(f, "points", i, c[13][i]);
     t.curves.push_back(curve);
   }
   return t;

@@ -13,6 +13,8 @@
 #include <string_view>
 #include <utility>
 
+#include "io/fits_header_guard.hpp"
+
 namespace stampede::io {
 namespace {
 
@@ -69,6 +71,7 @@ FitsFile::FitsFile(void* fptr, std::string path, bool auto_image)
     : fptr_(fptr), path_(std::move(path)), root_(root_name(path_)), auto_image_(auto_image) {}
 
 FitsFile FitsFile::open_read(const std::string& path) {
+  check_fits_headers(fits_root_name(path));  // before CFITSIO parses what would crash it
   fitsfile* f = nullptr;
   int status = 0;
   fits_open_file(&f, path.c_str(), READONLY, &status);

@@ -2,6 +2,7 @@
 #include "io/stamp_grid.hpp"
 
 #include <cstddef>
+#include <utility>
 
 #include "io/fits_error.hpp"
 
@@ -9,12 +10,17 @@ namespace stampede::io {
 
 StampGridReader::StampGridReader(const std::string& path, int stamp_size) : file_(FitsFile::open_read(path)) {
   const FitsFile::ImageShape shape = file_.image_shape();
-  stamp_ = stamp_size > 0 ? stamp_size : static_cast<int>(file_.key_long("STAMPSZ"));
-  if (stamp_ <= 0 || shape.nx % stamp_ != 0 || shape.ny % stamp_ != 0)
-    throw FitsError(file_.describe() + ": stamp size " + std::to_string(stamp_) + " does not divide the " +
+  // Checked in 64 bits: a STAMPSZ beyond the int range had wrapped (2^32 + 8 read as 8).
+  const long long stamp = stamp_size > 0 ? stamp_size : file_.key_long("STAMPSZ");
+  if (stamp <= 0 || shape.nx % stamp != 0 || shape.ny % stamp != 0)
+    throw FitsError(file_.describe() + ": stamp size " + std::to_string(stamp) + " does not divide the " +
                     std::to_string(shape.nx) + " x " + std::to_string(shape.ny) + " image");
-  nx_ = static_cast<int>(shape.nx / stamp_);
-  ny_ = static_cast<int>(shape.ny / stamp_);
+  if (!std::in_range<int>(stamp) || !std::in_range<int>(shape.nx / stamp) || !std::in_range<int>(shape.ny / stamp))
+    throw FitsError(file_.describe() + ": a grid of " + std::to_string(shape.nx / stamp) + " x " +
+                    std::to_string(shape.ny / stamp) + " stamps of " + std::to_string(stamp) + " pixels is too large");
+  stamp_ = static_cast<int>(stamp);
+  nx_ = static_cast<int>(shape.nx / stamp);
+  ny_ = static_cast<int>(shape.ny / stamp);
   strip_.resize(static_cast<std::size_t>(shape.nx) * stamp_);
 }
 

@@ -125,6 +125,40 @@ TEST_F(CalibrationTableTest, OtherFilesAreRefusedNamingTheKey) {
   EXPECT_TRUE(Contains(error_of<std::runtime_error>([&] { read_calibration_table(path("missing.fits")); }), "missing.fits"));
 }
 
+// Found while writing fuzz_calibration_table: integers beyond the int range went through static_cast<int>,
+// a wrapped NREAL passing validation and a 2^40 pairs count being undefined behaviour.
+TEST_F(CalibrationTableTest, IntegersBeyondTheIntRangeAreRefusedNamingTheKeyOrRow) {
+  write_calibration_table(path("cal.fits"), sample_table(), false);
+  auto altered = [&](const std::string& name, auto change) {
+    FitsFile in = FitsFile::open_read(path("cal.fits"));
+    FitsFile out = FitsFile::create(path(name), false);
+    in.copy_all_hdus_to(out);
+    change(out);
+    out.close();
+    return path(name);
+  };
+  const std::string nreal = altered("nreal.fits", [](FitsFile& f) {
+    f.move_to(0);
+    f.write_key("NREAL", 4294967304LL, "");
+  });
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { read_calibration_table(nreal); }),
+                       "header keyword 'NREAL' = 4294967304 is out of range"));
+  const std::string used = altered("used.fits", [](FitsFile& f) {
+    f.move_to("POINTS");
+    const double v[] = {1099511627776.0};
+    f.write_column_rows("pairs_used", 2, v);
+  });
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { read_calibration_table(used); }),
+                       "'POINTS']: row 3: column 'pairs_used' = 1099511627776 is not an integer"));
+  const std::string axis = altered("axis.fits", [](FitsFile& f) {
+    f.move_to("CURVES");
+    const double v[] = {7.0};
+    f.write_column_rows("axis", 0, v);
+  });
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { read_calibration_table(axis); }),
+                       "row 1: column 'axis' = 7 is neither 0 (e1) nor 1 (e2)"));
+}
+
 TEST_F(CalibrationTableTest, CopiedTableTakesNewColumns) {
   {
     FitsFile f = FitsFile::create(path("in.fits"), false);

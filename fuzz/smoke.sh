@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Runs every fuzz target of BUILD_DIR for SECONDS each (two at a time), from the committed seeds;
+# fails, keeping the crashing inputs in BUILD_DIR/fuzz-findings/, if any target finds something.
+# usage: fuzz/smoke.sh [BUILD_DIR (build-fuzz)] [SECONDS (15)]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+B="${1:-build-fuzz}"
+SECONDS_EACH="${2:-15}"
+F="$B/fuzz-findings"
+mkdir -p "$F"
+declare -A dict=([run_config]=ini.dict [catalogue]=fits.dict [stamp_grid]=fits.dict [weight_map]=fits.dict
+                 [psf_image]=fits.dict [calibration_table]=fits.dict [catalog_reader]=fits.dict)
+run() {
+  local t="$1" work="$B/fuzz-corpus/$1"
+  mkdir -p "$work"  # new inputs go here; the committed corpus is only read
+  if ! "$B/fuzz/fuzz_$t" "$work" "fuzz/corpus/$t" -dict="fuzz/${dict[$t]}" -max_total_time="$SECONDS_EACH" \
+      -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=2048 -artifact_prefix="$F/${t}-" -print_final_stats=1 \
+      > "$F/$t.log" 2>&1; then
+    echo "fuzz_$t: FINDING (log $F/$t.log)"; tail -40 "$F/$t.log"; return 1
+  fi
+  echo "fuzz_$t: $(grep -E '^#[0-9]+' "$F/$t.log" | tail -1)"
+}
+status=0
+targets=(stamp_grid weight_map catalogue psf_image calibration_table catalog_reader run_config)
+for ((i = 0; i < ${#targets[@]}; i += 2)); do
+  run "${targets[i]}" & a=$!
+  if ((i + 1 < ${#targets[@]})); then run "${targets[i + 1]}" & b=$!; wait "$b" || status=1; fi
+  wait "$a" || status=1
+done
+exit "$status"

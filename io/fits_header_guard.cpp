@@ -1,0 +1,77 @@
+// The header scan ahead of CFITSIO; see fits_header_guard.hpp.
+#include "io/fits_header_guard.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <fstream>
+#include <optional>
+#include <string_view>
+
+#include "io/fits_error.hpp"
+
+namespace stampede::io {
+namespace {
+
+constexpr long long kBlock = 2880, kCard = 80;
+
+// The integer value of a card "KEY     = n", if it is one.
+std::optional<long long> card_integer(std::string_view card) {
+  std::string_view v = card.substr(10);
+  v.remove_prefix(std::min(v.find_first_not_of(' '), v.size()));
+  long long n = 0;
+  const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), n);
+  if (ec != std::errc() || end == v.data()) return std::nullopt;
+  return n;
+}
+
+}  // namespace
+
+void check_fits_headers(const std::string& root) {
+  std::ifstream in(root, std::ios::binary);
+  char card_bytes[kCard];
+  long long hdu_start = 0;
+  for (int hdu = 0; hdu < 1000 && in; ++hdu) {
+    long long bitpix = 0, naxis = 0, pcount = 0, gcount = 1, pixels = 1;
+    bool end = false;
+    long long cards = 0;
+    in.seekg(hdu_start);
+    while (!end && in.read(card_bytes, kCard)) {
+      const std::string_view card(card_bytes, kCard);
+      if (hdu == 0 && cards == 0 && !card.starts_with("SIMPLE  =")) return;  // not plain FITS: CFITSIO's to judge
+      ++cards;
+      const std::string_view key = card.substr(0, 8);
+      if (key.starts_with("END ") && key.find_first_not_of(' ', 3) == std::string_view::npos) {
+        end = true;
+        break;
+      }
+      if (card.substr(8, 2) != "= ") continue;
+      const auto value = card_integer(card);
+      if (key.starts_with("TTYPE")) {
+        const std::string_view v = card.substr(10);
+        const std::size_t first = v.find_first_not_of(' ');
+        if (first != std::string_view::npos && v[first] != '\'')
+          throw FitsError(root + "[HDU " + std::to_string(hdu) + "]: header card '" + std::string(key.substr(0, key.find(' '))) +
+                          "' is not a quoted string (a column name must be one)");
+      } else if (key == "BITPIX  " && value) {
+        bitpix = *value;
+      } else if (key == "NAXIS   " && value) {
+        naxis = *value;
+      } else if (key.starts_with("NAXIS") && value && *value >= 0) {
+        if (*value != 0 && pixels > (1LL << 50) / *value) return;  // absurd sizes: CFITSIO's to report
+        pixels *= *value;
+      } else if (key == "PCOUNT  " && value) {
+        pcount = *value;
+      } else if (key == "GCOUNT  " && value) {
+        gcount = *value;
+      }
+    }
+    if (!end) return;
+    const long long header = (cards + kBlock / kCard - 1) / (kBlock / kCard) * kBlock;
+    const long long bytes_per = bitpix < 0 ? -bitpix / 8 : bitpix / 8;
+    if (pcount < 0 || gcount < 0 || pcount > (1LL << 50) || gcount > 256) return;  // no 64-bit overflow below
+    const long long data = naxis == 0 ? 0 : bytes_per * gcount * (pcount + pixels);
+    hdu_start += header + (data + kBlock - 1) / kBlock * kBlock;
+  }
+}
+
+}  // namespace stampede::io

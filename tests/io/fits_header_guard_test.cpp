@@ -1,0 +1,63 @@
+// Tests for the header scan ahead of CFITSIO (io/fits_header_guard), through FitsFile::open_read.
+#include "io/fits_header_guard.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "io/fits_file.hpp"
+#include "support/error_assertions.hpp"
+#include "support/scratch_dir.hpp"
+
+namespace stampede::io {
+namespace {
+
+using stampede::testing::Contains;
+using stampede::testing::error_of;
+
+// A catalogue table whose TTYPE2 card is replaced by `card` (padded to 80 bytes), as fuzz_catalogue
+// made it.
+std::string table_with_card(const stampede::testing::ScratchDir& dir, const std::string& card) {
+  const std::string path = dir.path("cat.fits");
+  {
+    FitsFile f = FitsFile::create(path, true);
+    f.write_empty_image();
+    f.write_table("CATALOG", {{"id", true, {1, 2}}, {"x", false, {3.0, 4.0}}, {"y", false, {5.0, 6.0}}});
+  }
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::size_t at = bytes.find("TTYPE2  = ");
+  EXPECT_NE(at, std::string::npos);
+  bytes.replace(at, 80, (card + std::string(80, ' ')).substr(0, 80));
+  std::ofstream(path, std::ios::binary) << bytes;
+  return path;
+}
+
+TEST(FitsHeaderGuard, QuotedColumnNamesOpen) {
+  const stampede::testing::ScratchDir dir("stampede_header_guard_");
+  FitsFile f = FitsFile::open_read(table_with_card(dir, "TTYPE2  = '" + std::string(68, 'x') + "'"));
+  f.move_to(1);
+  EXPECT_TRUE(f.has_column(std::string(68, 'x')));
+}
+
+// Found by fuzz_catalogue: CFITSIO 4.2.0 copied an unquoted 70-character TTYPEn value into its
+// 70-byte column name, and glibc aborted the process ("buffer overflow detected"): `stampede fit
+// --catalog` crashed on such a file.
+TEST(FitsHeaderGuard, AnUnquotedColumnNameIsAnErrorNotACrash) {
+  const stampede::testing::ScratchDir dir("stampede_header_guard_");
+  const std::string path = table_with_card(dir, "TTYPE2  = " + std::string(70, 'x'));
+  const std::string message = error_of<FitsError>([&] {
+    FitsFile f = FitsFile::open_read(path);
+    f.move_to(1);
+  });
+  EXPECT_TRUE(Contains(message, "cat.fits[HDU 1]: header card 'TTYPE2' is not a quoted string")) << message;
+}
+
+}  // namespace
+}  // namespace stampede::io
