@@ -206,6 +206,7 @@ CalibrationBuildSummary CalibrationBuild::run(const std::function<void(const Cal
       r.fits_total = total;
       r.point = r.fits_done / grid.objects_per_point();
       r.points = n_points;
+      r.seconds = p.seconds;
       r.fits_per_second = p.objects_done / std::max(p.seconds, 1e-9);
       r.eta_seconds = (total - r.fits_done) / std::max(r.fits_per_second, 1e-9);
       progress(r);

@@ -31,6 +31,7 @@ struct CalibrationBuildProgress {
   long long fits_done = 0, fits_total = 0;  // including the points of a resumed build
   long long point = 0;                      // grid points completed
   int points = 0;
+  double seconds = 0;                       // since the fitting began
   double fits_per_second = 0, eta_seconds = 0;
   // "D/T fits (P%), point K/N, R fits/s, ETA E s   ".
   std::string Line() const;

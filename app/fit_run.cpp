@@ -169,9 +169,11 @@ RunSummary FitRun::run() const {
     recorded_where = grid->header().describe();
     try {
       recorded_psf = io::read_psf_keys_if_present(grid->header());
-    } catch (const io::FitsError& e) {  // the record only feeds a check: the fit does not need it
-      warn(std::string("the PSF record is unreadable, not checked: ") + e.what());
+    } catch (const io::FitsError& e) {  // the record is a convenience: the fit does not need it
+      warn(std::string("the PSF record is unreadable, neither used nor checked: ") + e.what());
     }
+    // What a user expects of a set that says what its PSF is (GREAT08, `stampede sim`, GalSim).
+    if (recorded_psf && !app::sets_psf_options(cfg)) app::use_recorded_psf(*recorded_psf, recorded_where, &cfg);
     try {
       input_set = io::simulation_identity(grid->header());
     } catch (const io::FitsError& e) {  // as the PSF record: only `metrics` checks it
@@ -244,6 +246,8 @@ RunSummary FitRun::run() const {
     wo.text_path = a.text_output;
     wo.positions = a.catalog.empty() ? io::PositionColumns::kGrid : io::PositionColumns::kCatalogue;
     wo.header = io::effective_options(cfg);
+    for (const io::OptionInfo& o : io::run_config_options())
+      if (o.type != io::HeaderValueType::kText) wo.header_types[o.name] = o.type;
     wo.header.emplace_back("INPUT", a.input);
     if (!a.catalog.empty()) wo.header.emplace_back("CATALOG", a.catalog);
     if (!a.weight.empty()) wo.header.emplace_back("WEIGHTS", a.weight);

@@ -74,4 +74,25 @@ std::vector<std::string> psf_differences(const PsfModel& recorded, const PsfMode
   return out;
 }
 
+bool sets_psf_options(const io::RunConfig& cfg) {
+  static const char* const kPsfKeys[] = {"psf_input",          "psf_beta",         "psf_fwhm",  "psf_e1",
+                                         "psf_e2",             "psf_truncation",   "airy_lambda_over_d",
+                                         "airy_obscuration",   "psf_image",        "psf_upsampling",
+                                         "psf_pixel_integrated"};
+  for (const char* key : kPsfKeys)
+    if (cfg.explicitly_set.contains(key)) return true;
+  return false;
+}
+
+void use_recorded_psf(const PsfModel& recorded, const std::string& where, io::RunConfig* cfg) {
+  std::string why;
+  if (!recorded.IsValid(&why))
+    throw io::ConfigError(where + " records a PSF the fit cannot use (" + why +
+                          "); set psf_input and its options to choose the PSF");
+  cfg->psf_kind = recorded.kind;
+  cfg->psf_from_catalogue = false;
+  if (recorded.kind == PsfKind::kMoffat) cfg->moffat = recorded.moffat;
+  if (recorded.kind == PsfKind::kAiry) cfg->airy = recorded.airy;
+}
+
 }  // namespace stampede::app

@@ -30,4 +30,13 @@ SharedPsf build_shared_psf(const io::RunConfig& cfg, FftPlanCache& plans);
 // they agree to 1e-9 relative. A run with an image PSF has nothing to compare: empty.
 std::vector<std::string> psf_differences(const PsfModel& recorded, const PsfModel& run);
 
+// Whether the run chooses its PSF: any of psf_input, the psf_* and airy_* keys, psf_image,
+// psf_upsampling or psf_pixel_integrated explicitly set. A run that sets none fits a grid whose
+// header records a PSF with that PSF (use_recorded_psf) rather than with the defaults.
+bool sets_psf_options(const io::RunConfig& cfg);
+// cfg's PSF replaced by `recorded`, an analytic PSF as io::read_psf_keys returns it, so the effective
+// options (output header, fingerprint) record the PSF the fit used. Throws io::ConfigError naming
+// `where` (the file and HDU) when the recorded PSF is not a valid one.
+void use_recorded_psf(const PsfModel& recorded, const std::string& where, io::RunConfig* cfg);
+
 }  // namespace stampede::app

@@ -16,6 +16,7 @@
 #include <cctype>
 #include <charconv>
 #include <cstdint>
+#include <map>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -306,8 +307,11 @@ struct CatalogWriter::State {
       fits_write_comment(fits, text.c_str(), &status);
     }
     check(status, "write the table description to");
+    std::map<std::string, HeaderValueType> types;  // by the upper-case key the header holds
+    for (const auto& [key, type] : options.header_types) types[upper(key)] = type;
     for (const auto& [key, value] : header) {
-      write_string_key(fits, key, value, &status);
+      const auto type = types.find(key);
+      write_header_key(fits, key, value, type == types.end() ? HeaderValueType::kText : type->second, &status);
       check(status, "write header key '" + key + "' to");
     }
   }

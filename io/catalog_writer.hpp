@@ -21,6 +21,7 @@
 // Not thread-safe: one writer is driven by the pipeline's serial output stage.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <span>
 #include <string>
@@ -29,6 +30,7 @@
 
 #include "engine/common/error.hpp"
 #include "engine/pipeline/object_record.hpp"
+#include "io/header_value.hpp"
 #include "io/result_columns.hpp"
 
 namespace stampede::io {
@@ -50,6 +52,10 @@ struct CatalogWriterOptions {
   // keys (NAXIS2, TTYPE3, EXTNAME, STATUS0, ...) are refused. Ignored by resume(): the partial
   // file already has them, and the fingerprint vouches that they are unchanged.
   std::vector<std::pair<std::string, std::string>> header;
+  // The type of each `header` key (as spelt there) whose value is a number: an integer or real
+  // card where the value is one (io::write_header_key), so `stamp_size = 39` is not '39'. Keys not
+  // listed are strings.
+  std::map<std::string, HeaderValueType> header_types;
   // Identifies the run (its inputs' contents, configuration and program version), as lines of text:
   // resume() refuses a checkpoint written with a different fingerprint, positions layout or text
   // output, quoting the first line that differs.

@@ -3,6 +3,10 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <string_view>
 
 namespace stampede::io {
@@ -114,6 +118,49 @@ void write_string_key(fitsfile* f, const std::string& key, const std::string& va
       fits_write_record(f, card.c_str(), status);
     }
   }
+}
+
+std::string number_card_value(const std::string& value, HeaderValueType type) {
+  const char* begin = value.data();
+  const char* end = begin + value.size();
+  if (type == HeaderValueType::kInteger) {
+    std::int64_t v = 0;
+    const auto [ptr, ec] = std::from_chars(begin, end, v);
+    return ec == std::errc() && ptr == end ? value : std::string();
+  }
+  if (type != HeaderValueType::kReal) return "";
+  double v = 0;
+  const auto [ptr, ec] = std::from_chars(begin, end, v);
+  if (ec != std::errc() || ptr != end || !std::isfinite(v)) return "";
+  std::string out = value;
+  const std::size_t exponent = out.find_first_of("eE");
+  if (exponent != std::string::npos) {
+    out[exponent] = 'E';
+  } else if (out.find('.') == std::string::npos) {
+    out += ".0";
+  }
+  return out;
+}
+
+void write_header_key(fitsfile* f, const std::string& key, const std::string& value, HeaderValueType type,
+                      int* status) {
+  const std::string number = number_card_value(value, type);
+  if (number.empty()) return write_string_key(f, key, value, status);
+  if (is_standard_key(key)) {
+    char card[128];
+    std::snprintf(card, sizeof card, "%-8s= %20s", key.c_str(), number.c_str());  // fixed format: value ends in column 30
+    if (std::string_view(card).size() <= 80) {
+      fits_update_card(f, key.c_str(), card, status);
+      return;
+    }
+  } else {
+    const std::string card = "HIERARCH " + key + " = " + number;
+    if (card.size() <= 80) {
+      fits_write_record(f, card.c_str(), status);
+      return;
+    }
+  }
+  write_string_key(f, key, value, status);
 }
 
 }  // namespace stampede::io

@@ -11,6 +11,8 @@
 #include <utility>
 #include <vector>
 
+#include "io/header_value.hpp"
+
 namespace stampede::io {
 
 using StringKeys = std::vector<std::pair<std::string, std::string>>;
@@ -34,5 +36,16 @@ std::vector<std::string> hierarch_cards(const std::string& key, const std::strin
 // fits_update_key_longstr (CONTINUE cards for a long value, replacing an existing key), another
 // as hierarch_cards appended. CFITSIO convention: does nothing if *status is non-zero on entry.
 void write_string_key(fitsfile* f, const std::string& key, const std::string& value, int* status);
+
+// The FITS text of `value` as a number card of `type`: an integer as it is; a finite real with an
+// upper-case exponent and, where it has neither, a decimal point added ("3" -> "3.0", "1e-06" ->
+// "1E-06"), so readers see its type. Empty for kText and for text that is not such a number
+// ('auto', 'inf', '5,6').
+std::string number_card_value(const std::string& value, HeaderValueType type);
+
+// Writes `value` as a number card of `type` (number_card_value) where it is one and the card fits
+// 80 columns, else as write_string_key does. Same key rules and status convention.
+void write_header_key(fitsfile* f, const std::string& key, const std::string& value, HeaderValueType type,
+                      int* status);
 
 }  // namespace stampede::io

@@ -131,6 +131,7 @@ struct Entry {
   std::string section;  // heading in the template
   std::function<std::string(const RunConfig&)> get;
   std::function<std::string(RunConfig&, const std::string&)> set;  // "" on success, else why not
+  HeaderValueType type = HeaderValueType::kText;
 };
 
 // `access` is a generic lambda `[](auto& c) -> auto& { return c.field; }`, so one accessor serves
@@ -143,7 +144,8 @@ Entry int_entry(const char* section, const char* name, const char* help, Access 
             std::string why = parse_integer(v, &x);
             if (why.empty()) access(c) = x;
             return why;
-          }};
+          },
+          HeaderValueType::kInteger};
 }
 
 template <class Access>
@@ -154,7 +156,8 @@ Entry double_entry(const char* section, std::string name, std::string help, Doub
             std::string why = parse_double(v, kind, &x);
             if (why.empty()) access(c) = x;
             return why;
-          }};
+          },
+          HeaderValueType::kReal};
 }
 
 template <class Access>
@@ -434,7 +437,7 @@ const std::vector<OptionInfo>& run_config_options() {
   static const std::vector<OptionInfo> options = [] {
     const RunConfig defaults;
     std::vector<OptionInfo> out;
-    for (const Entry& e : registry()) out.push_back({e.name, e.get(defaults), e.help});
+    for (const Entry& e : registry()) out.push_back({e.name, e.get(defaults), e.help, e.type});
     return out;
   }();
   return options;

@@ -24,6 +24,7 @@
 #include "engine/common/error.hpp"
 #include "engine/fit/fitter.hpp"
 #include "engine/model/psf_model.hpp"
+#include "io/header_value.hpp"
 #include "kernels/psf_profile.hpp"
 
 namespace stampede::io {
@@ -68,6 +69,7 @@ struct OptionInfo {
   std::string name;
   std::string default_value;  // canonical text, as get_option(RunConfig{}, name)
   std::string help;
+  HeaderValueType type = HeaderValueType::kText;  // the value's type as a header card
 };
 
 // The text of psf_input: "moffat_catalog" for a catalogue source, else psf_kind_name(psf_kind).

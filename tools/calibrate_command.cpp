@@ -23,10 +23,23 @@
 #include "io/output_check.hpp"
 #include "io/run_config.hpp"
 #include "tools/arguments.hpp"
+#include "tools/progress_printer.hpp"
 
 namespace {
 
 using namespace stampede;
+
+// A configuration value in its canonical text, so that a header's number card ("3.0", "1E-06")
+// and the calibration's text ("3", "1e-06") compare equal; text that does not parse stays as it is.
+std::string canonical_option(const std::string& key, const std::string& text) {
+  io::RunConfig c;
+  try {
+    io::set_option(c, key, text);
+    return io::get_option(c, key);
+  } catch (const io::ConfigError&) {
+    return text;
+  }
+}
 
 // ---- build ----------------------------------------------------------------------------------------
 
@@ -99,16 +112,13 @@ int run_build(int argc, char** argv) {
   if (!config.empty()) io::load_ini(o.config, config);
   for (const auto& s : sets) io::apply_set(o.config, s);
   app::CalibrationBuild build(o);
-  const bool show_progress = !quiet && isatty(fileno(stderr));
   if (!quiet) std::fprintf(stderr, "%s\n", build.PlanReport().c_str());
+  tools::ProgressPrinter printer(stderr, isatty(fileno(stderr)));
   std::function<void(const app::CalibrationBuildProgress&)> progress;
-  if (show_progress)
-    progress = [](const app::CalibrationBuildProgress& p) { std::fprintf(stderr, "\r%s", p.Line().c_str()); };
+  if (!quiet) progress = [&](const app::CalibrationBuildProgress& p) { printer.update(p.seconds, p.Line()); };
   const app::CalibrationBuildSummary summary = build.run(progress);
-  if (summary.fitted) {
-    if (show_progress) std::fputc('\n', stderr);
-    if (!quiet) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
-  }
+  printer.finish();
+  if (summary.fitted && !quiet) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
   if (!quiet) std::fputs(summary.FullReport().c_str(), stderr);
   return 0;
 }
@@ -214,7 +224,7 @@ int run_apply(int argc, char** argv) {
     std::string upper = key;
     for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
     const auto v = in.file().read_key_string(upper);
-    if (v && *v != value) {
+    if (v && canonical_option(key, *v) != canonical_option(key, value)) {
       ++differing;
       if (!quiet)
         std::fprintf(stderr, "stampede calibrate apply: warning: %s has %s = %s, the calibration %s\n", science.c_str(),

@@ -11,6 +11,7 @@
 
 #include "app/fit_run.hpp"
 #include "io/run_config.hpp"
+#include "tools/progress_printer.hpp"
 
 namespace {
 
@@ -41,7 +42,12 @@ void print_help() {
       "  --resume      continue an interrupted run (same input and options) from its last batch\n"
       "  --overwrite   replace existing outputs (default: refuse); an output is never an input\n"
       "  --quiet       no progress or summary on stderr\n"
-      "  --help-config print every option with its default as an ini file\n",
+      "  --help-config print every option with its default as an ini file\n"
+      "\n"
+      "The PSF comes from the options (psf_input and the psf_* or airy_* keys). A grid whose header\n"
+      "records its PSF (PSFTYPE PSFBETA PSFFWHM PSFE1 PSFE2 PSFTRUNC, or PSFLOD PSFOBSC, as GREAT08-like\n"
+      "sets do) is fitted with that PSF when the run sets none of those options, else checked against\n"
+      "the run's (a warning names each key that differs).\n",
       kUsage);
 }
 
@@ -96,14 +102,11 @@ int run_fit_command(int argc, char** argv) {
   if (!config.empty()) io::load_ini(r.config, config);
   for (const auto& s : sets) io::apply_set(r.config, s);
 
-  const bool show_progress = !r.quiet && isatty(fileno(stderr));
-  if (show_progress)
-    r.on_progress = [](const app::FitRunProgress& p) { std::fprintf(stderr, "\r%s", p.Line().c_str()); };
+  tools::ProgressPrinter printer(stderr, isatty(fileno(stderr)));
+  if (!r.quiet) r.on_progress = [&](const app::FitRunProgress& p) { printer.update(p.seconds, p.Line()); };
   r.on_warning = [](const std::string& w) { std::fprintf(stderr, "stampede fit: warning: %s\n", w.c_str()); };
   const app::RunSummary summary = app::FitRun(r).run();
-  if (!r.quiet) {
-    if (show_progress) std::fputc('\n', stderr);
-    std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
-  }
+  printer.finish();
+  if (!r.quiet) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
   return 0;
 }

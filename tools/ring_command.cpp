@@ -3,18 +3,22 @@
 #include "tools/ring_command.hpp"
 
 #include <tbb/parallel_for.h>
+#include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <cstdio>
 #include <fstream>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "engine/analysis/ring_study.hpp"
 #include "engine/render/renderer_factory.hpp"
+#include "tools/progress_printer.hpp"
 
 namespace {
 
@@ -37,7 +41,8 @@ void print_help() {
       "Figures 4-6: Moffat beta 3 FWHM 2.85 e = (0.03, 0.03), stamp 39, the fitter's defaults.\n"
       "--renderer: the fitter's renderer (default upsampled, the paper's; exact ignores U1, N_u, U2\n"
       "and its truth is the simulator's exact pixel integrals instead of the upsampled renderer's).\n"
-      "FILE is opened before any work, so a bad path fails at once.\n");
+      "FILE is opened before any work, so a bad path fails at once. Progress on stderr: redrawn\n"
+      "on a terminal, else a line every 10 s.\n");
 }
 
 struct Row {
@@ -163,17 +168,35 @@ int run_ring_command(int argc, char** argv) {
   }
   std::FILE* out = csv.empty() ? stdout : std::fopen(csv.c_str(), "w");
   if (!out) throw std::runtime_error("cannot write " + tools::quoted_value(csv) + ": " + std::strerror(errno));
+  // Rows take seconds to minutes each and a figure up to tens of minutes: progress per row done.
+  tools::ProgressPrinter printer(stderr, isatty(fileno(stderr)));
+  std::mutex progress_mutex;
+  std::size_t rows_done = 0;
+  const auto start = std::chrono::steady_clock::now();
+  auto row_done = [&] {
+    const std::lock_guard<std::mutex> lock(progress_mutex);
+    ++rows_done;
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    char line[160];
+    std::snprintf(line, sizeof line, "ring figure %d: %zu/%zu rows (%.1f%%), %.0f s, ETA %.0f s   ", figure, rows_done,
+                  rows.size(), 100.0 * rows_done / rows.size(), seconds,
+                  seconds / rows_done * (rows.size() - rows_done));
+    printer.update(seconds, line);
+  };
   tbb::parallel_for(std::size_t(0), rows.size(), [&](std::size_t i) {
     Row& row = rows[i];
-    FftPlanCache plans(FftPlanning::kEstimate);
     try {
-      row.config.galaxy.disc_radius = disc_radius_for_size_ratio(row.config.galaxy, row.size, row.config.psf, plans);
+      row.config.galaxy.disc_radius = disc_radius_for_size_ratio(row.config.galaxy, row.size, row.config.psf);
     } catch (const std::invalid_argument&) {
       row.config.galaxy.disc_radius = NAN;  // unreachable size: the row stays NaN
+      row_done();
       return;
     }
+    FftPlanCache plans(FftPlanning::kEstimate);
     row.result = run_ring_study(row.config, plans);
+    row_done();
   });
+  printer.finish();
   std::fprintf(out, "figure,panel,series,x,m1,m2,c1,c2,failed,fits,disc_radius\n");
   for (const Row& r : rows)
     std::fprintf(out, "%d,%s,%s,%.4g,%.6e,%.6e,%.6e,%.6e,%d,%d,%.5f\n", figure, r.panel.c_str(), r.series.c_str(), r.x,

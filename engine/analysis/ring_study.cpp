@@ -25,7 +25,8 @@ double psf_fwhm(const PsfModel& psf) {
 
 }  // namespace
 
-double convolved_fwhm(const RingGalaxy& galaxy, const PsfModel& psf_in, FftPlanCache& plans) {
+double convolved_fwhm(const RingGalaxy& galaxy, const PsfModel& psf_in) {
+  FftPlanCache plans(FftPlanning::kEstimate);
   // Draw in units of 1/10 pixel so the output "pixels" hardly blur the profile; the centre sits on
   // a pixel centre and the FWHM comes from the profile along +x.
   constexpr double kScale = 10.0;
@@ -67,25 +68,51 @@ double convolved_fwhm(const RingGalaxy& galaxy, const PsfModel& psf_in, FftPlanC
   throw std::runtime_error("convolved_fwhm: profile does not fall to half maximum on the grid");
 }
 
-double disc_radius_for_size_ratio(RingGalaxy galaxy, double ratio, const PsfModel& psf, FftPlanCache& plans) {
+double disc_radius_for_size_ratio(RingGalaxy galaxy, double ratio, const PsfModel& psf) {
   const double target = ratio * psf_fwhm(psf);
-  double lo = 0.01, hi = 20.0;
-  galaxy.disc_radius = hi;
-  if (convolved_fwhm(galaxy, psf, plans) < target)
+  auto below = [&](double radius) {
+    galaxy.disc_radius = radius;
+    return convolved_fwhm(galaxy, psf) < target;
+  };
+  constexpr double kLow = 0.01, kHigh = 20.0;
+  constexpr int kIterations = 40;
+  // The bisection below, while every midpoint is at or above the target, halves towards kLow
+  // through chain[0], chain[1], ...; the first of them below the target (found by bisecting the
+  // chain, from its cheap small end) tells every earlier one's outcome without drawing them.
+  std::vector<double> chain;
+  for (double hi = kHigh; static_cast<int>(chain.size()) < kIterations;) {
+    hi = 0.5 * (kLow + hi);
+    chain.push_back(hi);
+    if (hi - kLow < 1e-4 * kLow) break;
+  }
+  std::size_t first_below = 0, end = chain.size();  // chain[< first_below] at or above, chain[>= end] below
+  while (first_below < end) {
+    const std::size_t mid = (first_below + end) / 2;
+    if (below(chain[mid])) {
+      end = mid;
+    } else {
+      first_below = mid + 1;
+    }
+  }
+  if (first_below == 0 && below(kHigh))
     throw std::invalid_argument("size ratio " + std::to_string(ratio) + " needs a disc radius above 20 px");
-  for (int it = 0; it < 40; ++it) {
-    galaxy.disc_radius = 0.5 * (lo + hi);
-    (convolved_fwhm(galaxy, psf, plans) < target ? lo : hi) = galaxy.disc_radius;
+  double lo = kLow, hi = kHigh;
+  for (int it = 0; it < kIterations; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    const auto k = static_cast<std::size_t>(it);
+    // Iteration it < first_below is chain[it], known at or above; iteration first_below is known below.
+    const bool is_below = k < first_below ? false : (k == first_below && k < chain.size()) || below(mid);
+    (is_below ? lo : hi) = mid;
     if (hi - lo < 1e-4 * lo) break;
   }
   return 0.5 * (lo + hi);
 }
 
-double half_light_radius_for_size_ratio(double n, double ratio, const PsfModel& psf, FftPlanCache& plans) {
+double half_light_radius_for_size_ratio(double n, double ratio, const PsfModel& psf) {
   RingGalaxy g;
   g.bulge_fraction = 1.0;
   g.bulge_index = n;
-  return disc_radius_for_size_ratio(g, ratio, psf, plans);
+  return disc_radius_for_size_ratio(g, ratio, psf);
 }
 
 RingStudyResult run_ring_study(const RingStudyConfig& cfg, FftPlanCache& plans) {

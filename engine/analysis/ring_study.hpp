@@ -46,14 +46,18 @@ struct RingStudyResult {
 RingStudyResult run_ring_study(const RingStudyConfig& config, FftPlanCache& plans);
 
 // FWHM (pixels) of the round version of `galaxy` convolved with the round PSF, without pixel.
-double convolved_fwhm(const RingGalaxy& galaxy, const PsfModel& psf, FftPlanCache& plans);
+// Drawn at 0.1 px on a grid of ~16 radii a side, with FFT plans of its own, freed on return: the
+// grid is one-off and large (~650 MB of buffers at a 10 px radius).
+double convolved_fwhm(const RingGalaxy& galaxy, const PsfModel& psf);
 // The disc radius (bulge radius following radius_ratio) giving FWHM(gal (x) PSF) / FWHM(PSF) = ratio.
-// Rendered at 0.1 px and bisected to 1e-4. The simulator's calibration, Great08Simulator::half_light_radius
+// Rendered at 0.1 px and bisected to 1e-4 over (0.01, 20) px; the bisection's first halvings from
+// 20 px, whose outcome follows from one smaller radius's (the FWHM grows with the radius), are not
+// drawn, so memory stays that of ~2x the answer's radius (not 20 px's gigabytes) for the same answer. The simulator's calibration, Great08Simulator::half_light_radius
 // (exact transform, 1e-11), is canonical for the GREAT08-like sets and gives 0.1% (disc) to 0.5% (bulge)
 // larger radii for the GREAT08 PSF; this one stays because ring studies need what the simulator's
 // transforms do not cover (any Sersic index, bulge and disc radii apart, obscured Airy discs).
-double disc_radius_for_size_ratio(RingGalaxy galaxy, double ratio, const PsfModel& psf, FftPlanCache& plans);
+double disc_radius_for_size_ratio(RingGalaxy galaxy, double ratio, const PsfModel& psf);
 // Single-component shorthand: the half-light radius of a Sérsic n with that size ratio.
-double half_light_radius_for_size_ratio(double n, double ratio, const PsfModel& psf, FftPlanCache& plans);
+double half_light_radius_for_size_ratio(double n, double ratio, const PsfModel& psf);
 
 }  // namespace stampede

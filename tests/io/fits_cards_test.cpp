@@ -92,5 +92,72 @@ TEST(FitsCards, LongValuesComeBackThroughContinueCards) {
   EXPECT_EQ(in.key_string("EMPTY"), "");
 }
 
+// The type CFITSIO reads a key's card as: 'C' string, 'I' integer, 'F' real ('?' if unreadable).
+char card_type(fitsfile* f, const std::string& key) {
+  char value[FLEN_VALUE] = {}, comment[FLEN_COMMENT] = {};
+  char type = '?';
+  int status = 0;
+  fits_read_keyword(f, key.c_str(), value, comment, &status);
+  fits_get_keytype(value, &type, &status);
+  return status == 0 ? type : '?';
+}
+
+TEST(FitsCards, NumberTextOfEachType) {
+  EXPECT_EQ(number_card_value("39", HeaderValueType::kInteger), "39");
+  EXPECT_EQ(number_card_value("-7", HeaderValueType::kInteger), "-7");
+  EXPECT_EQ(number_card_value("2.5", HeaderValueType::kInteger), "");
+  EXPECT_EQ(number_card_value("3", HeaderValueType::kReal), "3.0");
+  EXPECT_EQ(number_card_value("2.85", HeaderValueType::kReal), "2.85");
+  EXPECT_EQ(number_card_value("1e-06", HeaderValueType::kReal), "1E-06");
+  EXPECT_EQ(number_card_value("-1.5e+300", HeaderValueType::kReal), "-1.5E+300");
+  for (const char* text : {"auto", "inf", "-inf", "nan", "", "5,6", "3 "})
+    EXPECT_EQ(number_card_value(text, HeaderValueType::kReal), "") << text;
+  EXPECT_EQ(number_card_value("39", HeaderValueType::kText), "");
+}
+
+// Numbers go in as integer and real cards (standard and HIERARCH keys) and read back as numbers
+// of the same value; text, and numbers' text that is not a number, stays a string.
+TEST(FitsCards, NumbersAreWrittenAsNumberCards) {
+  stampede::testing::ScratchDir scratch("stampede_fits_cards_");
+  const std::string path = scratch.path("numbers.fits");
+  int status = 0;
+  fitsfile* f = nullptr;
+  fits_create_diskfile(&f, path.c_str(), &status);
+  fits_create_img(f, 8, 0, nullptr, &status);
+  write_header_key(f, "PADDING", "4", HeaderValueType::kInteger, &status);
+  write_header_key(f, "MINIMIZER_MAX_ITERATIONS", "200", HeaderValueType::kInteger, &status);
+  write_header_key(f, "PSF_BETA", "3", HeaderValueType::kReal, &status);
+  write_header_key(f, "LEVMAR_LM_INIT_MU", "0.001", HeaderValueType::kReal, &status);
+  write_header_key(f, "LEVMAR_EPS4", "1e-06", HeaderValueType::kReal, &status);
+  write_header_key(f, "E1_MIN", "auto", HeaderValueType::kReal, &status);
+  write_header_key(f, "INPUT", "123", HeaderValueType::kText, &status);
+  write_header_key(f, "PADDING", "5", HeaderValueType::kInteger, &status);  // replaces the standard key
+  ASSERT_EQ(status, 0);
+  EXPECT_EQ(card_type(f, "PADDING"), 'I');
+  EXPECT_EQ(card_type(f, "MINIMIZER_MAX_ITERATIONS"), 'I');
+  EXPECT_EQ(card_type(f, "PSF_BETA"), 'F');
+  EXPECT_EQ(card_type(f, "LEVMAR_LM_INIT_MU"), 'F');
+  EXPECT_EQ(card_type(f, "LEVMAR_EPS4"), 'F');
+  EXPECT_EQ(card_type(f, "E1_MIN"), 'C');
+  EXPECT_EQ(card_type(f, "INPUT"), 'C');
+  long long padding = 0, iterations = 0;
+  double beta = 0, mu = 0, eps4 = 0;
+  fits_read_key(f, TLONGLONG, "PADDING", &padding, nullptr, &status);
+  fits_read_key(f, TLONGLONG, "MINIMIZER_MAX_ITERATIONS", &iterations, nullptr, &status);
+  fits_read_key(f, TDOUBLE, "PSF_BETA", &beta, nullptr, &status);
+  fits_read_key(f, TDOUBLE, "LEVMAR_LM_INIT_MU", &mu, nullptr, &status);
+  fits_read_key(f, TDOUBLE, "LEVMAR_EPS4", &eps4, nullptr, &status);
+  fits_close_file(f, &status);
+  ASSERT_EQ(status, 0);
+  EXPECT_EQ(padding, 5);
+  EXPECT_EQ(iterations, 200);
+  EXPECT_EQ(beta, 3.0);
+  EXPECT_EQ(mu, 0.001);
+  EXPECT_EQ(eps4, 1e-6);
+  FitsFile in = FitsFile::open_read(path);
+  EXPECT_EQ(in.key_string("E1_MIN"), "auto");
+  EXPECT_EQ(in.key_string("INPUT"), "123");
+}
+
 }  // namespace
 }  // namespace stampede::io

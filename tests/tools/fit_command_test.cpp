@@ -1,5 +1,6 @@
 // End-to-end tests of `stampede fit`, running the real binary: the GREAT08-mini sets, identical
 // output for any thread count, kill -9 and --resume, memory bounded by the batch, bad input.
+#include <fitsio.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/resource.h>
@@ -13,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -185,7 +187,9 @@ TEST_F(FitCommand, WarnsWhenTheSetRecordsAnotherPsf) {
     f.write_key("PSFLOD", 2.0, "");
   });
   write_grid(path("partial.fits"), 2, 2, 9, [](stampede::io::FitsFile& f) { f.write_key("PSFBETA", 3.0, ""); });
-  const RunResult differs = run(std::vector<std::string>{path("moffat.fits"), "-o", path("a.fits")} + cheap);
+  // The run sets a PSF option (the header's value): the header's PSF is checked, not used.
+  const RunResult differs =
+      run(std::vector<std::string>{path("moffat.fits"), "-o", path("a.fits"), "--set", "psf_beta=3"} + cheap);
   ASSERT_EQ(differs.exit_code, 0) << differs.err;
   EXPECT_NE(differs.err.find("warning: " + path("moffat.fits") + "[HDU 0] records a PSF other than the run's"),
             std::string::npos)
@@ -202,7 +206,8 @@ TEST_F(FitCommand, WarnsWhenTheSetRecordsAnotherPsf) {
   ASSERT_EQ(plain.exit_code, 0) << plain.err;
   EXPECT_EQ(plain.err.find("warning"), std::string::npos) << plain.err;
 
-  const RunResult type = run(std::vector<std::string>{path("airy.fits"), "-o", path("d.fits")} + cheap);
+  const RunResult type =
+      run(std::vector<std::string>{path("airy.fits"), "-o", path("d.fits"), "--set", "psf_input=moffat"} + cheap);
   ASSERT_EQ(type.exit_code, 0) << type.err;
   EXPECT_NE(type.err.find("PSFTYPE = 'airy' (psf_input = moffat)"), std::string::npos) << type.err;
 
@@ -213,6 +218,92 @@ TEST_F(FitCommand, WarnsWhenTheSetRecordsAnotherPsf) {
   EXPECT_NE(partial.err.find("partial.fits"), std::string::npos) << partial.err;
   EXPECT_NE(partial.err.find("PSFFWHM"), std::string::npos) << partial.err;
   EXPECT_EQ(column(path("e.fits"), "id").size(), 4u);
+}
+
+// A run that sets no PSF option fits a set that records its PSF with that PSF (what the GREAT08
+// sets' users expect), and records it as the effective options; a record the fit cannot use is an
+// error naming the file, and one the run overrides is only checked (above).
+TEST_F(FitCommand, TakesThePsfFromTheHeaderWhenTheRunSetsNone) {
+  const std::vector<std::string> cheap = {"--set", "upsampling=1", "--set", "n_central_pixels_to_upsample=0", "--set",
+                                         "padding=0", "--set", "minimizer_max_iterations=3", "--quiet"};
+  write_grid(path("moffat.fits"), 2, 2, 9, [](stampede::io::FitsFile& f) {
+    f.write_key("PSFBETA", 3.5, "");
+    f.write_key("PSFFWHM", 2.5, "");
+    f.write_key("PSFE1", -0.02, "");
+    f.write_key("PSFE2", 0.05, "");
+  });
+  write_grid(path("airy.fits"), 2, 2, 9, [](stampede::io::FitsFile& f) {
+    f.write_key("PSFTYPE", std::string("airy"), "");
+    f.write_key("PSFLOD", 2.0, "");
+  });
+  write_grid(path("bad.fits"), 2, 2, 9, [](stampede::io::FitsFile& f) {
+    f.write_key("PSFBETA", 0.5, "");
+    f.write_key("PSFFWHM", 2.5, "");
+    f.write_key("PSFE1", 0.0, "");
+    f.write_key("PSFE2", 0.0, "");
+  });
+  const RunResult moffat = run(std::vector<std::string>{path("moffat.fits"), "-o", path("m.fits")} + cheap);
+  ASSERT_EQ(moffat.exit_code, 0) << moffat.err;
+  EXPECT_EQ(moffat.err.find("warning"), std::string::npos) << moffat.err;
+  EXPECT_EQ(column(path("m.fits"), "psf_e1"), std::vector<double>(4, -0.02));
+  EXPECT_EQ(column(path("m.fits"), "psf_e2"), std::vector<double>(4, 0.05));
+  auto header = stampede::io::FitsFile::open_read(path("m.fits"));
+  header.move_to("RESULTS");
+  EXPECT_EQ(header.key_double("PSF_BETA"), 3.5);
+  EXPECT_EQ(header.key_double("PSF_FWHM"), 2.5);
+
+  const RunResult airy = run(std::vector<std::string>{path("airy.fits"), "-o", path("a.fits")} + cheap);
+  ASSERT_EQ(airy.exit_code, 0) << airy.err;
+  auto airy_header = stampede::io::FitsFile::open_read(path("a.fits"));
+  airy_header.move_to("RESULTS");
+  EXPECT_EQ(airy_header.read_key_string("PSF_INPUT"), std::optional<std::string>("airy"));
+  EXPECT_EQ(airy_header.key_double("AIRY_LAMBDA_OVER_D"), 2.0);
+
+  const RunResult bad = run(std::vector<std::string>{path("bad.fits"), "-o", path("b.fits")} + cheap);
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find(path("bad.fits") + "[HDU 0] records a PSF the fit cannot use (psf_beta = 0.5"),
+            std::string::npos)
+      << bad.err;
+  // With the PSF set, the same file fits (and is warned about).
+  const RunResult set = run(std::vector<std::string>{path("bad.fits"), "-o", path("b.fits"), "--set", "psf_beta=3"} + cheap);
+  ASSERT_EQ(set.exit_code, 0) << set.err;
+  EXPECT_NE(set.err.find("PSFBETA = 0.5 (psf_beta = 3)"), std::string::npos) << set.err;
+}
+
+// The type CFITSIO reads a RESULTS header key's card as: 'C' string, 'I' integer, 'F' real.
+char results_card_type(const std::string& file, const std::string& key) {
+  fitsfile* f = nullptr;
+  char value[FLEN_VALUE] = {}, comment[FLEN_COMMENT] = {};
+  char type = '?';
+  int status = 0;
+  fits_open_file(&f, (file + "[RESULTS]").c_str(), READONLY, &status);
+  fits_read_keyword(f, key.c_str(), value, comment, &status);
+  fits_get_keytype(value, &type, &status);
+  int close_status = 0;
+  if (f) fits_close_file(f, &close_status);
+  return status == 0 ? type : '?';
+}
+
+// The effective options in the output header keep their types: integers and reals as number
+// cards, text (and 'auto' starts) as strings.
+TEST_F(FitCommand, HeaderNumbersAreNumberCards) {
+  write_grid(path("g.fits"), 1, 1, 9);
+  const RunResult r = run({path("g.fits"), "-o", path("o.fits"), "--set", "noise_sigma=0.5", "--set",
+                           "minimizer_max_iterations=3", "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(results_card_type(path("o.fits"), "STAMP_SIZE"), 'I');
+  EXPECT_EQ(results_card_type(path("o.fits"), "PADDING"), 'I');
+  EXPECT_EQ(results_card_type(path("o.fits"), "MINIMIZER_MAX_ITERATIONS"), 'I');
+  EXPECT_EQ(results_card_type(path("o.fits"), "NOISE_SIGMA"), 'F');
+  EXPECT_EQ(results_card_type(path("o.fits"), "PSF_BETA"), 'F');
+  EXPECT_EQ(results_card_type(path("o.fits"), "LEVMAR_EPS4"), 'F');
+  EXPECT_EQ(results_card_type(path("o.fits"), "PSF_INPUT"), 'C');
+  EXPECT_EQ(results_card_type(path("o.fits"), "INPUT"), 'C');
+  auto f = stampede::io::FitsFile::open_read(path("o.fits"));
+  f.move_to("RESULTS");
+  EXPECT_EQ(f.key_long("STAMP_SIZE"), 9);
+  EXPECT_EQ(f.key_double("NOISE_SIGMA"), 0.5);
+  EXPECT_EQ(f.key_double("LEVMAR_EPS4"), 1e-6);
 }
 
 TEST_F(FitCommand, BadInputGivesAClearErrorBeforeFitting) {

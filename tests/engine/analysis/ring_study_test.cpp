@@ -3,6 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
 #include <cstdio>
 
 namespace stampede {
@@ -12,14 +17,40 @@ namespace {
 // hlr_disc_only = 1.267388 and hlr_bulge_only = 2.991651 (GalSim's own FWHM estimate; ours
 // interpolates the profile linearly, hence the 1% tolerance).
 TEST(RingStudy, SizeRatioMatchesGalSimCalibration) {
-  FftPlanCache plans(FftPlanning::kEstimate);
   PsfModel psf;
   psf.moffat = {3.0, 2.85, 0.0, 0.05, 0.0};
-  const double disc = half_light_radius_for_size_ratio(1.0, 1.4, psf, plans);
-  const double bulge = half_light_radius_for_size_ratio(4.0, 1.4, psf, plans);
+  const double disc = half_light_radius_for_size_ratio(1.0, 1.4, psf);
+  const double bulge = half_light_radius_for_size_ratio(4.0, 1.4, psf);
   std::printf("size 1.4: disc hlr %.4f (GalSim 1.2674), bulge hlr %.4f (GalSim 2.9917)\n", disc, bulge);
   EXPECT_NEAR(disc / 1.267388201586823, 1.0, 1e-2);
   EXPECT_NEAR(bulge / 2.9916512065943093, 1.0, 1e-2);
+}
+
+// Issue 17: `ring --figure 6` held 3.1 GB. Its largest row (B/T 0.5, bulge / disc radius 2, size
+// 1.6) must calibrate its size in the memory of its answer's radius (the bisection's first bracket,
+// a 20 px disc and 40 px bulge on a 6,457-pixel grid, cost gigabytes, kept by the row's plan cache:
+// the figure peaked at 11.1 GB), with the same answer as the plain bisection gave: docs/figure6.csv's
+// disc_radius 2.03848. Measured in a child process, whose peak RSS is its own (465 MB, for drawing a
+// 5 px disc once: 2.5x the answer).
+TEST(RingStudy, SizeCalibrationMemoryIsThatOfItsAnswer) {
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    PsfModel psf;
+    psf.moffat = {3.0, 2.85, 0.03, 0.03, 0.0};
+    RingGalaxy g;
+    g.bulge_fraction = 0.5;
+    g.radius_ratio = 2.0;
+    const double r = disc_radius_for_size_ratio(g, 1.6, psf);
+    _exit(std::abs(r - 2.03848) <= 5e-6 ? 0 : 1);
+  }
+  int status = 0;
+  rusage usage{};
+  ASSERT_EQ(wait4(child, &status, 0, &usage), child);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "the disc radius differs from docs/figure6.csv's";
+  std::printf("peak RSS of the size calibration: %ld kB\n", usage.ru_maxrss);
+  EXPECT_LT(usage.ru_maxrss, 600 * 1024);
 }
 
 // Must-show 5 (the paper's figure 2 at its recommended settings): pure de Vaucouleurs bulges and
@@ -38,7 +69,7 @@ TEST(RingStudy, Figure2RequirementsHoldAtDefaults) {
     RingStudyConfig cfg;
     cfg.psf = psf;
     cfg.galaxy.bulge_fraction = g.bulge_fraction;
-    cfg.galaxy.disc_radius = half_light_radius_for_size_ratio(g.n, g.size, psf, plans);
+    cfg.galaxy.disc_radius = half_light_radius_for_size_ratio(g.n, g.size, psf);
     cfg.fit.render.stamp_size = 25;
     const RingStudyResult r = run_ring_study(cfg, plans);
     std::printf("B/T %.1f size %.2f hlr %.3f: m1 %+.2e m2 %+.2e c1 %+.1e c2 %+.1e\n", g.bulge_fraction, g.size,
@@ -65,7 +96,7 @@ TEST(RingStudy, Figure4BiasVanishesAtTheModelsIndices) {
     cfg.fit.render.stamp_size = 39;
     cfg.galaxy.bulge_fraction = 1.0;
     cfg.galaxy.bulge_index = n;
-    cfg.galaxy.disc_radius = disc_radius_for_size_ratio(cfg.galaxy, 1.2, psf, plans);
+    cfg.galaxy.disc_radius = disc_radius_for_size_ratio(cfg.galaxy, 1.2, psf);
     const RingStudyResult r = run_ring_study(cfg, plans);
     EXPECT_EQ(r.failed, 0) << "n = " << n;
     std::printf("n %.2f: m1 %+.2e m2 %+.2e\n", n, r.m1, r.m2);
