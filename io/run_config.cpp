@@ -264,7 +264,7 @@ std::vector<Entry> make_registry() {
                            "the peak)",
                            DoubleKind::kFinite, [](auto& c) -> auto& { return c.fitter.render.exact.psf_tolerance; }));
   r.push_back(int_entry(render, "exact_period",
-                        "renderer = exact: period of its Fourier grid, pixels; 0 = the rule (stamp_size + 33, "
+                        "renderer = exact: period of its Fourier grid, pixels; 0 = the rule (stamp_size + 57, "
                         "FFT-friendly)",
                         [](auto& c) -> auto& { return c.fitter.render.exact.period; }));
   r.push_back(int_entry(render, "exact_wrap_rings",
