@@ -1,9 +1,12 @@
 // The header scan ahead of CFITSIO; see fits_header_guard.hpp.
 #include "io/fits_header_guard.hpp"
 
+#include <zlib.h>
+
 #include <algorithm>
 #include <charconv>
 #include <fstream>
+#include <memory>
 #include <optional>
 #include <string_view>
 
@@ -24,17 +27,50 @@ std::optional<long long> card_integer(std::string_view card) {
   return n;
 }
 
+// The file's bytes as CFITSIO will parse them: a gzip-compressed file (which CFITSIO inflates
+// in memory before parsing, so the same card crashes it there) through zlib, forward seeks only.
+class ByteSource {
+ public:
+  explicit ByteSource(const std::string& path) {
+    std::ifstream probe(path, std::ios::binary);
+    unsigned char magic[2] = {0, 0};
+    probe.read(reinterpret_cast<char*>(magic), 2);
+    if (probe && magic[0] == 0x1f && magic[1] == 0x8b) {
+      gz_.reset(gzopen(path.c_str(), "rb"));
+    } else {
+      plain_.open(path, std::ios::binary);
+    }
+  }
+  bool good() const { return gz_ ? true : static_cast<bool>(plain_); }
+  bool seek(long long offset) {
+    if (gz_) return gzseek(gz_.get(), static_cast<z_off_t>(offset), SEEK_SET) == offset;
+    plain_.seekg(offset);
+    return static_cast<bool>(plain_);
+  }
+  bool read(char* out, long long n) {
+    if (gz_) return gzread(gz_.get(), out, static_cast<unsigned>(n)) == n;
+    return static_cast<bool>(plain_.read(out, n));
+  }
+
+ private:
+  struct GzClose {
+    void operator()(gzFile f) const { gzclose(f); }
+  };
+  std::unique_ptr<gzFile_s, GzClose> gz_;
+  std::ifstream plain_;
+};
+
 }  // namespace
 
 void check_fits_headers(const std::string& root) {
-  std::ifstream in(root, std::ios::binary);
+  ByteSource in(root);
   char card_bytes[kCard];
   long long hdu_start = 0;
-  for (int hdu = 0; hdu < 1000 && in; ++hdu) {
+  for (int hdu = 0; hdu < 1000 && in.good(); ++hdu) {
     long long bitpix = 0, naxis = 0, pcount = 0, gcount = 1, pixels = 1;
     bool end = false;
     long long cards = 0;
-    in.seekg(hdu_start);
+    if (!in.seek(hdu_start)) return;
     while (!end && in.read(card_bytes, kCard)) {
       const std::string_view card(card_bytes, kCard);
       if (hdu == 0 && cards == 0 && !card.starts_with("SIMPLE  =")) return;  // not plain FITS: CFITSIO's to judge

@@ -7,10 +7,11 @@
 
 namespace stampede::io {
 
-// Walks the headers of the uncompressed file `root` (a path on disk, no CFITSIO syntax) HDU by
-// HDU; throws FitsError naming the file, HDU and card for a TTYPEn whose value is not a quoted
-// string (the standard requires one). Files it cannot walk (compressed, not FITS, truncated) are
-// left to CFITSIO, which reports them.
+// Walks the headers of the file `root` (a path on disk, no CFITSIO syntax; plain or
+// gzip-compressed, as CFITSIO reads both) HDU by HDU; throws FitsError naming the file, HDU and
+// card for a TTYPEn whose value is not a quoted string (the standard requires one). Files it
+// cannot walk (tile-compressed data aside, not FITS, truncated) are left to CFITSIO, which
+// reports them.
 void check_fits_headers(const std::string& root);
 
 }  // namespace stampede::io

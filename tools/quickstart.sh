@@ -6,7 +6,7 @@ SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 $SUDO apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
-  g++ cmake make pkg-config libtbb-dev libfftw3-dev libeigen3-dev libxsimd-dev libcfitsio-dev \
+  g++ cmake make pkg-config libtbb-dev libfftw3-dev libeigen3-dev libxsimd-dev libcfitsio-dev zlib1g-dev \
   libgtest-dev googletest libbenchmark-dev clang libclang-rt-14-dev >/dev/null
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j"$(nproc)"

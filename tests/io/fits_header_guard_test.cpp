@@ -2,6 +2,7 @@
 #include "io/fits_header_guard.hpp"
 
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <fstream>
 #include <iterator>
@@ -57,6 +58,43 @@ TEST(FitsHeaderGuard, AnUnquotedColumnNameIsAnErrorNotACrash) {
     f.move_to(1);
   });
   EXPECT_TRUE(Contains(message, "cat.fits[HDU 1]: header card 'TTYPE2' is not a quoted string")) << message;
+}
+
+// The same card in a gzip-compressed file: CFITSIO inflates it in memory and crashed alike (the
+// fuzz campaign's open finding); the scan reads it through zlib first.
+TEST(FitsHeaderGuard, AnUnquotedColumnNameInAGzipFileIsAnErrorNotACrash) {
+  const stampede::testing::ScratchDir dir("stampede_header_guard_");
+  const std::string path = table_with_card(dir, "TTYPE2  = " + std::string(70, 'x'));
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::string gz = dir.path("cat.fits.gz");
+  gzFile out = gzopen(gz.c_str(), "wb");
+  ASSERT_NE(out, nullptr);
+  ASSERT_EQ(gzwrite(out, bytes.data(), static_cast<unsigned>(bytes.size())), static_cast<int>(bytes.size()));
+  gzclose(out);
+  const std::string message = error_of<FitsError>([&] {
+    FitsFile f = FitsFile::open_read(gz);
+    f.move_to(1);
+  });
+  EXPECT_TRUE(Contains(message, "cat.fits.gz[HDU 1]: header card 'TTYPE2' is not a quoted string")) << message;
+  // A valid compressed table still opens.
+  const std::string good = table_with_card(dir, "TTYPE2  = 'x'");
+  bytes.clear();
+  {
+    std::ifstream in(good, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::string good_gz = dir.path("good.fits.gz");
+  out = gzopen(good_gz.c_str(), "wb");
+  ASSERT_NE(out, nullptr);
+  gzwrite(out, bytes.data(), static_cast<unsigned>(bytes.size()));
+  gzclose(out);
+  FitsFile f = FitsFile::open_read(good_gz);
+  f.move_to(1);
+  EXPECT_TRUE(f.has_column("x"));
 }
 
 }  // namespace
