@@ -160,4 +160,14 @@ void GalaxyModel::fluxes(const ParamVector& p, double* bulge_flux, double* disc_
   *disc_flux = kernels::sersic_flux(p[index(Param::kDiscA)], r_disc, p[index(Param::kDiscIndex)]);
 }
 
+bool GalaxyModel::effective_params(const ParamVector& p, ParamVector* out) const {
+  ModelComponents comp;
+  const bool ok = components(p, &comp);
+  *out = p;
+  (*out)[index(Param::kE1)] = comp.e1;
+  (*out)[index(Param::kE2)] = comp.e2;
+  (*out)[index(Param::kRadius)] = comp.disc_radius;
+  return ok;
+}
+
 }  // namespace stampede

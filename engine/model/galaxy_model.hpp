@@ -48,6 +48,10 @@ class GalaxyModel {
   // False when no valid model exists for p (non-finite values, |e_bulge| >= 1 after offsets).
   bool components(const ParamVector& p, ModelComponents* out) const;
 
+  // p with e1, e2 and the radius replaced by the values drawn (mirrored, softened): what every
+  // renderer's effective_params returns. False when no model exists for p (*out still filled).
+  bool effective_params(const ParamVector& p, ParamVector* out) const;
+
   // Analytic total fluxes of the two components (area-preserving shear keeps them).
   void fluxes(const ParamVector& p, double* bulge_flux, double* disc_flux) const;
 

@@ -157,13 +157,7 @@ void ExactRenderer::set_psf(std::shared_ptr<const PreparedPsf> psf) {
 }
 
 bool ExactRenderer::effective_params(const ParamVector& p, ParamVector* out) const {
-  ModelComponents comp;
-  const bool ok = model_.components(p, &comp);
-  *out = p;
-  (*out)[index(Param::kE1)] = comp.e1;
-  (*out)[index(Param::kE2)] = comp.e2;
-  (*out)[index(Param::kRadius)] = comp.disc_radius;
-  return ok;
+  return model_.effective_params(p, out);
 }
 
 void ExactRenderer::component_fluxes(const ParamVector& p, double* bulge, double* disc) const {
@@ -280,21 +274,22 @@ kernels::WingComponent wing_of(const kernels::SersicDerivativeBlock& b) {
 
 }  // namespace
 
-void ExactRenderer::find_copies(const ModelComponents& comp) {
-  const kernels::BlurMoments& m = psf_->blur();
-  const double blur = 0.5 * (m.xx + m.yy);
-  auto find = [&](const kernels::SersicDerivativeBlock& b, double radius, double n, std::vector<kernels::CopyOffset>* out) {
+void ExactRenderer::find_copies(const ModelComponents& comp, const kernels::KSpaceModel& m) {
+  const kernels::BlurMoments& blur_m = psf_->blur();
+  const double blur = 0.5 * (blur_m.xx + blur_m.yy);
+  auto find = [&](const kernels::SersicDerivativeBlock& b, double radius, double flux_per_amplitude,
+                  std::vector<kernels::CopyOffset>* out) {
     // Copies below 1e-8 of the component's blurred peak (flux / (2 pi (r^2 + sigma^2)), unit
     // amplitude) are left out: even fifty of them stay below 5e-7 of it.
-    const double peak = kernels::sersic_flux_per_amplitude(radius, n) / (2 * kPi * (radius * radius + blur));
+    const double peak = flux_per_amplitude / (2 * kPi * (radius * radius + blur));
     kernels::significant_copies(wing_of(b), n_, stamp_size_, options_.wrap_rings, 1e-8 * std::min(1.0, peak), out);
   };
-  find(comp.bulge, comp.bulge_radius, bulge_index_, &bulge_copies_);
-  find(comp.disc, comp.disc_radius, 1.0, &disc_copies_);
+  find(comp.bulge, comp.bulge_radius, m.bulge.flux_per_amplitude, &bulge_copies_);
+  find(comp.disc, comp.disc_radius, m.disc.flux_per_amplitude, &disc_copies_);
 }
 
-void ExactRenderer::subtract_wrap(const ModelComponents& comp, double* model) {
-  find_copies(comp);
+void ExactRenderer::subtract_wrap(const ModelComponents& comp, const kernels::KSpaceModel& m, double* model) {
+  find_copies(comp, m);
   if (bulge_copies_.empty() && disc_copies_.empty()) return;
   const int count = wrap_nodes_.nodes() * wrap_nodes_.nodes();
   double* v = wrap_values_.data();
@@ -309,9 +304,9 @@ void ExactRenderer::subtract_wrap(const ModelComponents& comp, double* model) {
   wrap_nodes_.add_interpolated(v, model, wrap_scratch_.data());
 }
 
-void ExactRenderer::subtract_wrap(const ModelComponents& comp, double* bulge_image, double* disc_image,
-                                  const std::array<double*, 5>& shape) {
-  find_copies(comp);
+void ExactRenderer::subtract_wrap(const ModelComponents& comp, const kernels::KSpaceModel& m, double* bulge_image,
+                                  double* disc_image, const std::array<double*, 5>& shape) {
+  find_copies(comp, m);
   if (bulge_copies_.empty() && disc_copies_.empty()) return;
   const int count = wrap_nodes_.nodes() * wrap_nodes_.nodes();
   const std::size_t per = static_cast<std::size_t>(count);
@@ -344,7 +339,7 @@ RenderStatus ExactRenderer::render(const ParamVector& p, std::span<double> model
   out.im[0] = spectrum_im(0);
   kernels_->accumulate_model(psf_->terms(), m, out);
   inverse(0, model.data());
-  if (corrects_wrap()) subtract_wrap(comp, model.data());
+  if (corrects_wrap()) subtract_wrap(comp, m, model.data());
   return RenderStatus::kOk;
 }
 
@@ -375,7 +370,7 @@ RenderStatus ExactRenderer::render_with_jacobian(const ParamVector& p, std::span
       default: throw std::invalid_argument("render_with_jacobian: parameter has no derivative image");
     }
   }
-  if (corrects_wrap()) subtract_wrap(comp, component_stamps_[0].data(), component_stamps_[1].data(), shape);
+  if (corrects_wrap()) subtract_wrap(comp, m, component_stamps_[0].data(), component_stamps_[1].data(), shape);
   const double ab = p[index(Param::kBulgeA)], ad = p[index(Param::kDiscA)];
   const auto& bulge = component_stamps_[0];
   const auto& disc = component_stamps_[1];

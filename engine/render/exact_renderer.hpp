@@ -86,10 +86,12 @@ class ExactRenderer final : public Renderer {
   void inverse(int k, double* stamp);
   // Subtracts the copies' light: from the model (jacobian false), or from the component images
   // and the five shape derivative images (shape[k] null: not wanted).
-  void subtract_wrap(const ModelComponents& comp, double* model);
+  // m: this render's transform parameters (for the components' flux per amplitude).
+  void subtract_wrap(const ModelComponents& comp, const kernels::KSpaceModel& m, double* model);
+  void subtract_wrap(const ModelComponents& comp, const kernels::KSpaceModel& m, double* bulge, double* disc,
+                     const std::array<double*, 5>& shape);
   // The copies each component needs (bulge_copies_, disc_copies_).
-  void find_copies(const ModelComponents& comp);
-  void subtract_wrap(const ModelComponents& comp, double* bulge, double* disc, const std::array<double*, 5>& shape);
+  void find_copies(const ModelComponents& comp, const kernels::KSpaceModel& m);
 
   int stamp_size_;
   int n_;

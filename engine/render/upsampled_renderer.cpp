@@ -37,13 +37,7 @@ void UpsampledRenderer::set_psf(std::shared_ptr<const PreparedPsf> psf) {
 }
 
 bool UpsampledRenderer::effective_params(const ParamVector& p, ParamVector* out) const {
-  ModelComponents comp;
-  const bool ok = model_.components(p, &comp);
-  *out = p;
-  (*out)[index(Param::kE1)] = comp.e1;
-  (*out)[index(Param::kE2)] = comp.e2;
-  (*out)[index(Param::kRadius)] = comp.disc_radius;
-  return ok;
+  return model_.effective_params(p, out);
 }
 
 void UpsampledRenderer::component_fluxes(const ParamVector& p, double* bulge, double* disc) const {
