@@ -6,11 +6,13 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <climits>
 #include <cmath>
 #include <filesystem>
 #include <limits>
 #include <string_view>
+#include <system_error>
 #include <utility>
 
 #include "io/fits_header_guard.hpp"
@@ -282,11 +284,21 @@ std::optional<long long> FitsFile::read_key_long(const std::string& key) {
     fail("keyword '" + key + "' is not an integer (value " + *raw + ")");
   }
   if (type != 'I') fail("keyword '" + key + "' is not a number (value " + *raw + ")");
-  LONGLONG v = 0;
-  int status = 0;
-  fits_read_key(as_fits(handle()), TLONGLONG, key.c_str(), &v, nullptr, &status);
-  if (status != 0) fail_status(status, "cannot read keyword '" + key + "' as an integer");
-  return static_cast<long long>(v);
+  // Parsed here, not by CFITSIO: its integer conversion overflows its own message buffer (a
+  // fortify abort) on a value it cannot convert, such as one beyond the 64-bit range.
+  std::string_view digits(*raw);
+  digits.remove_suffix(digits.size() - (digits.find_last_not_of(' ') + 1));
+  digits.remove_prefix(std::min(digits.find_first_not_of(' '), digits.size()));
+  if (!digits.empty() && digits.front() == '+') digits.remove_prefix(1);
+  long long v = 0;
+  const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), v);
+  if (end != digits.data() + digits.size() || ec == std::errc::invalid_argument) {
+    fail("keyword '" + key + "' is not an integer (value " + *raw + ")");
+  }
+  if (ec != std::errc()) {
+    fail("keyword '" + key + "' = " + *raw + " is outside the 64-bit integer range");
+  }
+  return v;
 }
 
 std::optional<std::string> FitsFile::read_key_string(const std::string& key) {

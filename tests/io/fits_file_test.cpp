@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <numeric>
 #include <string>
@@ -447,6 +448,45 @@ TEST(FitsFileErrors, KeywordOfWrongType) {
   EXPECT_TRUE(Contains(msg, "keyword 'SIZEDEF' is not a number"));
   msg = error_of<FitsError>([&] { f.read_key_long("PSFE2"); });
   EXPECT_TRUE(Contains(msg, "keyword 'PSFE2' is not an integer"));
+}
+
+// Integer values CFITSIO cannot convert (fuzz_calibration_table found that its converter then
+// overflows its own message buffer and aborts): each is a FitsError naming the keyword.
+TEST_F(FitsFileTmp, IntegerKeywordsBeyondRangeOrMalformed) {
+  const std::string path = tmp("cards.fits");
+  {
+    FitsFile f = FitsFile::create(path, false);
+    f.write_empty_image();
+    f.write_key("HUGE", 1LL, "");
+    f.write_key("JUNK", 2LL, "");
+    f.write_key("PLUS", 3LL, "");
+    f.write_key("LOWEST", 4LL, "");
+  }
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const auto set_card = [&](const std::string& key, const std::string& value) {
+    const std::size_t at = bytes.find(key + std::string(8 - key.size(), ' ') + "= ");
+    ASSERT_NE(at, std::string::npos) << key;
+    bytes.replace(at, 80, (key + std::string(8 - key.size(), ' ') + "= " + value +
+                           std::string(80, ' ')).substr(0, 80));
+  };
+  set_card("HUGE", "99999999999999999999999999999");
+  set_card("JUNK", "12345678901234567890123456789A");
+  set_card("PLUS", "              +17");
+  set_card("LOWEST", "-9223372036854775808");
+  std::ofstream(path, std::ios::binary) << bytes;
+
+  FitsFile f = FitsFile::open_read(path);
+  std::string msg = error_of<FitsError>([&] { f.key_long("HUGE"); });
+  EXPECT_TRUE(Contains(msg, "cards.fits"));
+  EXPECT_TRUE(Contains(msg, "keyword 'HUGE' = 99999999999999999999999999999 is outside the 64-bit"));
+  msg = error_of<FitsError>([&] { f.key_long("JUNK"); });
+  EXPECT_TRUE(Contains(msg, "keyword 'JUNK' is not"));
+  EXPECT_EQ(f.key_long("PLUS"), 17);
+  EXPECT_EQ(f.key_long("LOWEST"), std::numeric_limits<long long>::min());
 }
 
 TEST(FitsFileErrors, MissingColumn) {
