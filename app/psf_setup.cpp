@@ -31,11 +31,18 @@ SharedPsf build_shared_psf(const io::RunConfig& cfg, FftPlanCache& plans) {
       break;
     }
   }
+  return prepare_shared_psf(out.model, cfg, plans, "psf_input = " + io::psf_input_value(cfg));
+}
+
+SharedPsf prepare_shared_psf(const PsfModel& model, const io::RunConfig& cfg, FftPlanCache& plans,
+                             const std::string& what) {
+  SharedPsf out;
+  out.model = model;
   out.e1 = out.model.e1(), out.e2 = out.model.e2(), out.fwhm = out.model.fwhm();
   std::string error;
   out.prepared =
       make_renderer(cfg.fitter.renderer, cfg.fitter.render, cfg.fitter.model, plans)->prepare_psf(out.model, &error);
-  if (!out.prepared) throw std::runtime_error("PSF (psf_input = " + io::psf_input_value(cfg) + "): " + error);
+  if (!out.prepared) throw std::runtime_error("PSF (" + what + "): " + error);
   return out;
 }
 

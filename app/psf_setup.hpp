@@ -24,6 +24,10 @@ struct SharedPsf {
 // cannot be built. Not for psf_input = moffat_catalog.
 // A renderer of the run's kind and options prepares it, with `plans`.
 SharedPsf build_shared_psf(const io::RunConfig& cfg, FftPlanCache& plans);
+// `model` prepared by a renderer of cfg's kind and options, for a PSF the caller made (the Python
+// module's PSF arrays). Throws std::runtime_error "PSF (WHAT): why" when it cannot be prepared.
+SharedPsf prepare_shared_psf(const PsfModel& model, const io::RunConfig& cfg, FftPlanCache& plans,
+                             const std::string& what);
 
 // Where a PSF recorded in an input's header (io::read_psf_keys) differs from the run's analytic
 // PSF: one "KEY = recorded (option = run's)" per differing parameter, in header order; empty when

@@ -1,0 +1,180 @@
+// Fitting stamps held in memory; see array_fit.hpp.
+#include "app/array_fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "app/psf_setup.hpp"
+#include "engine/pipeline/pipeline.hpp"
+#include "engine/pipeline/stamp_fitter.hpp"
+#include "engine/render/psf_cache.hpp"
+
+namespace stampede::app {
+
+namespace {
+
+// Copies the caller's stamps into the pipeline's batches, numbering them as a grid.
+class ArraySource final : public StampSource {
+ public:
+  explicit ArraySource(const ArrayStamps& in) : in_(in), nx_(in.grid_nx > 0 ? in.grid_nx : std::max(in.count, 1)) {}
+  long long total_objects() const override { return in_.count; }
+  void skip_to(long long index) override { next_ = index; }
+  bool fill(StampBatch& batch) override {
+    const std::size_t npix = batch.npix();
+    batch.count = 0;
+    batch.first_object = next_;
+    batch.has_weights = !in_.weights.empty();
+    batch.weights_are_mask = false;
+    while (batch.count < batch.capacity() && next_ < in_.count) {
+      const int k = batch.count++;
+      const std::size_t at = static_cast<std::size_t>(next_) * npix;
+      std::copy_n(in_.pixels.data() + at, npix, batch.stamp(k));
+      if (batch.has_weights) std::copy_n(in_.weights.data() + at, npix, batch.weight(k));
+      if (in_.psfs.size() > 1) batch.psf[k] = in_.psfs[static_cast<std::size_t>(next_)];
+      ObjectRecord& r = batch.records[k];
+      r = ObjectRecord{};
+      r.id = in_.first_id + next_;
+      r.ix = static_cast<std::int32_t>(next_ % nx_);
+      r.iy = static_cast<std::int32_t>(next_ / nx_);
+      r.stamp_x0 = static_cast<double>(r.ix) * in_.stamp_size;
+      r.stamp_y0 = static_cast<double>(r.iy) * in_.stamp_size;
+      ++next_;
+    }
+    return batch.count > 0;
+  }
+
+ private:
+  const ArrayStamps& in_;
+  long long nx_;
+  long long next_ = 0;
+};
+
+// Receives batches in input order and keeps their rows.
+class RowsSink final : public BatchSink {
+ public:
+  explicit RowsSink(std::vector<ObjectRecord>* rows) : rows_(rows) {}
+  void write(const StampBatch& batch) override {
+    std::copy_n(batch.records.begin(), batch.count, rows_->begin() + batch.first_object);
+  }
+
+ private:
+  std::vector<ObjectRecord>* rows_;
+};
+
+void check_arrays(const ArrayStamps& in) {
+  if (in.count < 0) throw std::invalid_argument("stamp count " + std::to_string(in.count) + " is negative");
+  if (in.stamp_size < 1) throw std::invalid_argument("stamp size " + std::to_string(in.stamp_size) + " is not positive");
+  const std::size_t n = static_cast<std::size_t>(in.count) * in.stamp_size * in.stamp_size;
+  if (in.pixels.size() != n)
+    throw std::invalid_argument("stamps hold " + std::to_string(in.pixels.size()) + " values, not " +
+                                std::to_string(in.count) + " x " + std::to_string(in.stamp_size) + "^2");
+  if (!in.weights.empty() && in.weights.size() != n)
+    throw std::invalid_argument("weights hold " + std::to_string(in.weights.size()) + " values, the stamps " +
+                                std::to_string(n));
+  if (in.psfs.size() > 1 && in.psfs.size() != static_cast<std::size_t>(in.count))
+    throw std::invalid_argument(std::to_string(in.psfs.size()) + " PSFs for " + std::to_string(in.count) +
+                                " stamps (give one, or one per stamp)");
+  if (in.grid_nx < 0) throw std::invalid_argument("grid_nx " + std::to_string(in.grid_nx) + " is negative");
+  for (std::size_t i = 0; i < in.psfs.size(); ++i) {
+    std::string why;
+    if (!in.psfs[i].IsValid(&why))
+      throw std::invalid_argument((in.psfs.size() > 1 ? "PSF " + std::to_string(i) + ": " : "PSF: ") + why);
+  }
+}
+
+// cfg with the arrays' stamp size (refused when stamp_size was set to another), validated.
+io::RunConfig config_for(const io::RunConfig& config, int stamp_size, bool per_stamp_psf) {
+  io::RunConfig cfg = config;
+  if (cfg.explicitly_set.contains("stamp_size") && cfg.fitter.render.stamp_size != stamp_size)
+    throw io::ConfigError("option 'stamp_size' = " + std::to_string(cfg.fitter.render.stamp_size) +
+                          " but the stamps are " + std::to_string(stamp_size) + " pixels square");
+  cfg.fitter.render.stamp_size = stamp_size;
+  if (per_stamp_psf) {
+    cfg.psf_from_catalogue = true;  // the pipeline's per-object path
+  } else if (cfg.psf_from_catalogue) {
+    throw io::ConfigError("option 'psf_input' = 'moffat_catalog' needs a PSF per stamp");
+  }
+  io::validate(cfg);
+  return cfg;
+}
+
+}  // namespace
+
+SingleStampFitter::SingleStampFitter(const io::RunConfig& config, int stamp_size, std::optional<PsfModel> psf)
+    : batch_(1, std::max(stamp_size, 1), false) {
+  ArrayStamps shape;
+  shape.stamp_size = stamp_size;
+  if (psf) shape.psfs.push_back(*psf);
+  check_arrays(shape);
+  const io::RunConfig cfg = config_for(config, stamp_size, false);
+  FftPlanCache setup_plans(FftPlanning::kEstimate);
+  const SharedPsf shared = psf ? prepare_shared_psf(*psf, cfg, setup_plans, "the stamps' PSF")
+                               : build_shared_psf(cfg, setup_plans);
+  fitter_ = std::make_unique<StampFitter>(cfg.fitter, shared.prepared, nullptr, FftPlanning::kEstimate, shared.e1,
+                                          shared.e2, shared.fwhm);
+}
+
+SingleStampFitter::~SingleStampFitter() = default;
+
+ObjectRecord SingleStampFitter::fit(std::span<const double> pixels, std::span<const double> weights, std::int64_t id) {
+  const std::size_t npix = batch_.npix();
+  if (pixels.size() != npix || (!weights.empty() && weights.size() != npix))
+    throw std::invalid_argument("a stamp of " + std::to_string(batch_.stamp_size) + " x " +
+                                std::to_string(batch_.stamp_size) + " pixels was expected, not " +
+                                std::to_string(weights.empty() || pixels.size() != npix ? pixels.size() : weights.size()) +
+                                " values");
+  batch_.count = 1;
+  batch_.first_object = 0;
+  batch_.has_weights = !weights.empty();
+  batch_.weights_are_mask = false;
+  std::copy(pixels.begin(), pixels.end(), batch_.stamp(0));
+  if (batch_.has_weights) std::copy(weights.begin(), weights.end(), batch_.weight(0));
+  ObjectRecord& r = batch_.records[0];
+  r = ObjectRecord{};
+  r.id = id;
+  r.ix = 0;
+  r.iy = 0;
+  fitter_->fit(batch_);
+  return r;
+}
+
+std::vector<ObjectRecord> fit_array_stamps(const io::RunConfig& config, const ArrayStamps& in, int threads) {
+  check_arrays(in);
+  const io::RunConfig cfg = config_for(config, in.stamp_size, in.psfs.size() > 1);
+
+  std::vector<ObjectRecord> rows(static_cast<std::size_t>(in.count));
+  if (in.count == 0) return rows;
+  FftPlanCache setup_plans(FftPlanning::kEstimate);
+  std::shared_ptr<const PreparedPsf> shared_psf;
+  std::unique_ptr<PsfCache> psf_cache;
+  double psf_e1 = NAN, psf_e2 = NAN, psf_fwhm = NAN;
+  if (in.psfs.size() > 1) {
+    psf_cache = std::make_unique<PsfCache>(1024);
+  } else {
+    const SharedPsf psf = in.psfs.empty() ? build_shared_psf(cfg, setup_plans)
+                                          : prepare_shared_psf(in.psfs.front(), cfg, setup_plans, "the stamps' PSF");
+    shared_psf = psf.prepared;
+    psf_e1 = psf.e1, psf_e2 = psf.e2, psf_fwhm = psf.fwhm;
+  }
+
+  ArraySource source(in);
+  RowsSink sink(&rows);
+  PipelineOptions po;
+  po.threads = threads;
+  po.batch_size = cfg.batch_size;
+  po.per_object_psf = static_cast<bool>(psf_cache);
+  po.stamp_size = in.stamp_size;
+  const FitterOptions fitter_options = cfg.fitter;
+  PsfCache* cache = psf_cache.get();
+  auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
+    return std::make_unique<StampFitter>(fitter_options, shared_psf, cache, FftPlanning::kEstimate, psf_e1, psf_e2,
+                                         psf_fwhm);
+  };
+  run_pipeline(source, sink, make_fitter, po);
+  return rows;
+}
+
+}  // namespace stampede::app

@@ -1,0 +1,105 @@
+// numpy conversions; see numpy_arrays.hpp.
+#include "numpy_arrays.hpp"
+
+#include <cstring>
+
+namespace py = pybind11;
+
+namespace stampede::python {
+
+DoubleArray as_float64(py::handle obj, std::initializer_list<int> ndims, const char* what) {
+  py::module_ np = py::module_::import("numpy");
+  py::array a = py::array::ensure(obj);
+  if (!a) {
+    PyErr_Clear();
+    a = np.attr("asarray")(obj);  // raises for what numpy cannot take
+  }
+  const char kind = a.dtype().kind();
+  if (kind != 'f') {
+    throw py::type_error(std::string(what) + " must hold floating-point values, not dtype " +
+                         py::str(a.dtype()).cast<std::string>());
+  }
+  bool ndim_ok = false;
+  std::string allowed;
+  for (int n : ndims) {
+    ndim_ok = ndim_ok || a.ndim() == n;
+    allowed += (allowed.empty() ? "" : " or ") + std::to_string(n) + "-D";
+  }
+  if (!ndim_ok) {
+    throw py::value_error(std::string(what) + " must be a " + allowed + " array, not " + std::to_string(a.ndim()) +
+                          "-D (shape " + py::str(py::tuple(a.attr("shape"))).cast<std::string>() + ")");
+  }
+  if (a.size() == 0) throw py::value_error(std::string(what) + " is empty");
+  // A no-op for C-contiguous float64; one converting copy otherwise.
+  return DoubleArray::ensure(a);
+}
+
+py::dtype result_dtype(io::PositionColumns positions) {
+  py::list fields;
+  for (const io::ResultColumn& c : io::result_columns(positions)) {
+    const char* format = "<f8";
+    switch (c.type) {
+      case io::ColumnType::kInt64: format = "<i8"; break;
+      case io::ColumnType::kInt32: format = "<i4"; break;
+      case io::ColumnType::kUInt32: format = "<u4"; break;
+      case io::ColumnType::kFloat64: format = "<f8"; break;
+    }
+    fields.append(py::make_tuple(c.name, format));
+  }
+  return py::dtype::from_args(fields);
+}
+
+py::array result_array(const std::vector<ObjectRecord>& rows, io::PositionColumns positions) {
+  const py::dtype dt = result_dtype(positions);
+  py::array out(dt, std::vector<py::ssize_t>{static_cast<py::ssize_t>(rows.size())});
+  const py::dict fields = dt.attr("fields");
+  const auto cols = io::result_columns(positions);
+  std::vector<py::ssize_t> offsets;
+  for (const io::ResultColumn& c : cols) offsets.push_back(fields[c.name].cast<py::tuple>()[1].cast<py::ssize_t>());
+  char* base = static_cast<char*>(out.mutable_data());
+  const py::ssize_t stride = dt.itemsize();
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    char* row = base + static_cast<py::ssize_t>(i) * stride;
+    for (std::size_t j = 0; j < cols.size(); ++j) {
+      const io::ResultColumn& c = cols[j];
+      char* at = row + offsets[j];
+      switch (c.type) {
+        case io::ColumnType::kInt64: {
+          const std::int64_t v = c.integer(rows[i]);
+          std::memcpy(at, &v, sizeof v);
+          break;
+        }
+        case io::ColumnType::kInt32: {
+          const auto v = static_cast<std::int32_t>(c.integer(rows[i]));
+          std::memcpy(at, &v, sizeof v);
+          break;
+        }
+        case io::ColumnType::kUInt32: {
+          const auto v = static_cast<std::uint32_t>(c.integer(rows[i]));
+          std::memcpy(at, &v, sizeof v);
+          break;
+        }
+        case io::ColumnType::kFloat64: {
+          const double v = c.real(rows[i]);
+          std::memcpy(at, &v, sizeof v);
+          break;
+        }
+      }
+    }
+  }
+  return out;
+}
+
+py::dict result_dict(const ObjectRecord& row, io::PositionColumns positions) {
+  py::dict out;
+  for (const io::ResultColumn& c : io::result_columns(positions)) {
+    if (c.type == io::ColumnType::kFloat64) {
+      out[c.name] = c.real(row);
+    } else {
+      out[c.name] = c.integer(row);
+    }
+  }
+  return out;
+}
+
+}  // namespace stampede::python

@@ -1,0 +1,130 @@
+// stampede.Options; see options.hpp.
+#include "options.hpp"
+
+#include <string>
+
+#include "errors.hpp"
+
+namespace py = pybind11;
+
+namespace stampede::python {
+
+namespace {
+
+// A Python value as the ini file would spell it: bools as true/false, floats at full precision
+// (repr is the shortest text that round-trips), None refused; everything else by str().
+std::string option_text(const std::string& key, py::handle value) {
+  if (value.is_none()) throw io::ConfigError("option '" + key + "' = None: give a value (or leave the key out)");
+  if (py::isinstance<py::bool_>(value)) return value.cast<bool>() ? "true" : "false";
+  if (py::isinstance<py::float_>(value)) return py::repr(value).cast<std::string>();
+  return py::str(value).cast<std::string>();
+}
+
+void set_from(io::RunConfig& cfg, py::handle mapping) {
+  for (auto item : py::reinterpret_borrow<py::dict>(mapping)) {
+    if (!py::isinstance<py::str>(item.first))
+      throw io::ConfigError("option names are strings, not " + py::repr(item.first).cast<std::string>());
+    const std::string key = item.first.cast<std::string>();
+    io::set_option(cfg, key, option_text(key, item.second));
+  }
+}
+
+}  // namespace
+
+io::RunConfig config_from(py::handle obj) {
+  if (obj.is_none()) return io::RunConfig{};
+  if (py::isinstance<io::RunConfig>(obj)) return obj.cast<io::RunConfig>();
+  if (py::isinstance<py::dict>(obj)) {
+    io::RunConfig cfg;
+    set_from(cfg, obj);
+    io::validate(cfg);
+    return cfg;
+  }
+  throw py::type_error("options must be a stampede.Options or a dict of option: value, not " +
+                       py::str(obj.get_type().attr("__name__")).cast<std::string>());
+}
+
+void bind_options(py::module_& m) {
+  py::class_<io::RunConfig>(m, "Options", R"doc(
+A run configuration: every key of `stampede fit --help-config`, with the same names, values and
+validation. Options(dict) or Options(key=value, ...); values may be Python numbers, bools or
+strings. A bad key or value raises stampede.ConfigError (a ValueError) naming the key, value and rule.
+
+    opts = stampede.Options(renderer="exact", psf_fwhm=2.85, psf_e2=0.05)
+    opts["psf_fwhm"]      # '2.85': the canonical text, as in the output header
+)doc")
+      .def(py::init([](py::object mapping, py::kwargs kwargs) {
+             io::RunConfig cfg;
+             if (!mapping.is_none()) {
+               if (!py::isinstance<py::dict>(mapping))
+                 throw py::type_error("Options() takes a dict of option: value (or keywords)");
+               set_from(cfg, mapping);
+             }
+             set_from(cfg, kwargs);
+             io::validate(cfg);
+             return cfg;
+           }),
+           py::arg("options") = py::none())
+      .def_static(
+          "from_ini",
+          [](const std::string& path, py::kwargs overrides) {
+            io::RunConfig cfg;
+            io::load_ini(cfg, path);
+            set_from(cfg, overrides);
+            io::validate(cfg);
+            return cfg;
+          },
+          py::arg("path"), "Reads an ini file (as `stampede fit --config`), then any keyword overrides.")
+      .def("__getitem__", [](const io::RunConfig& c, const std::string& key) { return io::get_option(c, key); })
+      .def("__contains__",
+           [](const io::RunConfig&, const std::string& key) {
+             for (const io::OptionInfo& o : io::run_config_options())
+               if (o.name == key) return true;
+             return false;
+           })
+      .def(
+          "to_dict",
+          [](const io::RunConfig& c) {
+            py::dict out;
+            for (const auto& [k, v] : io::effective_options(c)) out[py::str(k)] = v;
+            return out;
+          },
+          "Every key with its value's canonical text, in documentation order.")
+      .def(
+          "explicitly_set", [](const io::RunConfig& c) {
+            py::list out;
+            for (const auto& [k, where] : c.explicitly_set) out.append(k);
+            return out;
+          },
+          "The keys given explicitly (the rest are defaults).")
+      .def(
+          "replace",
+          [](const io::RunConfig& c, py::kwargs changes) {
+            io::RunConfig out = c;
+            set_from(out, changes);
+            io::validate(out);
+            return out;
+          },
+          "A copy with the given keys changed, validated.")
+      .def("__repr__", [](const io::RunConfig& c) {
+        std::string s = "stampede.Options(";
+        bool first = true;
+        for (const auto& [k, where] : c.explicitly_set) {
+          s += (first ? "" : ", ") + k + "=" + py::repr(py::str(io::get_option(c, k))).cast<std::string>();
+          first = false;
+        }
+        return s + ")";
+      });
+
+  m.def(
+      "option_help",
+      [] {
+        py::dict out;
+        for (const io::OptionInfo& o : io::run_config_options())
+          out[py::str(o.name)] = py::make_tuple(o.default_value, o.help);
+        return out;
+      },
+      "{key: (default, help)} for every option.");
+}
+
+}  // namespace stampede::python

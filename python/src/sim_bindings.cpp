@@ -1,0 +1,214 @@
+// stampede.simulate_great08, set_shear and shear_metrics: the simulator and the metrics of
+// `stampede sim` and `stampede metrics`, returning numpy arrays and dicts.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "engine/analysis/shear_metrics.hpp"
+#include "engine/sim/great08_sim.hpp"
+#include "numpy_arrays.hpp"
+
+namespace py = pybind11;
+
+namespace stampede::python {
+
+namespace {
+
+struct IntField {
+  const char* name;
+  long long SimObjectTruth::*member;
+};
+struct RealField {
+  const char* name;
+  double SimObjectTruth::*member;
+};
+// The truth table's columns, named as in the GalSim sets' truth files.
+constexpr IntField kIntFields[] = {
+    {"index", &SimObjectTruth::index}, {"ix", &SimObjectTruth::ix}, {"iy", &SimObjectTruth::iy},
+    {"pair", &SimObjectTruth::pair}};
+constexpr RealField kRealFields[] = {
+    {"x_centre", &SimObjectTruth::x_centre}, {"y_centre", &SimObjectTruth::y_centre},
+    {"x_image", &SimObjectTruth::x_image},   {"y_image", &SimObjectTruth::y_image},
+    {"e1_int", &SimObjectTruth::e1_int},     {"e2_int", &SimObjectTruth::e2_int},
+    {"g1", &SimObjectTruth::g1},             {"g2", &SimObjectTruth::g2},
+    {"e1_obs", &SimObjectTruth::e1_obs},     {"e2_obs", &SimObjectTruth::e2_obs},
+    {"hlr", &SimObjectTruth::hlr},           {"bulge_frac", &SimObjectTruth::bulge_frac},
+    {"flux", &SimObjectTruth::flux},         {"bulge_flux", &SimObjectTruth::bulge_flux},
+    {"disc_flux", &SimObjectTruth::disc_flux}, {"stamp_flux", &SimObjectTruth::stamp_flux},
+    {"snr", &SimObjectTruth::snr},           {"hlr_bulge", &SimObjectTruth::hlr_bulge},
+    {"e1_int_bulge", &SimObjectTruth::e1_int_bulge}, {"e2_int_bulge", &SimObjectTruth::e2_int_bulge},
+    {"bulge_dx", &SimObjectTruth::bulge_dx}, {"bulge_dy", &SimObjectTruth::bulge_dy}};
+
+py::array truth_array(const std::vector<SimObjectTruth>& truth) {
+  py::list fields;
+  for (const IntField& f : kIntFields) fields.append(py::make_tuple(f.name, "<i8"));
+  for (const RealField& f : kRealFields) fields.append(py::make_tuple(f.name, "<f8"));
+  const py::dtype dt = py::dtype::from_args(fields);
+  py::array out(dt, std::vector<py::ssize_t>{static_cast<py::ssize_t>(truth.size())});
+  char* base = static_cast<char*>(out.mutable_data());
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    char* at = base + static_cast<py::ssize_t>(i) * dt.itemsize();  // packed: fields in order
+    for (const IntField& f : kIntFields) {
+      const std::int64_t v = truth[i].*f.member;
+      std::memcpy(at, &v, sizeof v);
+      at += sizeof v;
+    }
+    for (const RealField& f : kRealFields) {
+      const double v = truth[i].*f.member;
+      std::memcpy(at, &v, sizeof v);
+      at += sizeof v;
+    }
+  }
+  return out;
+}
+
+py::array_t<double> image_array(const std::vector<double>& v, std::vector<py::ssize_t> shape) {
+  py::array_t<double> out(shape);
+  std::copy(v.begin(), v.end(), out.mutable_data());
+  return out;
+}
+
+py::dict simulate(int set, int grid, int stamp_size, double snr, double noise_sigma, bool noise_free,
+                  bool noise_pairs, double size_ratio, const std::string& galaxy_type, double e_sigma, double e_max,
+                  double shear_max, double centre_offset, double psf_fwhm, double psf_beta, double psf_e1,
+                  double psf_e2, std::uint64_t seed) {
+  if (set < 0) throw py::value_error("set = " + std::to_string(set) + ": must be >= 0");
+  Great08SimOptions o;
+  o.sets = set + 1;
+  o.grid = grid;
+  o.stamp_size = stamp_size;
+  o.snr = snr;
+  o.noise_sigma = noise_sigma;
+  o.noise_free = noise_free;
+  o.noise_pairs = noise_pairs;
+  o.size_ratio = size_ratio;
+  if (!parse_sim_galaxy_type(galaxy_type, &o.galaxy_type))
+    throw py::value_error("galaxy_type = '" + galaxy_type + "': must be bd, b+d, bulge or disc");
+  o.e_sigma = e_sigma;
+  o.e_max = e_max;
+  o.shear_max = shear_max;
+  o.centre_offset = centre_offset;
+  kernels::MoffatProfile m = Great08SimOptions::default_psf().moffat;
+  m.fwhm = psf_fwhm;
+  m.beta = psf_beta;
+  m.e1 = psf_e1;
+  m.e2 = psf_e2;
+  o.psf = PsfModel::Moffat(m);
+  o.seed = seed;
+  std::string why;
+  if (!o.IsValid(&why)) throw py::value_error(why);
+  SimSet s;
+  std::vector<double> psf;
+  {
+    py::gil_scoped_release release;
+    const Great08Simulator sim(o);
+    s = sim.simulate_set(set);
+    psf = sim.psf_image();
+  }
+  const py::ssize_t n = static_cast<py::ssize_t>(grid) * grid, ss = stamp_size;
+  std::vector<double> stamps(static_cast<std::size_t>(n * ss * ss));
+  for (py::ssize_t k = 0; k < n; ++k) {
+    const py::ssize_t ix = k % grid, iy = k / grid;
+    for (py::ssize_t y = 0; y < ss; ++y)
+      std::copy_n(s.image.data() + (iy * ss + y) * s.width + ix * ss, ss, stamps.data() + (k * ss + y) * ss);
+  }
+  py::dict out;
+  out["image"] = image_array(s.image, {s.width, s.width});
+  out["stamps"] = image_array(stamps, {n, ss, ss});
+  out["truth"] = truth_array(s.truth);
+  out["g1"] = s.shear1;
+  out["g2"] = s.shear2;
+  out["noise_seed"] = s.noise_seed;
+  out["psf_image"] = image_array(psf, {ss, ss});
+  return out;
+}
+
+py::dict set_shear_dict(const SetShear& s) {
+  py::dict d;
+  d["g1_true"] = s.g1_true;
+  d["g2_true"] = s.g2_true;
+  d["g1"] = s.g1;
+  d["g2"] = s.g2;
+  d["err1"] = s.err1;
+  d["err2"] = s.err2;
+  d["used"] = s.used;
+  d["excluded"] = s.excluded;
+  return d;
+}
+
+}  // namespace
+
+void bind_sim(py::module_& m) {
+  m.def("simulate_great08", &simulate, py::arg("set") = 0, py::kw_only(), py::arg("grid") = 20,
+        py::arg("stamp_size") = 39, py::arg("snr") = 40.0, py::arg("noise_sigma") = 1.0, py::arg("noise_free") = false,
+        py::arg("noise_pairs") = false, py::arg("size_ratio") = 1.4, py::arg("galaxy_type") = "bd",
+        py::arg("e_sigma") = 0.25, py::arg("e_max") = 0.9, py::arg("shear_max") = 0.05, py::arg("centre_offset") = 0.5,
+        py::arg("psf_fwhm") = 2.85, py::arg("psf_beta") = 3.0, py::arg("psf_e1") = 0.0, py::arg("psf_e2") = 0.05,
+        py::arg("seed") = 7, R"doc(
+Draws set `set` of a GREAT08-like simulation, as `stampede sim great08` (same seed, same pixels):
+a grid x grid grid of stamps sharing one shear, ring pairs 2m, 2m+1, every galaxy at S/N `snr`.
+Returns {'image': 2-D array, 'stamps': (grid^2, S, S) in grid order, 'truth': structured array
+(the truth table's columns), 'g1', 'g2', 'noise_seed', 'psf_image': the PSF x pixel, S x S}.
+)doc");
+
+  m.def(
+      "set_shear",
+      [](py::handle e1, py::handle e2, py::handle usable, py::handle pair, double g1_true, double g2_true,
+         int bootstrap, std::uint64_t seed) {
+        const DoubleArray a = as_float64(e1, {1}, "e1"), b = as_float64(e2, {1}, "e2");
+        const auto u = py::array_t<int, py::array::c_style | py::array::forcecast>::ensure(usable);
+        const auto p = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(pair);
+        if (!u || !p) throw py::type_error("usable and pair must be integer arrays");
+        if (b.size() != a.size() || u.size() != a.size() || p.size() != a.size())
+          throw py::value_error("e1, e2, usable and pair must have one value per object");
+        if (bootstrap < 1) throw py::value_error("bootstrap = " + std::to_string(bootstrap) + ": must be >= 1");
+        const std::size_t n = static_cast<std::size_t>(a.size());
+        const SetShear s = estimate_set_shear(values(a), values(b), {u.data(), n}, {p.data(), n}, g1_true, g2_true,
+                                              bootstrap, seed);
+        return set_shear_dict(s);
+      },
+      py::arg("e1"), py::arg("e2"), py::arg("usable"), py::arg("pair"), py::arg("g1_true"), py::arg("g2_true"),
+      py::arg("bootstrap") = 200, py::arg("seed") = 1,
+      "One set's shear estimate (ring pairs averaged first; bootstrap errors), as `stampede metrics` per set.");
+
+  m.def(
+      "shear_metrics",
+      [](const std::vector<py::dict>& sets, double psf_e1, double psf_e2) {
+        std::vector<SetShear> in;
+        for (const py::dict& d : sets) {
+          SetShear s;
+          s.g1_true = d["g1_true"].cast<double>();
+          s.g2_true = d["g2_true"].cast<double>();
+          s.g1 = d["g1"].cast<double>();
+          s.g2 = d["g2"].cast<double>();
+          s.err1 = d["err1"].cast<double>();
+          s.err2 = d["err2"].cast<double>();
+          s.used = d.contains("used") ? d["used"].cast<long long>() : 0;
+          s.excluded = d.contains("excluded") ? d["excluded"].cast<long long>() : 0;
+          in.push_back(s);
+        }
+        if (in.size() < 2) throw py::value_error("shear_metrics needs at least two sets (a line through the shears)");
+        const ShearMetrics r = combine_sets(std::move(in), psf_e1, psf_e2);
+        py::dict out;
+        for (int c = 0; c < 2; ++c) {
+          const std::string k = std::to_string(c + 1);
+          out[py::str("m" + k)] = r.component[c].m;
+          out[py::str("m" + k + "_err")] = r.component[c].m_err;
+          out[py::str("c" + k)] = r.component[c].c;
+          out[py::str("c" + k + "_err")] = r.component[c].c_err;
+        }
+        out["c_plus"] = r.c_plus;
+        out["c_cross"] = r.c_cross;
+        out["q"] = r.q;
+        return out;
+      },
+      py::arg("sets"), py::arg("psf_e1") = 0.0, py::arg("psf_e2") = 0.0,
+      "m and c per component, c in the PSF frame and the GREAT08 Q from set_shear() dicts, as `stampede metrics`.");
+}
+
+}  // namespace stampede::python

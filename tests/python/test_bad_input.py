@@ -1,0 +1,121 @@
+"""Must-show 3: bad arrays are a Python exception or a flagged row, never a crash."""
+
+import numpy as np
+import pytest
+
+import stampede
+
+STATUS = stampede.fit_status_names
+OPTS = {"renderer": "exact", "psf_e2": 0.05}
+
+
+@pytest.fixture(scope="module")
+def stamps():
+    return stampede.simulate_great08(grid=2, snr=40)["stamps"]
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_non_finite_pixels_flag_the_row(stamps, bad):
+    s = stamps.copy()
+    s[1, 10, 12] = bad
+    rows = stampede.fit_stamps(s, options=OPTS)
+    assert STATUS[rows["status"][1]] == "bad_pixels"
+    assert [STATUS[v] for v in rows["status"][[0, 2, 3]]] == ["ok"] * 3  # its neighbours are fitted
+    assert STATUS[stampede.Fitter(OPTS).fit(s[1])["status"]] == "bad_pixels"
+
+
+def test_all_nan_stamp_flags_the_row(stamps):
+    s = stamps.copy()
+    s[0] = np.nan
+    assert STATUS[stampede.fit_stamps(s, options=OPTS)["status"][0]] == "bad_pixels"
+
+
+def test_negative_or_nan_weights_flag_the_row(stamps):
+    w = np.ones_like(stamps)
+    w[2, 0, 0] = -1.0
+    w[3, 5, 5] = np.nan
+    rows = stampede.fit_stamps(stamps, weights=w, options=OPTS)
+    assert [STATUS[v] for v in rows["status"]] == ["ok", "ok", "bad_pixels", "bad_pixels"]
+    assert STATUS[stampede.fit_stamp(stamps[2], weight=w[2], options=OPTS)["status"]] == "bad_pixels"
+
+
+@pytest.mark.parametrize("shape", [(39,), (1, 2, 39, 39), ()])
+def test_wrong_number_of_dimensions(shape):
+    with pytest.raises(ValueError, match="stamps must be a 3-D array"):
+        stampede.fit_stamps(np.zeros(shape))
+    with pytest.raises(ValueError, match="stamp must be a 2-D array"):
+        stampede.fit_stamp(np.zeros(shape))
+
+
+def test_non_square_and_empty():
+    with pytest.raises(ValueError, match="stamps must be square, not 39 x 40"):
+        stampede.fit_stamps(np.zeros((2, 39, 40)))
+    with pytest.raises(ValueError, match="stamp must be square"):
+        stampede.Fitter().fit(np.zeros((39, 38)))
+    with pytest.raises(ValueError, match="is empty"):
+        stampede.fit_stamps(np.zeros((0, 39, 39)))
+    with pytest.raises(ValueError, match="this Fitter's stamps 39 x 39"):
+        stampede.Fitter(stamp_size=39).fit(np.zeros((25, 25)))
+
+
+@pytest.mark.parametrize("dtype", [np.int64, np.int16, np.uint8, bool, np.complex128, object, "U3"])
+def test_wrong_dtypes_are_type_errors(dtype):
+    a = np.ones((2, 9, 9)).astype(dtype)
+    with pytest.raises(TypeError, match="stamps must hold floating-point values, not dtype"):
+        stampede.fit_stamps(a)
+    with pytest.raises(TypeError, match="weights must hold floating-point values"):
+        stampede.fit_stamps(np.ones((2, 9, 9)), weights=a)
+    with pytest.raises(TypeError, match="psf must hold floating-point values"):
+        stampede.fit_stamps(np.ones((2, 9, 9)), psf=a[0])
+
+
+def test_ragged_lists_are_errors_not_crashes():
+    with pytest.raises((ValueError, TypeError)):
+        stampede.fit_stamps([[[1.0, 2.0]], [[1.0]]])
+
+
+def test_non_contiguous_views_are_fitted_as_their_copies(stamps):
+    view = np.swapaxes(np.swapaxes(stamps, 1, 2).copy(), 1, 2)  # the same values, strided in memory
+    assert not view.flags["C_CONTIGUOUS"]
+    a = stampede.fit_stamps(view, options=OPTS)
+    b = stampede.fit_stamps(np.ascontiguousarray(view), options=OPTS)
+    assert a["e1"].tobytes() == b["e1"].tobytes() and a["chi2"].tobytes() == b["chi2"].tobytes()
+
+
+def test_weights_psf_and_argument_shapes():
+    s = np.ones((3, 15, 15))
+    with pytest.raises(ValueError, match=r"weights have shape \(3, 15, 14\), the stamps \(3, 15, 15\)"):
+        stampede.fit_stamps(s, weights=np.ones((3, 15, 14)))
+    with pytest.raises(ValueError, match="larger than the 15-pixel stamp"):
+        stampede.fit_stamps(s, psf=np.ones((17, 17)))
+    with pytest.raises(ValueError, match="larger than the 15-pixel stamp"):
+        stampede.Fitter(stamp_size=15, psf=np.ones((16, 16)))
+    with pytest.raises(ValueError, match="psf holds 2 PSFs for 3 stamps"):
+        stampede.fit_stamps(s, psf=np.ones((2, 5, 5)))
+    with pytest.raises(ValueError, match="psf_oversampling = 0"):
+        stampede.fit_stamps(s, psf=np.ones((5, 5)), psf_oversampling=0)
+    with pytest.raises(ValueError, match="threads = -1"):
+        stampede.fit_stamps(s, threads=-1)
+    with pytest.raises(stampede.ConfigError, match="option 'stamp_size' = 39 but the stamps are 15 pixels"):
+        stampede.fit_stamps(s, options={"stamp_size": 39})
+
+
+def test_a_psf_that_cannot_be_normalised():
+    s = np.ones((2, 15, 15))
+    with pytest.raises(stampede.Error, match="PSF"):
+        stampede.fit_stamps(s, psf=np.zeros((5, 5)))  # one PSF for all: the call fails
+    bad = np.ones((2, 5, 5))
+    bad[1] = 0.0
+    rows = stampede.fit_stamps(s, psf=bad)  # one per stamp: that row is flagged
+    assert rows["flags"][1] & (1 << 17) and not rows["flags"][0] & (1 << 17)
+
+
+def test_errors_from_files_are_stampede_errors(tmp_path):
+    with pytest.raises(stampede.FitsError, match="missing.fits") as e:
+        stampede.read_image(str(tmp_path / "missing.fits"))
+    assert isinstance(e.value, stampede.Error)
+    junk = tmp_path / "junk.fits"
+    junk.write_bytes(b"SIMPLE  = nonsense" + b"\0" * 100)
+    with pytest.raises(stampede.Error, match="junk.fits"):
+        stampede.run_fit(str(junk), output=str(tmp_path / "out.fits"))
+    assert not (tmp_path / "out.fits").exists()
