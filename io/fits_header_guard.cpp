@@ -80,15 +80,19 @@ void check_fits_headers(const std::string& root) {
         end = true;
         break;
       }
-      if (card.substr(8, 2) != "= ") continue;
-      const auto value = card_integer(card);
-      if (key.starts_with("TTYPE")) {
-        const std::string_view v = card.substr(10);
+      // CFITSIO takes an '=' in column 9 as a value indicator even without the standard's blank
+      // in column 10 (fuzz finding F5): the column-name check must too.
+      if (key.starts_with("TTYPE") && card[8] == '=') {
+        const std::string_view v = card.substr(9);
         const std::size_t first = v.find_first_not_of(' ');
         if (first != std::string_view::npos && v[first] != '\'')
           throw FitsError(root + "[HDU " + std::to_string(hdu) + "]: header card '" + std::string(key.substr(0, key.find(' '))) +
                           "' is not a quoted string (a column name must be one)");
-      } else if (key == "BITPIX  " && value) {
+        continue;
+      }
+      if (card.substr(8, 2) != "= ") continue;
+      const auto value = card_integer(card);
+      if (key == "BITPIX  " && value) {
         bitpix = *value;
       } else if (key == "NAXIS   " && value) {
         naxis = *value;

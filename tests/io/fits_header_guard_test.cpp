@@ -60,6 +60,22 @@ TEST(FitsHeaderGuard, AnUnquotedColumnNameIsAnErrorNotACrash) {
   EXPECT_TRUE(Contains(message, "cat.fits[HDU 1]: header card 'TTYPE2' is not a quoted string")) << message;
 }
 
+// Found by the fuzz campaign (F5, all three table readers): CFITSIO also takes "TTYPEn  =" with no
+// blank in column 10 as a value, and copied 71 unquoted bytes alike.
+TEST(FitsHeaderGuard, AnUnquotedColumnNameWithoutTheValueBlankIsAnErrorNotACrash) {
+  const stampede::testing::ScratchDir dir("stampede_header_guard_");
+  const std::string path = table_with_card(dir, "TTYPE2  =" + std::string(71, '{'));
+  const std::string message = error_of<FitsError>([&] {
+    FitsFile f = FitsFile::open_read(path);
+    f.move_to(1);
+  });
+  EXPECT_TRUE(Contains(message, "cat.fits[HDU 1]: header card 'TTYPE2' is not a quoted string")) << message;
+  // A quoted name right after the '=' is a name: it opens.
+  FitsFile ok = FitsFile::open_read(table_with_card(dir, "TTYPE2  ='x'"));
+  ok.move_to(1);
+  EXPECT_TRUE(ok.has_column("x"));
+}
+
 // The same card in a gzip-compressed file: CFITSIO inflates it in memory and crashed alike (the
 // fuzz campaign's open finding); the scan reads it through zlib first.
 TEST(FitsHeaderGuard, AnUnquotedColumnNameInAGzipFileIsAnErrorNotACrash) {
