@@ -89,6 +89,17 @@ def main():
               f"(plain loop {plain['items_per_second']:.2f}, engine {e1['items_per_second']:.2f} stamps/s)")
     if e1 and e2:
         print(f"- engine 2-thread speed-up: {e2['items_per_second'] / e1['items_per_second']:.2f}x")
+    p1 = all_runs.get("BM_PythonFitStamps/threads:1")
+    p2 = all_runs.get("BM_PythonFitStamps/threads:2")
+    call = all_runs.get("BM_PythonFitterCall")
+    if p1 and p2:
+        print(f"- Python fit_stamps 2-thread speed-up: {p2['items_per_second'] / p1['items_per_second']:.2f}x (target >= 1.8)")
+    if call and p1:
+        over = call["ms_per_stamp"] - p1["ms_per_stamp"]
+        print(f"- Python one-stamp call (Fitter.fit): {call['ms_per_stamp']:.3f} ms per stamp against fit_stamps' "
+              f"{p1['ms_per_stamp']:.3f} ms on 1 thread: {100 * over / p1['ms_per_stamp']:+.1f} %; wall beyond the "
+              f"fit's own time_us {call['overhead_ms_per_stamp']:.4f} ms = "
+              f"{100 * call['overhead_ms_per_stamp'] / call['fit_ms_per_stamp']:.2f} % of a fit (target <= 10 %)")
 
 
 if __name__ == "__main__":
