@@ -17,6 +17,7 @@
 #include "app/run_fingerprint.hpp"
 #include "app/run_memory.hpp"
 #include "engine/pipeline/pipeline.hpp"
+#include "engine/pipeline/range_source.hpp"
 #include "engine/pipeline/stamp_fitter.hpp"
 #include "engine/render/psf_cache.hpp"
 #include "engine/render/renderer_factory.hpp"
@@ -136,6 +137,9 @@ RunSummary FitRun::run() const {
     if (a.on_warning) a.on_warning(text);
   };
   if (a.output.empty() && a.resume) throw std::invalid_argument("fit run: resume needs the output to resume");
+  if (a.shards < 1 || a.shard < 0 || a.shard >= a.shards)
+    throw io::ConfigError("--shard " + std::to_string(a.shard) + "/" + std::to_string(a.shards) +
+                          ": must be i/N with 0 <= i < N");
   io::RunConfig cfg = a.config;
   if (!a.weight.empty() && cfg.fitter.noise_sigma != 0) {
     const auto where = cfg.explicitly_set.find("noise_sigma");
@@ -198,6 +202,15 @@ RunSummary FitRun::run() const {
                                                         saved_ids);
   }
   if (stamp_from_header) io::validate(cfg);
+  // A shard reads only its range of the input (the inner source stays alive beside it).
+  std::unique_ptr<StampSource> whole_input;
+  const long long input_objects = source->total_objects();
+  if (a.shards > 1) {
+    if (input_objects < 0) throw io::ConfigError("--shard needs an input whose object count is known");
+    whole_input = std::move(source);
+    source = std::make_unique<RangeSource>(*whole_input, shard_begin(input_objects, a.shard, a.shards),
+                                           shard_begin(input_objects, a.shard + 1, a.shards));
+  }
   if (cfg.psf_from_catalogue && a.catalog.empty())
     throw io::ConfigError("option 'psf_input' = 'moffat_catalog' needs --catalog");
   if (a.output.empty() && !cfg.save_images.empty())
@@ -257,6 +270,13 @@ RunSummary FitRun::run() const {
     if (cfg.psf_kind == PsfKind::kImage && !cfg.psf_from_catalogue) files.push_back({"psf_image", cfg.psf_image});
     wo.fingerprint = fit_fingerprint(files, wo.header);
     if (!input_set.empty()) wo.header.emplace_back(io::kInputSetKey, input_set);  // for `metrics` to match the truth
+    if (a.shards > 1) {  // after the fingerprint's lines, and in it: a shard resumes only as that shard
+      wo.header.emplace_back(kShardKey, std::to_string(a.shard) + "/" + std::to_string(a.shards));
+      wo.header.emplace_back(kShardTotalKey, std::to_string(input_objects));
+      wo.header_types[kShardTotalKey] = io::HeaderValueType::kInteger;
+      wo.fingerprint += "shard " + std::to_string(a.shard) + "/" + std::to_string(a.shards) + " of " +
+                        std::to_string(input_objects) + "\n";
+    }
     if (a.resume) {
       writer = io::CatalogWriter::resume(wo, &summary.resumed);
       source->skip_to(summary.resumed);

@@ -23,6 +23,10 @@
 
 namespace stampede::app {
 
+// The header keys of a shard's table: "i/N", and the whole input's object count.
+inline constexpr const char* kShardKey = "SHARD";
+inline constexpr const char* kShardTotalKey = "SHARDTOT";
+
 struct FitRunProgress {
   long long objects_done = 0;   // committed, including the resumed ones
   long long objects_total = 0;
@@ -42,6 +46,11 @@ struct FitRunOptions {
   bool resume = false;      // continue the interrupted run at `output` (same input and options)
   bool overwrite = false;   // replace existing outputs (table, text, images); else they are refused
   int threads = 0;          // worker threads; 0 = all of the calling task arena's (all cores by default)
+  // Job-array shard `shard` of `shards` (`--shard i/N`): the contiguous objects
+  // [total*i/N, total*(i+1)/N) of the input, with their whole-input ids; the table records SHARD
+  // "i/N" and SHARDTOT (the input's objects) for app/shard_merge. 0 of 1: the whole input.
+  int shard = 0;
+  int shards = 1;
   bool quiet = false;       // no end-of-run warnings (FFTW wisdom not saved); input warnings still go out
   io::RunConfig config;     // validated by run(); stamp_size from the grid's STAMPSZ unless set
 

@@ -20,7 +20,7 @@ using namespace stampede;
 constexpr const char* kUsage =
     "usage: stampede fit INPUT.fits -o OUT.fits [--config run.ini] [--set key=value ...]\n"
     "                    [--threads N] [--catalog CAT] [--weight W.fits] [--text OUT.txt]\n"
-    "                    [--resume] [--overwrite] [--quiet]\n";
+    "                    [--shard I/N] [--resume] [--overwrite] [--quiet]\n";
 
 void print_help() {
   std::printf(
@@ -39,6 +39,9 @@ void print_help() {
       "                masked and flagged (flag bit 65536)\n"
       "  --weight W    inverse-variance image of INPUT's shape (0 masks a pixel); else noise_sigma\n"
       "  --text T      also write the table as whitespace text\n"
+      "  --shard I/N   fit only shard I of N (0 <= I < N), a contiguous 1/N of the objects with their\n"
+      "                whole-input ids, for job arrays; `stampede merge` joins the N tables into the\n"
+      "                one table a single run writes\n"
       "  --resume      continue an interrupted run (same input and options) from its last batch\n"
       "  --overwrite   replace existing outputs (default: refuse); an output is never an input\n"
       "  --quiet       no progress or summary on stderr\n"
@@ -80,6 +83,20 @@ int run_fit_command(int argc, char** argv) {
       r.weight = value();
     } else if (s == "--text") {
       r.text_output = value();
+    } else if (s == "--shard") {
+      const std::string v = value();
+      const std::size_t slash = v.find('/');
+      std::size_t used_i = 0, used_n = 0;
+      try {
+        if (slash == std::string::npos) throw std::invalid_argument("no '/'");
+        r.shard = std::stoi(v.substr(0, slash), &used_i);
+        r.shards = std::stoi(v.substr(slash + 1), &used_n);
+      } catch (const std::exception&) {
+        used_i = 0;
+      }
+      if (slash == std::string::npos || used_i != slash || used_n != v.size() - slash - 1 || r.shards < 1 ||
+          r.shards > 1000000 || r.shard < 0 || r.shard >= r.shards)
+        throw std::invalid_argument("--shard " + tools::quoted_value(v) + ": must be I/N with 0 <= I < N <= 1000000");
     } else if (s == "--resume") {
       r.resume = true;
     } else if (s == "--overwrite") {

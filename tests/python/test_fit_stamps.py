@@ -9,16 +9,19 @@ import stampede
 from conftest import MINI, MINI_PSF, columns_equal_bitwise, grid_stamps, run_cli
 
 
-@pytest.mark.parametrize("subset", ["nf", "snr40"])
-def test_batch_rows_equal_the_command_bitwise(tmp_path, subset):
-    """Must-show 1: both GalSim-mini sets, every column but time_us, bit for bit."""
-    path = os.path.join(MINI, subset, "set_0.fits")
+@pytest.mark.parametrize("subset,set_file,renderer", [("nf", "set_0", "upsampled"), ("snr40", "set_0", "upsampled"),
+                                                       ("nf", "set_1", "exact"), ("snr40", "set_1", "exact")])
+def test_batch_rows_equal_the_command_bitwise(tmp_path, subset, set_file, renderer):
+    """Must-show 1: the GalSim-mini sets, noise-free and S/N 40, with both renderers: every column
+    but time_us, bit for bit."""
+    path = os.path.join(MINI, subset, set_file + ".fits")
     out = str(tmp_path / "fit.fits")
-    sets = [a for k, v in MINI_PSF.items() for a in ("--set", f"{k}={v!r}")]
+    opts = dict(MINI_PSF, renderer=renderer)
+    sets = [a for k, v in opts.items() for a in ("--set", f"{k}={v!r}" if isinstance(v, float) else f"{k}={v}")]
     run_cli("fit", path, "-o", out, "--quiet", "--threads", "2", *sets)
     cli = stampede.read_results(out)
 
-    rows = stampede.fit_stamps(grid_stamps(stampede.read_image(path), 39), options=MINI_PSF, threads=2, grid_nx=20)
+    rows = stampede.fit_stamps(grid_stamps(stampede.read_image(path), 39), options=opts, threads=2, grid_nx=20)
     assert rows.dtype == cli.dtype
     assert len(rows) == 400
     assert columns_equal_bitwise(rows, cli) == []

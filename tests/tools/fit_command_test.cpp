@@ -104,6 +104,41 @@ TEST_F(FitCommand, KillNineThenResumeEqualsUninterruptedRun) {
   expect_tables_equal(path("full.fits"), out);
 }
 
+// Issue 19, job arrays: a shard killed mid-run resumes only as itself (another shard index is
+// refused by the fingerprint) and the shards merged equal the single run.
+TEST_F(FitCommand, KilledShardResumesAsItselfAndTheMergeEqualsTheSingleRun) {
+  const std::string in = data("galsim-great08-mini/snr40/set_0.fits");
+  const std::vector<std::string> opts = kGreat08Psf + std::vector<std::string>{"--set", "noise_sigma=1", "--set", "renderer=exact",
+                                                                               "--set", "batch_size=5", "--threads", "2", "--quiet"};
+  ASSERT_EQ(run(std::vector<std::string>{in, "-o", path("full.fits")} + opts).exit_code, 0);
+  ASSERT_EQ(run(std::vector<std::string>{in, "-o", path("s0.fits"), "--shard", "0/2"} + opts).exit_code, 0);
+  const std::string out = path("s1.fits");
+  const pid_t pid = spawn(std::vector<std::string>{in, "-o", out, "--shard", "1/2"} + opts, path("stderr.txt"));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!fs::exists(out + ".checkpoint") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  ASSERT_EQ(kill(pid, SIGKILL), 0);
+  ASSERT_EQ(finish(pid, path("stderr.txt")).exit_code, 128 + SIGKILL) << "the shard finished before it could be killed";
+  const RunResult wrong = run(std::vector<std::string>{in, "-o", out, "--resume", "--shard", "0/2"} + opts);
+  EXPECT_EQ(wrong.exit_code, 1);
+  EXPECT_NE(wrong.err.find("shard 1/2 of 400"), std::string::npos) << wrong.err;
+  const RunResult resumed = run(std::vector<std::string>{in, "-o", out, "--resume", "--shard", "1/2"} + opts);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  const RunResult merged = finish(spawn({"-o", path("merged.fits"), out, path("s0.fits"), "--quiet"}, path("merge.txt"), "merge"),
+                                  path("merge.txt"));
+  ASSERT_EQ(merged.exit_code, 0) << merged.err;
+  expect_tables_equal(path("full.fits"), path("merged.fits"));
+}
+
+TEST_F(FitCommand, ShardArgumentErrors) {
+  for (const char* bad : {"2/2", "1", "-1/2", "1/0", "a/b", "1/2x"}) {
+    const RunResult r = run({data("galsim-great08-mini/nf/set_0.fits"), "-o", path("x.fits"), "--shard", bad});
+    EXPECT_EQ(r.exit_code, 1) << bad;
+    EXPECT_NE(r.err.find("must be I/N with 0 <= I < N"), std::string::npos) << r.err;
+  }
+}
+
 // Issue 4, must-show 5: `stampede fit` then `stampede metrics` on both noise-free sets recovers
 // each set's shear to 1e-3.
 TEST_F(FitCommand, MetricsRecoverTheGreat08MiniShears) {
