@@ -296,9 +296,14 @@ RunSummary FitRun::run() const {
     po.stamp_size = cfg.fitter.render.stamp_size;
     const FitterOptions fitter_options = cfg.fitter;
     PsfCache* cache = psf_cache.get();
-    auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
+    std::function<std::unique_ptr<BatchFitter>()> make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
       return std::make_unique<StampFitter>(fitter_options, shared_psf, cache, planning, psf_e1, psf_e2, psf_fwhm);
     };
+    if (a.distribute) {
+      FitDistribution d = a.distribute(cfg, make_fitter);
+      make_fitter = std::move(d.make_fitter);
+      po.threads = d.pipeline_threads;
+    }
     double last_report = -1;
     const long long total = source->total_objects(), done_before = summary.resumed;
     auto progress = [&](const PipelineProgress& p) {

@@ -13,12 +13,14 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <span>
 #include <string>
 #include <utility>
 
 #include "app/run_summary.hpp"
 #include "engine/pipeline/object_record.hpp"
+#include "engine/pipeline/pipeline.hpp"
 #include "io/run_config.hpp"
 
 namespace stampede::app {
@@ -36,6 +38,17 @@ struct FitRunProgress {
   // "D/T objects (P%), R objects/s, ETA E s   " (padded so that a shorter line overwrites it).
   std::string Line() const;
 };
+
+// How a run spreads its fits beyond this process (the MPI driver): given the run's final
+// configuration and the factory of local per-thread fitters, the factory the pipeline uses instead
+// and the pipeline's thread count (fit stages in flight). Called once, after the input, PSF and
+// outputs are set up and before the first batch.
+struct FitDistribution {
+  std::function<std::unique_ptr<BatchFitter>()> make_fitter;
+  int pipeline_threads = 0;
+};
+using FitDistributor =
+    std::function<FitDistribution(const io::RunConfig& effective, std::function<std::unique_ptr<BatchFitter>()> local)>;
 
 struct FitRunOptions {
   std::string input;        // a grid of stamps, or with `catalog` the image to cut them from
@@ -61,6 +74,8 @@ struct FitRunOptions {
   std::function<void(const std::string&)> on_warning;
   // Every batch's rows, in input order, from the writer thread, after they are written.
   std::function<void(std::span<const ObjectRecord>)> on_rows;
+  // Empty: every fit in this process (threads). Set: the fits go where it says (FitDistribution).
+  FitDistributor distribute;
 };
 
 class FitRun {

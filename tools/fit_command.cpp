@@ -56,8 +56,8 @@ void print_help() {
 
 }  // namespace
 
-int run_fit_command(int argc, char** argv) {
-  app::FitRunOptions r;
+int parse_fit_arguments(int argc, char** argv, app::FitRunOptions* run) {
+  app::FitRunOptions& r = *run;
   std::string config;
   std::vector<std::string> sets;
   for (int i = 1; i < argc; ++i) {
@@ -118,7 +118,10 @@ int run_fit_command(int argc, char** argv) {
 
   if (!config.empty()) io::load_ini(r.config, config);
   for (const auto& s : sets) io::apply_set(r.config, s);
+  return -1;
+}
 
+int run_fit_with_reports(app::FitRunOptions& r) {
   tools::ProgressPrinter printer(stderr, isatty(fileno(stderr)));
   if (!r.quiet) r.on_progress = [&](const app::FitRunProgress& p) { printer.update(p.seconds, p.Line()); };
   r.on_warning = [](const std::string& w) { std::fprintf(stderr, "stampede fit: warning: %s\n", w.c_str()); };
@@ -126,4 +129,10 @@ int run_fit_command(int argc, char** argv) {
   printer.finish();
   if (!r.quiet) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
   return 0;
+}
+
+int run_fit_command(int argc, char** argv) {
+  app::FitRunOptions r;
+  if (const int exit_code = parse_fit_arguments(argc, argv, &r); exit_code >= 0) return exit_code;
+  return run_fit_with_reports(r);
 }

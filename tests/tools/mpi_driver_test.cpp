@@ -1,0 +1,137 @@
+// `mpirun -n 2 stampede-mpi fit`: the one table equals a single process's (every column but
+// time_us); a job whose worker rank is killed mid-run resumes to the same table; a rank-0 error is
+// an error of the job (no hang). Run as root in CI: OMPI_ALLOW_RUN_AS_ROOT is set for mpirun.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "io/catalog_reader.hpp"
+#include "support/command_runner.hpp"
+#include "support/scratch_dir.hpp"
+
+namespace {
+
+using namespace stampede;
+namespace fs = std::filesystem;
+
+const std::string kInput = std::string(STAMPEDE_DATA_DIR) + "/galsim-great08-mini/snr40/set_0.fits";
+const std::vector<std::string> kOptions = {"--set", "renderer=exact", "--set", "psf_beta=3", "--set", "psf_fwhm=2.85",
+                                           "--set", "psf_e2=0.05",   "--set", "noise_sigma=1", "--set",  "batch_size=4",
+                                           "--threads", "1", "--quiet"};
+
+// `mpirun -n RANKS stampede-mpi fit ARGS...`, stderr to err_path.
+pid_t spawn_mpi(int ranks, std::vector<std::string> args, const std::string& err_path) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    FILE* e = std::fopen(err_path.c_str(), "w");
+    if (e) dup2(fileno(e), 2);
+    setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+    setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+    std::vector<std::string> all = {STAMPEDE_MPIEXEC, "-n", std::to_string(ranks), "--oversubscribe",
+                                    STAMPEDE_MPI_BINARY, "fit"};
+    all.insert(all.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& a : all) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+void expect_same_table(const std::string& a, const std::string& b) {
+  io::CatalogReader ra = io::CatalogReader::open(a), rb = io::CatalogReader::open(b);
+  ASSERT_EQ(ra.rows(), rb.rows());
+  for (const io::ResultColumn& c : io::result_columns(io::PositionColumns::kGrid)) {
+    if (c.field == io::ResultField::kTimeUs) continue;
+    const std::vector<double> x = ra.column(c.field), y = rb.column(c.field);
+    EXPECT_EQ(std::memcmp(x.data(), y.data(), x.size() * sizeof(double)), 0) << c.name;
+  }
+}
+
+// The pid of the rank `rank` process of a job whose command line names `marker` (a unique path).
+pid_t rank_pid(const std::string& marker, int rank) {
+  for (const auto& entry : fs::directory_iterator("/proc")) {
+    const std::string name = entry.path().filename();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream cmd(entry.path() / "cmdline"), env(entry.path() / "environ");
+    std::stringstream c, e;
+    c << cmd.rdbuf();
+    e << env.rdbuf();
+    const std::string cmdline = c.str(), environ_text = e.str();
+    if (cmdline.find(marker) == std::string::npos || cmdline.find("stampede-mpi") == std::string::npos) continue;
+    if (cmdline.find("mpirun") != std::string::npos || cmdline.find("mpiexec") != std::string::npos) continue;
+    if (environ_text.find("OMPI_COMM_WORLD_RANK=" + std::to_string(rank) + std::string(1, '\0')) != std::string::npos)
+      return static_cast<pid_t>(std::stol(name));
+  }
+  return -1;
+}
+
+class MpiDriver : public ::testing::Test {
+ protected:
+  std::string path(const std::string& name) const { return scratch.path(name); }
+  stampede::testing::ScratchDir scratch{"stampede_mpi_"};
+};
+
+TEST_F(MpiDriver, TwoRanksWriteTheSingleProcessTable) {
+  ASSERT_EQ(stampede::testing::finish(stampede::testing::spawn(with({kInput, "-o", path("single.fits")}, kOptions),
+                                                               path("single.txt")),
+                                      path("single.txt"))
+                .exit_code,
+            0);
+  const auto r = stampede::testing::finish(spawn_mpi(2, with({kInput, "-o", path("mpi.fits")}, kOptions), path("mpi.txt")),
+                                           path("mpi.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  expect_same_table(path("single.fits"), path("mpi.fits"));
+}
+
+TEST_F(MpiDriver, AKilledWorkerRankThenResumeGivesTheSameTable) {
+  ASSERT_EQ(stampede::testing::finish(stampede::testing::spawn(with({kInput, "-o", path("single.fits")}, kOptions),
+                                                               path("single.txt")),
+                                      path("single.txt"))
+                .exit_code,
+            0);
+  const std::string out = path("killed.fits");
+  const pid_t job = spawn_mpi(2, with({kInput, "-o", out}, kOptions), path("killed.txt"));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!fs::exists(out + ".checkpoint") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  std::this_thread::sleep_for(std::chrono::milliseconds(800));
+  const pid_t worker = rank_pid(out, 1);
+  ASSERT_GT(worker, 0) << "no rank 1 found";
+  ASSERT_EQ(kill(worker, SIGKILL), 0);
+  const auto killed = stampede::testing::finish(job, path("killed.txt"));
+  ASSERT_NE(killed.exit_code, 0) << "the job finished before its worker could be killed";
+  ASSERT_FALSE(fs::exists(out));
+  ASSERT_TRUE(fs::exists(out + ".checkpoint"));
+  const auto resumed = stampede::testing::finish(spawn_mpi(2, with({kInput, "-o", out, "--resume"}, kOptions),
+                                                           path("resumed.txt")),
+                                                 path("resumed.txt"));
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  expect_same_table(path("single.fits"), out);
+}
+
+TEST_F(MpiDriver, AnErrorOnRankZeroEndsTheJob) {
+  const auto r = stampede::testing::finish(
+      spawn_mpi(2, with({path("missing.fits"), "-o", path("x.fits")}, kOptions), path("err.txt")), path("err.txt"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("missing.fits"), std::string::npos) << r.err;
+}
+
+}  // namespace

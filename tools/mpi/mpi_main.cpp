@@ -1,0 +1,92 @@
+// `stampede-mpi`: `mpirun -n R stampede-mpi fit INPUT -o OUT.fits [--threads T] ...` runs the
+// `stampede fit` command over R ranks (tools/mpi/remote_fitting.hpp): the same arguments, the
+// same one output table as a single process writes (every column but time_us), the same resume.
+// A separate program so that the plain `stampede` needs no MPI library at run time.
+#include <mpi.h>
+#include <tbb/global_control.h>
+
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <string>
+#include <thread>
+
+#include "tools/fit_command.hpp"
+#include "tools/mpi/remote_fitting.hpp"
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: mpirun -n R stampede-mpi fit INPUT.fits -o OUT.fits [--threads T] [stampede fit options]\n"
+    "\n"
+    "Runs `stampede fit` (see `stampede fit --help`) over R MPI ranks. Rank 0 reads the input, writes\n"
+    "the one output table and fits on T threads; every other rank fits the batches it is handed, a\n"
+    "batch at a time to whichever rank is free, on T threads. The table equals a single process's\n"
+    "(every column but time_us); --resume after a killed job (any rank) finishes it without refitting\n"
+    "committed objects. T defaults to the node's cores divided by the ranks on the node.\n";
+
+// Ranks sharing this node (for the default thread count).
+int ranks_on_this_node() {
+  MPI_Comm node;
+  MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+  int n = 1;
+  MPI_Comm_size(node, &n);
+  MPI_Comm_free(&node);
+  return n;
+}
+
+int run(int argc, char** argv, int rank, int ranks) {
+  if (argc < 2 || std::strcmp(argv[1], "fit") != 0) {
+    if (rank == 0) std::fputs(kUsage, argc >= 2 && !std::strcmp(argv[1], "--help") ? stdout : stderr);
+    return argc >= 2 && !std::strcmp(argv[1], "--help") ? 0 : 2;
+  }
+  stampede::app::FitRunOptions options;
+  int exit_code = -1;
+  try {
+    exit_code = parse_fit_arguments(argc - 1, argv + 1, &options);  // every rank: the same arguments
+  } catch (const std::exception& e) {
+    if (rank == 0) std::fprintf(stderr, "stampede-mpi fit: error: %s\n", e.what());
+    return 1;
+  }
+  if (exit_code >= 0) return rank == 0 ? exit_code : 0;
+  const int threads =
+      options.threads > 0 ? options.threads
+                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / ranks_on_this_node());
+  // Rank 0's pipeline keeps a stage per slot in flight, most of them waiting on MPI, not computing.
+  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism,
+                                  static_cast<std::size_t>(ranks) * threads + 1);
+  try {
+    if (rank != 0) {
+      stampede::mpi_driver::run_worker(threads);
+      return 0;
+    }
+    options.threads = threads;
+    if (ranks > 1) options.distribute = stampede::mpi_driver::rank0_distributor(ranks, threads);
+    const int code = run_fit_with_reports(options);
+    if (ranks > 1) stampede::mpi_driver::stop_workers(ranks);
+    return code;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "stampede-mpi fit: error (rank %d): %s\n", rank, e.what());
+    std::fflush(stderr);
+    MPI_Abort(MPI_COMM_WORLD, 1);  // the other ranks may be waiting on this one
+    return 1;
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int provided = 0;
+  MPI_Init_thread(&argc, &argv, MPI_THREAD_MULTIPLE, &provided);
+  int rank = 0, ranks = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  int code = 1;
+  if (provided < MPI_THREAD_MULTIPLE) {
+    if (rank == 0) std::fputs("stampede-mpi: the MPI library does not provide MPI_THREAD_MULTIPLE\n", stderr);
+  } else {
+    code = run(argc, argv, rank, ranks);
+  }
+  MPI_Finalize();
+  return code;
+}

@@ -1,0 +1,226 @@
+// Rank 0's dispatch and the workers' loop; see remote_fitting.hpp.
+#include "tools/mpi/remote_fitting.hpp"
+
+#include <mpi.h>
+
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "app/psf_setup.hpp"
+#include "engine/pipeline/stamp_fitter.hpp"
+#include "engine/render/psf_cache.hpp"
+#include "io/run_config.hpp"
+#include "tools/mpi/batch_messages.hpp"
+
+namespace stampede::mpi_driver {
+
+namespace {
+
+// Slot j of a worker talks on these tags; 0-length messages on the batch tag mean stop.
+int batch_tag(int slot) { return 100 + slot; }
+int rows_tag(int slot) { return 100000 + slot; }
+
+struct Slot {
+  int rank = 0;  // 0: fitted here
+  int index = 0;
+};
+
+// Free places to fit a batch: T local ones, S per worker.
+class SlotPool {
+ public:
+  SlotPool(int ranks, int threads) {
+    for (int j = 0; j < threads; ++j)
+      for (int r = 0; r < ranks; ++r) free_.push_back({r, j});  // interleaved: every rank gets work early
+  }
+  Slot acquire() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    available_.wait(lock, [&] { return !free_.empty(); });
+    const Slot s = free_.front();
+    free_.pop_front();
+    return s;
+  }
+  void release(Slot s) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      free_.push_back(s);
+    }
+    available_.notify_one();
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable available_;
+  std::deque<Slot> free_;
+};
+
+void check(int rc, const char* what) {
+  if (rc != MPI_SUCCESS) throw std::runtime_error(std::string("MPI: ") + what + " failed");
+}
+
+// Waits for a request without spinning: OpenMPI's blocking calls busy-poll, which on a node whose
+// cores all fit would take a core from the fits for every thread that waits. A batch takes ~0.1-1 s,
+// so checking every 0.2 ms costs nothing measurable.
+void wait_idle(MPI_Request* request, MPI_Status* status, const char* what) {
+  for (int done = 0;;) {
+    check(MPI_Test(request, &done, status), what);
+    if (done) return;
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+}
+
+// A pipeline thread's fitter on rank 0: fits the batch in the first free slot, here or remotely.
+class DispatchingFitter final : public BatchFitter {
+ public:
+  DispatchingFitter(std::function<std::unique_ptr<BatchFitter>()> local, SlotPool* pool)
+      : make_local_(std::move(local)), pool_(pool) {}
+  void fit(StampBatch& batch) override {
+    const Slot s = pool_->acquire();
+    try {
+      if (s.rank == 0) {
+        if (!local_) local_ = make_local_();
+        local_->fit(batch);
+      } else {
+        pack_batch(batch, &message_);
+        check(MPI_Send(message_.data(), static_cast<int>(message_.size()), MPI_BYTE, s.rank, batch_tag(s.index),
+                       MPI_COMM_WORLD),
+              "send batch");
+        MPI_Request request;
+        check(MPI_Irecv(batch.records.data(), static_cast<int>(batch.count * sizeof(ObjectRecord)), MPI_BYTE, s.rank,
+                        rows_tag(s.index), MPI_COMM_WORLD, &request),
+              "receive rows");
+        wait_idle(&request, MPI_STATUS_IGNORE, "receive rows");
+      }
+    } catch (...) {
+      pool_->release(s);
+      throw;
+    }
+    pool_->release(s);
+  }
+
+ private:
+  std::function<std::unique_ptr<BatchFitter>()> make_local_;
+  SlotPool* pool_;
+  std::unique_ptr<BatchFitter> local_;
+  std::vector<char> message_;
+};
+
+bool g_distributed = false;
+int g_slots = 0;
+
+void broadcast_text(std::string text) {
+  long long n = static_cast<long long>(text.size());
+  check(MPI_Bcast(&n, 1, MPI_LONG_LONG, 0, MPI_COMM_WORLD), "broadcast");
+  if (n > 0) check(MPI_Bcast(text.data(), static_cast<int>(n), MPI_CHAR, 0, MPI_COMM_WORLD), "broadcast");
+}
+
+std::string receive_text() {
+  long long n = 0;
+  check(MPI_Bcast(&n, 1, MPI_LONG_LONG, 0, MPI_COMM_WORLD), "broadcast");
+  std::string text(static_cast<std::size_t>(n), '\0');
+  if (n > 0) check(MPI_Bcast(text.data(), static_cast<int>(n), MPI_CHAR, 0, MPI_COMM_WORLD), "broadcast");
+  return text;
+}
+
+}  // namespace
+
+app::FitDistributor rank0_distributor(int ranks, int threads) {
+  return [ranks, threads](const io::RunConfig& cfg, std::function<std::unique_ptr<BatchFitter>()> local) {
+    // The effective options (stamp size and PSF as the input's header made them), one per line.
+    std::string text;
+    for (const auto& [k, v] : io::effective_options(cfg)) text += k + "=" + v + "\n";
+    text += "mpi_slots=" + std::to_string(threads) + "\n";  // not an option key: the driver's own
+    broadcast_text(text);
+    g_distributed = true;
+    g_slots = threads;
+    auto pool = std::make_shared<SlotPool>(ranks, threads);
+    app::FitDistribution d;
+    d.pipeline_threads = ranks * threads;
+    d.make_fitter = [pool, local]() -> std::unique_ptr<BatchFitter> {
+      return std::make_unique<DispatchingFitter>(local, pool.get());
+    };
+    return d;
+  };
+}
+
+void stop_workers(int ranks) {
+  if (!g_distributed) {
+    broadcast_text("");  // no run: the workers wait for a configuration
+    return;
+  }
+  for (int r = 1; r < ranks; ++r)
+    for (int j = 0; j < g_slots; ++j) check(MPI_Send(nullptr, 0, MPI_BYTE, r, batch_tag(j), MPI_COMM_WORLD), "stop");
+}
+
+void run_worker(int /*threads*/) {
+  const std::string text = receive_text();
+  if (text.empty()) return;
+  io::RunConfig cfg;
+  int slots = 1;
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    const std::size_t eq = line.find('=');
+    const std::string key = line.substr(0, eq), value = line.substr(eq + 1);
+    if (key == "mpi_slots") {
+      slots = std::stoi(value);
+    } else {
+      io::set_option(cfg, key, value);
+    }
+  }
+  io::validate(cfg);
+  FftPlanCache setup_plans(FftPlanning::kEstimate);
+  std::shared_ptr<const PreparedPsf> shared;
+  double e1 = NAN, e2 = NAN, fwhm = NAN;
+  std::unique_ptr<PsfCache> cache;
+  if (cfg.psf_from_catalogue) {
+    cache = std::make_unique<PsfCache>(1024);
+  } else {
+    const app::SharedPsf psf = app::build_shared_psf(cfg, setup_plans);
+    shared = psf.prepared;
+    e1 = psf.e1, e2 = psf.e2, fwhm = psf.fwhm;
+  }
+  const std::size_t max_message = max_batch_message(cfg.batch_size, cfg.fitter.render.stamp_size, cfg.psf_from_catalogue);
+  auto serve_slot = [&](int j) {
+      StampFitter fitter(cfg.fitter, shared, cache.get(), FftPlanning::kEstimate, e1, e2, fwhm);
+      StampBatch batch(cfg.batch_size, cfg.fitter.render.stamp_size, cfg.psf_from_catalogue);
+      std::vector<char> message(max_message);
+      for (;;) {
+        MPI_Status status;
+        MPI_Request request;
+        check(MPI_Irecv(message.data(), static_cast<int>(message.size()), MPI_BYTE, 0, batch_tag(j), MPI_COMM_WORLD,
+                        &request),
+              "receive batch");
+        wait_idle(&request, &status, "receive batch");
+        int size = 0;
+        MPI_Get_count(&status, MPI_BYTE, &size);
+        if (size == 0) return;
+        unpack_batch(message.data(), static_cast<std::size_t>(size), &batch);
+        fitter.fit(batch);
+        check(MPI_Send(batch.records.data(), static_cast<int>(batch.count * sizeof(ObjectRecord)), MPI_BYTE, 0,
+                       rows_tag(j), MPI_COMM_WORLD),
+              "send rows");
+      }
+  };
+  std::vector<std::thread> threads;
+  for (int j = 0; j < slots; ++j) {
+    threads.emplace_back([&, j] {
+      try {
+        serve_slot(j);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "stampede-mpi: rank worker slot %d: %s\n", j, e.what());
+        MPI_Abort(MPI_COMM_WORLD, 1);
+      }
+    });
+  }
+  for (auto& t : threads) t.join();
+}
+
+}  // namespace stampede::mpi_driver
