@@ -89,6 +89,15 @@ def main():
               f"(plain loop {plain['items_per_second']:.2f}, engine {e1['items_per_second']:.2f} stamps/s)")
     if e1 and e2:
         print(f"- engine 2-thread speed-up: {e2['items_per_second'] / e1['items_per_second']:.2f}x")
+    c1 = all_runs.get("BM_FitCommand/threads:1")
+    m1 = all_runs.get("BM_MpiFit/ranks:1/threads:1")
+    m2 = all_runs.get("BM_MpiFit/ranks:2/threads:1")
+    if m1 and m2:
+        print(f"- MPI driver, 2 ranks x 1 thread against 1 rank x 1 thread (whole jobs): "
+              f"{m2['items_per_second'] / m1['items_per_second']:.2f}x (target >= 1.8)")
+    if c1 and m1:
+        print(f"- MPI driver overhead per object (1-rank job beyond the plain command): "
+              f"{m1['ms_per_object'] - c1['ms_per_object']:+.3f} ms of {c1['ms_per_object']:.3f} ms")
     p1 = all_runs.get("BM_PythonFitStamps/threads:1")
     p2 = all_runs.get("BM_PythonFitStamps/threads:2")
     call = all_runs.get("BM_PythonFitterCall")

@@ -101,6 +101,11 @@ void check_fits_headers(const std::string& root) {
         pixels *= *value;
       } else if (key == "PCOUNT  " && value) {
         pcount = *value;
+      } else if (key == "TFIELDS " && value && (*value < 0 || *value > 999)) {
+        // CFITSIO allocates a column descriptor per field before reading any: 135,674,990 of them
+        // asked for 22 GB (fuzz finding F6). The standard's limit is 999.
+        throw FitsError(root + "[HDU " + std::to_string(hdu) + "]: header card 'TFIELDS' = " + std::to_string(*value) +
+                        " is outside the FITS standard's 0..999");
       } else if (key == "GCOUNT  " && value) {
         gcount = *value;
       }

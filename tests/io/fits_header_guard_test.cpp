@@ -76,6 +76,34 @@ TEST(FitsHeaderGuard, AnUnquotedColumnNameWithoutTheValueBlankIsAnErrorNotACrash
   EXPECT_TRUE(ok.has_column("x"));
 }
 
+// Found by the fuzz campaign (F6, fuzz_calibration_table): CFITSIO allocates a column descriptor
+// per TFIELDS before reading any, so TFIELDS = 135674990 asked for 22 GB (an out-of-memory kill
+// where memory is overcommitted). The standard allows 0..999.
+TEST(FitsHeaderGuard, TFieldsBeyondTheStandardsLimitIsAnErrorNotAnAllocation) {
+  const stampede::testing::ScratchDir dir("stampede_header_guard_");
+  const std::string path = dir.path("cat.fits");
+  {
+    FitsFile f = FitsFile::create(path, true);
+    f.write_empty_image();
+    f.write_table("CATALOG", {{"id", true, {1, 2}}, {"x", false, {3.0, 4.0}}});
+  }
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::size_t at = bytes.find("TFIELDS = ");
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at, 80, ("TFIELDS =            135674990" + std::string(80, ' ')).substr(0, 80));
+  std::ofstream(path, std::ios::binary) << bytes;
+  const std::string message = error_of<FitsError>([&] {
+    FitsFile f = FitsFile::open_read(path);
+    f.move_to(1);
+  });
+  EXPECT_TRUE(Contains(message, "cat.fits[HDU 1]: header card 'TFIELDS' = 135674990 is outside the FITS standard's 0..999"))
+      << message;
+}
+
 // The same card in a gzip-compressed file: CFITSIO inflates it in memory and crashed alike (the
 // fuzz campaign's open finding); the scan reads it through zlib first.
 TEST(FitsHeaderGuard, AnUnquotedColumnNameInAGzipFileIsAnErrorNotACrash) {
