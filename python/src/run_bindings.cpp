@@ -1,11 +1,13 @@
 // stampede.run_fit: the `stampede fit` run over files (app::FitRun), from Python.
 #include <pybind11/functional.h>
+#include <pybind11/stl.h>
 #include <pybind11/pybind11.h>
 
 #include <exception>
 #include <string>
 
 #include "app/fit_run.hpp"
+#include "app/shard_merge.hpp"
 #include "options.hpp"
 
 namespace py = pybind11;
@@ -45,7 +47,7 @@ void bind_run(py::module_& m) {
       "run_fit",
       [](const std::string& input, const std::string& output, const std::string& catalog, const std::string& weight,
          const std::string& text_output, py::handle options, int threads, bool resume, bool overwrite,
-         py::object progress) {
+         py::object progress, py::object shard) {
         app::FitRunOptions a;
         a.input = input;
         a.output = output;
@@ -56,6 +58,11 @@ void bind_run(py::module_& m) {
         a.threads = threads;
         a.resume = resume;
         a.overwrite = overwrite;
+        if (!shard.is_none()) {
+          const auto pair = shard.cast<std::pair<int, int>>();  // (i, N)
+          a.shard = pair.first;
+          a.shards = pair.second;
+        }
         // The callbacks run on the pipeline's writer thread: they take the GIL, and a Python
         // exception in one is kept and raised when the run has ended (the run itself goes on).
         std::exception_ptr callback_error;
@@ -87,13 +94,36 @@ void bind_run(py::module_& m) {
       },
       py::arg("input"), py::arg("output") = "", py::arg("catalog") = "", py::arg("weight") = "",
       py::arg("text_output") = "", py::arg("options") = py::none(), py::arg("threads") = 0, py::arg("resume") = false,
-      py::arg("overwrite") = false, py::arg("progress") = py::none(), R"doc(
+      py::arg("overwrite") = false, py::arg("progress") = py::none(), py::arg("shard") = py::none(), R"doc(
 Runs `stampede fit` over files: `input` a grid of stamps (or, with `catalog`, the image to cut
 them from), `output` the FITS table ("" = none), `weight` an inverse-variance image. `options` as
 for Options; `progress(done, total, seconds)` is called about once a second. Warnings (e.g. an
-input that records another PSF) arrive as UserWarning. Returns the run summary as a dict
+input that records another PSF) arrive as UserWarning. `shard=(i, N)` fits shard i of N, as
+`stampede fit --shard i/N` (join them with merge_shards). Returns the run summary as a dict
 (objects, status counts, phase times, objects_per_second, report).
 )doc");
+
+  m.def(
+      "merge_shards",
+      [](const std::vector<std::string>& shards, const std::string& output, bool overwrite) {
+        app::ShardMergeOptions o;
+        o.shards = shards;
+        o.output = output;
+        o.overwrite = overwrite;
+        app::ShardMergeSummary s;
+        {
+          py::gil_scoped_release release;
+          s = app::merge_shards(o);
+        }
+        py::dict out;
+        out["shards"] = s.shards;
+        out["rows"] = s.rows;
+        out["seconds"] = s.seconds;
+        return out;
+      },
+      py::arg("shards"), py::arg("output"), py::arg("overwrite") = false,
+      "Joins the tables of run_fit(shard=(i, N)) or `stampede fit --shard` runs into the single run's table, as "
+      "`stampede merge`.");
 }
 
 }  // namespace stampede::python

@@ -24,6 +24,7 @@ from ._stampede import (  # noqa: F401
     fit_stamp,
     fit_stamps,
     fit_status_names,
+    merge_shards,
     option_help,
     read_image,
     read_results,
@@ -35,6 +36,6 @@ from ._stampede import (  # noqa: F401
 
 __all__ = [
     "CatalogError", "ConfigError", "Error", "FileError", "FitsError", "Fitter", "Options",
-    "fit_stamp", "fit_stamps", "fit_status_names", "option_help", "read_image", "read_results", "run_fit", "set_shear", "shear_metrics",
+    "fit_stamp", "fit_stamps", "fit_status_names", "merge_shards", "option_help", "read_image", "read_results", "run_fit", "set_shear", "shear_metrics",
     "simulate_great08",
 ]

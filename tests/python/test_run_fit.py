@@ -50,3 +50,17 @@ def test_bad_options_and_paths(tmp_path):
         stampede.run_fit(SET0, options={"rendrer": "exact"})
     with pytest.raises(stampede.FitsError, match="nowhere.fits"):
         stampede.run_fit(str(tmp_path / "nowhere.fits"), output=str(tmp_path / "o.fits"))
+
+
+def test_shards_merged_equal_the_whole_run(tmp_path):
+    opts = dict(MINI_PSF, renderer="exact")
+    whole = str(tmp_path / "whole.fits")
+    stampede.run_fit(SET0, output=whole, options=opts)
+    parts = [str(tmp_path / f"part{i}.fits") for i in range(3)]
+    for i, p in enumerate(parts):
+        assert stampede.run_fit(SET0, output=p, options=opts, shard=(i, 3))["objects"] in (133, 134)
+    merged = str(tmp_path / "merged.fits")
+    assert stampede.merge_shards(parts[::-1], merged)["rows"] == 400
+    assert columns_equal_bitwise(stampede.read_results(merged), stampede.read_results(whole)) == []
+    with pytest.raises(stampede.CatalogError, match="shard 1/3 is missing"):
+        stampede.merge_shards([parts[0], parts[2]], str(tmp_path / "m2.fits"))
