@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -20,7 +21,8 @@ using namespace stampede;
 constexpr const char* kUsage =
     "usage: stampede fit INPUT.fits -o OUT.fits [--config run.ini] [--set key=value ...]\n"
     "                    [--threads N] [--catalog CAT] [--weight W.fits] [--text OUT.txt]\n"
-    "                    [--shard I/N] [--resume] [--overwrite] [--quiet]\n";
+    "                    [--shard I/N] [--resume] [--overwrite] [--quiet]\n"
+    "       stampede fit --input-list LIST -o DIR [options]\n";
 
 void print_help() {
   std::printf(
@@ -42,6 +44,9 @@ void print_help() {
       "  --shard I/N   fit only shard I of N (0 <= I < N), a contiguous 1/N of the objects with their\n"
       "                whole-input ids, for job arrays; `stampede merge` joins the N tables into the\n"
       "                one table a single run writes\n"
+      "  --input-list L  fit every grid named in L (one path per line, # comments), each to\n"
+      "                DIR/<name>_fit.fits, -o naming the directory (created if missing); with\n"
+      "                --resume, complete outputs are skipped and interrupted ones resumed\n"
       "  --resume      continue an interrupted run (same input and options) from its last batch\n"
       "  --overwrite   replace existing outputs (default: refuse); an output is never an input\n"
       "  --quiet       no progress or summary on stderr\n"
@@ -56,8 +61,8 @@ void print_help() {
 
 }  // namespace
 
-int parse_fit_arguments(int argc, char** argv, app::FitRunOptions* run) {
-  app::FitRunOptions& r = *run;
+int parse_fit_arguments(int argc, char** argv, FitCommandLine* command) {
+  app::FitRunOptions& r = command->run;
   std::string config;
   std::vector<std::string> sets;
   for (int i = 1; i < argc; ++i) {
@@ -97,6 +102,8 @@ int parse_fit_arguments(int argc, char** argv, app::FitRunOptions* run) {
       if (slash == std::string::npos || used_i != slash || used_n != v.size() - slash - 1 || r.shards < 1 ||
           r.shards > 1000000 || r.shard < 0 || r.shard >= r.shards)
         throw std::invalid_argument("--shard " + tools::quoted_value(v) + ": must be I/N with 0 <= I < N <= 1000000");
+    } else if (s == "--input-list") {
+      command->input_list = value();
     } else if (s == "--resume") {
       r.resume = true;
     } else if (s == "--overwrite") {
@@ -111,7 +118,14 @@ int parse_fit_arguments(int argc, char** argv, app::FitRunOptions* run) {
       throw std::invalid_argument("unexpected argument " + tools::quoted_value(s) + " (one INPUT only)");
     }
   }
-  if (r.input.empty() || r.output.empty()) {
+  if (!command->input_list.empty()) {
+    if (!r.input.empty())
+      throw std::invalid_argument("--input-list " + tools::quoted_value(command->input_list) + " and INPUT " +
+                                  tools::quoted_value(r.input) + ": give one");
+    if (!r.catalog.empty() || !r.weight.empty() || !r.text_output.empty() || r.shards > 1)
+      throw std::invalid_argument("--input-list takes grids of stamps only (no --catalog, --weight, --text or --shard)");
+  }
+  if ((r.input.empty() && command->input_list.empty()) || r.output.empty()) {
     std::fputs(kUsage, stderr);
     return 2;
   }
@@ -132,7 +146,28 @@ int run_fit_with_reports(app::FitRunOptions& r) {
 }
 
 int run_fit_command(int argc, char** argv) {
-  app::FitRunOptions r;
-  if (const int exit_code = parse_fit_arguments(argc, argv, &r); exit_code >= 0) return exit_code;
+  FitCommandLine command;
+  if (const int exit_code = parse_fit_arguments(argc, argv, &command); exit_code >= 0) return exit_code;
+  if (command.input_list.empty()) return run_fit_with_reports(command.run);
+  for (const app::ListedInput& input : listed_inputs(command))
+    if (const int code = run_listed_input(command, input); code != 0) return code;
+  return 0;
+}
+
+std::vector<app::ListedInput> listed_inputs(const FitCommandLine& command) {
+  if (command.input_list.empty()) return {};
+  std::filesystem::create_directories(command.run.output);
+  return app::read_input_list(command.input_list, command.run.output);
+}
+
+int run_listed_input(const FitCommandLine& command, const app::ListedInput& input) {
+  app::FitRunOptions r = command.run;
+  r.input = input.input;
+  r.output = input.output;
+  if (r.resume && std::filesystem::exists(input.output)) {
+    if (!r.quiet) std::fprintf(stderr, "stampede fit: %s is complete, skipped\n", input.output.c_str());
+    return 0;
+  }
+  if (r.resume && !std::filesystem::exists(input.output + ".checkpoint")) r.resume = false;  // not started yet
   return run_fit_with_reports(r);
 }

@@ -7,9 +7,23 @@
 
 int run_fit_command(int argc, char** argv);
 
-// The command in two steps, for the MPI driver (tools/mpi_main.cpp), which runs the same command.
-// Parses the arguments into *run (ini loaded, --set applied); returns -1 to go on, else the exit
-// code (0 after --help or --help-config, 2 after a usage message). Throws for bad arguments.
-int parse_fit_arguments(int argc, char** argv, stampede::app::FitRunOptions* run);
-// Runs it with progress and the summary on stderr (unless --quiet); returns the exit code.
+#include <string>
+#include <vector>
+
+#include "app/input_list.hpp"
+
+// The command in steps, for the MPI driver (tools/mpi/mpi_main.cpp), which runs the same command.
+struct FitCommandLine {
+  stampede::app::FitRunOptions run;  // with --input-list: no input, and output the directory
+  std::string input_list;            // --input-list FILE, or ""
+};
+// Parses the arguments (ini loaded, --set applied); returns -1 to go on, else the exit code (0
+// after --help or --help-config, 2 after a usage message). Throws for bad arguments.
+int parse_fit_arguments(int argc, char** argv, FitCommandLine* command);
+// The list's inputs with their outputs (the output directory created); empty without a list.
+std::vector<stampede::app::ListedInput> listed_inputs(const FitCommandLine& command);
+// Runs one input with progress and the summary on stderr (unless --quiet); returns the exit code.
 int run_fit_with_reports(stampede::app::FitRunOptions& run);
+// Runs the list's input k: skipped when its output is complete and --resume is given, resumed when
+// it has a checkpoint, else fitted afresh.
+int run_listed_input(const FitCommandLine& command, const stampede::app::ListedInput& input);

@@ -131,6 +131,23 @@ TEST_F(FitCommand, KilledShardResumesAsItselfAndTheMergeEqualsTheSingleRun) {
   expect_tables_equal(path("full.fits"), path("merged.fits"));
 }
 
+TEST_F(FitCommand, AnInputListFitsEveryGridToItsOwnTable) {
+  const std::string nf0 = data("galsim-great08-mini/nf/set_0.fits"), nf1 = data("galsim-great08-mini/nf/set_1.fits");
+  std::ofstream(path("list.txt")) << nf0 << "\n# a comment\n" << nf1 << "\n";
+  const std::vector<std::string> opts = kGreat08Psf + std::vector<std::string>{"--set", "renderer=exact", "--set",
+                                                                               "minimizer_max_iterations=5", "--quiet"};
+  ASSERT_EQ(run(std::vector<std::string>{"--input-list", path("list.txt"), "-o", path("out")} + opts).exit_code, 0);
+  ASSERT_EQ(run(std::vector<std::string>{nf1, "-o", path("one.fits")} + opts).exit_code, 0);
+  expect_tables_equal(path("one.fits"), path("out/set_1_fit.fits"));
+  EXPECT_TRUE(fs::exists(path("out/set_0_fit.fits")));
+  const RunResult both = run(std::vector<std::string>{nf0, "--input-list", path("list.txt"), "-o", path("out")});
+  EXPECT_EQ(both.exit_code, 1);
+  EXPECT_NE(both.err.find("give one"), std::string::npos) << both.err;
+  const RunResult again = run(std::vector<std::string>{"--input-list", path("list.txt"), "-o", path("out")} + opts);
+  EXPECT_EQ(again.exit_code, 1);  // outputs exist: refused without --resume or --overwrite
+  EXPECT_NE(again.err.find("exists"), std::string::npos) << again.err;
+}
+
 TEST_F(FitCommand, ShardArgumentErrors) {
   for (const char* bad : {"2/2", "1", "-1/2", "1/0", "a/b", "1/2x"}) {
     const RunResult r = run({data("galsim-great08-mini/nf/set_0.fits"), "-o", path("x.fits"), "--shard", bad});

@@ -127,6 +127,45 @@ TEST_F(MpiDriver, AKilledWorkerRankThenResumeGivesTheSameTable) {
   expect_same_table(path("single.fits"), out);
 }
 
+TEST_F(MpiDriver, RanksTakingWholeFilesWriteEachFilesTable) {
+  // Three small sets (6 x 6 stamps), and a list naming them.
+  ASSERT_EQ(stampede::testing::finish(stampede::testing::spawn({"great08", "--out", path("sets"), "--sets", "3", "--grid",
+                                                                "6", "--snr", "20"},
+                                                               path("sim.txt"), "sim"),
+                                      path("sim.txt"))
+                .exit_code,
+            0);
+  std::ofstream(path("tiles.txt")) << path("sets/set_0.fits") << "\n" << path("sets/set_1.fits") << "\n"
+                                   << path("sets/set_0.fits.gz") << "  # the same name twice\n";
+  auto r = stampede::testing::finish(spawn_mpi(2, with({"--input-list", path("tiles.txt"), "-o", path("out")}, kOptions),
+                                               path("dup.txt")),
+                                     path("dup.txt"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("tiles.txt:3: "), std::string::npos) << r.err;  // refused before any fit
+  std::ofstream(path("tiles.txt")) << "# tonight\n" << path("sets/set_0.fits") << "\n" << path("sets/set_1.fits") << "\n"
+                                   << path("sets/set_2.fits") << "\n";
+  r = stampede::testing::finish(spawn_mpi(2, with({"--input-list", path("tiles.txt"), "-o", path("out")}, kOptions),
+                                          path("list.txt")),
+                                path("list.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (int k : {0, 1, 2}) {
+    const std::string single = path("single" + std::to_string(k) + ".fits");
+    const std::string input = path("sets/set_" + std::to_string(k) + ".fits");
+    ASSERT_EQ(stampede::testing::finish(stampede::testing::spawn(with({input, "-o", single}, kOptions), path("s.txt")),
+                                        path("s.txt"))
+                  .exit_code,
+              0);
+    expect_same_table(single, path("out/set_" + std::to_string(k) + "_fit.fits"));
+  }
+  // --resume skips complete outputs.
+  r = stampede::testing::finish(
+      spawn_mpi(2, with({"--input-list", path("tiles.txt"), "-o", path("out"), "--resume"}, {"--threads", "1"}),
+                path("again.txt")),
+      path("again.txt"));
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("set_1_fit.fits is complete, skipped"), std::string::npos) << r.err;
+}
+
 TEST_F(MpiDriver, AnErrorOnRankZeroEndsTheJob) {
   const auto r = stampede::testing::finish(
       spawn_mpi(2, with({path("missing.fits"), "-o", path("x.fits")}, kOptions), path("err.txt")), path("err.txt"));

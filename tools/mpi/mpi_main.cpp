@@ -9,21 +9,26 @@
 #include <cstring>
 #include <exception>
 #include <string>
+#include <stdexcept>
 #include <thread>
 
 #include "tools/fit_command.hpp"
+#include "tools/mpi/file_dispatch.hpp"
 #include "tools/mpi/remote_fitting.hpp"
 
 namespace {
 
 constexpr const char* kUsage =
     "usage: mpirun -n R stampede-mpi fit INPUT.fits -o OUT.fits [--threads T] [stampede fit options]\n"
+    "       mpirun -n R stampede-mpi fit --input-list LIST -o DIR [--threads T] [options]\n"
     "\n"
     "Runs `stampede fit` (see `stampede fit --help`) over R MPI ranks. Rank 0 reads the input, writes\n"
     "the one output table and fits on T threads; every other rank fits the batches it is handed, a\n"
     "batch at a time to whichever rank is free, on T threads. The table equals a single process's\n"
     "(every column but time_us); --resume after a killed job (any rank) finishes it without refitting\n"
-    "committed objects. T defaults to the node's cores divided by the ranks on the node.\n";
+    "committed objects. With --input-list, ranks take whole files instead, one at a time to whichever\n"
+    "rank is free, each written to DIR/<name>_fit.fits. T defaults to the node's cores divided by the\n"
+    "ranks on the node.\n";
 
 // Ranks sharing this node (for the default thread count).
 int ranks_on_this_node() {
@@ -40,10 +45,11 @@ int run(int argc, char** argv, int rank, int ranks) {
     if (rank == 0) std::fputs(kUsage, argc >= 2 && !std::strcmp(argv[1], "--help") ? stdout : stderr);
     return argc >= 2 && !std::strcmp(argv[1], "--help") ? 0 : 2;
   }
-  stampede::app::FitRunOptions options;
+  FitCommandLine command;
+  stampede::app::FitRunOptions& options = command.run;
   int exit_code = -1;
   try {
-    exit_code = parse_fit_arguments(argc - 1, argv + 1, &options);  // every rank: the same arguments
+    exit_code = parse_fit_arguments(argc - 1, argv + 1, &command);  // every rank: the same arguments
   } catch (const std::exception& e) {
     if (rank == 0) std::fprintf(stderr, "stampede-mpi fit: error: %s\n", e.what());
     return 1;
@@ -55,6 +61,25 @@ int run(int argc, char** argv, int rank, int ranks) {
   // Rank 0's pipeline keeps a stage per slot in flight, most of them waiting on MPI, not computing.
   tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism,
                                   static_cast<std::size_t>(ranks) * threads + 1);
+  if (!command.input_list.empty()) {  // whole files to ranks
+    try {
+      options.threads = threads;
+      const auto inputs = listed_inputs(command);  // every rank reads the list (a shared file system)
+      std::thread server;
+      if (rank == 0)
+        server = std::thread([&] { stampede::mpi_driver::serve_file_indices(ranks, static_cast<int>(inputs.size())); });
+      for (int k; (k = stampede::mpi_driver::next_file_index()) >= 0;)
+        if (const int code = run_listed_input(command, inputs[static_cast<std::size_t>(k)]); code != 0)
+          throw std::runtime_error("fitting '" + inputs[static_cast<std::size_t>(k)].input + "' failed");
+      if (server.joinable()) server.join();
+      return 0;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "stampede-mpi fit: error (rank %d): %s\n", rank, e.what());
+      std::fflush(stderr);
+      MPI_Abort(MPI_COMM_WORLD, 1);
+      return 1;
+    }
+  }
   try {
     if (rank != 0) {
       stampede::mpi_driver::run_worker(threads);
