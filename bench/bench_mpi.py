@@ -1,5 +1,5 @@
 """MPI-driver benchmark (issue 19): the whole `stampede-mpi fit` job on 1 and 2 ranks x 1 thread
-beside the plain `stampede fit` on 1 thread, over one simulated S/N 20 set (32 x 32 stamps of 39
+beside the plain `stampede fit` on 1 thread, over one simulated S/N 20 set (40 x 40 stamps of 39
 px, exact renderer), repetitions interleaved at random; written as Google Benchmark JSON (median
 aggregates) for bench/summarize.py. The driver's overhead per object is the 1-rank job's time per
 object beyond the plain command's.
@@ -26,10 +26,10 @@ def main():
     mpi = os.path.join(build, "tools", "stampede-mpi")
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     with tempfile.TemporaryDirectory(prefix="stampede_bench_mpi_") as tmp:
-        subprocess.run([cli, "sim", "great08", "--out", tmp, "--sets", "1", "--grid", "32", "--snr", "20"],
+        subprocess.run([cli, "sim", "great08", "--out", tmp, "--sets", "1", "--grid", "40", "--snr", "20"],
                        check=True, capture_output=True)
         grid = os.path.join(tmp, "set_0.fits")
-        n = 32 * 32
+        n = 40 * 40
         variants = {
             "BM_FitCommand/threads:1": [cli, "fit", grid, "-o", os.path.join(tmp, "c.fits")] + OPTIONS,
             "BM_MpiFit/ranks:1/threads:1": ["mpirun", "-n", "1", mpi, "fit", grid, "-o", os.path.join(tmp, "m1.fits")]
