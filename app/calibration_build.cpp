@@ -135,8 +135,10 @@ std::string CalibrationBuildSummary::FullReport() const {
 CalibrationBuild::CalibrationBuild(CalibrationBuildOptions options) : options_(std::move(options)) {
   const io::RunConfig& cfg = options_.config;
   CalibrationGridOptions& g = options_.grid;
-  const io::RunOutput output{"-o", options_.output, {options_.output + ".partial", options_.output + ".tmp"}};
+  const io::RunOutput output{"-o", options_.output,
+                             {options_.output + ".partial", options_.output + ".tmp", io::OutputLock::path_for(options_.output)}};
   io::check_outputs(std::span(&output, 1), {}, options_.overwrite || options_.resume);
+  lock_ = io::OutputLock::acquire(options_.output);
   io::validate(cfg);
   if (cfg.psf_from_catalogue || cfg.psf_kind == PsfKind::kImage)
     throw io::ConfigError("option 'psf_input' = '" + io::psf_input_value(cfg) +

@@ -12,6 +12,7 @@
 #include "app/psf_setup.hpp"
 #include "engine/calibration/calibration_grid.hpp"
 #include "engine/calibration/noise_bias.hpp"
+#include "io/output_lock.hpp"
 #include "io/run_config.hpp"
 
 namespace stampede::app {
@@ -72,6 +73,7 @@ class CalibrationBuild {
 
  private:
   CalibrationBuildOptions options_;
+  io::OutputLock lock_;  // held for the build's life: a second build on the output is refused
   app::SharedPsf psf_;
   std::unique_ptr<CalibrationGrid> grid_;
   std::unique_ptr<BuildCheckpoint> checkpoint_;
