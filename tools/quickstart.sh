@@ -11,6 +11,7 @@ DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recomme
   libgtest-dev googletest libbenchmark-dev clang libclang-rt-14-dev \
   pybind11-dev python3-dev python3-numpy python3-pytest libopenmpi-dev openmpi-bin >/dev/null
 # Debian's interpreter, the one python3-numpy serves (a pyenv or venv python3 earlier on PATH has not).
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE=/usr/bin/python3 >/dev/null
+# Benchmarks are built by bench/run in a build of their own (build-bench): not needed here.
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE=/usr/bin/python3 -DSTAMPEDE_BUILD_BENCH=OFF >/dev/null
 cmake --build build -j"$(nproc)"
 ./build/tools/stampede demo
