@@ -104,6 +104,22 @@ TEST(FitsHeaderGuard, TFieldsBeyondTheStandardsLimitIsAnErrorNotAnAllocation) {
       << message;
 }
 
+// Found by the fuzz campaign (F7, fuzz_stamp_grid): a 4-byte "gzip" file whose trailer claims
+// 3.7 GB uncompressed made CFITSIO allocate that buffer before inflating anything.
+TEST(FitsHeaderGuard, AGzipSizeClaimBeyondDeflatesRatioIsAnErrorNotAnAllocation) {
+  const stampede::testing::ScratchDir dir("stampede_header_guard_");
+  const std::string tiny = dir.path("tiny.fits.gz");
+  std::ofstream(tiny, std::ios::binary) << std::string("\x1f\x8b\x0f\xe0", 4);
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { FitsFile::open_read(tiny); }),
+                       "tiny.fits.gz: a gzip file of 4 bytes is truncated"));
+  const std::string liar = dir.path("liar.fits.gz");
+  std::string bytes = std::string("\x1f\x8b\x08\x00", 4) + std::string(60, '\0');
+  bytes += std::string("\x00\x00\x00\x40", 4);  // ISIZE = 2^30 from 68 bytes
+  std::ofstream(liar, std::ios::binary) << bytes;
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { FitsFile::open_read(liar); }),
+                       "liar.fits.gz: gzip trailer claims 1073741824 bytes uncompressed from 68"));
+}
+
 // The same card in a gzip-compressed file: CFITSIO inflates it in memory and crashed alike (the
 // fuzz campaign's open finding); the scan reads it through zlib first.
 TEST(FitsHeaderGuard, AnUnquotedColumnNameInAGzipFileIsAnErrorNotACrash) {
