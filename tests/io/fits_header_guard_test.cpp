@@ -120,6 +120,32 @@ TEST(FitsHeaderGuard, AGzipSizeClaimBeyondDeflatesRatioIsAnErrorNotAnAllocation)
                        "liar.fits.gz: gzip trailer claims 1073741824 bytes uncompressed from 68"));
 }
 
+// Found by the fuzz campaign (F8, fuzz_psf_image; undefined behaviour under UBSan): a BITPIX of
+// 2^60 - 1 overflowed the scan's size of the data. Now the scan leaves a non-standard BITPIX to
+// CFITSIO, which refuses it: an error naming the file.
+TEST(FitsHeaderGuard, ANonStandardBitpixIsAnErrorWithoutOverflow) {
+  const stampede::testing::ScratchDir dir("stampede_header_guard_");
+  const std::string path = dir.path("img.fits");
+  {
+    FitsFile f = FitsFile::create(path, true);
+    f.write_image(4, 4, std::vector<double>(16, 1.0));
+  }
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::size_t at = bytes.find("BITPIX  = ");
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at, 80, ("BITPIX  =  1152921504606846975" + std::string(80, ' ')).substr(0, 80));
+  std::ofstream(path, std::ios::binary) << bytes;
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] {
+                         FitsFile f = FitsFile::open_read(path);
+                         f.read_image();
+                       }),
+                       "img.fits"));
+}
+
 // The same card in a gzip-compressed file: CFITSIO inflates it in memory and crashed alike (the
 // fuzz campaign's open finding); the scan reads it through zlib first.
 TEST(FitsHeaderGuard, AnUnquotedColumnNameInAGzipFileIsAnErrorNotACrash) {
