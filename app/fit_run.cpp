@@ -2,6 +2,7 @@
 #include "app/fit_run.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -122,6 +123,18 @@ std::vector<io::RunInput> inputs_of(const FitRunOptions& a, const io::RunConfig&
 }
 
 }  // namespace
+
+std::optional<std::pair<int, int>> parse_shard(const std::string& text) {
+  const std::size_t slash = text.find('/');
+  if (slash == std::string::npos) return std::nullopt;
+  int i = 0, n = 0;
+  const char* end = text.data() + text.size();
+  const auto a = std::from_chars(text.data(), text.data() + slash, i);
+  const auto b = std::from_chars(text.data() + slash + 1, end, n);
+  if (a.ec != std::errc() || a.ptr != text.data() + slash || b.ec != std::errc() || b.ptr != end) return std::nullopt;
+  if (n < 1 || n > 1000000 || i < 0 || i >= n) return std::nullopt;
+  return std::pair{i, n};
+}
 
 std::string FitRunProgress::Line() const {
   char buf[160];

@@ -14,6 +14,7 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <utility>
@@ -28,6 +29,9 @@ namespace stampede::app {
 // The header keys of a shard's table: "i/N", and the whole input's object count.
 inline constexpr const char* kShardKey = "SHARD";
 inline constexpr const char* kShardTotalKey = "SHARDTOT";
+// "I/N" (the --shard argument and the SHARD key) as {I, N}; nullopt unless it is exactly two
+// integers with 0 <= I < N <= 1000000.
+std::optional<std::pair<int, int>> parse_shard(const std::string& text);
 
 struct FitRunProgress {
   long long objects_done = 0;   // committed, including the resumed ones

@@ -36,6 +36,7 @@ struct Shard {
   int index = 0, count = 0;
   long long total = 0;  // the whole input's objects
   long long rows = 0;
+  io::PositionColumns positions = io::PositionColumns::kGrid;
   std::vector<std::pair<std::string, std::string>> header;  // run_keys() present, with their values
 };
 
@@ -49,19 +50,11 @@ Shard read_shard(const std::string& path) {
   if (!shard)
     throw io::CatalogError(path + ": no " + std::string(kShardKey) +
                            " key: not the table of a `stampede fit --shard i/N` run");
-  const std::size_t slash = shard->find('/');
-  try {
-    if (slash == std::string::npos) throw std::invalid_argument("no '/'");
-    std::size_t used = 0;
-    s.index = std::stoi(shard->substr(0, slash), &used);
-    if (used != slash) throw std::invalid_argument("junk");
-    s.count = std::stoi(shard->substr(slash + 1), &used);
-    if (used != shard->size() - slash - 1) throw std::invalid_argument("junk");
-  } catch (const std::exception&) {
-    throw io::CatalogError(path + ": " + kShardKey + " = '" + *shard + "' is not i/N");
-  }
-  if (s.count < 1 || s.index < 0 || s.index >= s.count)
-    throw io::CatalogError(path + ": " + kShardKey + " = '" + *shard + "' is not i/N with 0 <= i < N");
+  const auto parsed = parse_shard(*shard);
+  if (!parsed) throw io::CatalogError(path + ": " + kShardKey + " = '" + *shard + "' is not i/N with 0 <= i < N");
+  s.index = parsed->first;
+  s.count = parsed->second;
+  s.positions = r.positions();
   s.total = f.key_long(kShardTotalKey);
   for (const std::string& k : run_keys())
     if (auto v = f.read_key_string(k)) s.header.emplace_back(k, *v);
@@ -121,10 +114,7 @@ ShardMergeSummary merge_shards(const ShardMergeOptions& o) {
 
   io::CatalogWriterOptions wo;
   wo.path = o.output;
-  {
-    io::CatalogReader first = io::CatalogReader::open(shards[*by_index[0]].path);
-    wo.positions = first.positions();
-  }
+  wo.positions = shards[*by_index[0]].positions;
   wo.header = shards.front().header;  // the run's keys, as a single process writes them
   for (const io::OptionInfo& info : io::run_config_options())
     if (info.type != io::HeaderValueType::kText) wo.header_types[info.name] = info.type;
@@ -136,7 +126,7 @@ ShardMergeSummary merge_shards(const ShardMergeOptions& o) {
   try {
     for (const auto& slot : by_index) {
       io::CatalogReader r = io::CatalogReader::open(shards[*slot].path);
-      if (r.positions() != wo.positions)
+      if (shards[*slot].positions != wo.positions)
         throw io::CatalogError("merge: " + shards[*slot].path + " has other position columns than the first shard");
       for (long long first = 0; first < r.rows(); first += kChunkRows) {
         const auto rows = r.records(first, std::min(kChunkRows, r.rows() - first));

@@ -90,18 +90,10 @@ int parse_fit_arguments(int argc, char** argv, FitCommandLine* command) {
       r.text_output = value();
     } else if (s == "--shard") {
       const std::string v = value();
-      const std::size_t slash = v.find('/');
-      std::size_t used_i = 0, used_n = 0;
-      try {
-        if (slash == std::string::npos) throw std::invalid_argument("no '/'");
-        r.shard = std::stoi(v.substr(0, slash), &used_i);
-        r.shards = std::stoi(v.substr(slash + 1), &used_n);
-      } catch (const std::exception&) {
-        used_i = 0;
-      }
-      if (slash == std::string::npos || used_i != slash || used_n != v.size() - slash - 1 || r.shards < 1 ||
-          r.shards > 1000000 || r.shard < 0 || r.shard >= r.shards)
-        throw std::invalid_argument("--shard " + tools::quoted_value(v) + ": must be I/N with 0 <= I < N <= 1000000");
+      const auto shard = app::parse_shard(v);
+      if (!shard) throw std::invalid_argument("--shard " + tools::quoted_value(v) + ": must be I/N with 0 <= I < N <= 1000000");
+      r.shard = shard->first;
+      r.shards = shard->second;
     } else if (s == "--input-list") {
       command->input_list = value();
     } else if (s == "--resume") {

@@ -8,12 +8,8 @@ namespace py = pybind11;
 namespace stampede::python {
 
 DoubleArray as_float64(py::handle obj, std::initializer_list<int> ndims, const char* what) {
-  py::module_ np = py::module_::import("numpy");
   py::array a = py::array::ensure(obj);
-  if (!a) {
-    PyErr_Clear();
-    a = np.attr("asarray")(obj);  // raises for what numpy cannot take
-  }
+  if (!a) a = py::module_::import("numpy").attr("asarray")(obj);  // raises for what numpy cannot take
   const char kind = a.dtype().kind();
   if (kind != 'f') {
     throw py::type_error(std::string(what) + " must hold floating-point values, not dtype " +

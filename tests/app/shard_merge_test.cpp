@@ -17,11 +17,13 @@
 #include "io/durable_file.hpp"
 #include "io/fits_file.hpp"
 #include "support/error_assertions.hpp"
+#include "support/fit_output.hpp"
 #include "support/scratch_dir.hpp"
 
 namespace {
 
 using namespace stampede;
+using stampede::testing::expect_tables_equal;
 using stampede::testing::Contains;
 using stampede::testing::error_of;
 
@@ -64,18 +66,6 @@ class ShardMergeTest : public ::testing::Test {
   std::string input = scratch.path("grid.fits");
 };
 
-// Every column of two tables but time_us, bitwise.
-void expect_same_table(const std::string& a, const std::string& b) {
-  io::CatalogReader ra = io::CatalogReader::open(a), rb = io::CatalogReader::open(b);
-  ASSERT_EQ(ra.rows(), rb.rows());
-  for (const io::ResultColumn& c : io::result_columns(io::PositionColumns::kGrid)) {
-    if (c.field == io::ResultField::kTimeUs) continue;
-    const std::vector<double> x = ra.column(c.field), y = rb.column(c.field);
-    ASSERT_EQ(x.size(), y.size());
-    EXPECT_EQ(std::memcmp(x.data(), y.data(), x.size() * sizeof(double)), 0) << c.name;
-  }
-}
-
 TEST_F(ShardMergeTest, ShardsJoinedAreTheSingleRunsTable) {
   const std::string whole = scratch.path("whole.fits");
   app::FitRun(options(whole, 0, 1)).run();
@@ -88,7 +78,7 @@ TEST_F(ShardMergeTest, ShardsJoinedAreTheSingleRunsTable) {
     const app::ShardMergeSummary s = app::merge_shards(m);
     EXPECT_EQ(s.shards, n);
     EXPECT_EQ(s.rows, kCount);
-    expect_same_table(m.output, whole);
+    expect_tables_equal(m.output, whole);
     io::FitsFile f = io::FitsFile::open_read(m.output);
     f.move_to("RESULTS");
     io::FitsFile g = io::FitsFile::open_read(whole);

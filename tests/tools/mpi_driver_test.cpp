@@ -18,11 +18,14 @@
 
 #include "io/catalog_reader.hpp"
 #include "support/command_runner.hpp"
+#include "support/fit_output.hpp"
 #include "support/scratch_dir.hpp"
 
 namespace {
 
 using namespace stampede;
+using stampede::testing::expect_tables_equal;
+using stampede::testing::operator+;
 namespace fs = std::filesystem;
 
 const std::string kInput = std::string(STAMPEDE_DATA_DIR) + "/galsim-great08-mini/snr40/set_0.fits";
@@ -50,21 +53,6 @@ pid_t spawn_mpi(int ranks, std::vector<std::string> args, const std::string& err
   return pid;
 }
 
-std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& b) {
-  a.insert(a.end(), b.begin(), b.end());
-  return a;
-}
-
-void expect_same_table(const std::string& a, const std::string& b) {
-  io::CatalogReader ra = io::CatalogReader::open(a), rb = io::CatalogReader::open(b);
-  ASSERT_EQ(ra.rows(), rb.rows());
-  for (const io::ResultColumn& c : io::result_columns(io::PositionColumns::kGrid)) {
-    if (c.field == io::ResultField::kTimeUs) continue;
-    const std::vector<double> x = ra.column(c.field), y = rb.column(c.field);
-    EXPECT_EQ(std::memcmp(x.data(), y.data(), x.size() * sizeof(double)), 0) << c.name;
-  }
-}
-
 // The pid of the rank `rank` process of a job whose command line names `marker` (a unique path).
 pid_t rank_pid(const std::string& marker, int rank) {
   for (const auto& entry : fs::directory_iterator("/proc")) {
@@ -90,25 +78,25 @@ class MpiDriver : public ::testing::Test {
 };
 
 TEST_F(MpiDriver, TwoRanksWriteTheSingleProcessTable) {
-  ASSERT_EQ(stampede::testing::finish(stampede::testing::spawn(with({kInput, "-o", path("single.fits")}, kOptions),
+  ASSERT_EQ(stampede::testing::finish(stampede::testing::spawn((std::vector<std::string>{kInput, "-o", path("single.fits")} + kOptions),
                                                                path("single.txt")),
                                       path("single.txt"))
                 .exit_code,
             0);
-  const auto r = stampede::testing::finish(spawn_mpi(2, with({kInput, "-o", path("mpi.fits")}, kOptions), path("mpi.txt")),
+  const auto r = stampede::testing::finish(spawn_mpi(2, (std::vector<std::string>{kInput, "-o", path("mpi.fits")} + kOptions), path("mpi.txt")),
                                            path("mpi.txt"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  expect_same_table(path("single.fits"), path("mpi.fits"));
+  expect_tables_equal(path("single.fits"), path("mpi.fits"));
 }
 
 TEST_F(MpiDriver, AKilledWorkerRankThenResumeGivesTheSameTable) {
-  ASSERT_EQ(stampede::testing::finish(stampede::testing::spawn(with({kInput, "-o", path("single.fits")}, kOptions),
+  ASSERT_EQ(stampede::testing::finish(stampede::testing::spawn((std::vector<std::string>{kInput, "-o", path("single.fits")} + kOptions),
                                                                path("single.txt")),
                                       path("single.txt"))
                 .exit_code,
             0);
   const std::string out = path("killed.fits");
-  const pid_t job = spawn_mpi(2, with({kInput, "-o", out}, kOptions), path("killed.txt"));
+  const pid_t job = spawn_mpi(2, (std::vector<std::string>{kInput, "-o", out} + kOptions), path("killed.txt"));
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
   while (!fs::exists(out + ".checkpoint") && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -120,11 +108,11 @@ TEST_F(MpiDriver, AKilledWorkerRankThenResumeGivesTheSameTable) {
   ASSERT_NE(killed.exit_code, 0) << "the job finished before its worker could be killed";
   ASSERT_FALSE(fs::exists(out));
   ASSERT_TRUE(fs::exists(out + ".checkpoint"));
-  const auto resumed = stampede::testing::finish(spawn_mpi(2, with({kInput, "-o", out, "--resume"}, kOptions),
+  const auto resumed = stampede::testing::finish(spawn_mpi(2, (std::vector<std::string>{kInput, "-o", out, "--resume"} + kOptions),
                                                            path("resumed.txt")),
                                                  path("resumed.txt"));
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
-  expect_same_table(path("single.fits"), out);
+  expect_tables_equal(path("single.fits"), out);
 }
 
 TEST_F(MpiDriver, RanksTakingWholeFilesWriteEachFilesTable) {
@@ -137,29 +125,29 @@ TEST_F(MpiDriver, RanksTakingWholeFilesWriteEachFilesTable) {
             0);
   std::ofstream(path("tiles.txt")) << path("sets/set_0.fits") << "\n" << path("sets/set_1.fits") << "\n"
                                    << path("sets/set_0.fits.gz") << "  # the same name twice\n";
-  auto r = stampede::testing::finish(spawn_mpi(2, with({"--input-list", path("tiles.txt"), "-o", path("out")}, kOptions),
+  auto r = stampede::testing::finish(spawn_mpi(2, (std::vector<std::string>{"--input-list", path("tiles.txt"), "-o", path("out")} + kOptions),
                                                path("dup.txt")),
                                      path("dup.txt"));
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("tiles.txt:3: "), std::string::npos) << r.err;  // refused before any fit
   std::ofstream(path("tiles.txt")) << "# tonight\n" << path("sets/set_0.fits") << "\n" << path("sets/set_1.fits") << "\n"
                                    << path("sets/set_2.fits") << "\n";
-  r = stampede::testing::finish(spawn_mpi(2, with({"--input-list", path("tiles.txt"), "-o", path("out")}, kOptions),
+  r = stampede::testing::finish(spawn_mpi(2, (std::vector<std::string>{"--input-list", path("tiles.txt"), "-o", path("out")} + kOptions),
                                           path("list.txt")),
                                 path("list.txt"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   for (int k : {0, 1, 2}) {
     const std::string single = path("single" + std::to_string(k) + ".fits");
     const std::string input = path("sets/set_" + std::to_string(k) + ".fits");
-    ASSERT_EQ(stampede::testing::finish(stampede::testing::spawn(with({input, "-o", single}, kOptions), path("s.txt")),
+    ASSERT_EQ(stampede::testing::finish(stampede::testing::spawn((std::vector<std::string>{input, "-o", single} + kOptions), path("s.txt")),
                                         path("s.txt"))
                   .exit_code,
               0);
-    expect_same_table(single, path("out/set_" + std::to_string(k) + "_fit.fits"));
+    expect_tables_equal(single, path("out/set_" + std::to_string(k) + "_fit.fits"));
   }
   // --resume skips complete outputs.
   r = stampede::testing::finish(
-      spawn_mpi(2, with({"--input-list", path("tiles.txt"), "-o", path("out"), "--resume"}, {"--threads", "1"}),
+      spawn_mpi(2, (std::vector<std::string>{"--input-list", path("tiles.txt"), "-o", path("out"), "--resume"} + std::vector<std::string>{"--threads", "1"}),
                 path("again.txt")),
       path("again.txt"));
   EXPECT_EQ(r.exit_code, 0) << r.err;
@@ -168,7 +156,7 @@ TEST_F(MpiDriver, RanksTakingWholeFilesWriteEachFilesTable) {
 
 TEST_F(MpiDriver, AnErrorOnRankZeroEndsTheJob) {
   const auto r = stampede::testing::finish(
-      spawn_mpi(2, with({path("missing.fits"), "-o", path("x.fits")}, kOptions), path("err.txt")), path("err.txt"));
+      spawn_mpi(2, (std::vector<std::string>{path("missing.fits"), "-o", path("x.fits")} + kOptions), path("err.txt")), path("err.txt"));
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("missing.fits"), std::string::npos) << r.err;
 }

@@ -3,9 +3,8 @@
 
 #include <mpi.h>
 
-#include <chrono>
-#include <stdexcept>
-#include <thread>
+#include "tools/mpi/idle_wait.hpp"
+
 
 namespace stampede::mpi_driver {
 
@@ -13,15 +12,6 @@ namespace {
 
 constexpr int kRequestTag = 7;
 constexpr int kReplyTag = 8;
-
-// As remote_fitting's: OpenMPI's blocking calls spin, and the node's cores are fitting.
-void wait_idle(MPI_Request* request, MPI_Status* status) {
-  for (int done = 0;;) {
-    if (MPI_Test(request, &done, status) != MPI_SUCCESS) throw std::runtime_error("MPI: file request failed");
-    if (done) return;
-    std::this_thread::sleep_for(std::chrono::microseconds(500));
-  }
-}
 
 }  // namespace
 
@@ -32,7 +22,7 @@ void serve_file_indices(int ranks, int files) {
     MPI_Request request;
     MPI_Status status;
     MPI_Irecv(&dummy, 1, MPI_INT, MPI_ANY_SOURCE, kRequestTag, MPI_COMM_WORLD, &request);
-    wait_idle(&request, &status);
+    wait_idle(&request, &status, "file request");
     int reply = next < files ? next++ : -1;
     if (reply < 0) ++finished;
     MPI_Send(&reply, 1, MPI_INT, status.MPI_SOURCE, kReplyTag, MPI_COMM_WORLD);
@@ -44,7 +34,7 @@ int next_file_index() {
   MPI_Send(&dummy, 1, MPI_INT, 0, kRequestTag, MPI_COMM_WORLD);
   MPI_Request request;
   MPI_Irecv(&index, 1, MPI_INT, 0, kReplyTag, MPI_COMM_WORLD, &request);
-  wait_idle(&request, MPI_STATUS_IGNORE);
+  wait_idle(&request, MPI_STATUS_IGNORE, "file reply");
   return index;
 }
 

@@ -20,6 +20,7 @@
 #include "engine/render/psf_cache.hpp"
 #include "io/run_config.hpp"
 #include "tools/mpi/batch_messages.hpp"
+#include "tools/mpi/idle_wait.hpp"
 
 namespace stampede::mpi_driver {
 
@@ -64,17 +65,6 @@ class SlotPool {
 
 void check(int rc, const char* what) {
   if (rc != MPI_SUCCESS) throw std::runtime_error(std::string("MPI: ") + what + " failed");
-}
-
-// Waits for a request without spinning: OpenMPI's blocking calls busy-poll, which on a node whose
-// cores all fit would take a core from the fits for every thread that waits. A batch takes ~0.1-1 s,
-// so checking every 1 ms costs at most ~0.5 % of latency per batch and no core.
-void wait_idle(MPI_Request* request, MPI_Status* status, const char* what) {
-  for (int done = 0;;) {
-    check(MPI_Test(request, &done, status), what);
-    if (done) return;
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
 }
 
 // A pipeline thread's fitter on rank 0: fits the batch in the first free slot, here or remotely.
