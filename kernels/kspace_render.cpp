@@ -3,6 +3,8 @@
 #include "kernels/kspace_render.hpp"
 
 #include <algorithm>
+#include <bit>
+#include <cstdint>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -12,71 +14,89 @@
 
 namespace stampede::kernels {
 
+namespace {
+
+constexpr std::uint64_t kExponentBits = 0x7FF0000000000000ULL;
+constexpr std::uint64_t kMantissaBits = 0x000FFFFFFFFFFFFFULL;
+constexpr std::uint64_t kOneBits = 0x3FF0000000000000ULL;
+
+// 2^e as a double (e within the normal range).
+double power_of_two(int e) { return std::ldexp(1.0, e); }
+
+}  // namespace
+
 SersicKTable::SersicKTable(const LogGrid& grid, const std::vector<double>& values) {
-  constexpr int kPoints = kCoefficients;
   const int count = static_cast<int>(values.size());
-  if (count < kPoints || count != grid.count) throw std::invalid_argument("SersicKTable: values do not match the grid");
-  log_q_min = std::log(grid.q_min);
-  inv_step = grid.nodes_per_decade / std::numbers::ln10;
-  intervals = count - 1;
-  w_min = grid.q_min * grid.q_min;
-  c2 = (1 - values[0]) / w_min;
+  if (count < kCoefficients || count != grid.count)
+    throw std::invalid_argument("SersicKTable: values do not match the grid");
+  const LogTable reference(grid, values);
   q_max_ = grid.node(count - 1);
-  w_max = q_max_ * q_max_;
-  log_q_max = std::log(q_max_);
-  // The tail of LogTable: the power law through the last two nodes, or 0.
+  const double w_min = grid.q_min * grid.q_min;
+  c2 = (1 - values[0]) / w_min;  // LogTable's series below q_min
+  // Whole octaves of w from the one holding q_min^2 to the last one below q_max^2.
+  const int e_lo = std::ilogb(w_min), e_hi = std::ilogb(q_max_ * q_max_);
+  if (e_hi <= e_lo) throw std::invalid_argument("SersicKTable: the grid spans less than an octave of q^2");
+  w_lo = power_of_two(e_lo);
+  w_hi = power_of_two(e_hi);
+  w_last = std::nextafter(w_hi, 0.0);
+  log_w_hi = std::log(w_hi);
+  intervals = (e_hi - e_lo) * kSubdivisions;
+  index_base = static_cast<std::int64_t>(std::bit_cast<std::uint64_t>(w_lo) >> kIndexShift);
+  coefficients.assign(static_cast<std::size_t>(intervals) * kStride, 0.0);
+  // Per interval: the reference at six Chebyshev points of u, Newton's divided differences, then
+  // the monomial coefficients in u (degree 5 on [0, 1]: well conditioned).
+  constexpr int kN = kCoefficients;
+  double nodes[kN];
+  for (int m = 0; m < kN; ++m) nodes[m] = 0.5 - 0.5 * std::cos(std::numbers::pi * (2 * m + 1) / (2 * kN));
+  for (int i = 0; i < intervals; ++i) {
+    const int e = e_lo + i / kSubdivisions, j = i % kSubdivisions;
+    const double w0 = power_of_two(e) * (1.0 + static_cast<double>(j) / kSubdivisions);
+    const double width = power_of_two(e) / kSubdivisions;
+    double dd[kN];
+    for (int m = 0; m < kN; ++m) dd[m] = reference(std::sqrt(w0 + nodes[m] * width));
+    for (int level = 1; level < kN; ++level)
+      for (int m = kN - 1; m >= level; --m) dd[m] = (dd[m] - dd[m - 1]) / (nodes[m] - nodes[m - level]);
+    // Newton form sum_m dd[m] prod_{l < m} (u - nodes[l]) expanded by Horner from the top.
+    double poly[kN] = {};
+    poly[0] = dd[kN - 1];
+    for (int m = kN - 2; m >= 0; --m) {
+      // poly = poly * (u - nodes[m]) + dd[m]
+      for (int p = kN - 1; p >= 1; --p) poly[p] = poly[p - 1] - nodes[m] * poly[p];
+      poly[0] = -nodes[m] * poly[0] + dd[m];
+    }
+    for (int p = 0; p < kN; ++p) coefficients[static_cast<std::size_t>(i) * kStride + p] = poly[p];
+  }
+  // The tail: LogTable's power law (through the last two nodes), anchored at the table's end.
   const double last = values[count - 1], before = values[count - 2];
   if (last != 0 && before != 0 && (last > 0) == (before > 0)) {
-    tail_value = last;
-    tail_slope = std::log(last / before) * inv_step;
-  }
-  for (auto& c : coefficients) c.assign(static_cast<std::size_t>(intervals), 0.0);
-  // Interval i, t in [i, i + 1): LogTable's window of nodes st .. st + 5 (st = clamp(i - 2)), its
-  // Lagrange interpolant expanded in u = t - i (s = u + d, d = i - st) into monomials.
-  constexpr double kInvDenominator[6] = {-1.0 / 120, 1.0 / 24, -1.0 / 12, 1.0 / 12, -1.0 / 24, 1.0 / 120};
-  for (int i = 0; i < intervals; ++i) {
-    const int st = std::clamp(i - (kPoints / 2 - 1), 0, count - kPoints);
-    const double d = i - st;
-    double poly[kPoints] = {};
-    for (int j = 0; j < kPoints; ++j) {
-      double basis[kPoints] = {1.0};  // prod_{m != j} (u + d - m), built one factor at a time
-      int degree = 0;
-      for (int m = 0; m < kPoints; ++m) {
-        if (m == j) continue;
-        const double a = d - m;  // factor (u + a)
-        for (int p = degree + 1; p >= 1; --p) basis[p] = basis[p - 1] + a * basis[p];
-        basis[0] *= a;
-        ++degree;
-      }
-      const double scale = kInvDenominator[j] * values[static_cast<std::size_t>(st + j)];
-      for (int p = 0; p < kPoints; ++p) poly[p] += scale * basis[p];
-    }
-    for (int p = 0; p < kPoints; ++p) coefficients[static_cast<std::size_t>(p)][static_cast<std::size_t>(i)] = poly[p];
+    tail_value = reference(std::sqrt(w_hi));
+    tail_slope = std::log(last / before) * grid.nodes_per_decade / std::numbers::ln10;
   }
 }
 
 void SersicKTable::evaluate(double w, double* value, double* slope_w) const {
-  if (w < w_min) {
+  if (w < w_lo) {
     *value = 1 - c2 * w;
     *slope_w = -c2;
     return;
   }
-  const double half_log_w = 0.5 * std::log(w);
-  if (w >= w_max) {
-    *value = tail_value * std::exp(tail_slope * (half_log_w - log_q_max));
+  if (w >= w_hi) {
+    *value = tail_value * std::exp(0.5 * tail_slope * (std::log(w) - log_w_hi));
     *slope_w = *value * 0.5 * tail_slope / w;
     return;
   }
-  const double t = std::min((half_log_w - log_q_min) * inv_step, intervals - 1e-12);
-  const int i = static_cast<int>(t);
-  const double u = t - i;
+  const std::uint64_t bits = std::bit_cast<std::uint64_t>(w);
+  const std::int64_t i = static_cast<std::int64_t>(bits >> kIndexShift) - index_base;
+  const double u = std::bit_cast<double>(((bits << kSubdivisionBits) & kMantissaBits) | kOneBits) - 1.0;
+  const double inv_octave = std::bit_cast<double>(0x7FE0000000000000ULL - (bits & kExponentBits));  // 2^-e
+  const double* c = coefficients.data() + static_cast<std::size_t>(i) * kStride;
   double v = 0, dv = 0;
   for (int p = kCoefficients - 1; p >= 0; --p) {
     dv = dv * u + v;
-    v = v * u + coefficients[static_cast<std::size_t>(p)][static_cast<std::size_t>(i)];
+    v = v * u + c[p];
   }
   *value = v;
-  *slope_w = dv * 0.5 * inv_step / w;
+  *slope_w = dv * (kSubdivisions * inv_octave);
 }
 
 namespace {

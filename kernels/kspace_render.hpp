@@ -28,13 +28,21 @@ namespace stampede::kernels {
 
 inline constexpr int kKBlock = 8;  // spectrum columns per block: one AVX-512 vector, two AVX2
 
-// A unit-flux Sérsic transform F(q) tabulated on a LogGrid with the interpolant of LogTable
-// (six-point Lagrange in log q; the same function to rounding), stored as one degree-5 polynomial
-// per interval so the loop gets the value and the interpolant's own derivative from six gathered
-// coefficients. Below q_min: 1 - c2 q^2; above the last node: the power-law tail.
+// A unit-flux Sérsic transform F as a function of w = q^2, tabulated for the term loop without a
+// logarithm: w's own exponent and leading mantissa bits index the interval (kSubdivisions equal
+// intervals per octave of w), and its remaining mantissa bits are the offset u in [0, 1) within
+// it. Each interval holds a degree-5 polynomial in u (Chebyshev interpolation of LogTable's
+// six-point Lagrange interpolant in log q over the same nodes, so both agree to ~1e-12 of F(0)),
+// its six coefficients on one 64-byte line: the loop gathers them from one line per lane and gets
+// the interpolant's own derivative dF/dw = P'(u) kSubdivisions 2^-octave. Below w_lo: 1 - c2 w;
+// from w_hi: the power-law tail through LogTable's last two nodes, from the table's last value.
 class SersicKTable {
  public:
   static constexpr int kCoefficients = 6;
+  static constexpr int kStride = 8;  // doubles per interval: the coefficients, padded to a cache line
+  static constexpr int kSubdivisionBits = 4;
+  static constexpr int kSubdivisions = 1 << kSubdivisionBits;  // intervals per octave of w
+  static constexpr int kIndexShift = 52 - kSubdivisionBits;    // bits(w) >> shift = octave and interval
   SersicKTable() = default;
   SersicKTable(const LogGrid& grid, const std::vector<double>& values);
 
@@ -42,12 +50,14 @@ class SersicKTable {
   void evaluate(double w, double* value, double* slope_w) const;
   double q_max() const { return q_max_; }
 
-  // For the kernels: coefficient j of interval i at coefficients[j][i].
-  double log_q_min = 0, inv_step = 0;  // t = (log q - log q_min) * inv_step
-  int intervals = 0;                   // nodes - 1
-  double w_min = 0, c2 = 0;            // below q_min^2 in w: 1 - c2 w
-  double w_max = 0, log_q_max = 0, tail_value = 0, tail_slope = 0;  // tail: value (q/q_max)^slope
-  std::array<AlignedVector<double>, kCoefficients> coefficients;
+  // For the kernels: interval i = (bits(w) >> kIndexShift) - index_base, coefficient j at
+  // coefficients[i * kStride + j].
+  std::int64_t index_base = 0;
+  int intervals = 0;
+  double w_lo = 0, c2 = 0;                          // below w_lo: 1 - c2 w
+  double w_hi = 0, w_last = 0;                      // the table covers [w_lo, w_hi); w_last its largest w below w_hi
+  double log_w_hi = 0, tail_value = 0, tail_slope = 0;  // from w_hi: tail_value (w / w_hi)^(tail_slope / 2)
+  AlignedVector<double> coefficients;
 
  private:
   double q_max_ = 0;
@@ -63,32 +73,44 @@ struct KSpaceComponent {
   double flux_per_amplitude = 0;        // the amplitude column's scale
 };
 
-// Everything the loop needs beyond the terms, per render.
+// Everything the loop needs beyond the terms, per render. The phase e^{-i k.x0} of a term at
+// k = k0 + 2 pi m (k0 its spectrum bin's frequency, m its alias) factors into the bin's
+// e^{-i k0.x0}, applied once per bin after the alias sum, and the alias's e^{-i 2 pi m.x0}, one
+// constant per alias: so a term costs real products and one complex multiply-add per image.
 struct KSpaceModel {
   KSpaceComponent bulge, disc;
   // d ln(r_e) / d(radius parameter): both radii scale with the disc radius, so w scales as its
   // square and the flux too: d G / d r = dlnr [2 (flux F + flux w dF/dw)] summed over components.
   double dlnr = 0;
-  // e^{-i kx x0} at the term list's kx values (same index), e^{-i ky y0} at its ky values.
-  const double* phase_x_re = nullptr;
-  const double* phase_x_im = nullptr;
-  const double* phase_y_re = nullptr;
-  const double* phase_y_im = nullptr;
+  // e^{-i kx0 x0} at the bin columns jx (row_stride values), e^{-i ky0 y0} at the rows jy (n values).
+  const double* bin_phase_x_re = nullptr;
+  const double* bin_phase_x_im = nullptr;
+  const double* bin_phase_y_re = nullptr;
+  const double* bin_phase_y_im = nullptr;
+  // e^{-i 2 pi m.x0} per alias pair (KSpaceTerms::entry_alias indexes it).
+  const double* alias_phase_re = nullptr;
+  const double* alias_phase_im = nullptr;
 };
 
 // The term list of one PSF on one grid; immutable once built, shared read-only.
 struct KSpaceTerms {
   int n = 0;           // period (grid side), pixels
   int row_stride = 0;  // padded half-spectrum row length, a multiple of kKBlock
-  // Distinct wavevector components: kx_values[ix], ky_values[iy] (radians per pixel).
+  // Distinct wavevector components: kx_values[ix], ky_values[iy] (radians per pixel), in alias
+  // groups: kx_values[a * row_stride + jx] = 2 pi (a - alias_max) + 2 pi jx / n, and
+  // ky_values[a * n + jy] likewise with jy's signed frequency.
+  int alias_max = 0;  // aliases m = -alias_max .. alias_max per axis
   AlignedVector<double> kx_values, ky_values;
   // Spectrum block b (row b / (row_stride / kKBlock)) holds entries [block_begin[b], block_begin[b+1]).
   std::vector<std::int32_t> block_begin;
-  // Per entry: index of its first lane's kx in kx_values (its lanes are consecutive) and its ky's.
-  std::vector<std::int32_t> entry_ix, entry_iy;
-  // Per entry, kKBlock lanes: PPi / n^2 (FFTW's normalisation folded in), split complex.
-  AlignedVector<double> ppi_re, ppi_im;
+  // Per entry: index of its first lane's kx in kx_values (its lanes are consecutive) and its ky's,
+  // and its alias pair ax * aliases() + ay (a = m + alias_max).
+  std::vector<std::int32_t> entry_ix, entry_iy, entry_alias;
+  // Per entry, kKBlock lanes: PPi / n^2 (FFTW's normalisation folded in). Real: the PSFs the term
+  // list is built for (Moffat, Airy) are centrosymmetric about their centre.
+  AlignedVector<double> ppi;
 
+  int aliases() const { return 2 * alias_max + 1; }
   int blocks() const { return static_cast<int>(block_begin.size()) - 1; }
   long long entries() const { return static_cast<long long>(entry_ix.size()); }
 };

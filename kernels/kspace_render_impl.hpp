@@ -4,6 +4,7 @@
 // Everything here has internal linkage (see lanes.hpp).
 #pragma once
 
+#include <bit>
 #include <cmath>
 #include <cstdint>
 
@@ -14,36 +15,40 @@
 namespace stampede::kernels {
 namespace {
 
-// The operations this loop needs beyond lanes.hpp: log, the table index and its gather.
-inline double klog(double x) { return std::log(x); }
-template <class A>
-inline xsimd::batch<double, A> klog(xsimd::batch<double, A> x) {
-  return xsimd::log(x);
-}
+// The table's interval index (times SersicKTable::kStride), the offset u in it and 2^-octave,
+// all from w's bits (w already clamped into the table's range): no logarithm.
+constexpr std::uint64_t kExponentBits = 0x7FF0000000000000ULL;
+constexpr std::uint64_t kMantissaBits = 0x000FFFFFFFFFFFFFULL;
+constexpr std::uint64_t kOneBits = 0x3FF0000000000000ULL;
+constexpr std::uint64_t kInverseBits = 0x7FE0000000000000ULL;  // bits(2^-e) = this - exponent bits of 2^e
 
-// Interval index floor(t) (t already clamped to [0, intervals)), and its offset u = t - floor(t).
-struct IndexScalar {
+struct TableIndexScalar {
   std::int64_t i;
-  double u;
+  double u, inv_octave;
 };
-inline IndexScalar split_index(double t) {
-  const double f = std::floor(t);
-  return {static_cast<std::int64_t>(f), t - f};
+inline TableIndexScalar table_index(const SersicKTable& tab, double w) {
+  const std::uint64_t bits = std::bit_cast<std::uint64_t>(w);
+  const std::int64_t i = static_cast<std::int64_t>(bits >> SersicKTable::kIndexShift) - tab.index_base;
+  return {i * SersicKTable::kStride,
+          std::bit_cast<double>(((bits << SersicKTable::kSubdivisionBits) & kMantissaBits) | kOneBits) - 1.0,
+          std::bit_cast<double>(kInverseBits - (bits & kExponentBits))};
 }
 template <class A>
-struct IndexBatch {
+struct TableIndexBatch {
   xsimd::batch<std::int64_t, A> i;
-  xsimd::batch<double, A> u;
+  xsimd::batch<double, A> u, inv_octave;
 };
 template <class A>
-inline IndexBatch<A> split_index(xsimd::batch<double, A> t) {
-  using B = xsimd::batch<double, A>;
+inline TableIndexBatch<A> table_index(const SersicKTable& tab, xsimd::batch<double, A> w) {
+  using U = xsimd::batch<std::uint64_t, A>;
   using I = xsimd::batch<std::int64_t, A>;
-  const B f = xsimd::floor(t);
-  // 0 <= f < 2^52: f + 2^52 holds f in its mantissa bits (AVX2 has no double -> int64 convert,
-  // xsimd's to_int goes through memory there).
-  const B magic(0x1p52);
-  return {xsimd::bitwise_cast<I>(f + magic) - xsimd::bitwise_cast<I>(magic), t - f};
+  using B = xsimd::batch<double, A>;
+  const U bits = xsimd::bitwise_cast<U>(w);
+  const U i = ((bits >> SersicKTable::kIndexShift) - U(static_cast<std::uint64_t>(tab.index_base))) << 3;
+  static_assert(SersicKTable::kStride == 8);
+  const B u = xsimd::bitwise_cast<B>(((bits << SersicKTable::kSubdivisionBits) & U(kMantissaBits)) | U(kOneBits)) - B(1.0);
+  const B inv = xsimd::bitwise_cast<B>(U(kInverseBits) - (bits & U(kExponentBits)));
+  return {xsimd::bitwise_cast<I>(i), u, inv};
 }
 
 inline double gather(const double* p, std::int64_t i) { return p[i]; }
@@ -52,39 +57,42 @@ inline xsimd::batch<double, A> gather(const double* p, xsimd::batch<std::int64_t
   return xsimd::batch<double, A>::gather(p, i);
 }
 
+inline double klog(double x) { return std::log(x); }
+template <class A>
+inline xsimd::batch<double, A> klog(xsimd::batch<double, A> x) {
+  return xsimd::log(x);
+}
+
 template <class T>
 struct Transform {
   T value, slope;  // F and dF/dw
 };
 
-// F(w) and dF/dw from the table: the interval's polynomial and its derivative (Horner), with the
-// small-q series and the power-law tail selected lane by lane.
+// F(w) and dF/dw from the table: the interval's polynomial in u and its derivative (Horner), with
+// the small-w series and the power-law tail selected lane by lane.
 template <class T, bool kSlope>
 inline Transform<T> tabulated(const SersicKTable& tab, T w) {
   using L = Lanes<T>;
-  const T ws = L::max(w, T(tab.w_min));  // log stays finite at k = 0
-  const T half_log_w = T(0.5) * klog(ws);
-  T t = (half_log_w - T(tab.log_q_min)) * T(tab.inv_step);
-  t = L::max(T(0.0), t);
-  t = L::select(t < T(tab.intervals), t, T(tab.intervals - 1));
-  const auto [i, u] = split_index(t);
-  const auto& c = tab.coefficients;
-  const T c5 = gather(c[5].data(), i), c4 = gather(c[4].data(), i), c3 = gather(c[3].data(), i);
-  const T c2 = gather(c[2].data(), i), c1 = gather(c[1].data(), i), c0 = gather(c[0].data(), i);
+  const T ws = L::min(L::max(w, T(tab.w_lo)), T(tab.w_last));
+  const auto [i, u, inv_octave] = table_index(tab, ws);
+  const double* c = tab.coefficients.data();
+  const T c5 = gather(c + 5, i), c4 = gather(c + 4, i), c3 = gather(c + 3, i);
+  const T c2 = gather(c + 2, i), c1 = gather(c + 1, i), c0 = gather(c, i);
   T value = ((((c5 * u + c4) * u + c3) * u + c2) * u + c1) * u + c0;
   T slope(0.0);
   if constexpr (kSlope) {
     const T dp = (((T(5.0) * c5 * u + T(4.0) * c4) * u + T(3.0) * c3) * u + T(2.0) * c2) * u + c1;
-    slope = dp * T(0.5 * tab.inv_step) / ws;
+    slope = dp * (T(double(SersicKTable::kSubdivisions)) * inv_octave);
   }
-  const auto small = w < T(tab.w_min);
+  const auto small = w < T(tab.w_lo);
   value = L::select(small, T(1.0) - T(tab.c2) * w, value);
   if constexpr (kSlope) slope = L::select(small, T(-tab.c2), slope);
-  const auto tail = w >= T(tab.w_max);
+  const auto tail = w >= T(tab.w_hi);
   if (L::any(tail)) {
-    const T tv = T(tab.tail_value) * L::exp(T(tab.tail_slope) * L::max(half_log_w - T(tab.log_q_max), T(0.0)));
+    const T wt = L::max(w, T(tab.w_hi));
+    const T tv = T(tab.tail_value) * L::exp(T(0.5 * tab.tail_slope) * (klog(wt) - T(tab.log_w_hi)));
     value = L::select(tail, tv, value);
-    if constexpr (kSlope) slope = L::select(tail, tv * T(0.5 * tab.tail_slope) / ws, slope);
+    if constexpr (kSlope) slope = L::select(tail, tv * T(0.5 * tab.tail_slope) / wt, slope);
   }
   return {value, slope};
 }
@@ -94,10 +102,18 @@ template <class T, bool kSlope>
 inline Transform<T> exponential(T w, double inv_b2) {
   using L = Lanes<T>;
   const T t = T(1.0) + w * T(inv_b2);
-  const T value = T(1.0) / (t * L::sqrt(t));
-  T slope(0.0);
-  if constexpr (kSlope) slope = T(-1.5 * inv_b2) * value / t;
-  return {value, slope};
+  if constexpr (L::kEstimatedRsqrt) {  // no division or square root where the hardware estimates 1/sqrt
+    const T r = L::rsqrt(t), r2 = r * r;
+    const T value = r2 * r;
+    T slope(0.0);
+    if constexpr (kSlope) slope = T(-1.5 * inv_b2) * value * r2;
+    return {value, slope};
+  } else {
+    const T value = T(1.0) / (t * L::sqrt(t));
+    T slope(0.0);
+    if constexpr (kSlope) slope = T(-1.5 * inv_b2) * value / t;
+    return {value, slope};
+  }
 }
 
 template <class T, bool kTable, bool kSlope>
@@ -119,7 +135,8 @@ struct Complex {
   T re, im;
 };
 
-// One spectrum block's W lanes at sub-vector offset `lane0`: the sums over its alias entries.
+// One spectrum block's W lanes at sub-vector offset `lane0`: the sums over its alias entries, each
+// term a real weight times its alias's phase, then the bin's phase once.
 template <class T, bool kBulgeTable, bool kDiscTable, bool kJacobian>
 inline void block_lanes(const KSpaceTerms& terms, const KSpaceModel& m, int block, int lane0, double inv_b2,
                         const KSpaceSpectra& out) {
@@ -130,48 +147,52 @@ inline void block_lanes(const KSpaceTerms& terms, const KSpaceModel& m, int bloc
   const KSpaceComponent& cb = m.bulge;
   const KSpaceComponent& cd = m.disc;
   for (std::int32_t e = terms.block_begin[block]; e < terms.block_begin[block + 1]; ++e) {
-    const std::int32_t ix = terms.entry_ix[e] + lane0, iy = terms.entry_iy[e];
+    const std::int32_t ix = terms.entry_ix[e] + lane0, iy = terms.entry_iy[e], a = terms.entry_alias[e];
     const T kx = L::load(terms.kx_values.data() + ix);
     const T ky(terms.ky_values[iy]);
     const T kxx = kx * kx, kxy = kx * ky, kyy = ky * ky;
-    // C = PPi e^{-i k.x0}
-    const T pxr = L::load(m.phase_x_re + ix), pxi = L::load(m.phase_x_im + ix);
-    const T pyr(m.phase_y_re[iy]), pyi(m.phase_y_im[iy]);
-    const T phr = pxr * pyr - pxi * pyi, phi = pxr * pyi + pxi * pyr;
-    const std::size_t p = static_cast<std::size_t>(e) * kKBlock + lane0;
-    const T ppr = L::load(terms.ppi_re.data() + p), ppi = L::load(terms.ppi_im.data() + p);
-    const Complex<T> c{ppr * phr - ppi * phi, ppr * phi + ppi * phr};
+    const T ppi = L::load(terms.ppi.data() + static_cast<std::size_t>(e) * kKBlock + lane0);
+    const T cr(m.alias_phase_re[a]), ci(m.alias_phase_im[a]);
     const T wb = form(cb.wxx, cb.wxy, cb.wyy, kxx, kxy, kyy);
     const T wd = form(cd.wxx, cd.wxy, cd.wyy, kxx, kxy, kyy);
     const Transform<T> fb = component_transform<T, kBulgeTable, kJacobian>(cb, wb, inv_b2);
     const Transform<T> fd = component_transform<T, kDiscTable, kJacobian>(cd, wd, inv_b2);
-    const T g = T(cb.flux) * fb.value + T(cd.flux) * fd.value;
-    auto add = [&](int k, T a) {
-      acc[k].re += a * c.re;
-      acc[k].im += a * c.im;
+    auto add = [&](int k, T weight) {
+      acc[k].re += weight * cr;
+      acc[k].im += weight * ci;
     };
     if constexpr (!kJacobian) {
-      add(0, g);
+      add(0, (T(cb.flux) * fb.value + T(cd.flux) * fd.value) * ppi);
     } else {
-      add(kKBulge, T(cb.flux_per_amplitude) * fb.value);
-      add(kKDisc, T(cd.flux_per_amplitude) * fd.value);
-      // d/dx0 of e^{-i kx x0}: -i kx, so a C becomes (a kx) (C.im - i C.re).
-      const T gx = g * kx, gy = g * ky;
-      acc[kKX0].re += gx * c.im;
-      acc[kKX0].im -= gx * c.re;
-      acc[kKY0].re += gy * c.im;
-      acc[kKY0].im -= gy * c.re;
-      const T sb = T(cb.flux) * fb.slope, sd = T(cd.flux) * fd.slope;
+      const T vb = fb.value * ppi, vd = fd.value * ppi;
+      add(kKBulge, T(cb.flux_per_amplitude) * vb);
+      add(kKDisc, T(cd.flux_per_amplitude) * vd);
+      const T g = T(cb.flux) * vb + T(cd.flux) * vd;  // the model's real weight
+      add(kKX0, g * kx);  // times -i below: d/dx0 of e^{-i kx x0}
+      add(kKY0, g * ky);
+      const T sb = T(cb.flux) * fb.slope * ppi, sd = T(cd.flux) * fd.slope * ppi;
       add(kKE1, sb * form(cb.e1xx, cb.e1xy, cb.e1yy, kxx, kxy, kyy) + sd * form(cd.e1xx, cd.e1xy, cd.e1yy, kxx, kxy, kyy));
       add(kKE2, sb * form(cb.e2xx, cb.e2xy, cb.e2yy, kxx, kxy, kyy) + sd * form(cd.e2xx, cd.e2xy, cd.e2yy, kxx, kxy, kyy));
       add(kKRadius, T(2.0 * m.dlnr) * (g + sb * wb + sd * wd));
     }
   }
-  const std::size_t row = static_cast<std::size_t>(block / (terms.row_stride / kKBlock));
-  const std::size_t o = row * terms.row_stride + static_cast<std::size_t>(block % (terms.row_stride / kKBlock)) * kKBlock + lane0;
+  const int per_row = terms.row_stride / kKBlock;
+  const std::size_t row = static_cast<std::size_t>(block / per_row);
+  const std::size_t col = static_cast<std::size_t>(block % per_row) * kKBlock + lane0;
+  const std::size_t o = row * terms.row_stride + col;
+  // The bin's phase e^{-i k0.x0} (its x and y factors).
+  const T bxr = L::load(m.bin_phase_x_re + col), bxi = L::load(m.bin_phase_x_im + col);
+  const T byr(m.bin_phase_y_re[row]), byi(m.bin_phase_y_im[row]);
+  const T pr = bxr * byr - bxi * byi, pi = bxr * byi + bxi * byr;
   for (int k = 0; k < kOut; ++k) {
-    L::store(out.re[k] + o, acc[k].re);
-    L::store(out.im[k] + o, acc[k].im);
+    T re = acc[k].re * pr - acc[k].im * pi, im = acc[k].re * pi + acc[k].im * pr;
+    if (kJacobian && (k == kKX0 || k == kKY0)) {  // -i (re + i im) = im - i re
+      const T t = re;
+      re = im;
+      im = -t;
+    }
+    L::store(out.re[k] + o, re);
+    L::store(out.im[k] + o, im);
   }
 }
 

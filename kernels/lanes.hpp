@@ -27,6 +27,7 @@ struct Lanes {  // the scalar reference
   static bool all(bool c) { return c; }
   static bool any(bool c) { return c; }
   static T max(T a, T b) { return std::max(a, b); }
+  static T min(T a, T b) { return std::min(a, b); }
   static T exp(T x) { return std::exp(x); }
   static T sqrt(T x) { return std::sqrt(x); }
   static T pow(T x, double y) { return std::pow(x, y); }
@@ -49,6 +50,7 @@ struct Lanes<xsimd::batch<double, A>> {
   static bool all(xsimd::batch_bool<double, A> c) { return xsimd::all(c); }
   static bool any(xsimd::batch_bool<double, A> c) { return xsimd::any(c); }
   static B max(B a, B b) { return xsimd::max(a, b); }
+  static B min(B a, B b) { return xsimd::min(a, b); }
   // SSE4.2 has no FMA: xsimd's fma there is a multiply and an add, rounded twice.
   static constexpr bool kFusedMultiplyAdd = !std::is_same_v<A, xsimd::sse4_2>;
   // exp(x) for x <= 0 (the profiles' exp(-b t)) without division (xsimd's exp is a rational

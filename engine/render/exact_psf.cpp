@@ -114,6 +114,7 @@ std::shared_ptr<const kernels::KSpaceTerms> build_kspace_terms(const PsfModel& p
   const int aliases = 2 * m_max + 1;
   terms->n = n;
   terms->row_stride = stride;
+  terms->alias_max = m_max;
   terms->kx_values.resize(static_cast<std::size_t>(aliases) * stride);
   terms->ky_values.resize(static_cast<std::size_t>(aliases) * n);
   for (int a = 0; a < aliases; ++a) {
@@ -144,10 +145,8 @@ std::shared_ptr<const kernels::KSpaceTerms> build_kspace_terms(const PsfModel& p
           if (!(largest > tolerance)) continue;
           terms->entry_ix.push_back(ix);
           terms->entry_iy.push_back(iy);
-          for (double x : v) {
-            terms->ppi_re.push_back(x * norm);
-            terms->ppi_im.push_back(0.0);  // centrosymmetric analytic PSFs have real transforms
-          }
+          terms->entry_alias.push_back(ax * aliases + ay);
+          for (double x : v) terms->ppi.push_back(x * norm);  // centrosymmetric PSFs: real transforms
         }
       }
     }
@@ -193,7 +192,7 @@ std::shared_ptr<const ExactPsf> build_exact_psf(const PsfModel& psf, int period,
         const std::size_t v = static_cast<std::size_t>(e) * kernels::kKBlock + l;
         const double angle = -2 * kPi * (static_cast<double>(jx) + signed_row(jy, n)) * (n / 2) / n;
         spectrum[static_cast<std::size_t>(jy) * half + jx] +=
-            std::polar(1.0, angle) * std::complex<double>(terms->ppi_re[v], terms->ppi_im[v]);
+            std::polar(1.0, angle) * terms->ppi[v];
       }
   }
   std::vector<double> image(static_cast<std::size_t>(n) * n), ones(image.size(), 1.0);

@@ -100,6 +100,10 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
   }
   if (!plan_) throw std::runtime_error("FFTW could not plan the exact renderer's inverse transform");
   for (auto& s : component_stamps_) s.assign(static_cast<std::size_t>(stamp_size_) * stamp_size_, 0.0);
+  bin_x_re_.assign(static_cast<std::size_t>(row_stride_), 0.0);
+  bin_x_im_.assign(static_cast<std::size_t>(row_stride_), 0.0);
+  bin_y_re_.assign(static_cast<std::size_t>(n_), 0.0);
+  bin_y_im_.assign(static_cast<std::size_t>(n_), 0.0);
   if (options_.wrap_rings > 0) {
     wrap_nodes_ = kernels::ChebyshevStamp(stamp_size_, options_.wrap_nodes, render.simd);
     for (int jy = 0; jy < options_.wrap_nodes; ++jy)
@@ -143,15 +147,12 @@ void ExactRenderer::set_psf(std::shared_ptr<const PreparedPsf> psf) {
   const kernels::KSpaceTerms& t = exact->terms();
   if (t.n != n_ || t.row_stride != row_stride_)
     throw std::invalid_argument("ExactRenderer::set_psf: a PSF prepared for another period");
-  // The phase tables follow the term list's alias count, fixed per PSF: sized here, once per
-  // distinct alias count (a PSF cache's PSFs of one kind share it).
-  if (phase_x_re_.size() != t.kx_values.size()) {
-    phase_x_re_.resize(t.kx_values.size());
-    phase_x_im_.resize(t.kx_values.size());
-  }
-  if (phase_y_re_.size() != t.ky_values.size()) {
-    phase_y_re_.resize(t.ky_values.size());
-    phase_y_im_.resize(t.ky_values.size());
+  // The alias phase table follows the term list's alias count, fixed per PSF: sized here, once
+  // per distinct count (a PSF cache's PSFs of one kind share it).
+  const std::size_t pairs = static_cast<std::size_t>(t.aliases()) * t.aliases();
+  if (alias_re_.size() != pairs) {
+    alias_re_.resize(pairs);
+    alias_im_.resize(pairs);
   }
   psf_ = std::move(exact);
 }
@@ -198,40 +199,41 @@ bool ExactRenderer::prepare(const ParamVector& p, kernels::KSpaceModel* m, Model
   fill(comp->bulge, comp->bulge_radius, bulge_n, bulge_table_.get(), &m->bulge);
   fill(comp->disc, comp->disc_radius, disc_n, nullptr, &m->disc);
   m->dlnr = -0.5 * comp->disc.du_dr_over_u;  // du/dr / u = -2 d ln r / dr
-  // Phases e^{-i k x0} by recurrence along each alias's run of frequencies (two sincos per axis
-  // and alias group instead of one per value; the rounding grows by ~1 ulp per step).
+  // Phases: the bins' e^{-i k0 x0} by recurrence along each axis (two sincos per axis instead of
+  // one per value; the rounding grows by ~1 ulp per step), and each alias's e^{-i 2 pi m.x0}.
   const kernels::KSpaceTerms& terms = psf_->terms();
   const double dk = 2 * kPi / n_;
   const double x0 = p[index(Param::kX0)], y0 = p[index(Param::kY0)];
-  const int stride = row_stride_;
-  const int groups_x = static_cast<int>(terms.kx_values.size()) / stride;
   const std::complex<double> step_x = std::polar(1.0, -dk * x0), step_y = std::polar(1.0, -dk * y0);
-  for (int g = 0; g < groups_x; ++g) {
-    std::complex<double> z = std::polar(1.0, -terms.kx_values[static_cast<std::size_t>(g) * stride] * x0);
-    for (int j = 0; j < stride; ++j, z *= step_x) {
-      phase_x_re_[static_cast<std::size_t>(g) * stride + j] = z.real();
-      phase_x_im_[static_cast<std::size_t>(g) * stride + j] = z.imag();
-    }
+  std::complex<double> z = 1.0;
+  for (int j = 0; j < row_stride_; ++j, z *= step_x) {
+    bin_x_re_[static_cast<std::size_t>(j)] = z.real();
+    bin_x_im_[static_cast<std::size_t>(j)] = z.imag();
   }
-  const int groups_y = static_cast<int>(terms.ky_values.size()) / n_;
-  for (int g = 0; g < groups_y; ++g) {
-    const std::size_t base = static_cast<std::size_t>(g) * n_;
-    const std::complex<double> z0 = std::polar(1.0, -terms.ky_values[base] * y0);  // row 0: ky = 2 pi m
-    std::complex<double> z = z0;
-    for (int jy = 0; jy <= n_ / 2; ++jy, z *= step_y) {
-      phase_y_re_[base + jy] = z.real();
-      phase_y_im_[base + jy] = z.imag();
-    }
-    z = z0 * std::conj(step_y);
-    for (int jy = n_ - 1; jy > n_ / 2; --jy, z *= std::conj(step_y)) {
-      phase_y_re_[base + jy] = z.real();
-      phase_y_im_[base + jy] = z.imag();
-    }
+  z = 1.0;
+  for (int jy = 0; jy <= n_ / 2; ++jy, z *= step_y) {
+    bin_y_re_[static_cast<std::size_t>(jy)] = z.real();
+    bin_y_im_[static_cast<std::size_t>(jy)] = z.imag();
   }
-  m->phase_x_re = phase_x_re_.data();
-  m->phase_x_im = phase_x_im_.data();
-  m->phase_y_re = phase_y_re_.data();
-  m->phase_y_im = phase_y_im_.data();
+  z = std::conj(step_y);
+  for (int jy = n_ - 1; jy > n_ / 2; --jy, z *= std::conj(step_y)) {
+    bin_y_re_[static_cast<std::size_t>(jy)] = z.real();
+    bin_y_im_[static_cast<std::size_t>(jy)] = z.imag();
+  }
+  const int aliases = terms.aliases();
+  for (int ax = 0; ax < aliases; ++ax)
+    for (int ay = 0; ay < aliases; ++ay) {
+      const double phase = -2 * kPi * ((ax - terms.alias_max) * x0 + (ay - terms.alias_max) * y0);
+      const std::size_t i = static_cast<std::size_t>(ax) * aliases + ay;
+      alias_re_[i] = std::cos(phase);
+      alias_im_[i] = std::sin(phase);
+    }
+  m->bin_phase_x_re = bin_x_re_.data();
+  m->bin_phase_x_im = bin_x_im_.data();
+  m->bin_phase_y_re = bin_y_re_.data();
+  m->bin_phase_y_im = bin_y_im_.data();
+  m->alias_phase_re = alias_re_.data();
+  m->alias_phase_im = alias_im_.data();
   return true;
 }
 

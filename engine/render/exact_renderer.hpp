@@ -111,7 +111,8 @@ class ExactRenderer final : public Renderer {
   std::array<AlignedBuffer, kernels::kNumKSpaceImages> spectra_;
   AlignedBuffer complex_;  // one interleaved N x (N/2 + 1) half-spectrum, reused per inverse
   AlignedBuffer grid_;     // one N x N real image, reused per inverse
-  std::vector<double> phase_x_re_, phase_x_im_, phase_y_re_, phase_y_im_;
+  // Per render: the bins' phases (row_stride columns, n rows) and the aliases' (KSpaceModel).
+  std::vector<double> bin_x_re_, bin_x_im_, bin_y_re_, bin_y_im_, alias_re_, alias_im_;
   std::array<std::vector<double>, 2> component_stamps_;  // bulge, disc per unit amplitude
   kernels::ChebyshevStamp wrap_nodes_;
   std::vector<double> node_x_, node_y_;  // the nodes^2 Chebyshev points, row by row
