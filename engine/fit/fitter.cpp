@@ -43,7 +43,7 @@ class Fitter::Problem final : public LeastSquaresProblem {
  public:
   // Every per-pixel array starts on a 64-byte line, so the vector kernels' loads never straddle two.
   Problem(Fitter& f, int npix)
-      : f_(f), data_(npix), model_(npix), columns_(kMaxFree * kernels::aligned_stride<double>(npix)) {
+      : f_(f), data_(npix), model_(npix), jacobian_model_(npix), columns_(kMaxFree * kernels::aligned_stride<double>(npix)) {
     for (int k = 0; k < kMaxFree; ++k) column_ptr_[k] = columns_.data() + k * kernels::aligned_stride<double>(npix);
   }
   // The stamp in the fit's units; masked pixels may hold NaN, and as zeros they keep the
@@ -92,16 +92,20 @@ class Fitter::Problem final : public LeastSquaresProblem {
     beta->resize(nf);
     *chi2 = f_.least_squares_->normal_equations(data_, model_, f_.weight_, column_ptr_.data(), nf, alpha->data(),
                                                  beta->data());
+    // The solver's Jacobian points are its iterates: keep this model, so the optimum's need not be
+    // drawn again when the last Jacobian was taken there.
+    std::copy(model_.begin(), model_.end(), jacobian_model_.begin());
     return std::isfinite(*chi2) && alpha->allFinite() && beta->allFinite();
   }
-  const kernels::AlignedVector<double>& model() const { return model_; }
+  // The model of the last normal_equations call.
+  const kernels::AlignedVector<double>& jacobian_model() const { return jacobian_model_; }
 
  private:
   Fitter& f_;
   kernels::AlignedVector<double> data_;
   ParamVector full_{};
   int npix_used_ = 0;
-  kernels::AlignedVector<double> model_;
+  kernels::AlignedVector<double> model_, jacobian_model_;
   kernels::AlignedVector<double> columns_;
   std::array<double*, kMaxFree> column_ptr_{};
 };
@@ -310,7 +314,8 @@ FitResult Fitter::run(const ParamVector& start, std::uint32_t flags) {
     r.flags = flags;
     return r;
   }
-  // Parameter errors and the model need J^T W J and the model at the optimum.
+  // Parameter errors and the S/N need J^T W J and the model at the optimum: the solver's last
+  // Jacobian evaluation when it was taken there, else one more.
   double chi2 = sum.chi2;
   LmMatrix alpha = sum.alpha;
   LmVector beta;
@@ -321,9 +326,6 @@ FitResult Fitter::run(const ParamVector& start, std::uint32_t flags) {
       r.flags = flags;
       return r;
     }
-  } else {
-    problem_->chi2(sum.x, &chi2);  // leaves the optimum's model in the buffer
-    ++r.evaluations;
   }
   if (!std::isfinite(chi2)) {
     r.status = FitStatus::kSolverFailure;
@@ -360,7 +362,7 @@ FitResult Fitter::run(const ParamVector& start, std::uint32_t flags) {
   r.likelihood = -0.5 * r.chi2;
   if (!(flags & kFlagUnweighted)) {
     double s2 = 0;
-    const auto& m = problem_->model();
+    const auto& m = problem_->jacobian_model();
     for (std::size_t i = 0; i < m.size(); ++i) s2 += weight_[i] * m[i] * m[i];
     r.snr = std::sqrt(s2 * units_.chi2());
   }

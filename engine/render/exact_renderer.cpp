@@ -92,13 +92,18 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
   const int half = n_ / 2 + 1;
   complex_ = AlignedBuffer(sizeof(fftw_complex) * static_cast<std::size_t>(n_) * half);
   // FFTW_ESTIMATE: plans (hence rounding) independent of timing, so fits are bitwise repeatable.
+  // The inverse is pruned to the stamp: the c2c transforms of the half-spectrum's columns (in
+  // place), then c2r transforms of only the stamp_size rows the stamp is cut from (a 2-D plan
+  // would transform all n).
   const unsigned flags = FFTW_ESTIMATE | FFTW_DESTROY_INPUT;
   {
     std::lock_guard<std::mutex> lock(fftw_planner_mutex());
-    plan_ = fftw_plan_dft_c2r_2d(n_, n_, static_cast<fftw_complex*>(complex_.data()), static_cast<double*>(grid_.data()),
-                                 flags);
+    auto* c = static_cast<fftw_complex*>(complex_.data());
+    column_plan_ = fftw_plan_many_dft(1, &n_, half, c, nullptr, half, 1, c, nullptr, half, 1, FFTW_BACKWARD, flags);
+    plan_ = fftw_plan_many_dft_c2r(1, &n_, stamp_size_, c, nullptr, 1, half, static_cast<double*>(grid_.data()),
+                                   nullptr, 1, n_, flags);
   }
-  if (!plan_) throw std::runtime_error("FFTW could not plan the exact renderer's inverse transform");
+  if (!column_plan_ || !plan_) throw std::runtime_error("FFTW could not plan the exact renderer's inverse transform");
   for (auto& s : component_stamps_) s.assign(static_cast<std::size_t>(stamp_size_) * stamp_size_, 0.0);
   bin_x_re_.assign(static_cast<std::size_t>(row_stride_), 0.0);
   bin_x_im_.assign(static_cast<std::size_t>(row_stride_), 0.0);
@@ -122,6 +127,7 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
 ExactRenderer::~ExactRenderer() {
   std::lock_guard<std::mutex> lock(fftw_planner_mutex());  // fftw_destroy_plan is not thread-safe
   fftw_destroy_plan(static_cast<fftw_plan>(plan_));
+  fftw_destroy_plan(static_cast<fftw_plan>(column_plan_));
 }
 
 std::shared_ptr<const PreparedPsf> ExactRenderer::prepare_psf(const PsfModel& psf, std::string* error) {
@@ -251,8 +257,8 @@ void ExactRenderer::inverse(int k, double* stamp) {
       o[2 * jx + 1] = i[jx];
     }
   }
-  fftw_execute_dft_c2r(static_cast<fftw_plan>(plan_), static_cast<fftw_complex*>(complex_.data()),
-                       static_cast<double*>(grid_.data()));
+  fftw_execute(static_cast<fftw_plan>(column_plan_));
+  fftw_execute(static_cast<fftw_plan>(plan_));
   const double* g = static_cast<const double*>(grid_.data());
   for (int y = 0; y < stamp_size_; ++y)
     std::copy_n(g + static_cast<std::size_t>(y) * n_, stamp_size_, stamp + static_cast<std::size_t>(y) * stamp_size_);

@@ -102,7 +102,8 @@ class ExactRenderer final : public Renderer {
   double bulge_index_ = 0;
   const kernels::KSpaceKernels* kernels_;
   const kernels::WrapKernels* wrap_kernels_;
-  void* plan_ = nullptr;  // fftw_plan: c2r from complex_ into grid_
+  void* column_plan_ = nullptr;  // fftw_plan: the columns' c2c inverse, in place in complex_
+  void* plan_ = nullptr;         // fftw_plan: the stamp rows' c2r from complex_ into grid_
   int row_stride_ = 0;
   double* spectrum_re(int k) const { return static_cast<double*>(spectra_[k].data()); }
   double* spectrum_im(int k) const { return spectrum_re(k) + spectrum_size_; }
