@@ -110,18 +110,23 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
   bin_y_re_.assign(static_cast<std::size_t>(n_), 0.0);
   bin_y_im_.assign(static_cast<std::size_t>(n_), 0.0);
   if (options_.wrap_rings > 0) {
-    wrap_nodes_ = kernels::ChebyshevStamp(stamp_size_, options_.wrap_nodes, render.simd);
-    for (int jy = 0; jy < options_.wrap_nodes; ++jy)
-      for (int jx = 0; jx < options_.wrap_nodes; ++jx) {
-        node_x_.push_back(wrap_nodes_.node(jx));
-        node_y_.push_back(wrap_nodes_.node(jy));
-      }
-    wrap_values_.assign(static_cast<std::size_t>(kWrapImages) * options_.wrap_nodes * options_.wrap_nodes, 0.0);
-    wrap_scratch_.assign(static_cast<std::size_t>(options_.wrap_nodes) * stamp_size_, 0.0);
     const std::size_t copies = static_cast<std::size_t>(2 * options_.wrap_rings + 1) * (2 * options_.wrap_rings + 1);
-    bulge_copies_.reserve(copies);
-    disc_copies_.reserve(copies);
+    wrap_[0] = WrapGrid(stamp_size_, options_.wrap_nodes, render.simd, copies);
+    wrap_[1] = WrapGrid(stamp_size_, std::min(options_.wrap_nodes, kFarWrapNodes), render.simd, copies);
   }
+}
+
+ExactRenderer::WrapGrid::WrapGrid(int stamp_size, int nodes, kernels::Isa isa, std::size_t copies)
+    : grid(stamp_size, nodes, isa) {
+  for (int jy = 0; jy < nodes; ++jy)
+    for (int jx = 0; jx < nodes; ++jx) {
+      node_x.push_back(grid.node(jx));
+      node_y.push_back(grid.node(jy));
+    }
+  values.assign(static_cast<std::size_t>(kWrapImages) * nodes * nodes, 0.0);
+  scratch.assign(static_cast<std::size_t>(nodes) * stamp_size, 0.0);
+  bulge.reserve(copies);
+  disc.reserve(copies);
 }
 
 ExactRenderer::~ExactRenderer() {
@@ -286,55 +291,71 @@ void ExactRenderer::find_copies(const ModelComponents& comp, const kernels::KSpa
   const kernels::BlurMoments& blur_m = psf_->blur();
   const double blur = 0.5 * (blur_m.xx + blur_m.yy);
   auto find = [&](const kernels::SersicDerivativeBlock& b, double radius, double flux_per_amplitude,
-                  std::vector<kernels::CopyOffset>* out) {
+                  std::vector<kernels::CopyOffset> WrapGrid::*list) {
     // Copies below 1e-8 of the component's blurred peak (flux / (2 pi (r^2 + sigma^2)), unit
     // amplitude) are left out: even fifty of them stay below 5e-7 of it.
     const double peak = flux_per_amplitude / (2 * kPi * (radius * radius + blur));
-    kernels::significant_copies(wing_of(b), n_, stamp_size_, options_.wrap_rings, 1e-8 * std::min(1.0, peak), out);
+    std::vector<kernels::CopyOffset>& near = wrap_[0].*list;
+    std::vector<kernels::CopyOffset>& far = wrap_[1].*list;
+    kernels::significant_copies(wing_of(b), n_, stamp_size_, options_.wrap_rings, 1e-8 * std::min(1.0, peak), &near);
+    // The first ring to the near grid, the rest to the coarse one.
+    far.clear();
+    const double ring_edge = 1.5 * n_;
+    auto first_far = std::stable_partition(near.begin(), near.end(), [&](const kernels::CopyOffset& c) {
+      return std::abs(c.dx) < ring_edge && std::abs(c.dy) < ring_edge;
+    });
+    far.assign(first_far, near.end());
+    near.erase(first_far, near.end());
   };
-  find(comp.bulge, comp.bulge_radius, m.bulge.flux_per_amplitude, &bulge_copies_);
-  find(comp.disc, comp.disc_radius, m.disc.flux_per_amplitude, &disc_copies_);
+  find(comp.bulge, comp.bulge_radius, m.bulge.flux_per_amplitude, &WrapGrid::bulge);
+  find(comp.disc, comp.disc_radius, m.disc.flux_per_amplitude, &WrapGrid::disc);
 }
 
 void ExactRenderer::subtract_wrap(const ModelComponents& comp, const kernels::KSpaceModel& m, double* model) {
   find_copies(comp, m);
-  if (bulge_copies_.empty() && disc_copies_.empty()) return;
-  const int count = wrap_nodes_.nodes() * wrap_nodes_.nodes();
-  double* v = wrap_values_.data();
-  std::fill_n(v, count, 0.0);
-  auto add = [&](const kernels::SersicDerivativeBlock& b, const std::vector<kernels::CopyOffset>& copies) {
-    if (copies.empty() || b.amplitude == 0) return;
-    wrap_kernels_->add_wings(wing_of(b), psf_->blur(), copies.data(), static_cast<int>(copies.size()), node_x_.data(),
-                             node_y_.data(), count, -b.amplitude, v, 0.0, nullptr);
-  };
-  add(comp.bulge, bulge_copies_);
-  add(comp.disc, disc_copies_);
-  wrap_nodes_.add_interpolated(v, model, wrap_scratch_.data());
+  for (WrapGrid& w : wrap_) {
+    if (w.bulge.empty() && w.disc.empty()) continue;
+    const int count = w.grid.nodes() * w.grid.nodes();
+    double* v = w.values.data();
+    std::fill_n(v, count, 0.0);
+    auto add = [&](const kernels::SersicDerivativeBlock& b, const std::vector<kernels::CopyOffset>& copies) {
+      if (copies.empty() || b.amplitude == 0) return;
+      wrap_kernels_->add_wings(wing_of(b), psf_->blur(), copies.data(), static_cast<int>(copies.size()),
+                               w.node_x.data(), w.node_y.data(), count, -b.amplitude, v, 0.0, nullptr);
+    };
+    add(comp.bulge, w.bulge);
+    add(comp.disc, w.disc);
+    w.grid.add_interpolated(v, model, w.scratch.data());
+  }
 }
 
 void ExactRenderer::subtract_wrap(const ModelComponents& comp, const kernels::KSpaceModel& m, double* bulge_image,
                                   double* disc_image, const std::array<double*, 5>& shape) {
   find_copies(comp, m);
-  if (bulge_copies_.empty() && disc_copies_.empty()) return;
-  const int count = wrap_nodes_.nodes() * wrap_nodes_.nodes();
-  const std::size_t per = static_cast<std::size_t>(count);
-  double* v = wrap_values_.data();  // kWrapImages blocks: bulge, disc, then the five derivatives
-  std::fill_n(v, kWrapImages * per, 0.0);
-  std::array<double*, kernels::kWingDerivatives> d;
-  for (int k = 0; k < kernels::kWingDerivatives; ++k) d[static_cast<std::size_t>(k)] = v + (2 + k) * per;
-  auto add = [&](const kernels::SersicDerivativeBlock& b, const std::vector<kernels::CopyOffset>& copies, double* image) {
-    if (copies.empty()) return;
-    // The component image per unit amplitude; the shape derivatives at the model's amplitude.
-    wrap_kernels_->add_wings(wing_of(b), psf_->blur(), copies.data(), static_cast<int>(copies.size()), node_x_.data(),
-                             node_y_.data(), count, -1.0, image, -b.amplitude, d.data());
-  };
-  add(comp.bulge, bulge_copies_, v);
-  add(comp.disc, disc_copies_, v + per);
-  double* scratch = wrap_scratch_.data();
-  if (!bulge_copies_.empty()) wrap_nodes_.add_interpolated(v, bulge_image, scratch);
-  if (!disc_copies_.empty()) wrap_nodes_.add_interpolated(v + per, disc_image, scratch);
-  for (int k = 0; k < kernels::kWingDerivatives; ++k)
-    if (shape[static_cast<std::size_t>(k)]) wrap_nodes_.add_interpolated(v + (2 + k) * per, shape[static_cast<std::size_t>(k)], scratch);
+  for (WrapGrid& w : wrap_) {
+    if (w.bulge.empty() && w.disc.empty()) continue;
+    const int count = w.grid.nodes() * w.grid.nodes();
+    const std::size_t per = static_cast<std::size_t>(count);
+    double* v = w.values.data();  // kWrapImages blocks: bulge, disc, then the five derivatives
+    std::fill_n(v, kWrapImages * per, 0.0);
+    std::array<double*, kernels::kWingDerivatives> d;
+    for (int k = 0; k < kernels::kWingDerivatives; ++k) d[static_cast<std::size_t>(k)] = v + (2 + k) * per;
+    auto add = [&](const kernels::SersicDerivativeBlock& b, const std::vector<kernels::CopyOffset>& copies,
+                   double* image) {
+      if (copies.empty()) return;
+      // The component image per unit amplitude; the shape derivatives at the model's amplitude.
+      wrap_kernels_->add_wings(wing_of(b), psf_->blur(), copies.data(), static_cast<int>(copies.size()),
+                               w.node_x.data(), w.node_y.data(), count, -1.0, image, -b.amplitude, d.data());
+    };
+    add(comp.bulge, w.bulge, v);
+    add(comp.disc, w.disc, v + per);
+    double* scratch = w.scratch.data();
+    if (!w.bulge.empty()) w.grid.add_interpolated(v, bulge_image, scratch);
+    if (!w.disc.empty()) w.grid.add_interpolated(v + per, disc_image, scratch);
+    for (int k = 0; k < kernels::kWingDerivatives; ++k)
+      if (shape[static_cast<std::size_t>(k)])
+        w.grid.add_interpolated(v + (2 + k) * per, shape[static_cast<std::size_t>(k)], scratch);
+  }
 }
 
 RenderStatus ExactRenderer::render(const ParamVector& p, std::span<double> model) {

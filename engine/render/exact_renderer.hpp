@@ -42,6 +42,9 @@ namespace stampede {
 // PSFs without finite second moments (the Airy disc, Moffat beta <= 2) need the uncorrected rule,
 // kernels::fft_friendly_size(4 stamp_size) (GalSim worst 9.0e-6 at 160 for 39).
 inline constexpr int kExactPeriodMargin = 57;
+// Chebyshev nodes per stamp axis for the copies beyond the first ring (exact_renderer_test,
+// WrappedLight: the light left is unchanged from all copies on wrap_nodes = 12).
+inline constexpr int kFarWrapNodes = 6;
 int exact_period(int stamp_size);
 int exact_uncorrected_period(int stamp_size);
 
@@ -90,7 +93,7 @@ class ExactRenderer final : public Renderer {
   void subtract_wrap(const ModelComponents& comp, const kernels::KSpaceModel& m, double* model);
   void subtract_wrap(const ModelComponents& comp, const kernels::KSpaceModel& m, double* bulge, double* disc,
                      const std::array<double*, 5>& shape);
-  // The copies each component needs (bulge_copies_, disc_copies_).
+  // The copies each component needs, split between the two wrap grids.
   void find_copies(const ModelComponents& comp, const kernels::KSpaceModel& m);
 
   int stamp_size_;
@@ -115,11 +118,19 @@ class ExactRenderer final : public Renderer {
   // Per render: the bins' phases (row_stride columns, n rows) and the aliases' (KSpaceModel).
   std::vector<double> bin_x_re_, bin_x_im_, bin_y_re_, bin_y_im_, alias_re_, alias_im_;
   std::array<std::vector<double>, 2> component_stamps_;  // bulge, disc per unit amplitude
-  kernels::ChebyshevStamp wrap_nodes_;
-  std::vector<double> node_x_, node_y_;  // the nodes^2 Chebyshev points, row by row
-  std::vector<double> wrap_values_;      // per wrap image: nodes^2 values
-  std::vector<double> wrap_scratch_;  // nodes * stamp_size
-  std::vector<kernels::CopyOffset> bulge_copies_, disc_copies_;  // reserved for every ring
+  // The copies' light at Chebyshev nodes, interpolated to the stamp: [0] the first ring of copies
+  // on render.exact.wrap_nodes nodes per axis, [1] the farther rings (at >= 2 N - stamp from it, a
+  // de Vaucouleurs wing varies by a factor of a few across the stamp) on kFarWrapNodes.
+  struct WrapGrid {
+    WrapGrid() = default;
+    WrapGrid(int stamp_size, int nodes, kernels::Isa isa, std::size_t copies);
+    kernels::ChebyshevStamp grid;
+    std::vector<double> node_x, node_y;  // the nodes^2 Chebyshev points, row by row
+    std::vector<double> values;          // per wrap image: nodes^2 values
+    std::vector<double> scratch;         // nodes * stamp_size
+    std::vector<kernels::CopyOffset> bulge, disc;  // this grid's copies, reserved for every ring
+  };
+  std::array<WrapGrid, 2> wrap_;
 };
 
 }  // namespace stampede
