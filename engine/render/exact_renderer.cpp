@@ -298,14 +298,18 @@ void ExactRenderer::find_copies(const ModelComponents& comp, const kernels::KSpa
     std::vector<kernels::CopyOffset>& near = wrap_[0].*list;
     std::vector<kernels::CopyOffset>& far = wrap_[1].*list;
     kernels::significant_copies(wing_of(b), n_, stamp_size_, options_.wrap_rings, 1e-8 * std::min(1.0, peak), &near);
-    // The first ring to the near grid, the rest to the coarse one.
+    // The first ring stays on the fine grid, the rest moves to the coarse one, in order (no
+    // std::stable_partition: it allocates).
     far.clear();
     const double ring_edge = 1.5 * n_;
-    auto first_far = std::stable_partition(near.begin(), near.end(), [&](const kernels::CopyOffset& c) {
-      return std::abs(c.dx) < ring_edge && std::abs(c.dy) < ring_edge;
-    });
-    far.assign(first_far, near.end());
-    near.erase(first_far, near.end());
+    std::size_t kept = 0;
+    for (const kernels::CopyOffset& c : near) {
+      if (std::abs(c.dx) < ring_edge && std::abs(c.dy) < ring_edge)
+        near[kept++] = c;
+      else
+        far.push_back(c);
+    }
+    near.resize(kept);
   };
   find(comp.bulge, comp.bulge_radius, m.bulge.flux_per_amplitude, &WrapGrid::bulge);
   find(comp.disc, comp.disc_radius, m.disc.flux_per_amplitude, &WrapGrid::disc);

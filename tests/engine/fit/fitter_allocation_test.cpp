@@ -1,13 +1,16 @@
 // No heap allocation per stamp in steady state: after the first fit has warmed up the fitter,
-// further fits allocate nothing. Counted by replacing the global operator new in this binary.
+// further fits allocate nothing, with either renderer. Counted by replacing the global operator
+// new in this binary and, outside sanitizer builds (whose runtimes own malloc), malloc and
+// posix_memalign too, so C allocations (FFTW's buffers, a library's temporary) are caught as well.
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cerrno>
 #include <cstdlib>
 #include <new>
 
 #include "engine/fit/fitter.hpp"
-#include "engine/render/psf_kernel.hpp"
+#include "engine/render/renderer_factory.hpp"
 #include "support/reference_data.hpp"
 
 namespace {
@@ -27,19 +30,37 @@ void operator delete(void* p) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 #pragma GCC diagnostic pop
 
+#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__) && defined(__GLIBC__)
+// glibc's own entry points, which the interposed ones forward to.
+extern "C" void* __libc_malloc(std::size_t);
+extern "C" void* __libc_memalign(std::size_t, std::size_t);
+extern "C" void* malloc(std::size_t n) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __libc_malloc(n);
+}
+extern "C" int posix_memalign(void** p, std::size_t alignment, std::size_t n) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  *p = __libc_memalign(alignment, n);
+  return *p ? 0 : ENOMEM;
+}
+#endif
+
 namespace stampede {
 namespace {
 
-TEST(FitterAllocation, SteadyStateFitsAllocateNothing) {
+class FitterAllocation : public ::testing::TestWithParam<RendererKind> {};
+
+TEST_P(FitterAllocation, SteadyStateFitsAllocateNothing) {
   const auto cases = testing::load_render_cases();
   FftPlanCache plans(FftPlanning::kEstimate);
   FitterOptions fo;
+  fo.renderer = GetParam();
   fo.render.stamp_size = 39;
   fo.noise_sigma = 0.1;
   std::string err;
-  auto kernel = PsfKernel::build(testing::case_psf(cases[6]), GridGeometry(fo.render), plans, &err);
-  ASSERT_TRUE(kernel) << err;
-  Fitter fitter(fo, kernel, plans);
+  auto psf = make_renderer(fo.renderer, fo.render, fo.model, plans)->prepare_psf(testing::case_psf(cases[6]), &err);
+  ASSERT_TRUE(psf) << err;
+  Fitter fitter(fo, psf, plans);
   ASSERT_TRUE(IsUsable(fitter.fit(cases[6].image).status));  // warm-up
   const long before = g_allocations.load();
   int fitted = 0;
@@ -51,6 +72,10 @@ TEST(FitterAllocation, SteadyStateFitsAllocateNothing) {
   EXPECT_EQ(fitted, 5);
   EXPECT_EQ(during, 0) << "heap allocations during 5 steady-state fits";
 }
+
+INSTANTIATE_TEST_SUITE_P(BothRenderers, FitterAllocation,
+                         ::testing::Values(RendererKind::kUpsampled, RendererKind::kExact),
+                         [](const auto& info) { return info.param == RendererKind::kExact ? "exact" : "upsampled"; });
 
 }  // namespace
 }  // namespace stampede
