@@ -293,6 +293,11 @@ std::vector<Entry> make_registry() {
                            [](auto& c) -> auto& { return c.fitter.lm.init_mu; }));
   r.push_back(int_entry(lm, "minimizer_max_iterations", "maximum Jacobian evaluations per stamp",
                         [](auto& c) -> auto& { return c.fitter.lm.max_iterations; }));
+  r.push_back(bool_entry(lm, "project_amplitudes",
+                         "true: solve bulge_A and disc_A linearly at every trial shape and iterate on the "
+                         "shape alone (variable projection; the same optimum in fewer iterations, when both "
+                         "are free and unbounded); false: iterate on all free parameters jointly (the paper's)",
+                         [](auto& c) -> auto& { return c.fitter.project_amplitudes; }));
 
   const char* model = "Model reparameterisation (paper appendix A)";
   r.push_back(double_entry(model, "ellipticity_mirror", "|e| about which the ellipticity is mirrored, in (0, 1)",

@@ -127,6 +127,8 @@ struct KSpaceKernels {
   int lanes = 1;
   // re[0], im[0] = the model's half-spectrum.
   void (*accumulate_model)(const KSpaceTerms& terms, const KSpaceModel& model, const KSpaceSpectra& out) = nullptr;
+  // re[kKBulge], re[kKDisc] (and im): the two components per unit amplitude.
+  void (*accumulate_components)(const KSpaceTerms& terms, const KSpaceModel& model, const KSpaceSpectra& out) = nullptr;
   // All kNumKSpaceImages spectra.
   void (*accumulate_jacobian)(const KSpaceTerms& terms, const KSpaceModel& model, const KSpaceSpectra& out) = nullptr;
 };

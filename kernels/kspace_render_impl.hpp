@@ -135,13 +135,19 @@ struct Complex {
   T re, im;
 };
 
+// What a pass accumulates: the model; the two component images per unit amplitude; or those and
+// the five shape derivatives (the KSpaceImage order).
+enum class Pass { kModel, kComponents, kJacobian };
+constexpr int pass_outputs(Pass p) { return p == Pass::kModel ? 1 : p == Pass::kComponents ? 2 : kNumKSpaceImages; }
+
 // One spectrum block's W lanes at sub-vector offset `lane0`: the sums over its alias entries, each
 // term a real weight times its alias's phase, then the bin's phase once.
-template <class T, bool kBulgeTable, bool kDiscTable, bool kJacobian>
+template <class T, bool kBulgeTable, bool kDiscTable, Pass kPass>
 inline void block_lanes(const KSpaceTerms& terms, const KSpaceModel& m, int block, int lane0, double inv_b2,
                         const KSpaceSpectra& out) {
   using L = Lanes<T>;
-  constexpr int kOut = kJacobian ? kNumKSpaceImages : 1;
+  constexpr int kOut = pass_outputs(kPass);
+  constexpr bool kJacobian = kPass == Pass::kJacobian;
   Complex<T> acc[kOut];
   for (int k = 0; k < kOut; ++k) acc[k] = {T(0.0), T(0.0)};
   const KSpaceComponent& cb = m.bulge;
@@ -161,8 +167,11 @@ inline void block_lanes(const KSpaceTerms& terms, const KSpaceModel& m, int bloc
       acc[k].re += weight * cr;
       acc[k].im += weight * ci;
     };
-    if constexpr (!kJacobian) {
+    if constexpr (kPass == Pass::kModel) {
       add(0, (T(cb.flux) * fb.value + T(cd.flux) * fd.value) * ppi);
+    } else if constexpr (kPass == Pass::kComponents) {
+      add(kKBulge, T(cb.flux_per_amplitude) * fb.value * ppi);
+      add(kKDisc, T(cd.flux_per_amplitude) * fd.value * ppi);
     } else {
       const T vb = fb.value * ppi, vd = fd.value * ppi;
       add(kKBulge, T(cb.flux_per_amplitude) * vb);
@@ -196,24 +205,24 @@ inline void block_lanes(const KSpaceTerms& terms, const KSpaceModel& m, int bloc
   }
 }
 
-template <class T, bool kBulgeTable, bool kDiscTable, bool kJacobian>
+template <class T, bool kBulgeTable, bool kDiscTable, Pass kPass>
 void accumulate_blocks(const KSpaceTerms& terms, const KSpaceModel& m, const KSpaceSpectra& out) {
   constexpr int W = Lanes<T>::size;
   static_assert(kKBlock % W == 0);
   const double b1 = sersic_b(1.0), inv_b2 = 1.0 / (b1 * b1);
   const int blocks = terms.blocks();
   for (int b = 0; b < blocks; ++b)
-    for (int lane0 = 0; lane0 < kKBlock; lane0 += W) block_lanes<T, kBulgeTable, kDiscTable, kJacobian>(terms, m, b, lane0, inv_b2, out);
+    for (int lane0 = 0; lane0 < kKBlock; lane0 += W) block_lanes<T, kBulgeTable, kDiscTable, kPass>(terms, m, b, lane0, inv_b2, out);
 }
 
 // Chooses the instantiation for the components' kinds, once per call.
-template <class T, bool kJacobian>
+template <class T, Pass kPass>
 void accumulate(const KSpaceTerms& terms, const KSpaceModel& m, const KSpaceSpectra& out) {
   const bool bt = m.bulge.table != nullptr, dt = m.disc.table != nullptr;
-  if (bt && !dt) return accumulate_blocks<T, true, false, kJacobian>(terms, m, out);
-  if (bt && dt) return accumulate_blocks<T, true, true, kJacobian>(terms, m, out);
-  if (!bt && dt) return accumulate_blocks<T, false, true, kJacobian>(terms, m, out);
-  return accumulate_blocks<T, false, false, kJacobian>(terms, m, out);
+  if (bt && !dt) return accumulate_blocks<T, true, false, kPass>(terms, m, out);
+  if (bt && dt) return accumulate_blocks<T, true, true, kPass>(terms, m, out);
+  if (!bt && dt) return accumulate_blocks<T, false, true, kPass>(terms, m, out);
+  return accumulate_blocks<T, false, false, kPass>(terms, m, out);
 }
 
 template <class T>
@@ -221,8 +230,9 @@ KSpaceKernels make_kspace_kernels(const char* name) {
   KSpaceKernels k;
   k.name = name;
   k.lanes = Lanes<T>::size;
-  k.accumulate_model = accumulate<T, false>;
-  k.accumulate_jacobian = accumulate<T, true>;
+  k.accumulate_model = accumulate<T, Pass::kModel>;
+  k.accumulate_components = accumulate<T, Pass::kComponents>;
+  k.accumulate_jacobian = accumulate<T, Pass::kJacobian>;
   return k;
 }
 

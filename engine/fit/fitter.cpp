@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "engine/solver/variable_projection.hpp"
 #include "kernels/least_squares.hpp"
 #include "kernels/moments.hpp"
 #include "kernels/sersic.hpp"
@@ -99,6 +100,10 @@ class Fitter::Problem final : public LeastSquaresProblem {
   }
   // The model of the last normal_equations call.
   const kernels::AlignedVector<double>& jacobian_model() const { return jacobian_model_; }
+  // For the projected problem, which draws into the same buffers.
+  kernels::AlignedVector<double>& model_buffer() { return model_; }
+  kernels::AlignedVector<double>& jacobian_model_buffer() { return jacobian_model_; }
+  double* const* columns() const { return column_ptr_.data(); }
 
  private:
   Fitter& f_;
@@ -108,6 +113,115 @@ class Fitter::Problem final : public LeastSquaresProblem {
   kernels::AlignedVector<double> model_, jacobian_model_;
   kernels::AlignedVector<double> columns_;
   std::array<double*, kMaxFree> column_ptr_{};
+};
+
+// The problem in the shape parameters alone, the two amplitudes solved linearly at each trial
+// shape (engine/solver/variable_projection.hpp). The optimum is the joint fit's; the path is
+// not: no steps along the bulge/disc flux degeneracy, where the joint fit spends tens to
+// hundreds of iterations at low S/N (docs/solver.md).
+class Fitter::ProjectedProblem final : public LeastSquaresProblem {
+ public:
+  ProjectedProblem(Fitter& f, Problem& base, int npix)
+      : f_(f), base_(base), bulge_(npix), disc_(npix), projected_(kMaxFree * kernels::aligned_stride<double>(npix)) {
+    for (int k = 0; k < kMaxFree; ++k) projected_ptr_[k] = projected_.data() + k * kernels::aligned_stride<double>(npix);
+  }
+  int num_pixels() const override { return base_.num_pixels(); }
+  // Starts a fit: the full vector the shape parameters are set in.
+  void reset(const ParamVector& full) {
+    full_ = full;
+    cached_ = false;
+    extra_renders_ = 0;
+  }
+  // The shape parameters (x) in the full vector with amplitudes `a`; false outside the bounds.
+  bool expand(const LmVector& x, const double a[2], ParamVector* p) const {
+    *p = full_;
+    for (int j = 0; j < f_.num_shape_; ++j) {
+      const Param q = f_.free_[f_.shape_[j]];
+      const int i = index(q);
+      const double v = x[j] * f_.units_.of(q);
+      if (!(v >= f_.lower_[i] && v <= f_.upper_[i])) return false;
+      (*p)[i] = x[j];
+    }
+    (*p)[index(Param::kBulgeA)] = a[0];
+    (*p)[index(Param::kDiscA)] = a[1];
+    return true;
+  }
+  bool chi2(const LmVector& x, double* chi2) override {
+    *chi2 = NAN;
+    cached_ = false;
+    ParamVector p;
+    const double none[2] = {0, 0};
+    if (!expand(x, none, &p) || f_.renderer_->render_components(p, bulge_, disc_) != RenderStatus::kOk) return false;
+    const std::span<const double> data = base_.data();
+    const std::span<const double> weight = f_.weight_;
+    std::array<double*, 2> cols = {bulge_.data(), disc_.data()};
+    double g[4], h[2];
+    f_.least_squares_->normal_equations(data, f_.zeros_, weight, cols.data(), 2, g, h);
+    if (!solve_linear_amplitudes(g, h, &amplitudes_)) return false;
+    auto& model = base_.model_buffer();
+    for (std::size_t i = 0; i < model.size(); ++i) model[i] = amplitudes_.a[0] * bulge_[i] + amplitudes_.a[1] * disc_[i];
+    *chi2 = f_.least_squares_->weighted_chi2(data, model, weight);
+    cached_x_ = x;
+    cached_ = std::isfinite(*chi2);
+    return cached_;
+  }
+  bool normal_equations(const LmVector& x, double* chi2, LmMatrix* alpha, LmVector* beta) override {
+    *chi2 = NAN;
+    if (!(cached_ && cached_x_ == x)) {  // the amplitudes at x (the solver's first point only)
+      ++extra_renders_;
+      double c;
+      if (!this->chi2(x, &c)) return false;
+    }
+    ParamVector p;
+    if (!expand(x, amplitudes_.a, &p)) return false;
+    // The model and the full Jacobian (every free parameter, amplitudes included) at x.
+    auto& model = base_.model_buffer();
+    double* const* cols = base_.columns();
+    if (f_.renderer_->render_with_jacobian(p, std::span<const Param>(f_.free_.data(), f_.num_free_), model,
+                                           std::span<double* const>(cols, f_.num_free_)) != RenderStatus::kOk)
+      return false;
+    const double* b = cols[f_.amplitude_[0]];
+    const double* d = cols[f_.amplitude_[1]];
+    const std::span<const double> weight = f_.weight_;
+    const std::size_t npix = model.size();
+    for (int j = 0; j < f_.num_shape_; ++j)  // Kaufman's Jacobian: each shape column projected
+      project_out(amplitudes_, weight.data(), b, d, cols[f_.shape_[j]], projected_ptr_[j], npix);
+    const int n = f_.num_shape_;
+    alpha->resize(n, n);
+    beta->resize(n);
+    *chi2 = f_.least_squares_->normal_equations(base_.data(), model, weight, projected_ptr_.data(), n, alpha->data(),
+                                                 beta->data());
+    auto& kept = base_.jacobian_model_buffer();
+    std::copy(model.begin(), model.end(), kept.begin());
+    jacobian_amplitudes_[0] = amplitudes_.a[0];
+    jacobian_amplitudes_[1] = amplitudes_.a[1];
+    return std::isfinite(*chi2) && alpha->allFinite() && beta->allFinite();
+  }
+  // After a normal_equations call at x: the full parameter vector and J^T W J over every free
+  // parameter (for the errors), from that call's images.
+  bool finish(const LmVector& x, ParamVector* p, LmMatrix* alpha) {
+    if (!expand(x, jacobian_amplitudes_, p)) return false;
+    const int n = f_.num_free_;
+    alpha->resize(n, n);
+    LmVector beta(n);
+    const double c = f_.least_squares_->normal_equations(base_.data(), base_.jacobian_model(), f_.weight_,
+                                                         base_.columns(), n, alpha->data(), beta.data());
+    return std::isfinite(c) && alpha->allFinite();
+  }
+  int extra_renders() const { return extra_renders_; }
+
+ private:
+  Fitter& f_;
+  Problem& base_;
+  ParamVector full_{};
+  kernels::AlignedVector<double> bulge_, disc_;
+  kernels::AlignedVector<double> projected_;
+  std::array<double*, kMaxFree> projected_ptr_{};
+  LinearAmplitudes amplitudes_;  // at cached_x_
+  LmVector cached_x_;
+  bool cached_ = false;
+  double jacobian_amplitudes_[2] = {0, 0};
+  int extra_renders_ = 0;
 };
 
 Fitter::Fitter(const FitterOptions& options, std::shared_ptr<const PreparedPsf> psf, FftPlanCache& plans)
@@ -120,12 +234,28 @@ Fitter::Fitter(const FitterOptions& options, std::shared_ptr<const PreparedPsf> 
   renderer_ = make_renderer(options_.renderer, options_.render, options_.model, plans);
   if (psf_) renderer_->set_psf(psf_);
   problem_ = std::make_unique<Problem>(*this, npix);
+  projected_ = std::make_unique<ProjectedProblem>(*this, *problem_, npix);
   weight_.assign(npix, 0.0);
   start_bulge_.assign(npix, 0.0);
   start_disc_.assign(npix, 0.0);
   start_model_.assign(npix, 0.0);
   zeros_.assign(npix, 0.0);
   num_free_ = options_.params.free_params(&free_);
+  // The amplitudes are solved linearly (ProjectedProblem) when both are free and unbounded.
+  {
+    int found = 0;
+    for (int k = 0; k < num_free_; ++k) {
+      const Param q = free_[k];
+      if (q == Param::kBulgeA || q == Param::kDiscA) {
+        const ParamSpec& spec = options_.params[q];
+        const bool unbounded = !(std::isfinite(spec.lower) || std::isfinite(spec.upper));
+        if (unbounded) amplitude_[q == Param::kBulgeA ? 0 : 1] = k, ++found;
+      } else {
+        shape_[num_shape_++] = k;
+      }
+    }
+    project_ = options_.project_amplitudes && found == 2 && num_shape_ > 0;
+  }
   for (int k = 0; k < kNumParams; ++k) {
     const ParamSpec& spec = options_.params.spec[k];
     lower_[k] = spec.lower;
@@ -201,19 +331,28 @@ ParamVector Fitter::start_from_prepared(std::uint32_t* flags) {
   if (m.valid && m.x >= 0 && m.x <= s - 1 && m.y >= 0 && m.y <= s - 1) {
     x = m.x;
     y = m.y;
-    // Remove the PSF's second moments when that leaves a positive-definite galaxy.
+    // Remove the PSF's second moments when that leaves a positive-definite galaxy; when it does
+    // not, the object is no larger than the PSF: start round and small rather than at the PSF's
+    // size, where a de Vaucouleurs cusp of several pixels can mimic an unresolved source (a local
+    // optimum the solver then descends into: projected_fit_test, GalSim case 21).
     double gxx = m.xx, gxy = m.xy, gyy = m.yy;
+    bool resolved = true;
     if (psf_) {
       const double dxx = m.xx - psf_->xx(), dxy = m.xy - psf_->xy(), dyy = m.yy - psf_->yy();
-      if (dxx > 0 && dyy > 0 && dxx * dyy - dxy * dxy > 0.01 * (m.xx * m.yy - m.xy * m.xy)) {
+      resolved = dxx > 0 && dyy > 0 && dxx * dyy - dxy * dxy > 0.01 * (m.xx * m.yy - m.xy * m.xy);
+      if (resolved) {
         gxx = dxx;
         gxy = dxy;
         gyy = dyy;
       }
     }
-    kernels::covariance_ellipticity(gxx, gxy, gyy, &e1, &e2);
-    // Half-light radius of a Gaussian with this determinant: sqrt(2 ln 2) sigma.
-    r = 1.1774 * std::pow(gxx * gyy - gxy * gxy, 0.25);
+    if (resolved) {
+      kernels::covariance_ellipticity(gxx, gxy, gyy, &e1, &e2);
+      // Half-light radius of a Gaussian with this determinant: sqrt(2 ln 2) sigma.
+      r = 1.1774 * std::pow(gxx * gyy - gxy * gxy, 0.25);
+    } else {
+      r = 0.3;
+    }
     if (!(r > 0.3) || !std::isfinite(r)) r = 0.3;
   } else {
     *flags |= kFlagDefaultStart;
@@ -240,7 +379,8 @@ ParamVector Fitter::start_from_prepared(std::uint32_t* flags) {
     if (!std::isnan(lower_[k])) p[k] = std::max(p[k], lower_[k] / unit);
     if (!std::isnan(upper_[k])) p[k] = std::min(p[k], upper_[k] / unit);
   }
-  if (amplitudes_unset && bulge_free && disc_free) solve_start_amplitudes(&p);
+  // A projected fit solves the amplitudes at every shape; a joint one starts from the best ones.
+  if (amplitudes_unset && bulge_free && disc_free && !project_) solve_start_amplitudes(&p);
   return p;
 }
 
@@ -296,13 +436,18 @@ FitResult Fitter::run(const ParamVector& start, std::uint32_t flags) {
   FitResult r;
   const int used = problem_->num_pixels();
   problem_->reset(start);
-  LmVector x0(num_free_);
-  LmUnits units{units_.chi2(), LmVector(num_free_)};
-  for (int k = 0; k < num_free_; ++k) {
-    x0[k] = start[index(free_[k])];
-    units.param[k] = units_.of(free_[k]);
+  projected_->reset(start);
+  // The solver's variables: every free parameter, or (projected) the shape ones.
+  const int nx = project_ ? num_shape_ : num_free_;
+  LmVector x0(nx);
+  LmUnits units{units_.chi2(), LmVector(nx)};
+  for (int j = 0; j < nx; ++j) {
+    const Param q = free_[project_ ? shape_[j] : j];
+    x0[j] = start[index(q)];
+    units.param[j] = units_.of(q);
   }
-  LmSummary sum = levenberg_marquardt(*problem_, x0, options_.lm, units);
+  LeastSquaresProblem& problem = project_ ? static_cast<LeastSquaresProblem&>(*projected_) : *problem_;
+  LmSummary sum = levenberg_marquardt(problem, x0, options_.lm, units);
   r.stop_reason = sum.reason;
   r.stop_value = sum.stop_value;
   r.stop_threshold = sum.stop_threshold;
@@ -321,19 +466,29 @@ FitResult Fitter::run(const ParamVector& start, std::uint32_t flags) {
   LmVector beta;
   if (!sum.alpha_at_x) {
     ++r.evaluations;
-    if (!problem_->normal_equations(sum.x, &chi2, &alpha, &beta)) {
+    if (!problem.normal_equations(sum.x, &chi2, &alpha, &beta)) {
       r.status = FitStatus::kSolverFailure;
       r.flags = flags;
       return r;
     }
+  }
+  ParamVector p;
+  if (project_) {
+    r.evaluations += projected_->extra_renders();
+    // The amplitudes the last Jacobian was drawn with, and J^T W J over every free parameter.
+    if (!projected_->finish(sum.x, &p, &alpha)) {
+      r.status = FitStatus::kSolverFailure;
+      r.flags = flags;
+      return r;
+    }
+  } else {
+    problem_->expand(sum.x, &p);
   }
   if (!std::isfinite(chi2)) {
     r.status = FitStatus::kSolverFailure;
     r.flags = flags;
     return r;
   }
-  ParamVector p;
-  problem_->expand(sum.x, &p);
   // Errors from the inverse of J^T W J, in data units: chi2 = units_.chi2() chi2_internal, so
   // cov(x_data) = unit_k unit_l cov(x_internal) / units_.chi2().
   Eigen::LDLT<LmMatrix> ldlt(alpha);

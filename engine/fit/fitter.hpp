@@ -30,6 +30,9 @@ struct FitterOptions {
   LmOptions lm;
   ParameterSet params;
   double noise_sigma = 0.0;  // per-pixel noise when no weight map is given; 0 = unweighted (noise-free data)
+  // Solve the two amplitudes linearly at every trial shape (variable projection) when both are
+  // free and unbounded; false: Levenberg-Marquardt over all free parameters jointly (the paper's).
+  bool project_amplitudes = true;
 
   bool IsValid(std::string* why) const;
 };
@@ -66,6 +69,7 @@ class Fitter {
 
  private:
   class Problem;
+  class ProjectedProblem;
   // The PSF and weight checks fit() and fit_from() share; false, with *r filled, when nothing can be fitted.
   bool ready(std::span<const double> pixels, std::span<const double> weight, WeightKind kind, FitResult* r,
              std::uint32_t* flags);
@@ -83,11 +87,17 @@ class Fitter {
   std::unique_ptr<Renderer> renderer_;
   const kernels::LeastSquaresKernels* least_squares_;  // options_.render.simd's build
   std::unique_ptr<Problem> problem_;
+  std::unique_ptr<ProjectedProblem> projected_;
   FitUnits units_;                         // of the stamp being fitted
   kernels::AlignedVector<double> weight_;  // in units_.weight
   std::vector<double> start_bulge_, start_disc_, start_model_, zeros_;
   std::array<Param, kNumParams> free_{};
   int num_free_ = 0;
+  // Projected fits: indices into free_ of the shape parameters and of the two amplitudes.
+  bool project_ = false;
+  std::array<int, kNumParams> shape_{};
+  int num_shape_ = 0;
+  std::array<int, 2> amplitude_{};
   ParamVector lower_{}, upper_{};
 };
 

@@ -55,6 +55,11 @@ class Renderer {
   virtual RenderStatus render_with_jacobian(const ParamVector& p, std::span<const Param> free, std::span<double> model,
                                             std::span<double* const> jacobian) = 0;
 
+  // The two component images per unit amplitude, stamp_size^2 each: the model is
+  // A_b bulge + A_d disc (p's amplitudes are not used). What a fit that solves the amplitudes
+  // linearly draws at a trial shape.
+  virtual RenderStatus render_components(const ParamVector& p, std::span<double> bulge, std::span<double> disc) = 0;
+
   // The values p is drawn with: p with e1, e2 and the radius replaced by their effective
   // (mirrored, softened) values. False when no model exists for p (*out is then still filled).
   virtual bool effective_params(const ParamVector& p, ParamVector* out) const = 0;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <tuple>
 #include <stdexcept>
 #include <string>
 
@@ -110,6 +111,28 @@ RenderStatus UpsampledRenderer::render(const ParamVector& p, std::span<double> m
     }
   }
   convolve_and_downsample(grid, model.data());
+  return RenderStatus::kOk;
+}
+
+RenderStatus UpsampledRenderer::render_components(const ParamVector& p, std::span<double> bulge,
+                                                  std::span<double> disc) {
+  if (!kernel_) return RenderStatus::kNoPsf;
+  ModelComponents comp;
+  if (!model_.components(p, &comp)) return RenderStatus::kInvalidModel;
+  const kernels::SubpixelGrid g = geometry_.subpixel_grid();
+  const auto regions = partition(comp.disc.shape.x0, comp.disc.shape.y0);
+  const int u2 = options_.n_central_pixel_upsampling;
+  for (auto [c, radius, k, out] : {std::tuple{&comp.bulge, comp.bulge_radius, kBulgeImage, bulge.data()},
+                                   std::tuple{&comp.disc, comp.disc_radius, kDiscImage, disc.data()}}) {
+    double* grid = image(k);
+    std::memset(grid, 0, sizeof(double) * static_cast<std::size_t>(g.size) * g.size);
+    for (int r = 0; r < 5; ++r) {
+      const int ss = r == 0 ? u2 : 1;
+      set_floor(c, ss, radius);
+      profile_kernels_->accumulate_value(g, regions[r], ss, c->shape, 1.0, grid);
+    }
+    convolve_and_downsample(grid, out);
+  }
   return RenderStatus::kOk;
 }
 

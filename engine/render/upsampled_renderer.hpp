@@ -35,6 +35,7 @@ class UpsampledRenderer final : public Renderer {
   RenderStatus render(const ParamVector& p, std::span<double> model) override;
   RenderStatus render_with_jacobian(const ParamVector& p, std::span<const Param> free, std::span<double> model,
                                     std::span<double* const> jacobian) override;
+  RenderStatus render_components(const ParamVector& p, std::span<double> bulge, std::span<double> disc) override;
   bool effective_params(const ParamVector& p, ParamVector* out) const override;
   void component_fluxes(const ParamVector& p, double* bulge, double* disc) const override;
 

@@ -136,11 +136,19 @@ TEST(KSpaceKernelsIsa, EveryBuildMatchesTheScalarReference) {
           }
         m.bin_phase_x_re = pxr.data(), m.bin_phase_x_im = pxi.data(), m.bin_phase_y_re = pyr.data(),
         m.bin_phase_y_im = pyi.data(), m.alias_phase_re = ar.data(), m.alias_phase_im = ai.data();
-        Spectra ref(terms), got(terms), ref_model(terms), got_model(terms);
+        Spectra ref(terms), got(terms), ref_model(terms), got_model(terms), got_components(terms);
         scalar.accumulate_jacobian(terms, m, ref.view);
         k->accumulate_jacobian(terms, m, got.view);
         scalar.accumulate_model(terms, m, ref_model.view);
         k->accumulate_model(terms, m, got_model.view);
+        k->accumulate_components(terms, m, got_components.view);
+        // The components pass gives the Jacobian pass's component spectra.
+        for (int img : {kKBulge, kKDisc}) {
+          const double w = std::max(worst_in_peak_eps(got_components.re[img], ref.re[img]),
+                                    worst_in_peak_eps(got_components.im[img], ref.im[img]));
+          EXPECT_LT(w, 64.0) << k->name << " components image " << img << " n " << n << " shape " << shape;
+          worst = std::max(worst, w);
+        }
         for (int img = 0; img < kNumKSpaceImages; ++img) {
           const double w = std::max(worst_in_peak_eps(got.re[img], ref.re[img]), worst_in_peak_eps(got.im[img], ref.im[img]));
           EXPECT_LT(w, 64.0) << k->name << " image " << img << " n " << n << " shape " << shape;
