@@ -1,6 +1,7 @@
 // Fits one postage stamp with the im3shape model: starting point from adaptive moments, then
-// Levenberg-Marquardt on the analytic Jacobian. One Fitter per thread; buffers are allocated at
-// construction, none per stamp.
+// Levenberg-Marquardt on the analytic Jacobian, over the shape parameters with the two
+// amplitudes solved linearly at each trial shape (project_amplitudes), or over every free
+// parameter jointly. One Fitter per thread; buffers are allocated at construction, none per stamp.
 #pragma once
 
 #include <array>

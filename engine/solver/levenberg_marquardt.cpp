@@ -85,6 +85,7 @@ LmSummary levenberg_marquardt(LeastSquaresProblem& problem, const LmVector& x0, 
   s.initial_chi2 = chi2;
   LmDamping damping(options.init_mu);
   const double npix = std::max(1, problem.num_pixels());
+  const double negligible = problem.negligible_chi2();
   auto stop = [&](StopReason r, double value, double threshold) {
     s.reason = r;
     s.stop_value = value;
@@ -169,12 +170,15 @@ LmSummary levenberg_marquardt(LeastSquaresProblem& problem, const LmVector& x0, 
           stop(StopReason::kChi2, chi2 * units.chi2_unit, options.eps3);
           break;
         }
-        const double rel = (prev - chi2) / prev;
+        // Relative to chi2, or to the problem's negligible chi2 when it is below that (a model that
+        // matches noise-free data to rounding keeps halving a chi2 that no longer means anything).
+        const double scale = std::max(prev, negligible);
+        const double rel = (prev - chi2) / scale;
         small_steps = rel < options.eps4 / npix ? small_steps + 1 : 0;
         // A heavily damped step can gain little far from the optimum: stop when the Gauss-Newton
         // model agrees that little is left to gain, or when three steps in a row gained little
         // (the model is only piecewise smooth, so near a seam the quadratic model may never agree).
-        if (options.eps4 > 0 && small_steps > 0 && (gn_decrease / prev < options.eps4 / npix || small_steps >= 3)) {
+        if (options.eps4 > 0 && small_steps > 0 && (gn_decrease / scale < options.eps4 / npix || small_steps >= 3)) {
           stop(StopReason::kRelativeChi2Change, rel, options.eps4 / npix);
           break;
         }

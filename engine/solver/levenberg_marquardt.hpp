@@ -7,7 +7,7 @@
 //   eps1: max_k |beta_k| <= eps1, beta = J^T W (d - m) = -(1/2) d chi2 / dp     (0 disables)
 //   eps2: |dp|^2 <= eps2^2 |p|^2 for the proposed step                          (0 disables)
 //   eps3: chi2 <= eps3                                                          (0 disables)
-//   eps4: |chi2_prev - chi2| / chi2_prev < eps4 / n_pixels after an accepted step, and either the
+//   eps4: |chi2_prev - chi2| / max(chi2_prev, negligible_chi2) < eps4 / n_pixels after an accepted step, and either the
 //         undamped Gauss-Newton step predicts no more than that, or it is the third such step in a
 //         row (0 disables)
 //   max_iterations: Jacobian evaluations.
@@ -64,6 +64,9 @@ class LeastSquaresProblem {
   virtual bool chi2(const LmVector& x, double* chi2) = 0;
   // chi2, alpha = J^T W J and beta = J^T W (d - m) at x; false when no model exists there.
   virtual bool normal_equations(const LmVector& x, double* chi2, LmMatrix* alpha, LmVector* beta) = 0;
+  // A chi2 at which the fit is exact to rounding (e.g. a tiny fraction of the data's own
+  // sum w d^2): eps4 then measures chi2 changes against it rather than against chi2 itself. 0: none.
+  virtual double negligible_chi2() const { return 0.0; }
 };
 
 // Damping schedule (Nielsen): accepted step with gain ratio rho: mu *= max(1/3, 1 - (2 rho - 1)^3),
