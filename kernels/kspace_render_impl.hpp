@@ -169,9 +169,10 @@ inline void block_lanes(const KSpaceTerms& terms, const KSpaceModel& m, int bloc
     };
     if constexpr (kPass == Pass::kModel) {
       add(0, (T(cb.flux) * fb.value + T(cd.flux) * fd.value) * ppi);
-    } else if constexpr (kPass == Pass::kComponents) {
-      add(kKBulge, T(cb.flux_per_amplitude) * fb.value * ppi);
-      add(kKDisc, T(cd.flux_per_amplitude) * fd.value * ppi);
+    } else if constexpr (kPass == Pass::kComponents) {  // the Jacobian pass's expressions
+      const T vb = fb.value * ppi, vd = fd.value * ppi;
+      add(kKBulge, T(cb.flux_per_amplitude) * vb);
+      add(kKDisc, T(cd.flux_per_amplitude) * vd);
     } else {
       const T vb = fb.value * ppi, vd = fd.value * ppi;
       add(kKBulge, T(cb.flux_per_amplitude) * vb);
