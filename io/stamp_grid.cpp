@@ -10,6 +10,11 @@ namespace stampede::io {
 
 StampGridReader::StampGridReader(const std::string& path, int stamp_size) : file_(FitsFile::open_read(path)) {
   const FitsFile::ImageShape shape = file_.image_shape();
+  // An image without pixels divides by any stamp size: refused here, before a stamp size from a
+  // corrupt header (972,308,181 in campaign finding F9) sizes the pipeline's buffers.
+  if (shape.nx <= 0 || shape.ny <= 0)
+    throw FitsError(file_.describe() + ": the image has no pixels (" + std::to_string(shape.nx) + " x " +
+                    std::to_string(shape.ny) + "), so no stamps");
   // Checked in 64 bits: a STAMPSZ beyond the int range had wrapped (2^32 + 8 read as 8).
   const long long stamp = stamp_size > 0 ? stamp_size : file_.key_long("STAMPSZ");
   if (stamp <= 0 || shape.nx % stamp != 0 || shape.ny % stamp != 0)

@@ -120,6 +120,18 @@ TEST(FitsHeaderGuard, AGzipSizeClaimBeyondDeflatesRatioIsAnErrorNotAnAllocation)
                        "liar.fits.gz: gzip trailer claims 1073741824 bytes uncompressed from 68"));
 }
 
+// Found by the fuzz campaign (F10, fuzz_calibration_table): a 17 KB "gzip" file whose trailer
+// claims 0 bytes made CFITSIO allocate 4 GB (it reads ISIZE 0 as a file of 4 GB or more).
+TEST(FitsHeaderGuard, AGzipSizeClaimBelowOneFitsBlockIsAnErrorNotAnAllocation) {
+  const stampede::testing::ScratchDir dir("stampede_header_guard_");
+  const std::string path = dir.path("zero.fits.gz");
+  std::string bytes = std::string("\x1f\x8b\x6e\x6e", 4) + std::string(17813, 'n');
+  bytes += std::string(4, '\0');  // ISIZE = 0
+  std::ofstream(path, std::ios::binary) << bytes;
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { FitsFile::open_read(path); }),
+                       "zero.fits.gz: gzip trailer claims 0 bytes uncompressed from 17821: less than one FITS block"));
+}
+
 // Found by the fuzz campaign (F8, fuzz_psf_image; undefined behaviour under UBSan): a BITPIX of
 // 2^60 - 1 overflowed the scan's size of the data. Now the scan leaves a non-standard BITPIX to
 // CFITSIO, which refuses it: an error naming the file.

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <string>
 #include <vector>
 
 #include "io/fits_error.hpp"
@@ -40,6 +42,28 @@ TEST(StampGridReader, RefusesAStampSizeBeyondTheIntRange) {
   const std::string path = grid_file(dir, 4294967304LL);
   const std::string message = error_of<FitsError>([&] { StampGridReader grid(path); });
   EXPECT_TRUE(Contains(message, "stamp size 4294967304 does not divide the 16 x 16 image")) << message;
+}
+
+// Campaign finding F9 (fuzz_stamp_grid): a 0 x 0 image is divided by any STAMPSZ, so a corrupt
+// header's 972308181 passed the reader and the fuzz target's 4-stamp batch asked std::vector for
+// 3.8e18 doubles (std::length_error, uncaught). The empty image is now a FitsError.
+TEST(StampGridReader, RefusesAnImageWithoutPixels) {
+  const stampede::testing::ScratchDir dir("stampede_stamp_grid_");
+  const std::string path = dir.path("empty.fits");
+  {
+    // Written card by card: the project's writer refuses an image without pixels.
+    std::string header;
+    for (const char* card : {"SIMPLE  =                    T", "BITPIX  =                  -32",
+                             "NAXIS   =                    2", "NAXIS1  =                    0",
+                             "NAXIS2  =                    0", "STAMPSZ =            972308181", "END"}) {
+      std::string c(card);
+      header += c + std::string(80 - c.size(), ' ');
+    }
+    header.resize(2880, ' ');
+    std::ofstream(path, std::ios::binary) << header;
+  }
+  const std::string message = error_of<FitsError>([&] { StampGridReader grid(path); });
+  EXPECT_TRUE(Contains(message, "the image has no pixels (0 x 0)")) << message;
 }
 
 }  // namespace
