@@ -81,12 +81,14 @@ void check_gzip_size_claim(const std::string& root) {
   if (claimed > 1032 * size + kBlock)
     throw FitsError(root + ": gzip trailer claims " + std::to_string(claimed) + " bytes uncompressed from " +
                     std::to_string(size) + ": more than deflate can expand; not a valid gzip file");
-  // CFITSIO reads a claim of 0 as a file of 4 GB or more (ISIZE is the size mod 2^32) and
-  // allocates 4 GB (fuzz finding F10, a 17 KB file). A FITS file has one 2880-byte block at least,
-  // and a file too small to inflate to 4 GB cannot have wrapped.
-  if (claimed < kBlock && 1032 * size + kBlock < (1LL << 32))
+  // CFITSIO takes a claim below the compressed size for a file that wrapped past 4 GB (ISIZE is
+  // the size mod 2^32) and allocates 4 GB more (fuzz finding F10: claims of 0 and 8,192 bytes from
+  // 17,821 and 10,159). A file too small to inflate to 4 GB cannot have wrapped, and a FITS file
+  // has one 2880-byte block at least.
+  if ((claimed < size || claimed < kBlock) && 1032 * size + kBlock < (1LL << 32))
     throw FitsError(root + ": gzip trailer claims " + std::to_string(claimed) + " bytes uncompressed from " +
-                    std::to_string(size) + ": less than one FITS block; not a gzip-compressed FITS file");
+                    std::to_string(size) + ": less than " + (claimed < kBlock ? "one FITS block" : "the compressed size") +
+                    "; not a gzip-compressed FITS file");
 }
 
 void check_fits_headers(const std::string& root) {

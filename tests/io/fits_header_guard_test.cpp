@@ -120,8 +120,9 @@ TEST(FitsHeaderGuard, AGzipSizeClaimBeyondDeflatesRatioIsAnErrorNotAnAllocation)
                        "liar.fits.gz: gzip trailer claims 1073741824 bytes uncompressed from 68"));
 }
 
-// Found by the fuzz campaign (F10, fuzz_calibration_table): a 17 KB "gzip" file whose trailer
-// claims 0 bytes made CFITSIO allocate 4 GB (it reads ISIZE 0 as a file of 4 GB or more).
+// Found by the fuzz campaign (F10, fuzz_calibration_table): "gzip" files whose trailer claims
+// less than their own size (0 from 17 KB, 8 KB from 10 KB) made CFITSIO allocate 4 GB more than
+// the claim (it takes such a claim for a file that wrapped past 4 GB).
 TEST(FitsHeaderGuard, AGzipSizeClaimBelowOneFitsBlockIsAnErrorNotAnAllocation) {
   const stampede::testing::ScratchDir dir("stampede_header_guard_");
   const std::string path = dir.path("zero.fits.gz");
@@ -130,6 +131,13 @@ TEST(FitsHeaderGuard, AGzipSizeClaimBelowOneFitsBlockIsAnErrorNotAnAllocation) {
   std::ofstream(path, std::ios::binary) << bytes;
   EXPECT_TRUE(Contains(error_of<FitsError>([&] { FitsFile::open_read(path); }),
                        "zero.fits.gz: gzip trailer claims 0 bytes uncompressed from 17821: less than one FITS block"));
+  // The same for any claim below the compressed size (8,192 from 10,159: CFITSIO allocated 4 GB + 8 KB).
+  const std::string small = dir.path("small.fits.gz");
+  std::string b = std::string("\x1f\x8b\x22\x00", 4) + std::string(10151, 'n');
+  b += std::string("\x00\x20\x00\x00", 4);  // ISIZE = 8192
+  std::ofstream(small, std::ios::binary) << b;
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { FitsFile::open_read(small); }),
+                       "small.fits.gz: gzip trailer claims 8192 bytes uncompressed from 10159: less than the compressed size"));
 }
 
 // Found by the fuzz campaign (F8, fuzz_psf_image; undefined behaviour under UBSan): a BITPIX of
