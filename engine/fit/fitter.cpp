@@ -66,16 +66,11 @@ class Fitter::Problem final : public LeastSquaresProblem {
   int num_pixels() const override { return npix_used_; }
   std::span<const double> data() const { return data_; }
 
-  // x (internal units) in the full vector; false outside the bounds (data units; the units are
-  // powers of two, so the comparison is exact).
+  // x (internal units) in the full vector; false outside the bounds.
   bool expand(const LmVector& x, ParamVector* p) const {
     *p = full_;
-    for (int k = 0; k < f_.num_free_; ++k) {
-      const int i = index(f_.free_[k]);
-      const double v = x[k] * f_.units_.of(f_.free_[k]);
-      if (!(v >= f_.lower_[i] && v <= f_.upper_[i])) return false;  // out of range: no model
-      (*p)[i] = x[k];
-    }
+    for (int k = 0; k < f_.num_free_; ++k)
+      if (!f_.set_within_bounds(f_.free_[k], x[k], p)) return false;  // out of range: no model
     return true;
   }
   // A model that cannot be made has no chi2 (NaN); the solver gets `false` and rejects the step.
@@ -145,13 +140,8 @@ class Fitter::ProjectedProblem final : public LeastSquaresProblem {
   // The shape parameters (x) in the full vector with amplitudes `a`; false outside the bounds.
   bool expand(const LmVector& x, const double a[2], ParamVector* p) const {
     *p = full_;
-    for (int j = 0; j < f_.num_shape_; ++j) {
-      const Param q = f_.free_[f_.shape_[j]];
-      const int i = index(q);
-      const double v = x[j] * f_.units_.of(q);
-      if (!(v >= f_.lower_[i] && v <= f_.upper_[i])) return false;
-      (*p)[i] = x[j];
-    }
+    for (int j = 0; j < f_.num_shape_; ++j)
+      if (!f_.set_within_bounds(f_.free_[f_.shape_[j]], x[j], p)) return false;
     (*p)[index(Param::kBulgeA)] = a[0];
     (*p)[index(Param::kDiscA)] = a[1];
     return true;
@@ -234,6 +224,14 @@ class Fitter::ProjectedProblem final : public LeastSquaresProblem {
   int extra_renders_ = 0;
 };
 
+bool Fitter::set_within_bounds(Param q, double x, ParamVector* p) const {
+  const int i = index(q);
+  const double v = x * units_.of(q);
+  if (!(v >= lower_[i] && v <= upper_[i])) return false;
+  (*p)[i] = x;
+  return true;
+}
+
 Fitter::Fitter(const FitterOptions& options, std::shared_ptr<const PreparedPsf> psf, FftPlanCache& plans)
     : options_(options), psf_(std::move(psf)) {
   std::string why;
@@ -259,7 +257,10 @@ Fitter::Fitter(const FitterOptions& options, std::shared_ptr<const PreparedPsf> 
       if (q == Param::kBulgeA || q == Param::kDiscA) {
         const ParamSpec& spec = options_.params[q];
         const bool unbounded = !(std::isfinite(spec.lower) || std::isfinite(spec.upper));
-        if (unbounded) amplitude_[q == Param::kBulgeA ? 0 : 1] = k, ++found;
+        if (unbounded) {
+          amplitude_[q == Param::kBulgeA ? 0 : 1] = k;
+          ++found;
+        }
       } else {
         shape_[num_shape_++] = k;
       }

@@ -82,6 +82,9 @@ class Fitter {
   FitResult run(const ParamVector& start, std::uint32_t flags);
   ParamVector start_from_prepared(std::uint32_t* flags);
   void solve_start_amplitudes(ParamVector* p);
+  // Sets free parameter q to x (internal units) in *p; false outside its bounds (stated in data
+  // units; the units are powers of two, so the comparison is exact).
+  bool set_within_bounds(Param q, double x, ParamVector* p) const;
 
   FitterOptions options_;
   std::shared_ptr<const PreparedPsf> psf_;

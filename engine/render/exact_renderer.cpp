@@ -89,7 +89,7 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
     b = AlignedBuffer(2 * sizeof(double) * spectrum_size_);
     std::memset(b.data(), 0, 2 * sizeof(double) * spectrum_size_);
   }
-  grid_ = AlignedBuffer(sizeof(double) * static_cast<std::size_t>(n_) * n_);
+  grid_ = AlignedBuffer(sizeof(double) * static_cast<std::size_t>(stamp_size_) * n_);
   // FFTW's own interleaved half-spectrum layout: its c2r plans for it run 1.3-3.5x faster than a
   // split-complex guru plan over the kernels' padded rows (measured at N = 64-128), so each
   // spectrum is interleaved into `complex_` before its inverse.
@@ -104,10 +104,10 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
     std::lock_guard<std::mutex> lock(fftw_planner_mutex());
     auto* c = static_cast<fftw_complex*>(complex_.data());
     column_plan_ = fftw_plan_many_dft(1, &n_, half, c, nullptr, half, 1, c, nullptr, half, 1, FFTW_BACKWARD, flags);
-    plan_ = fftw_plan_many_dft_c2r(1, &n_, stamp_size_, c, nullptr, 1, half, static_cast<double*>(grid_.data()),
+    row_plan_ = fftw_plan_many_dft_c2r(1, &n_, stamp_size_, c, nullptr, 1, half, static_cast<double*>(grid_.data()),
                                    nullptr, 1, n_, flags);
   }
-  if (!column_plan_ || !plan_) throw std::runtime_error("FFTW could not plan the exact renderer's inverse transform");
+  if (!column_plan_ || !row_plan_) throw std::runtime_error("FFTW could not plan the exact renderer's inverse transform");
   for (auto& s : component_stamps_) s.assign(static_cast<std::size_t>(stamp_size_) * stamp_size_, 0.0);
   bin_x_re_.assign(static_cast<std::size_t>(row_stride_), 0.0);
   bin_x_im_.assign(static_cast<std::size_t>(row_stride_), 0.0);
@@ -135,7 +135,7 @@ ExactRenderer::WrapGrid::WrapGrid(int stamp_size, int nodes, kernels::Isa isa, s
 
 ExactRenderer::~ExactRenderer() {
   std::lock_guard<std::mutex> lock(fftw_planner_mutex());  // fftw_destroy_plan is not thread-safe
-  fftw_destroy_plan(static_cast<fftw_plan>(plan_));
+  fftw_destroy_plan(static_cast<fftw_plan>(row_plan_));
   fftw_destroy_plan(static_cast<fftw_plan>(column_plan_));
 }
 
@@ -267,7 +267,7 @@ void ExactRenderer::inverse(int k, double* stamp) {
     }
   }
   fftw_execute(static_cast<fftw_plan>(column_plan_));
-  fftw_execute(static_cast<fftw_plan>(plan_));
+  fftw_execute(static_cast<fftw_plan>(row_plan_));
   const double* g = static_cast<const double*>(grid_.data());
   for (int y = 0; y < stamp_size_; ++y)
     std::copy_n(g + static_cast<std::size_t>(y) * n_, stamp_size_, stamp + static_cast<std::size_t>(y) * stamp_size_);

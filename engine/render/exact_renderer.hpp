@@ -108,7 +108,7 @@ class ExactRenderer final : public Renderer {
   const kernels::KSpaceKernels* kernels_;
   const kernels::WrapKernels* wrap_kernels_;
   void* column_plan_ = nullptr;  // fftw_plan: the columns' c2c inverse, in place in complex_
-  void* plan_ = nullptr;         // fftw_plan: the stamp rows' c2r from complex_ into grid_
+  void* row_plan_ = nullptr;     // fftw_plan: the stamp rows' c2r from complex_ into grid_
   int row_stride_ = 0;
   double* spectrum_re(int k) const { return static_cast<double*>(spectra_[k].data()); }
   double* spectrum_im(int k) const { return spectrum_re(k) + spectrum_size_; }
@@ -116,7 +116,7 @@ class ExactRenderer final : public Renderer {
   // The kernels' output, split complex (real, then imaginary), rows of row_stride_.
   std::array<AlignedBuffer, kernels::kNumKSpaceImages> spectra_;
   AlignedBuffer complex_;  // one interleaved N x (N/2 + 1) half-spectrum, reused per inverse
-  AlignedBuffer grid_;     // one N x N real image, reused per inverse
+  AlignedBuffer grid_;     // the inverse's stamp_size rows of N, reused per inverse
   // Per render: the bins' phases (row_stride columns, n rows) and the aliases' (KSpaceModel).
   std::vector<double> bin_x_re_, bin_x_im_, bin_y_re_, bin_y_im_, alias_re_, alias_im_;
   std::array<std::vector<double>, 2> component_stamps_;  // bulge, disc per unit amplitude

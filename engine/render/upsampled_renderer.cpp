@@ -93,6 +93,17 @@ void UpsampledRenderer::set_floor(kernels::SersicDerivativeBlock* c, int supersa
   c->shape.u_floor = h * h / (M_PI * radius * radius);
 }
 
+void UpsampledRenderer::accumulate_component(kernels::SersicDerivativeBlock* c, double radius,
+                                             const std::array<kernels::GridRegion, 5>& regions, double amplitude,
+                                             double* grid) {
+  const kernels::SubpixelGrid g = geometry_.subpixel_grid();
+  for (int r = 0; r < 5; ++r) {
+    const int ss = r == 0 ? options_.n_central_pixel_upsampling : 1;
+    set_floor(c, ss, radius);
+    profile_kernels_->accumulate_value(g, regions[r], ss, c->shape, amplitude, grid);
+  }
+}
+
 RenderStatus UpsampledRenderer::render(const ParamVector& p, std::span<double> model) {
   if (!kernel_) return RenderStatus::kNoPsf;
   ModelComponents comp;
@@ -101,15 +112,8 @@ RenderStatus UpsampledRenderer::render(const ParamVector& p, std::span<double> m
   double* grid = image(kBulgeImage);
   std::memset(grid, 0, sizeof(double) * static_cast<std::size_t>(g.size) * g.size);
   const auto regions = partition(comp.disc.shape.x0, comp.disc.shape.y0);
-  const int u2 = options_.n_central_pixel_upsampling;
-  for (auto [c, radius] : {std::pair{&comp.bulge, comp.bulge_radius}, std::pair{&comp.disc, comp.disc_radius}}) {
-    if (c->amplitude == 0.0) continue;
-    for (int r = 0; r < 5; ++r) {
-      const int ss = r == 0 ? u2 : 1;
-      set_floor(c, ss, radius);
-      profile_kernels_->accumulate_value(g, regions[r], ss, c->shape, c->amplitude, grid);
-    }
-  }
+  for (auto [c, radius] : {std::pair{&comp.bulge, comp.bulge_radius}, std::pair{&comp.disc, comp.disc_radius}})
+    if (c->amplitude != 0.0) accumulate_component(c, radius, regions, c->amplitude, grid);
   convolve_and_downsample(grid, model.data());
   return RenderStatus::kOk;
 }
@@ -121,16 +125,11 @@ RenderStatus UpsampledRenderer::render_components(const ParamVector& p, std::spa
   if (!model_.components(p, &comp)) return RenderStatus::kInvalidModel;
   const kernels::SubpixelGrid g = geometry_.subpixel_grid();
   const auto regions = partition(comp.disc.shape.x0, comp.disc.shape.y0);
-  const int u2 = options_.n_central_pixel_upsampling;
   for (auto [c, radius, k, out] : {std::tuple{&comp.bulge, comp.bulge_radius, kBulgeImage, bulge.data()},
                                    std::tuple{&comp.disc, comp.disc_radius, kDiscImage, disc.data()}}) {
     double* grid = image(k);
     std::memset(grid, 0, sizeof(double) * static_cast<std::size_t>(g.size) * g.size);
-    for (int r = 0; r < 5; ++r) {
-      const int ss = r == 0 ? u2 : 1;
-      set_floor(c, ss, radius);
-      profile_kernels_->accumulate_value(g, regions[r], ss, c->shape, 1.0, grid);
-    }
+    accumulate_component(c, radius, regions, 1.0, grid);
     convolve_and_downsample(grid, out);
   }
   return RenderStatus::kOk;

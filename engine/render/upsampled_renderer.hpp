@@ -48,6 +48,9 @@ class UpsampledRenderer final : public Renderer {
   std::array<kernels::GridRegion, 5> partition(double x0, double y0) const;
   double* image(int k) { return static_cast<double*>(grid_images_[k].data()); }
   void convolve_and_downsample(double* grid_image, double* out);
+  // Adds one component's values at `amplitude` to the sub-pixel grid, region by region.
+  void accumulate_component(kernels::SersicDerivativeBlock* c, double radius,
+                            const std::array<kernels::GridRegion, 5>& regions, double amplitude, double* grid);
   // The cusp floor (profile_render.hpp, SersicBlock::u_floor) for samples spaced step / supersample.
   void set_floor(kernels::SersicDerivativeBlock* c, int supersample, double radius) const;
   // The image whose convolution is d model / d p (an amplitude's is its component's unit image);

@@ -104,19 +104,28 @@ TEST(FitsHeaderGuard, TFieldsBeyondTheStandardsLimitIsAnErrorNotAnAllocation) {
       << message;
 }
 
+// The FitsError of opening a file of `bytes` named `name` in `dir`.
+std::string open_error(const stampede::testing::ScratchDir& dir, const std::string& name, const std::string& bytes) {
+  const std::string path = dir.path(name);
+  std::ofstream(path, std::ios::binary) << bytes;
+  return error_of<FitsError>([&] { FitsFile::open_read(path); });
+}
+
+// A "gzip" file of `body` bytes after the magic and method bytes `head`, its trailer's ISIZE `isize`.
+std::string gzip_claiming(const std::string& head, std::size_t body, char fill, const std::string& isize) {
+  return head + std::string(body, fill) + isize;
+}
+
 // Found by the fuzz campaign (F7, fuzz_stamp_grid): a 4-byte "gzip" file whose trailer claims
 // 3.7 GB uncompressed made CFITSIO allocate that buffer before inflating anything.
 TEST(FitsHeaderGuard, AGzipSizeClaimBeyondDeflatesRatioIsAnErrorNotAnAllocation) {
   const stampede::testing::ScratchDir dir("stampede_header_guard_");
-  const std::string tiny = dir.path("tiny.fits.gz");
-  std::ofstream(tiny, std::ios::binary) << std::string("\x1f\x8b\x0f\xe0", 4);
-  EXPECT_TRUE(Contains(error_of<FitsError>([&] { FitsFile::open_read(tiny); }),
+  EXPECT_TRUE(Contains(open_error(dir, "tiny.fits.gz", std::string("\x1f\x8b\x0f\xe0", 4)),
                        "tiny.fits.gz: a gzip file of 4 bytes is truncated"));
-  const std::string liar = dir.path("liar.fits.gz");
-  std::string bytes = std::string("\x1f\x8b\x08\x00", 4) + std::string(60, '\0');
-  bytes += std::string("\x00\x00\x00\x40", 4);  // ISIZE = 2^30 from 68 bytes
-  std::ofstream(liar, std::ios::binary) << bytes;
-  EXPECT_TRUE(Contains(error_of<FitsError>([&] { FitsFile::open_read(liar); }),
+  // ISIZE = 2^30 from 68 bytes
+  EXPECT_TRUE(Contains(open_error(dir, "liar.fits.gz",
+                                  gzip_claiming(std::string("\x1f\x8b\x08\x00", 4), 60, '\0',
+                                                std::string("\x00\x00\x00\x40", 4))),
                        "liar.fits.gz: gzip trailer claims 1073741824 bytes uncompressed from 68"));
 }
 
@@ -125,18 +134,14 @@ TEST(FitsHeaderGuard, AGzipSizeClaimBeyondDeflatesRatioIsAnErrorNotAnAllocation)
 // the claim (it takes such a claim for a file that wrapped past 4 GB).
 TEST(FitsHeaderGuard, AGzipSizeClaimBelowOneFitsBlockIsAnErrorNotAnAllocation) {
   const stampede::testing::ScratchDir dir("stampede_header_guard_");
-  const std::string path = dir.path("zero.fits.gz");
-  std::string bytes = std::string("\x1f\x8b\x6e\x6e", 4) + std::string(17813, 'n');
-  bytes += std::string(4, '\0');  // ISIZE = 0
-  std::ofstream(path, std::ios::binary) << bytes;
-  EXPECT_TRUE(Contains(error_of<FitsError>([&] { FitsFile::open_read(path); }),
+  // ISIZE = 0
+  EXPECT_TRUE(Contains(open_error(dir, "zero.fits.gz",
+                                  gzip_claiming(std::string("\x1f\x8b\x6e\x6e", 4), 17813, 'n', std::string(4, '\0'))),
                        "zero.fits.gz: gzip trailer claims 0 bytes uncompressed from 17821: less than one FITS block"));
   // The same for any claim below the compressed size (8,192 from 10,159: CFITSIO allocated 4 GB + 8 KB).
-  const std::string small = dir.path("small.fits.gz");
-  std::string b = std::string("\x1f\x8b\x22\x00", 4) + std::string(10151, 'n');
-  b += std::string("\x00\x20\x00\x00", 4);  // ISIZE = 8192
-  std::ofstream(small, std::ios::binary) << b;
-  EXPECT_TRUE(Contains(error_of<FitsError>([&] { FitsFile::open_read(small); }),
+  EXPECT_TRUE(Contains(open_error(dir, "small.fits.gz",
+                                  gzip_claiming(std::string("\x1f\x8b\x22\x00", 4), 10151, 'n',
+                                                std::string("\x00\x20\x00\x00", 4))),
                        "small.fits.gz: gzip trailer claims 8192 bytes uncompressed from 10159: less than the compressed size"));
 }
 
