@@ -9,9 +9,9 @@ namespace stampede::io {
 
 // Walks the headers of the file `root` (a path on disk, no CFITSIO syntax; plain or
 // gzip-compressed, as CFITSIO reads both) HDU by HDU; throws FitsError naming the file, HDU and
-// card for a TTYPEn whose value is not a quoted string (the standard requires one). Files it
-// cannot walk (tile-compressed data aside, not FITS, truncated) are left to CFITSIO, which
-// reports them.
+// card for a TTYPEn whose value is not a quoted string (the standard requires one), and for an
+// HDU whose data runs past the end of the file (readers size buffers from the header). Files it
+// cannot walk (not FITS, a header without END) are left to CFITSIO, which reports them.
 void check_fits_headers(const std::string& root);
 
 }  // namespace stampede::io

@@ -208,5 +208,54 @@ TEST(FitsHeaderGuard, AnUnquotedColumnNameInAGzipFileIsAnErrorNotACrash) {
   EXPECT_TRUE(f.has_column("x"));
 }
 
+// A 4 x 4 image file's bytes, with `edit` applied to them.
+template <class Edit>
+std::string image_file(const stampede::testing::ScratchDir& dir, Edit edit) {
+  const std::string path = dir.path("source.fits");
+  {
+    FitsFile f = FitsFile::create(path, true);
+    f.write_image(4, 4, std::vector<double>(16, 1.0));
+  }
+  std::ifstream in(path, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  edit(bytes);
+  return bytes;
+}
+
+// Found by the fuzz campaign (F11, fuzz_stamp_grid; out of memory): a 2,957-byte file whose
+// header claims 2,107,483,648 x 3 pixels passed every check, and the grid reader sized its row
+// buffers (gigabytes) from the header before reading a pixel.
+TEST(FitsHeaderGuard, DataThatCannotFitInTheFileIsAnErrorNotAnAllocation) {
+  const stampede::testing::ScratchDir dir("stampede_header_guard_");
+  const std::string huge = image_file(dir, [](std::string& b) {
+    const std::size_t at = b.find("NAXIS1  = ");
+    b.replace(at, 80, ("NAXIS1  =           2107483648" + std::string(80, ' ')).substr(0, 80));
+  });
+  EXPECT_TRUE(Contains(open_error(dir, "huge.fits", huge),
+                       "huge.fits[HDU 0]: header says 67439476736 bytes of data but the file ends 2880 bytes after the header"));
+  // The finding's header wrote its numbers with a sign ("+32"), which the scan must read too.
+  const std::string signed_huge = image_file(dir, [](std::string& b) {
+    const std::size_t at = b.find("NAXIS1  = ");
+    b.replace(at, 80, ("NAXIS1  =          +2107483648" + std::string(80, ' ')).substr(0, 80));
+  });
+  EXPECT_TRUE(Contains(open_error(dir, "signed.fits", signed_huge), "signed.fits[HDU 0]: header says 67439476736 bytes"));
+  // A file cut inside its data is refused alike, before any read.
+  EXPECT_TRUE(Contains(open_error(dir, "cut.fits", image_file(dir, [](std::string& b) { b.resize(2880 + 40); })),
+                       "cut.fits[HDU 0]: header says 128 bytes of data but the file ends 40 bytes after the header"));
+  // The same in a gzip file: the trailer's size is what CFITSIO parses.
+  const std::string gz = dir.path("huge.fits.gz");
+  gzFile out = gzopen(gz.c_str(), "wb");
+  ASSERT_NE(out, nullptr);
+  gzwrite(out, huge.data(), static_cast<unsigned>(huge.size()));
+  gzclose(out);
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { FitsFile::open_read(gz); }),
+                       "huge.fits.gz[HDU 0]: header says 67439476736 bytes"));
+  // The intact file opens and reads.
+  const std::string intact = dir.path("intact.fits");
+  std::ofstream(intact, std::ios::binary) << image_file(dir, [](std::string&) {});
+  FitsFile f = FitsFile::open_read(intact);
+  EXPECT_EQ(f.read_image().size(), 16u);
+}
+
 }  // namespace
 }  // namespace stampede::io
