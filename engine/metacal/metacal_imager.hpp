@@ -1,0 +1,68 @@
+// Metacalibration's image operations on one stamp: deconvolve the PSF, shear, reconvolve
+// (MetacalFilters), giving the five images of kMetacalTypes. FFTW plans made once per thread.
+//
+// The stamp is zero-padded to the filters' M x M grid, transformed once, and per type multiplied
+// by f_T and transformed back to H_T. The image is H_T(c + A_T^-1 (x - c)) at the stamp's pixel
+// centres, with c the shear centre, evaluated as the trigonometric polynomial H_T is:
+//   1p, 1m (A^-1 diagonal): exactly, one axis at a time (a dense DFT per row, then per column);
+//   2p, 2m (A^-1 = X(s) Y(c) X(s), three one-axis shears): each a phase ramp on a row's or
+//     column's 1D transform, exact for each pass; the passes' intermediate images are not band
+//     limited, which costs only where H_T's spectrum reaches the Nyquist edge.
+// Allocates at construction only.
+#pragma once
+
+#include <complex>
+#include <span>
+#include <vector>
+
+#include "engine/common/fftw_support.hpp"
+#include "engine/metacal/metacal_filters.hpp"
+#include "engine/render/fft_plans.hpp"
+
+namespace stampede {
+
+class MetacalImager {
+ public:
+  // The smallest FFT-friendly even period >= 2 * stamp_size (the padding keeps the deconvolved
+  // light from wrapping onto the stamp).
+  static int padded_size(int stamp_size);
+
+  MetacalImager(int stamp_size, int period, FftPlanning planning);
+  ~MetacalImager();
+  MetacalImager(const MetacalImager&) = delete;
+  MetacalImager& operator=(const MetacalImager&) = delete;
+
+  int stamp_size() const { return s_; }
+  int period() const { return m_; }
+  // stamp: S x S row-major. out: kNumMetacalTypes images of S x S, in kMetacalTypes order.
+  // (centre_x, centre_y): the shear centre in the stamp's 0-based pixel coordinates.
+  // filters.period() must equal period().
+  void make_images(std::span<const double> stamp, const MetacalFilters& filters, double centre_x, double centre_y,
+                   std::span<double> out);
+
+ private:
+  // H = irfft(spectrum_ .* f) into h_ (M x M).
+  void filtered(const std::complex<double>* f);
+  // Rows of `grid` (M x M): each row r shifted by shift(r) (its values at x + shift), in place.
+  template <class Shift>
+  void shift_rows(double* grid, Shift shift);
+  void transpose(const double* in, double* out, int rows, int cols);
+  // The 1p/1m images: H at (c + b0 (x - c), c + b1 (y - c)).
+  void scaled(double b0, double b1, double cx, double cy, double* out);
+  // The 2p/2m images: H at c + [[a, b], [b, a]] (x - c).
+  void sheared(double a, double b, double cx, double cy, double* out);
+  // Interpolation weights (2 (M/2 + 1) x n, row-major): rows 2q, 2q + 1 hold w_q cos and -w_q sin
+  // of 2 pi q p_j / M for the positions p_j (padded-grid coordinates), so Re(F . e) is one product.
+  void dft_weights(std::span<const double> positions, std::vector<double>* w) const;
+
+  int s_, m_, h_count_;
+  int offset_;  // the stamp's pixel (0, 0) sits at padded index (offset_, offset_)
+  AlignedBuffer padded_, spectrum_, work_spectrum_, h_, grid_, transposed_, rows_spectrum_;
+  void* forward_2d_ = nullptr;
+  void* backward_2d_ = nullptr;
+  void* rows_forward_ = nullptr;   // M rows of M, r2c
+  void* rows_backward_ = nullptr;  // M rows of M, c2r
+  std::vector<double> weights_, positions_, scratch_, scratch_t_;
+};
+
+}  // namespace stampede
