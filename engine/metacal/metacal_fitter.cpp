@@ -1,0 +1,158 @@
+// One object's metacalibration; see metacal_fitter.hpp.
+#include "engine/metacal/metacal_fitter.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "engine/common/random_stream.hpp"
+#include "engine/metacal/reconvolution_psf.hpp"
+
+namespace stampede {
+namespace {
+
+// 90 degrees counter-clockwise about the stamp's centre: in(x, y) lands at (S-1-y, x).
+void rotate(std::span<const double> in, std::span<double> out, int s) {
+  for (int y = 0; y < s; ++y)
+    for (int x = 0; x < s; ++x) out[static_cast<std::size_t>(x) * s + (s - 1 - y)] = in[static_cast<std::size_t>(y) * s + x];
+}
+// The inverse of rotate(), added to `out`.
+void add_rotated_back(std::span<const double> in, std::span<double> out, int s) {
+  for (int y = 0; y < s; ++y)
+    for (int x = 0; x < s; ++x) out[static_cast<std::size_t>(y) * s + x] += in[static_cast<std::size_t>(x) * s + (s - 1 - y)];
+}
+
+constexpr std::uint64_t kFixnoisePurpose = 0x6669786e6f697365ull;  // "fixnoise"
+
+}  // namespace
+
+bool MetacalOptions::IsValid(std::string* why) const {
+  if (!(step > 0 && step <= 0.1)) {
+    if (why) *why = "metacal_step = " + std::to_string(step) + ": must be in (0, 0.1]";
+    return false;
+  }
+  if (!(psf_dilation == 0 || (psf_dilation >= 1 && psf_dilation <= 3))) {
+    if (why) *why = "metacal_psf_dilation = " + std::to_string(psf_dilation) + ": must be 0 (automatic) or in [1, 3]";
+    return false;
+  }
+  return true;
+}
+
+MetacalFitter::MetacalFitter(const FitterOptions& fit_options, const MetacalOptions& options, int stamp_size,
+                             FftPlanCache& plans, FftPlanning planning)
+    : fit_options_(fit_options),
+      options_(options),
+      s_(stamp_size),
+      imager_(stamp_size, MetacalImager::padded_size(stamp_size), planning) {
+  fitter_ = std::make_unique<Fitter>(fit_options_, nullptr, plans);
+  const std::size_t npix = static_cast<std::size_t>(s_) * s_;
+  images_.resize(kNumMetacalTypes * npix);
+  noise_images_.resize(kNumMetacalTypes * npix);
+  noise_.resize(npix);
+  rotated_.resize(npix);
+  weight_.resize(npix);
+}
+
+bool MetacalFitter::set_psf(const PsfModel& psf, std::string* error) {
+  if (have_psf_ && psf == psf_) return filters_ != nullptr;
+  have_psf_ = true;
+  psf_ = psf;
+  filters_.reset();
+  fitter_->set_psf(nullptr);
+  if (!reconvolution_psf(psf, options_, &gamma_, error)) return false;
+  filters_ = MetacalFilters::build(psf, gamma_, options_.step, imager_.period(), error);
+  if (!filters_) return false;
+  auto prepared = fitter_->renderer().prepare_psf(gamma_, error);
+  if (!prepared) {
+    filters_.reset();
+    return false;
+  }
+  fitter_->set_psf(prepared);
+  return true;
+}
+
+bool MetacalFitter::make_images(std::span<const double> pixels, std::span<const double> weight, WeightKind kind,
+                                std::int64_t object_id, double* image_variance) {
+  const std::size_t npix = static_cast<std::size_t>(s_) * s_;
+  // The data's per-pixel noise: the weight map's, or noise_sigma's. A masked pixel has none to
+  // deconvolve: it is zeroed in the data (and the caller flags the row).
+  const double sigma = fit_options_.noise_sigma;
+  double variance_sum = 0;
+  bool masked = false;
+  for (std::size_t i = 0; i < npix; ++i) {
+    double var = sigma * sigma;
+    if (!weight.empty() && weight[i] == 0) {
+      masked = true;
+      var = 0;
+    } else if (!weight.empty() && kind == WeightKind::kInverseVariance) {
+      var = 1.0 / weight[i];
+    }
+    if (!std::isfinite(var)) var = 0;
+    noise_[i] = std::sqrt(var);
+    variance_sum += var;
+  }
+  std::copy(pixels.begin(), pixels.end(), rotated_.begin());
+  if (masked)
+    for (std::size_t i = 0; i < npix; ++i)
+      if (weight[i] == 0) rotated_[i] = 0;
+  const double centre = 0.5 * (s_ - 1);
+  imager_.make_images(rotated_, *filters_, centre, centre, images_);
+  const double mean_variance = variance_sum / static_cast<double>(npix);
+  const bool fixnoise = options_.fixnoise && mean_variance > 0;
+  if (fixnoise) {
+    RandomStream rng({options_.seed, static_cast<std::uint64_t>(object_id), kFixnoisePurpose});
+    for (std::size_t i = 0; i < npix; ++i) noise_[i] *= rng.normal();
+    rotate(noise_, rotated_, s_);
+    imager_.make_images(rotated_, *filters_, centre, centre, noise_images_);
+    for (int t = 0; t < kNumMetacalTypes; ++t)
+      add_rotated_back(std::span<const double>(noise_images_).subspan(t * npix, npix),
+                       std::span<double>(images_).subspan(t * npix, npix), s_);
+  }
+  // The images' noise: the data's through the noshear filter, twice that with fixnoise.
+  *image_variance = mean_variance * filters_->noise_gain() * (fixnoise ? 2.0 : 1.0);
+  return !masked;
+}
+
+void MetacalFitter::fit(std::span<const double> pixels, std::span<const double> weight, WeightKind kind,
+                        std::int64_t object_id, std::uint32_t failure_flag, FitResult* noshear, MetacalRecord* record,
+                        std::uint32_t* flags) {
+  *record = MetacalRecord();
+  *noshear = FitResult();
+  if (!filters_) {
+    noshear->status = FitStatus::kPsfFailure;
+    *flags |= failure_flag;
+    return;
+  }
+  double variance = 0;
+  if (!make_images(pixels, weight, kind, object_id, &variance)) *flags |= failure_flag;
+  std::span<const double> w;
+  if (variance > 0) {
+    std::fill(weight_.begin(), weight_.end(), 1.0 / variance);
+    w = weight_;
+  }
+  const std::size_t npix = static_cast<std::size_t>(s_) * s_;
+  auto image = [&](MetacalType t) { return std::span<const double>(images_).subspan(static_cast<int>(t) * npix, npix); };
+  *noshear = fitter_->fit(image(MetacalType::kNoshear), w, WeightKind::kInverseVariance);
+  const bool start_from_noshear = IsUsable(noshear->status);
+  std::array<double, kNumMetacalTypes> e1{}, e2{};
+  bool usable = true;
+  for (int t = 1; t < kNumMetacalTypes; ++t) {
+    const MetacalType type = static_cast<MetacalType>(t);
+    const FitResult r = start_from_noshear ? fitter_->fit_from(image(type), w, noshear->params)
+                                           : fitter_->fit(image(type), w, WeightKind::kInverseVariance);
+    usable = usable && r.status == FitStatus::kOk;
+    e1[t] = r.params[index(Param::kE1)];
+    e2[t] = r.params[index(Param::kE2)];
+    record->e1[t - 1] = e1[t];
+    record->e2[t - 1] = e2[t];
+    record->snr[t - 1] = r.snr;
+    record->radius[t - 1] = r.params[index(Param::kRadius)];
+  }
+  if (!usable || noshear->status != FitStatus::kOk) *flags |= failure_flag;
+  const double two_step = 2 * options_.step;
+  record->r11 = (e1[1] - e1[2]) / two_step;
+  record->r21 = (e2[1] - e2[2]) / two_step;
+  record->r12 = (e1[3] - e1[4]) / two_step;
+  record->r22 = (e2[3] - e2[4]) / two_step;
+}
+
+}  // namespace stampede

@@ -1,0 +1,60 @@
+// One object's metacalibration: the five images (MetacalImager), the fixnoise field through the
+// same operations, and the five fits with the reconvolution PSF; e from noshear, R from the
+// sheared four. One per thread; buffers allocated at construction, filters rebuilt only when the
+// PSF changes.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "engine/fit/fitter.hpp"
+#include "engine/metacal/metacal_imager.hpp"
+#include "engine/metacal/metacal_options.hpp"
+#include "engine/metacal/metacal_record.hpp"
+
+namespace stampede {
+
+class MetacalFitter {
+ public:
+  // fit_options must be valid (the fits' renderer, model, solver; noise_sigma is the data's);
+  // options.enabled is not consulted. `plans` must outlive it.
+  MetacalFitter(const FitterOptions& fit_options, const MetacalOptions& options, int stamp_size, FftPlanCache& plans,
+                FftPlanning planning);
+
+  // Prepares the filters and the reconvolution PSF for `psf` (nothing when it is the last one).
+  // False, with *error, when metacal cannot use this PSF: the following fits report kPsfFailure.
+  bool set_psf(const PsfModel& psf, std::string* error);
+
+  // Fits the five images of one stamp. *noshear: the noshear fit (the row's e); *record: R and the
+  // sheared fits; *flags gains kFlagMetacalFailure (object_record.hpp's bit, passed in) when a
+  // sheared fit is unusable or pixels are masked. object_id keys the fixnoise field.
+  void fit(std::span<const double> pixels, std::span<const double> weight, WeightKind kind, std::int64_t object_id,
+           std::uint32_t failure_flag, FitResult* noshear, MetacalRecord* record, std::uint32_t* flags);
+
+  // The five images of one stamp into images(), fixnoise included (set_psf must have succeeded);
+  // *image_variance: their per-pixel noise variance (0 for noise-free data). False when pixels
+  // are masked (zeroed, as nothing can be deconvolved there).
+  bool make_images(std::span<const double> pixels, std::span<const double> weight, WeightKind kind,
+                   std::int64_t object_id, double* image_variance);
+
+  // The five images of the last fit (kMetacalTypes order, stamp_size^2 each), fixnoise included.
+  std::span<const double> images() const { return images_; }
+  const PsfModel& reconvolution() const { return gamma_; }
+  double noise_gain() const { return filters_ ? filters_->noise_gain() : NAN; }
+
+ private:
+  FitterOptions fit_options_;
+  MetacalOptions options_;
+  int s_;
+  MetacalImager imager_;
+  std::unique_ptr<Fitter> fitter_;  // its PSF is gamma_
+  std::shared_ptr<const MetacalFilters> filters_;
+  PsfModel psf_, gamma_;
+  bool have_psf_ = false;
+  std::vector<double> images_, noise_, rotated_, noise_images_, weight_;
+};
+
+}  // namespace stampede

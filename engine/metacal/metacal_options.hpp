@@ -1,0 +1,23 @@
+// What a metacalibration run chooses (ini keys metacal*, README "Metacalibration").
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace stampede {
+
+struct MetacalOptions {
+  bool enabled = false;
+  double step = 0.01;  // the applied shear delta
+  // FWHM of the round reconvolution PSF over the PSF's; 0 = the smallest safe one, (1 + 2 step)
+  // times the PSF's axis ratio factor sqrt((1 + |e|) / (1 - |e|)) (wider than the sheared PSF in
+  // every direction).
+  double psf_dilation = 0.0;
+  // Add a second noise field, rotated by 90 degrees through the same operations, so that the
+  // images' correlated noise is isotropic (Sheldon & Huff 2017's "fixnoise").
+  bool fixnoise = true;
+  std::uint64_t seed = 20170101;  // keys the fixnoise fields with each object's id
+  bool IsValid(std::string* why) const;
+};
+
+}  // namespace stampede
