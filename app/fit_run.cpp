@@ -238,6 +238,7 @@ RunSummary FitRun::run() const {
   if (!cfg.fft_wisdom.empty()) load_fftw_wisdom(cfg.fft_wisdom);  // a missing file is fine: it is made at the end
   FftPlanCache setup_plans(planning);
   std::shared_ptr<const PreparedPsf> shared_psf;
+  PsfModel shared_model;
   std::unique_ptr<PsfCache> psf_cache;
   double psf_e1 = NAN, psf_e2 = NAN, psf_fwhm = NAN;
   if (cfg.psf_from_catalogue) {
@@ -245,6 +246,7 @@ RunSummary FitRun::run() const {
   } else {
     const app::SharedPsf psf = app::build_shared_psf(cfg, setup_plans);
     shared_psf = psf.prepared;
+    shared_model = psf.model;
     psf_e1 = psf.e1, psf_e2 = psf.e2, psf_fwhm = psf.fwhm;
     // A set written by `stampede sim` or GalSim records its PSF; fitting it with another (e.g. the
     // default round Moffat) is almost always a forgotten option, and biases c by the difference.
@@ -271,6 +273,7 @@ RunSummary FitRun::run() const {
     wo.path = a.output;
     wo.text_path = a.text_output;
     wo.positions = a.catalog.empty() ? io::PositionColumns::kGrid : io::PositionColumns::kCatalogue;
+    wo.metacal = cfg.metacal.enabled;
     wo.header = io::effective_options(cfg);
     for (const io::OptionInfo& o : io::run_config_options())
       if (o.type != io::HeaderValueType::kText) wo.header_types[o.name] = o.type;
@@ -309,8 +312,11 @@ RunSummary FitRun::run() const {
     po.stamp_size = cfg.fitter.render.stamp_size;
     const FitterOptions fitter_options = cfg.fitter;
     PsfCache* cache = psf_cache.get();
+    std::optional<MetacalSetup> metacal;
+    if (cfg.metacal.enabled) metacal = MetacalSetup{cfg.metacal, shared_model};
     std::function<std::unique_ptr<BatchFitter>()> make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
-      return std::make_unique<StampFitter>(fitter_options, shared_psf, cache, planning, psf_e1, psf_e2, psf_fwhm);
+      return std::make_unique<StampFitter>(fitter_options, shared_psf, cache, planning, psf_e1, psf_e2, psf_fwhm,
+                                           metacal);
     };
     if (a.distribute) {
       FitDistribution d = a.distribute(cfg, make_fitter);

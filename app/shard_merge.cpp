@@ -37,6 +37,7 @@ struct Shard {
   long long total = 0;  // the whole input's objects
   long long rows = 0;
   io::PositionColumns positions = io::PositionColumns::kGrid;
+  bool metacal = false;
   std::vector<std::pair<std::string, std::string>> header;  // run_keys() present, with their values
 };
 
@@ -55,6 +56,7 @@ Shard read_shard(const std::string& path) {
   s.index = parsed->first;
   s.count = parsed->second;
   s.positions = r.positions();
+  s.metacal = r.metacal();
   s.total = f.key_long(kShardTotalKey);
   for (const std::string& k : run_keys())
     if (auto v = f.read_key_string(k)) s.header.emplace_back(k, *v);
@@ -115,6 +117,7 @@ ShardMergeSummary merge_shards(const ShardMergeOptions& o) {
   io::CatalogWriterOptions wo;
   wo.path = o.output;
   wo.positions = shards[*by_index[0]].positions;
+  wo.metacal = shards[*by_index[0]].metacal;
   wo.header = shards.front().header;  // the run's keys, as a single process writes them
   for (const io::OptionInfo& info : io::run_config_options())
     if (info.type != io::HeaderValueType::kText) wo.header_types[info.name] = info.type;
@@ -126,8 +129,8 @@ ShardMergeSummary merge_shards(const ShardMergeOptions& o) {
   try {
     for (const auto& slot : by_index) {
       io::CatalogReader r = io::CatalogReader::open(shards[*slot].path);
-      if (shards[*slot].positions != wo.positions)
-        throw io::CatalogError("merge: " + shards[*slot].path + " has other position columns than the first shard");
+      if (shards[*slot].positions != wo.positions || shards[*slot].metacal != wo.metacal)
+        throw io::CatalogError("merge: " + shards[*slot].path + " has other columns than the first shard");
       for (long long first = 0; first < r.rows(); first += kChunkRows) {
         const auto rows = r.records(first, std::min(kChunkRows, r.rows() - first));
         writer->append(rows);

@@ -28,6 +28,8 @@ PositionColumns CatalogReader::positions() {
   return has(ResultField::kXImage) ? PositionColumns::kCatalogue : PositionColumns::kGrid;
 }
 
+bool CatalogReader::metacal() { return has(ResultField::kR11); }
+
 std::vector<double> CatalogReader::column(ResultField field) {
   require(field);
   return f_.read_column(column_name(field));
@@ -47,7 +49,7 @@ void CatalogReader::column_rows(const std::string& name, long long first_row,
 
 std::vector<ObjectRecord> CatalogReader::records(long long first_row, long long count) {
   if (count < 0) throw std::invalid_argument("CatalogReader::records: negative count");
-  const std::span<const ResultColumn> columns = result_columns(positions());
+  const std::span<const ResultColumn> columns = result_columns(positions(), metacal());
   for (const ResultColumn& c : columns) require(c.field);
   std::vector<ObjectRecord> out(static_cast<std::size_t>(count));
   std::vector<double> reals(out.size());

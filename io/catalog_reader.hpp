@@ -31,6 +31,8 @@ class CatalogReader {
   long long rows();
   bool has(ResultField field);
   // The position layout: catalogue when the table has x_image, grid otherwise.
+  // Whether the table has the metacal columns (a metacal run's).
+  bool metacal();
   PositionColumns positions();
 
   // A schema column as doubles (integer columns exact up to 2^53; TNULL values read as NaN).

@@ -227,7 +227,7 @@ struct CatalogWriter::State {
 
   explicit State(const CatalogWriterOptions& o)
       : options(o),
-        columns(result_columns(o.positions)),
+        columns(result_columns(o.positions, o.metacal)),
         fits_partial(o.path + ".partial"),
         text_partial(o.text_path.empty() ? "" : o.text_path + ".partial"),
         checkpoint(o.path + ".checkpoint"),

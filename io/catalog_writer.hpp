@@ -46,6 +46,7 @@ struct CatalogWriterOptions {
   std::string path;         // final FITS path, e.g. out.fits (uncompressed: no .gz / .fz)
   std::string text_path;    // optional text catalogue with the same columns; "" = none
   PositionColumns positions = PositionColumns::kGrid;
+  bool metacal = false;     // the metacal columns too (result_columns); the run's fingerprint covers it
   // Written as string-valued header keys of the table HDU in this order (a repeated key keeps its
   // last value); keys longer than 8 characters or outside [A-Z0-9_-] use the HIERARCH convention,
   // long values CONTINUE cards. Keys are stored upper-case (FITS lookups ignore case). Structural

@@ -96,6 +96,42 @@ constexpr ResultColumn kColumns[] = {
          [](W r, double v) { r.psf_e2 = v; }),
     real(F::kPsfFwhm, "psf_fwhm", "pixel", "PSF FWHM", [](R r) { return r.psf_fwhm; },
          [](W r, double v) { r.psf_fwhm = v; }),
+    real(F::kR11, "R11", "", "metacal response de1/dg1", [](R r) { return r.metacal.r11; }, [](W r, double v) { r.metacal.r11 = v; }),
+    real(F::kR12, "R12", "", "metacal response de1/dg2", [](R r) { return r.metacal.r12; }, [](W r, double v) { r.metacal.r12 = v; }),
+    real(F::kR21, "R21", "", "metacal response de2/dg1", [](R r) { return r.metacal.r21; }, [](W r, double v) { r.metacal.r21 = v; }),
+    real(F::kR22, "R22", "", "metacal response de2/dg2", [](R r) { return r.metacal.r22; }, [](W r, double v) { r.metacal.r22 = v; }),
+    real(F::kE1_1p, "e1_1p", "", "metacal 1p image: fitted e1", [](R r) { return r.metacal.e1[0]; },
+         [](W r, double v) { r.metacal.e1[0] = v; }),
+    real(F::kE2_1p, "e2_1p", "", "metacal 1p image: fitted e2", [](R r) { return r.metacal.e2[0]; },
+         [](W r, double v) { r.metacal.e2[0] = v; }),
+    real(F::kSnr_1p, "snr_1p", "", "metacal 1p image: fit S/N", [](R r) { return r.metacal.snr[0]; },
+         [](W r, double v) { r.metacal.snr[0] = v; }),
+    real(F::kRadius_1p, "radius_1p", "pixel", "metacal 1p image: fitted radius", [](R r) { return r.metacal.radius[0]; },
+         [](W r, double v) { r.metacal.radius[0] = v; }),
+    real(F::kE1_1m, "e1_1m", "", "metacal 1m image: fitted e1", [](R r) { return r.metacal.e1[1]; },
+         [](W r, double v) { r.metacal.e1[1] = v; }),
+    real(F::kE2_1m, "e2_1m", "", "metacal 1m image: fitted e2", [](R r) { return r.metacal.e2[1]; },
+         [](W r, double v) { r.metacal.e2[1] = v; }),
+    real(F::kSnr_1m, "snr_1m", "", "metacal 1m image: fit S/N", [](R r) { return r.metacal.snr[1]; },
+         [](W r, double v) { r.metacal.snr[1] = v; }),
+    real(F::kRadius_1m, "radius_1m", "pixel", "metacal 1m image: fitted radius", [](R r) { return r.metacal.radius[1]; },
+         [](W r, double v) { r.metacal.radius[1] = v; }),
+    real(F::kE1_2p, "e1_2p", "", "metacal 2p image: fitted e1", [](R r) { return r.metacal.e1[2]; },
+         [](W r, double v) { r.metacal.e1[2] = v; }),
+    real(F::kE2_2p, "e2_2p", "", "metacal 2p image: fitted e2", [](R r) { return r.metacal.e2[2]; },
+         [](W r, double v) { r.metacal.e2[2] = v; }),
+    real(F::kSnr_2p, "snr_2p", "", "metacal 2p image: fit S/N", [](R r) { return r.metacal.snr[2]; },
+         [](W r, double v) { r.metacal.snr[2] = v; }),
+    real(F::kRadius_2p, "radius_2p", "pixel", "metacal 2p image: fitted radius", [](R r) { return r.metacal.radius[2]; },
+         [](W r, double v) { r.metacal.radius[2] = v; }),
+    real(F::kE1_2m, "e1_2m", "", "metacal 2m image: fitted e1", [](R r) { return r.metacal.e1[3]; },
+         [](W r, double v) { r.metacal.e1[3] = v; }),
+    real(F::kE2_2m, "e2_2m", "", "metacal 2m image: fitted e2", [](R r) { return r.metacal.e2[3]; },
+         [](W r, double v) { r.metacal.e2[3] = v; }),
+    real(F::kSnr_2m, "snr_2m", "", "metacal 2m image: fit S/N", [](R r) { return r.metacal.snr[3]; },
+         [](W r, double v) { r.metacal.snr[3] = v; }),
+    real(F::kRadius_2m, "radius_2m", "pixel", "metacal 2m image: fitted radius", [](R r) { return r.metacal.radius[3]; },
+         [](W r, double v) { r.metacal.radius[3] = v; }),
 };
 
 constexpr bool indexed_by_field() {
@@ -108,11 +144,14 @@ constexpr bool indexed_by_field() {
 static_assert(indexed_by_field(), "kColumns must list every ResultField in enum order");
 
 constexpr int kFirstFitField = static_cast<int>(F::kX0);
-constexpr std::size_t kTableColumns = 3 + kNumResultFields - kFirstFitField;
+constexpr int kFirstMetacalField = static_cast<int>(F::kR11);
+constexpr std::size_t kTableColumns = 3 + kFirstMetacalField - kFirstFitField;
+constexpr std::size_t kMetacalTableColumns = kTableColumns + kNumMetacalFields;
 
-// A table: three position columns, then every fit column.
-constexpr std::array<ResultColumn, kTableColumns> table(PositionColumns positions) {
-  std::array<ResultColumn, kTableColumns> out{};
+// A table: three position columns, then every fit column, then (metacal) the metacal columns.
+template <std::size_t N>
+constexpr std::array<ResultColumn, N> table(PositionColumns positions) {
+  std::array<ResultColumn, N> out{};
   std::size_t n = 0;
   if (positions == PositionColumns::kGrid) {
     for (F f : {F::kId, F::kIx, F::kIy}) out[n++] = kColumns[static_cast<int>(f)];
@@ -120,16 +159,22 @@ constexpr std::array<ResultColumn, kTableColumns> table(PositionColumns position
     for (F f : {F::kId, F::kXImage, F::kYImage}) out[n++] = kColumns[static_cast<int>(f)];
     out[0].description = "object id from the input catalogue";
   }
-  for (int f = kFirstFitField; f < kNumResultFields; ++f) out[n++] = kColumns[f];
+  const int last = N == kTableColumns ? kFirstMetacalField : kNumResultFields;
+  for (int f = kFirstFitField; f < last; ++f) out[n++] = kColumns[f];
   return out;
 }
 
-constexpr auto kGridTable = table(PositionColumns::kGrid);
-constexpr auto kCatalogueTable = table(PositionColumns::kCatalogue);
+constexpr auto kGridTable = table<kTableColumns>(PositionColumns::kGrid);
+constexpr auto kCatalogueTable = table<kTableColumns>(PositionColumns::kCatalogue);
+constexpr auto kGridMetacalTable = table<kMetacalTableColumns>(PositionColumns::kGrid);
+constexpr auto kCatalogueMetacalTable = table<kMetacalTableColumns>(PositionColumns::kCatalogue);
 
 }  // namespace
 
-std::span<const ResultColumn> result_columns(PositionColumns positions) {
+std::span<const ResultColumn> result_columns(PositionColumns positions, bool metacal) {
+  if (metacal)
+    return positions == PositionColumns::kGrid ? std::span<const ResultColumn>(kGridMetacalTable)
+                                               : std::span<const ResultColumn>(kCatalogueMetacalTable);
   return positions == PositionColumns::kGrid ? std::span<const ResultColumn>(kGridTable)
                                              : std::span<const ResultColumn>(kCatalogueTable);
 }
@@ -138,9 +183,9 @@ const ResultColumn& result_column(ResultField field) { return kColumns[static_ca
 
 const char* column_name(ResultField field) { return result_column(field).name; }
 
-std::vector<std::string> catalog_columns(PositionColumns positions) {
+std::vector<std::string> catalog_columns(PositionColumns positions, bool metacal) {
   std::vector<std::string> names;
-  for (const ResultColumn& c : result_columns(positions)) names.emplace_back(c.name);
+  for (const ResultColumn& c : result_columns(positions, metacal)) names.emplace_back(c.name);
   return names;
 }
 

@@ -14,6 +14,8 @@
 //   n_iter n_eval stop_reason status (J)   stop_reason: StopReason value; status: FitStatus value
 //   flags (1V: unsigned 32-bit, stored as J with TZERO = 2^31)
 //   time_us psf_e1 psf_e2 psf_fwhm (D)
+//   metacal runs: R11 R12 R21 R22, e1_T e2_T snr_T radius_T for T = 1p 1m 2p 2m (D); the fit
+//               columns above are then the noshear image's
 // NaN means "not computed" in every D column, as in FitResult.
 #pragma once
 
@@ -39,8 +41,14 @@ enum class ResultField : int {
   kBulgeFlux, kDiscFlux, kFlux, kE1Err, kE2Err, kSnr, kChi2, kLikelihood,
   kIterations, kEvaluations, kStopReason, kStatus, kFlags,
   kTimeUs, kPsfE1, kPsfE2, kPsfFwhm,
+  // metacal tables only (result_columns(positions, true)): the response, then per sheared image
+  // 1p 1m 2p 2m its fit's e1 e2 snr radius
+  kR11, kR12, kR21, kR22,
+  kE1_1p, kE2_1p, kSnr_1p, kRadius_1p, kE1_1m, kE2_1m, kSnr_1m, kRadius_1m,
+  kE1_2p, kE2_2p, kSnr_2p, kRadius_2p, kE1_2m, kE2_2m, kSnr_2m, kRadius_2m,
 };
-inline constexpr int kNumResultFields = static_cast<int>(ResultField::kPsfFwhm) + 1;
+inline constexpr int kNumResultFields = static_cast<int>(ResultField::kRadius_2m) + 1;
+inline constexpr int kNumMetacalFields = static_cast<int>(ResultField::kRadius_2m) - static_cast<int>(ResultField::kR11) + 1;
 
 // On-disk type: FITS TFORM 1K, 1J, 1V (unsigned, stored as J with TZERO = 2^31) and 1D.
 enum class ColumnType { kInt64, kInt32, kUInt32, kFloat64 };
@@ -60,8 +68,9 @@ struct ResultColumn {
   void (*set_real)(ObjectRecord&, double);
 };
 
-// The columns of a table with these positions, in table order.
-std::span<const ResultColumn> result_columns(PositionColumns positions);
+// The columns of a table with these positions, in table order; a metacal run's table adds the
+// metacal columns (R11 R12 R21 R22, then e1_1p e2_1p snr_1p radius_1p ... radius_2m) at the end.
+std::span<const ResultColumn> result_columns(PositionColumns positions, bool metacal = false);
 // The column of `field`. Grid and catalogue tables share every column they both have; only the
 // description of `id` differs (result_columns() has each table's).
 const ResultColumn& result_column(ResultField field);
@@ -69,6 +78,6 @@ const ResultColumn& result_column(ResultField field);
 const char* column_name(ResultField field);
 
 // Column names in table order, for documentation and tests.
-std::vector<std::string> catalog_columns(PositionColumns positions);
+std::vector<std::string> catalog_columns(PositionColumns positions, bool metacal = false);
 
 }  // namespace stampede::io

@@ -299,6 +299,34 @@ std::vector<Entry> make_registry() {
                          "are free and unbounded); false: iterate on all free parameters jointly (the paper's)",
                          [](auto& c) -> auto& { return c.fitter.project_amplitudes; }));
 
+  const char* mcal = "Metacalibration (README, \"Metacalibration\")";
+  r.push_back(bool_entry(mcal, "metacal",
+                         "true: each object's shear response R from its own image (deconvolve the PSF, shear by "
+                         "+-metacal_step, reconvolve with a round Moffat, five fits); the row's e is the noshear "
+                         "image's and the table gains R11 R12 R21 R22 and the sheared fits",
+                         [](auto& c) -> auto& { return c.metacal.enabled; }));
+  r.push_back(double_entry(mcal, "metacal_step", "metacal: the applied shear delta, in (0, 0.1]", DoubleKind::kFinite,
+                           [](auto& c) -> auto& { return c.metacal.step; }));
+  r.push_back(double_entry(mcal, "metacal_psf_dilation",
+                           "metacal: reconvolution PSF FWHM over the PSF's; 0 = (1 + 2 metacal_step) sqrt((1 + |e|) "
+                           "/ (1 - |e|)), the smallest wider than the sheared PSF in every direction",
+                           DoubleKind::kFinite, [](auto& c) -> auto& { return c.metacal.psf_dilation; }));
+  r.push_back(bool_entry(mcal, "metacal_fixnoise",
+                         "metacal: add a noise field rotated by 90 degrees through the same operations, so that "
+                         "the images' noise is isotropic (doubles its variance)",
+                         [](auto& c) -> auto& { return c.metacal.fixnoise; }));
+  r.push_back({"metacal_seed", "metacal: seed of the fixnoise fields (each object's keyed by its id), in [0, 2^63)", mcal,
+               [](const RunConfig& c) { return std::to_string(c.metacal.seed); },
+               [](RunConfig& c, const std::string& v) {
+                 std::int64_t seed = 0;
+                 const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), seed);
+                 if (ec != std::errc() || end != v.data() + v.size() || seed < 0)
+                   return std::string("expected an integer in [0, 2^63)");
+                 c.metacal.seed = static_cast<std::uint64_t>(seed);
+                 return std::string();
+               },
+               HeaderValueType::kInteger});
+
   const char* model = "Model reparameterisation (paper appendix A)";
   r.push_back(double_entry(model, "ellipticity_mirror", "|e| about which the ellipticity is mirrored, in (0, 1)",
                            DoubleKind::kFinite, [](auto& c) -> auto& { return c.fitter.model.ellipticity_mirror; }));
@@ -531,6 +559,12 @@ void validate(const RunConfig& config) {
     case PsfKind::kImage:
       if (config.psf_image.empty()) fail(config, "psf_input = image needs psf_image, the path of a FITS PSF image");
       break;
+  }
+  if (config.metacal.enabled) {
+    if (!config.metacal.IsValid(&why)) fail(config, why);
+    if (config.psf_kind != PsfKind::kMoffat)
+      fail(config, std::string("metacal = true needs psf_input = moffat or moffat_catalog (an analytic PSF to deconvolve "
+                               "and widen); psf_input = ") + psf_input_value(config));
   }
   if (config.psf_upsampling < 1)
     fail(config, "psf_upsampling = " + std::to_string(config.psf_upsampling) + ": must be >= 1");

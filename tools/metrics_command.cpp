@@ -12,6 +12,7 @@
 
 #include "engine/fit/fit_result.hpp"
 #include "engine/pipeline/object_record.hpp"
+#include "engine/analysis/metacal_shear.hpp"
 #include "engine/analysis/shear_metrics.hpp"
 #include "io/catalog_reader.hpp"
 #include "io/fits_file.hpp"
@@ -25,22 +26,35 @@ void print_help() {
   std::printf(
       "usage: stampede metrics --fit FIT.fits --truth TRUTH.fits [--fit ... --truth ...]\n"
       "                        [--json OUT.json] [--bootstrap N] [--seed S] [--e-columns E1,E2]\n"
+      "                        [--metacal] [--cut-snr X] [--cut-radius R]\n"
       "\n"
       "Per set (a `stampede fit` table and the truth file of the same set, in the GREAT08-mini\n"
       "layout: SHEAR1 SHEAR2 in the primary header, a TRUTH table with `index` and `pair`):\n"
       "the mean fitted e over usable objects estimates the set's shear, ring pairs averaged first,\n"
       "errors by bootstrap over pairs (default 200 resamples). Excluded: status != ok or flags\n"
-      "4/16/32/65536/131072 (at bound, no errors, not converged, edge, PSF failure), with the\n"
+      "4/16/32/65536/131072/262144 (at bound, no errors, not converged, edge, PSF failure, metacal\n"
+      "failure), with the\n"
       "partner of an excluded ring member. Across sets: a weighted fit g_est = (1 + m) g + c per\n"
       "component, c rotated into the PSF frame (c+ along the PSF), and the GREAT08 quality factor\n"
       "  Q = 1e-4 / mean over sets and both components of (g_est - g_true)^2.\n"
       "\n"
       "  --e-columns E1,E2   the ellipticity columns to use (default e1,e2; e.g. e1_cal,e2_cal from\n"
-      "                      `stampede calibrate apply`); rows where they are not finite are excluded\n");
+      "                      `stampede calibrate apply`); rows where they are not finite are excluded\n"
+      "  --metacal           tables of a `metacal = true` run: per set g = (<R> + R_S)^-1 <e>, with R_S\n"
+      "                      the selection response of the cuts below made on each sheared image's\n"
+      "                      quantities (Sheldon & Huff 2017); flag 262144 (metacal failure) excludes\n"
+      "  --cut-snr X         keep objects with snr >= X (metacal: on every image's own snr)\n"
+      "  --cut-radius R      keep objects with radius >= R pixels (likewise)\n");
 }
 
+struct Cuts {
+  bool metacal = false;
+  double min_snr = -INFINITY, min_radius = -INFINITY;
+};
+
 SetShear read_set(const std::string& fit_path, const std::string& truth_path, const std::string& e1_column,
-                  const std::string& e2_column, int bootstrap, std::uint64_t seed, double* psf_e1, double* psf_e2) {
+                  const std::string& e2_column, int bootstrap, std::uint64_t seed, const Cuts& cuts, double* psf_e1,
+                  double* psf_e2) {
   using F = io::ResultField;
   io::CatalogReader fit = io::CatalogReader::open(fit_path, {F::kId, F::kStatus, F::kFlags, F::kPsfE1, F::kPsfE2});
   const auto id = fit.column(F::kId), e1 = fit.column(e1_column), e2 = fit.column(e2_column),
@@ -76,10 +90,46 @@ SetShear read_set(const std::string& fit_path, const std::string& truth_path, co
     *psf_e1 = pe1[0];
     *psf_e2 = pe2[0];
   }
-  const SetShear set = estimate_set_shear(e1, e2, usable, pair, g1, g2, bootstrap, seed);
+  const bool cut = std::isfinite(cuts.min_snr) || std::isfinite(cuts.min_radius);
+  auto passes = [&](double snr, double radius) {  // an unset cut keeps everything, NaN included
+    return (!std::isfinite(cuts.min_snr) || snr >= cuts.min_snr) && (!std::isfinite(cuts.min_radius) || radius >= cuts.min_radius);
+  };
+  SetShear set;
+  if (cuts.metacal) {
+    if (!fit.has(F::kR11))
+      throw std::runtime_error(fit.describe() + " has no metacal columns (R11 ...): fit with metacal = true, or drop --metacal");
+    const double step = fit.file().read_key_double("metacal_step").value_or(NAN);
+    if (!(step > 0)) throw std::runtime_error(fit.describe() + ": no valid metacal_step key");
+    const auto snr = fit.column(F::kSnr), radius = fit.column(F::kRadius);
+    const auto r11 = fit.column(F::kR11), r12 = fit.column(F::kR12), r21 = fit.column(F::kR21), r22 = fit.column(F::kR22);
+    const F sheared[4][2] = {{F::kSnr_1p, F::kRadius_1p}, {F::kSnr_1m, F::kRadius_1m}, {F::kSnr_2p, F::kRadius_2p},
+                             {F::kSnr_2m, F::kRadius_2m}};
+    std::vector<std::vector<double>> snr_t(4), radius_t(4);
+    for (int t = 0; t < 4; ++t) snr_t[t] = fit.column(sheared[t][0]), radius_t[t] = fit.column(sheared[t][1]);
+    std::vector<std::uint8_t> selected(id.size());
+    for (std::size_t i = 0; i < id.size(); ++i) {
+      if (!usable[i]) continue;
+      std::uint8_t bits = passes(snr[i], radius[i]) ? 1 : 0;
+      for (int t = 0; t < 4; ++t) bits |= (passes(snr_t[t][i], radius_t[t][i]) ? 1 : 0) << (t + 1);
+      selected[i] = bits;
+    }
+    const MetacalSetShear m = estimate_metacal_set_shear({e1, e2, {r11, r12, r21, r22}, selected, pair, step}, g1, g2,
+                                                         bootstrap, seed);
+    std::printf("%s: <R> = [[%+.4f %+.4f] [%+.4f %+.4f]]  R_S = [[%+.4f %+.4f] [%+.4f %+.4f]]  <e> = (%+.6f, %+.6f)\n",
+                fit_path.c_str(), m.r[0], m.r[1], m.r[2], m.r[3], m.r_sel[0], m.r_sel[1], m.r_sel[2], m.r_sel[3],
+                m.g1_raw, m.g2_raw);
+    set = m.shear;
+  } else {
+    if (cut) {
+      const auto snr = fit.column(F::kSnr), radius = fit.column(F::kRadius);
+      for (std::size_t i = 0; i < id.size(); ++i) usable[i] = usable[i] && passes(snr[i], radius[i]);
+    }
+    set = estimate_set_shear(e1, e2, usable, pair, g1, g2, bootstrap, seed);
+  }
   if (set.used == 0)
     throw std::runtime_error(fit.describe() + ": all " + std::to_string(id.size()) +
-                             " rows are excluded (status not ok, flags 4/16/32/65536/131072, or e not finite), so the "
+                             " rows are excluded (status not ok, flags 4/16/32/65536/131072/262144, e not finite, or "
+                             "cut), so the "
                              "set has no shear estimate");
   return set;
 }
@@ -92,6 +142,7 @@ int run_metrics_command(int argc, char** argv) {
                     e2_column = io::column_name(io::ResultField::kE2);
   int bootstrap = 200;
   std::uint64_t seed = 1;
+  Cuts cuts;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&] { return tools::option_value(argc, argv, &i); };
@@ -111,6 +162,12 @@ int run_metrics_command(int argc, char** argv) {
         throw std::invalid_argument("option --e-columns: " + tools::quoted_value(v) + " is not two column names 'E1,E2'");
       e1_column = v.substr(0, comma);
       e2_column = v.substr(comma + 1);
+    } else if (a == "--metacal") {
+      cuts.metacal = true;
+    } else if (a == "--cut-snr") {
+      cuts.min_snr = tools::number_value(argc, argv, &i);
+    } else if (a == "--cut-radius") {
+      cuts.min_radius = tools::number_value(argc, argv, &i);
     } else if (a == "--bootstrap") {
       bootstrap = static_cast<int>(tools::integer_in(argc, argv, &i, 0, 1000000));
     } else if (a == "--seed") {
@@ -125,7 +182,7 @@ int run_metrics_command(int argc, char** argv) {
   double psf_e1 = 0, psf_e2 = 0;
   std::vector<SetShear> sets;
   for (std::size_t k = 0; k < fits.size(); ++k)
-    sets.push_back(read_set(fits[k], truths[k], e1_column, e2_column, bootstrap, seed + k, &psf_e1, &psf_e2));
+    sets.push_back(read_set(fits[k], truths[k], e1_column, e2_column, bootstrap, seed + k, cuts, &psf_e1, &psf_e2));
   const ShearMetrics m = combine_sets(sets, psf_e1, psf_e2);
   std::printf("%-4s %10s %10s %10s %9s %10s %10s %9s %6s %8s\n", "set", "g1_true", "g1", "g1-g1_t", "err1", "g2_true", "g2",
               "err2", "used", "excluded");

@@ -9,6 +9,7 @@
 #include <cstdint>
 
 #include "engine/fit/fit_result.hpp"
+#include "engine/metacal/metacal_record.hpp"
 
 namespace stampede {
 
@@ -16,12 +17,13 @@ namespace stampede {
 enum InputFlag : std::uint32_t {
   kFlagEdge = 1u << 16,          // the stamp reaches beyond the image; outside pixels masked
   kFlagPsfFailure = 1u << 17,    // the object's PSF could not be built
+  kFlagMetacalFailure = 1u << 18,  // metacal: pixels masked, or a sheared image's fit not ok: R unusable
 };
 
 // Rows whose ellipticity may enter a shear estimate (`stampede metrics`, the noise-bias
 // calibration): status ok and none of the flags that make e doubtful.
 constexpr std::uint32_t kShearExcludingFlags =
-    kFlagAtBound | kFlagNoErrors | kFlagNotConverged | kFlagEdge | kFlagPsfFailure;
+    kFlagAtBound | kFlagNoErrors | kFlagNotConverged | kFlagEdge | kFlagPsfFailure | kFlagMetacalFailure;
 inline bool usable_for_shear(FitStatus status, std::uint32_t flags) {
   return status == FitStatus::kOk && !(flags & kShearExcludingFlags);
 }
@@ -35,6 +37,7 @@ struct ObjectRecord {
   std::uint32_t flags = 0;     // fit.flags | input flags
   double time_us = NAN;        // wall time of this object's fit, microseconds
   double psf_e1 = NAN, psf_e2 = NAN, psf_fwhm = NAN;
+  MetacalRecord metacal;       // metacal runs only (fit is then the noshear image's)
 };
 
 }  // namespace stampede

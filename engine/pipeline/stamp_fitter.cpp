@@ -7,15 +7,21 @@ namespace stampede {
 
 StampFitter::StampFitter(const FitterOptions& options, std::shared_ptr<const PreparedPsf> shared_psf,
                          PsfCache* per_object, FftPlanning planning, double psf_e1, double psf_e2,
-                         double psf_fwhm)
+                         double psf_fwhm, std::optional<MetacalSetup> metacal)
     : options_(options),
       plans_(planning),
       shared_psf_(std::move(shared_psf)),
       per_object_(per_object),
       psf_e1_(psf_e1),
       psf_e2_(psf_e2),
-      psf_fwhm_(psf_fwhm) {
+      psf_fwhm_(psf_fwhm),
+      metacal_(std::move(metacal)) {
   fitter_ = std::make_unique<Fitter>(options_, shared_psf_, plans_);
+  if (metacal_) {
+    metacal_fitter_ = std::make_unique<MetacalFitter>(options_, metacal_->options, options_.render.stamp_size, plans_, planning);
+    std::string ignored;  // a PSF metacal cannot use: every row says kPsfFailure
+    if (!per_object_) metacal_fitter_->set_psf(metacal_->shared_psf, &ignored);
+  }
 }
 
 void StampFitter::fit(StampBatch& batch) {
@@ -40,7 +46,14 @@ void StampFitter::fit(StampBatch& batch) {
     const std::span<const double> pixels(batch.stamp(k), npix);
     const std::span<const double> weight = batch.has_weights ? std::span<const double>(batch.weight(k), npix)
                                                              : std::span<const double>();
-    rec.fit = fitter_->fit(pixels, weight, batch.weights_are_mask ? WeightKind::kMask : WeightKind::kInverseVariance);
+    const WeightKind kind = batch.weights_are_mask ? WeightKind::kMask : WeightKind::kInverseVariance;
+    if (metacal_fitter_) {
+      std::string ignored;
+      if (per_object_ && !metacal_fitter_->set_psf(batch.psf[k], &ignored)) input_flags |= kFlagPsfFailure;
+      metacal_fitter_->fit(pixels, weight, kind, rec.id, kFlagMetacalFailure, &rec.fit, &rec.metacal, &input_flags);
+    } else {
+      rec.fit = fitter_->fit(pixels, weight, kind);
+    }
     rec.flags = rec.fit.flags | input_flags;
     rec.time_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
   }

@@ -2,12 +2,20 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 
 #include "engine/fit/fitter.hpp"
+#include "engine/metacal/metacal_fitter.hpp"
 #include "engine/pipeline/pipeline.hpp"
 #include "engine/render/psf_cache.hpp"
 
 namespace stampede {
+
+// A metacal run: its options and the run's one PSF (ignored with per-object PSFs).
+struct MetacalSetup {
+  MetacalOptions options;
+  PsfModel shared_psf;
+};
 
 class StampFitter final : public BatchFitter {
  public:
@@ -15,7 +23,8 @@ class StampFitter final : public BatchFitter {
   // `per_object` (prepared PSFs of each object's batch PSF model) is used.
   // psf_e1/e2/fwhm describe the shared PSF in the output (NaN when unknown, e.g. an image PSF).
   StampFitter(const FitterOptions& options, std::shared_ptr<const PreparedPsf> shared_psf, PsfCache* per_object,
-              FftPlanning planning, double psf_e1 = NAN, double psf_e2 = NAN, double psf_fwhm = NAN);
+              FftPlanning planning, double psf_e1 = NAN, double psf_e2 = NAN, double psf_fwhm = NAN,
+              std::optional<MetacalSetup> metacal = std::nullopt);
   void fit(StampBatch& batch) override;
 
  private:
@@ -25,6 +34,8 @@ class StampFitter final : public BatchFitter {
   PsfCache* per_object_;
   std::unique_ptr<Fitter> fitter_;
   double psf_e1_, psf_e2_, psf_fwhm_;
+  std::optional<MetacalSetup> metacal_;
+  std::unique_ptr<MetacalFitter> metacal_fitter_;  // metacal runs: replaces fitter_'s fit
 };
 
 }  // namespace stampede

@@ -1,0 +1,140 @@
+// A set's metacalibrated shear; see metacal_shear.hpp.
+#include "engine/analysis/metacal_shear.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <stdexcept>
+#include <vector>
+
+#include "engine/common/random_stream.hpp"
+
+namespace stampede {
+namespace {
+
+// A ring pair (or a lone object): its members' mean e and R, and the selections all its members
+// pass.
+struct Unit {
+  double e1 = 0, e2 = 0;
+  std::array<double, 4> r{};
+  int members = 0;
+  std::uint8_t selected = 0x1f;
+};
+
+struct Estimate {
+  double g1 = NAN, g2 = NAN, raw1 = NAN, raw2 = NAN;
+  std::array<double, 4> r{}, r_sel{};
+};
+
+// The estimate from units[i] taken count[i] times.
+Estimate estimate(const std::vector<Unit>& units, const std::vector<int>& count, double step) {
+  // Means over the units passing selection s: e (all s), R (s = 0 only).
+  double n[5] = {}, e1[5] = {}, e2[5] = {};
+  std::array<double, 4> r{};
+  for (std::size_t i = 0; i < units.size(); ++i) {
+    if (!count[i]) continue;
+    const Unit& u = units[i];
+    for (int s = 0; s < 5; ++s) {
+      if (!(u.selected >> s & 1)) continue;
+      n[s] += count[i];
+      e1[s] += count[i] * u.e1;
+      e2[s] += count[i] * u.e2;
+      if (s == 0)
+        for (int k = 0; k < 4; ++k) r[k] += count[i] * u.r[k];
+    }
+  }
+  Estimate out;
+  if (n[0] == 0) return out;
+  for (int s = 0; s < 5; ++s) {
+    if (n[s] == 0) return out;
+    e1[s] /= n[s];
+    e2[s] /= n[s];
+  }
+  for (double& v : r) v /= n[0];
+  // R_S: rows i = e component, columns j = shear component; s = 1 + 2j (+), 2 + 2j (-).
+  out.r_sel = {(e1[1] - e1[2]) / (2 * step), (e1[3] - e1[4]) / (2 * step), (e2[1] - e2[2]) / (2 * step),
+               (e2[3] - e2[4]) / (2 * step)};
+  out.r = r;
+  const double a = r[0] + out.r_sel[0], b = r[1] + out.r_sel[1], c = r[2] + out.r_sel[2], d = r[3] + out.r_sel[3];
+  const double det = a * d - b * c;
+  out.raw1 = e1[0];
+  out.raw2 = e2[0];
+  out.g1 = (d * e1[0] - b * e2[0]) / det;
+  out.g2 = (-c * e1[0] + a * e2[0]) / det;
+  return out;
+}
+
+}  // namespace
+
+MetacalSetShear estimate_metacal_set_shear(const MetacalRows& rows, double g1_true, double g2_true, int bootstrap,
+                                           std::uint64_t seed) {
+  const std::size_t n = rows.e1.size();
+  bool sizes = rows.e2.size() == n && rows.selected.size() == n && (rows.pair.empty() || rows.pair.size() == n);
+  for (const auto& col : rows.r) sizes = sizes && col.size() == n;
+  if (!sizes) throw std::invalid_argument("estimate_metacal_set_shear: columns of different lengths");
+  std::vector<Unit> units;
+  std::map<long long, std::size_t> by_pair;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::uint8_t sel = rows.selected[i];
+    bool finite = std::isfinite(rows.e1[i]) && std::isfinite(rows.e2[i]);
+    for (const auto& col : rows.r) finite = finite && std::isfinite(col[i]);
+    if (!finite) sel = 0;
+    std::size_t u;
+    if (rows.pair.empty() || rows.pair[i] < 0) {
+      u = units.size();
+      units.emplace_back();
+    } else {
+      const auto [it, added] = by_pair.emplace(rows.pair[i], units.size());
+      if (added) units.emplace_back();
+      u = it->second;
+    }
+    Unit& unit = units[u];
+    unit.selected &= sel;
+    ++unit.members;
+    if (!finite) continue;
+    unit.e1 += rows.e1[i];
+    unit.e2 += rows.e2[i];
+    for (int k = 0; k < 4; ++k) unit.r[k] += rows.r[k][i];
+  }
+  MetacalSetShear out;
+  out.shear.g1_true = g1_true;
+  out.shear.g2_true = g2_true;
+  for (Unit& u : units) {
+    u.e1 /= u.members;
+    u.e2 /= u.members;
+    for (double& v : u.r) v /= u.members;
+    if (u.selected & 1)
+      out.shear.used += u.members;
+    else
+      out.shear.excluded += u.members;
+  }
+  std::vector<int> count(units.size(), 1);
+  const Estimate all = estimate(units, count, rows.step);
+  out.shear.g1 = all.g1;
+  out.shear.g2 = all.g2;
+  out.r = all.r;
+  out.r_sel = all.r_sel;
+  out.g1_raw = all.raw1;
+  out.g2_raw = all.raw2;
+  if (bootstrap > 1 && units.size() > 1 && std::isfinite(all.g1)) {
+    std::uint64_t state = seed;
+    double a1 = 0, a2 = 0, q1 = 0, q2 = 0;
+    int done = 0;
+    for (int b = 0; b < bootstrap; ++b) {
+      std::fill(count.begin(), count.end(), 0);
+      for (std::size_t k = 0; k < units.size(); ++k) ++count[splitmix64(state) % units.size()];
+      const Estimate e = estimate(units, count, rows.step);
+      if (!std::isfinite(e.g1) || !std::isfinite(e.g2)) continue;
+      a1 += e.g1, a2 += e.g2, q1 += e.g1 * e.g1, q2 += e.g2 * e.g2;
+      ++done;
+    }
+    if (done > 1) {
+      a1 /= done, a2 /= done;
+      out.shear.err1 = std::sqrt(std::max(0.0, q1 / done - a1 * a1));
+      out.shear.err2 = std::sqrt(std::max(0.0, q2 / done - a2 * a2));
+    }
+  }
+  return out;
+}
+
+}  // namespace stampede

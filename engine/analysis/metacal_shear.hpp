@@ -1,0 +1,37 @@
+// A set's shear from metacalibration rows (Sheldon & Huff 2017, section 4): g = (<R> + R_S)^-1 <e>,
+// with <e> and <R> over the selected objects and the selection response
+//   R_S,ij = (<e_i>_{S(+j)} - <e_i>_{S(-j)}) / (2 step),
+// where S(+-j) is the same selection made on the quantities measured on the +-step_j images.
+// Ring pairs are averaged first (a pair enters a selection only if both members pass), and errors
+// come from a bootstrap over pairs, each resample repeating the whole estimate.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+
+#include "engine/analysis/shear_metrics.hpp"
+
+namespace stampede {
+
+struct MetacalRows {
+  std::span<const double> e1, e2;                // the noshear fit's
+  std::array<std::span<const double>, 4> r;      // R11 R12 R21 R22
+  // Per object, bit 0: passes the selection on its noshear quantities; bits 1..4: passes it on
+  // the 1p 1m 2p 2m images' quantities.
+  std::span<const std::uint8_t> selected;
+  std::span<const long long> pair;               // ring-pair labels (-1 or empty: none)
+  double step = 0.01;
+};
+
+struct MetacalSetShear {
+  SetShear shear;                 // g1, g2 calibrated, with bootstrap errors
+  std::array<double, 4> r{};      // <R> (R11 R12 R21 R22)
+  std::array<double, 4> r_sel{};  // R_S
+  double g1_raw = 0, g2_raw = 0;  // <e>, uncalibrated
+};
+
+MetacalSetShear estimate_metacal_set_shear(const MetacalRows& rows, double g1_true, double g2_true, int bootstrap,
+                                           std::uint64_t seed);
+
+}  // namespace stampede
