@@ -128,7 +128,8 @@ TEST(RunConfigRegistry, ListsEveryKeyOnceWithItsDefaultAndHelp) {
   for (const char* key :
        {"renderer", "stamp_size", "upsampling", "n_central_pixels_to_upsample", "n_central_pixel_upsampling", "padding",
         "noise_sigma", "levmar_eps1", "levmar_eps2", "levmar_eps3", "levmar_eps4", "levmar_LM_INIT_MU",
-        "minimizer_max_iterations", "project_amplitudes", "ellipticity_mirror", "radius_softening", "psf_input", "psf_beta", "psf_fwhm",
+        "minimizer_max_iterations", "project_amplitudes", "metacal", "metacal_step", "metacal_psf_dilation",
+        "metacal_fixnoise", "metacal_seed", "ellipticity_mirror", "radius_softening", "psf_input", "psf_beta", "psf_fwhm",
         "psf_e1", "psf_e2", "psf_truncation", "airy_lambda_over_d", "airy_obscuration", "psf_image",
         "psf_upsampling", "psf_pixel_integrated", "batch_size", "fft_wisdom", "catalog_id_column",
         "catalog_x_column", "catalog_y_column", "catalog_psf_beta_column", "catalog_psf_fwhm_column",
@@ -139,7 +140,7 @@ TEST(RunConfigRegistry, ListsEveryKeyOnceWithItsDefaultAndHelp) {
     for (const char* suffix : {"_start", "_min", "_max", "_free"})
       EXPECT_TRUE(names.contains(n + suffix)) << n + suffix;
   }
-  EXPECT_EQ(options.size(), 42u + 4u * kNumParams);
+  EXPECT_EQ(options.size(), 47u + 4u * kNumParams);
 }
 
 // --- get / set -----------------------------------------------------------------------------------
