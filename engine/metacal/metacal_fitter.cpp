@@ -122,6 +122,22 @@ void MetacalFitter::fit(std::span<const double> pixels, std::span<const double> 
     *flags |= failure_flag;
     return;
   }
+  // What the fitter refuses on the data must be refused here too: the operations would spread a
+  // NaN over every pixel, and fixnoise would give a flat stamp a galaxy of noise to fit.
+  bool any = false, flat = true, finite = true;
+  double first = 0;
+  for (std::size_t i = 0; i < pixels.size(); ++i) {
+    if (!weight.empty() && weight[i] == 0) continue;
+    if (!std::isfinite(pixels[i]) || (!weight.empty() && !(weight[i] > 0 && std::isfinite(weight[i])))) finite = false;
+    if (!any) first = pixels[i];
+    flat = flat && pixels[i] == first;
+    any = true;
+  }
+  if (!finite || !any || flat) {
+    noshear->status = !finite ? FitStatus::kBadPixels : FitStatus::kNoData;
+    *flags |= failure_flag;
+    return;
+  }
   double variance = 0;
   if (!make_images(pixels, weight, kind, object_id, &variance)) *flags |= failure_flag;
   std::span<const double> w;

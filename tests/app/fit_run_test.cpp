@@ -145,6 +145,56 @@ TEST_F(FitRunTest, TwoRunsInOneProcessWithDifferentThreadsAreIdentical) {
   }
 }
 
+// A metacal run: the table carries the metacal columns, rows are bitwise identical for any thread
+// count (the fixnoise fields are keyed by object id), and the stamps the fitter refuses (a NaN
+// pixel, an empty stamp) are refused here too rather than fitted as fixnoise's noise.
+TEST_F(FitRunTest, MetacalRunsAreIdenticalForAnyThreadCount) {
+  std::vector<ObjectRecord> rows[2];
+  const int threads[2] = {2, 1};
+  for (int k = 0; k < 2; ++k) {
+    app::FitRunOptions o = options(scratch.path("m" + std::to_string(threads[k]) + ".fits"), threads[k]);
+    io::apply_set(o.config, "renderer=exact");
+    io::apply_set(o.config, "metacal=true");
+    o.on_rows = [&, k](std::span<const ObjectRecord> batch) { rows[k].insert(rows[k].end(), batch.begin(), batch.end()); };
+    app::FitRun(o).run();
+  }
+  ASSERT_EQ(rows[0].size(), static_cast<std::size_t>(kNx * kNy));
+  ASSERT_EQ(rows[1].size(), rows[0].size());
+  EXPECT_EQ(rows[0][0].fit.status, FitStatus::kBadPixels);
+  EXPECT_EQ(rows[0][1].fit.status, FitStatus::kNoData);
+  EXPECT_TRUE(rows[0][1].flags & kFlagMetacalFailure);
+  int with_response = 0;
+  for (std::size_t i = 0; i < rows[0].size(); ++i) {
+    const ObjectRecord &a = rows[0][i], &b = rows[1][i];
+    EXPECT_EQ(a.flags, b.flags);
+    for (int p = 0; p < kNumParams; ++p) EXPECT_TRUE(same_bits(a.fit.params[p], b.fit.params[p])) << i << " " << p;
+    for (const auto& [x, y] : {std::pair{a.metacal.r11, b.metacal.r11}, std::pair{a.metacal.r22, b.metacal.r22},
+                               std::pair{a.metacal.e1[3], b.metacal.e1[3]}, std::pair{a.metacal.snr[0], b.metacal.snr[0]}})
+      EXPECT_TRUE(same_bits(x, y)) << i;
+    if (usable_for_shear(a.fit.status, a.flags)) {
+      ++with_response;
+      EXPECT_GT(a.metacal.r11, 0.2) << i;  // a galaxy's response: positive, of order one
+      EXPECT_LT(a.metacal.r11, 2.0) << i;
+    }
+  }
+  EXPECT_GE(with_response, 6);
+  const auto r11 = column(scratch.path("m2.fits"), "R11"), radius = column(scratch.path("m1.fits"), "radius_2m");
+  ASSERT_EQ(r11.size(), rows[0].size());
+  for (std::size_t i = 0; i < r11.size(); ++i) {
+    EXPECT_TRUE(same_bits(r11[i], rows[0][i].metacal.r11)) << i;
+    EXPECT_TRUE(same_bits(radius[i], rows[1][i].metacal.radius[3])) << i;
+  }
+}
+
+// metacal needs an analytic PSF it can deconvolve and widen: refused before any fitting otherwise.
+TEST_F(FitRunTest, MetacalWithAnAiryPsfIsRefusedUpFront) {
+  app::FitRunOptions o = options(scratch.path("airy.fits"), 1);
+  io::apply_set(o.config, "metacal=true");
+  io::apply_set(o.config, "psf_input=airy");
+  const std::string message = stampede::testing::error_of<io::ConfigError>([&] { app::FitRun(o).run(); });
+  EXPECT_NE(message.find("metacal = true needs psf_input = moffat or moffat_catalog"), std::string::npos) << message;
+}
+
 TEST_F(FitRunTest, WithoutAnOutputTheRowsOnlyGoToTheCaller) {
   app::FitRunOptions o = options("", 2);
   long long n = 0;

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include <bit>
 #include <cmath>
 #include <cstdlib>
@@ -87,6 +89,45 @@ INSTANTIATE_TEST_SUITE_P(BothLayouts, CatalogReaderTest,
                          [](const auto& info) {
                            return info.param == PositionColumns::kGrid ? "Grid" : "Catalogue";
                          });
+
+// A metacal run's table: the metacal columns after the fit columns, read back bitwise, and the
+// reader tells such a table from a plain one.
+TEST(CatalogReader, RoundTripsAMetacalTable) {
+  stampede::testing::ScratchDir scratch("stampede_catalog_reader_");
+  for (const PositionColumns positions : {PositionColumns::kGrid, PositionColumns::kCatalogue}) {
+    const auto rows = make_records(40, positions);
+    CatalogWriterOptions o;
+    o.path = scratch.path("metacal.fits");
+    o.positions = positions;
+    o.metacal = true;
+    {
+      auto w = CatalogWriter::create(o);
+      w->append(rows);
+      w->finish();
+    }
+    CatalogReader reader = CatalogReader::open(o.path);
+    EXPECT_TRUE(reader.metacal());
+    EXPECT_EQ(result_columns(positions, true).size(), result_columns(positions).size() + kNumMetacalFields);
+    const std::vector<ObjectRecord> back = reader.records(0, reader.rows());
+    ASSERT_EQ(back.size(), rows.size());
+    for (const ResultColumn& c : result_columns(positions, true))
+      for (std::size_t i = 0; i < rows.size(); ++i) {
+        if (c.type == ColumnType::kFloat64)
+          ASSERT_TRUE(same_double(c.real(back[i]), c.real(rows[i]))) << c.name << " row " << i;
+        else
+          ASSERT_EQ(c.integer(back[i]), c.integer(rows[i])) << c.name << " row " << i;
+      }
+    std::filesystem::remove(o.path);
+  }
+  // A plain table is not one.
+  const std::string plain = scratch.path("plain.fits");
+  CatalogWriterOptions o;
+  o.path = plain;
+  auto w = CatalogWriter::create(o);
+  w->append(make_records(3, PositionColumns::kGrid));
+  w->finish();
+  EXPECT_FALSE(CatalogReader::open(plain).metacal());
+}
 
 TEST(CatalogReader, MissingColumnNamesFileHduAndColumn) {
   stampede::testing::ScratchDir scratch("stampede_catalog_reader_");

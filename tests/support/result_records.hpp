@@ -56,6 +56,14 @@ inline ObjectRecord make_record(long long i, io::PositionColumns positions) {
   r.psf_e1 = -0.01 * static_cast<double>(i % 5);
   r.psf_e2 = 0.02;
   r.psf_fwhm = 2.85;
+  // Metacal values (written only by metacal tables): NaN where a sheared fit failed.
+  const double t = static_cast<double>(i);
+  r.metacal.r11 = 1.0 + 0.01 * std::sin(t), r.metacal.r12 = i % 9 == 0 ? kNaN : -1e-3 / (t + 1);
+  r.metacal.r21 = 2e-3 * std::cos(t), r.metacal.r22 = 0.9 + 1.0 / 3.0 / (t + 1);
+  for (int k = 0; k < 4; ++k) {
+    r.metacal.e1[k] = 0.2 * std::sin(t + k), r.metacal.e2[k] = -0.1 * std::cos(t - k);
+    r.metacal.snr[k] = i % 13 == 0 ? kInf : 15.0 + t + k, r.metacal.radius[k] = 1.25 + 1e-9 * k;
+  }
   return r;
 }
 
