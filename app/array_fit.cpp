@@ -101,6 +101,15 @@ io::RunConfig config_for(const io::RunConfig& config, int stamp_size, bool per_s
   return cfg;
 }
 
+// metacal deconvolves and widens an analytic PSF: a PSF given as an image cannot be used yet.
+void check_metacal_psfs(const io::RunConfig& cfg, const std::vector<PsfModel>& psfs) {
+  if (!cfg.metacal.enabled) return;
+  for (const PsfModel& p : psfs)
+    if (p.kind != PsfKind::kMoffat)
+      throw io::ConfigError(std::string("metacal = true needs a Moffat PSF; the stamps' PSF is '") + psf_kind_name(p.kind) +
+                            "' (give the PSF through the psf_* options, or fit without metacal)");
+}
+
 }  // namespace
 
 SingleStampFitter::SingleStampFitter(const io::RunConfig& config, int stamp_size, std::optional<PsfModel> psf)
@@ -110,11 +119,14 @@ SingleStampFitter::SingleStampFitter(const io::RunConfig& config, int stamp_size
   if (psf) shape.psfs.push_back(*psf);
   check_arrays(shape);
   const io::RunConfig cfg = config_for(config, stamp_size, false);
+  check_metacal_psfs(cfg, shape.psfs);
   FftPlanCache setup_plans(FftPlanning::kEstimate);
   const SharedPsf shared = psf ? prepare_shared_psf(*psf, cfg, setup_plans, "the stamps' PSF")
                                : build_shared_psf(cfg, setup_plans);
+  std::optional<MetacalSetup> metacal;
+  if (cfg.metacal.enabled) metacal = MetacalSetup{cfg.metacal, shared.model};
   fitter_ = std::make_unique<StampFitter>(cfg.fitter, shared.prepared, nullptr, FftPlanning::kEstimate, shared.e1,
-                                          shared.e2, shared.fwhm);
+                                          shared.e2, shared.fwhm, metacal);
 }
 
 SingleStampFitter::~SingleStampFitter() = default;
@@ -144,6 +156,7 @@ ObjectRecord SingleStampFitter::fit(std::span<const double> pixels, std::span<co
 std::vector<ObjectRecord> fit_array_stamps(const io::RunConfig& config, const ArrayStamps& in, int threads) {
   check_arrays(in);
   const io::RunConfig cfg = config_for(config, in.stamp_size, in.psfs.size() > 1);
+  check_metacal_psfs(cfg, in.psfs);
 
   std::vector<ObjectRecord> rows(static_cast<std::size_t>(in.count));
   if (in.count == 0) return rows;
@@ -151,6 +164,8 @@ std::vector<ObjectRecord> fit_array_stamps(const io::RunConfig& config, const Ar
   std::shared_ptr<const PreparedPsf> shared_psf;
   std::unique_ptr<PsfCache> psf_cache;
   double psf_e1 = NAN, psf_e2 = NAN, psf_fwhm = NAN;
+  std::optional<MetacalSetup> metacal;
+  if (cfg.metacal.enabled) metacal = MetacalSetup{cfg.metacal, {}};
   if (in.psfs.size() > 1) {
     psf_cache = std::make_unique<PsfCache>(1024);
   } else {
@@ -158,6 +173,7 @@ std::vector<ObjectRecord> fit_array_stamps(const io::RunConfig& config, const Ar
                                           : prepare_shared_psf(in.psfs.front(), cfg, setup_plans, "the stamps' PSF");
     shared_psf = psf.prepared;
     psf_e1 = psf.e1, psf_e2 = psf.e2, psf_fwhm = psf.fwhm;
+    if (metacal) metacal->shared_psf = psf.model;
   }
 
   ArraySource source(in);
@@ -171,7 +187,7 @@ std::vector<ObjectRecord> fit_array_stamps(const io::RunConfig& config, const Ar
   PsfCache* cache = psf_cache.get();
   auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
     return std::make_unique<StampFitter>(fitter_options, shared_psf, cache, FftPlanning::kEstimate, psf_e1, psf_e2,
-                                         psf_fwhm);
+                                         psf_fwhm, metacal);
   };
   run_pipeline(source, sink, make_fitter, po);
   return rows;

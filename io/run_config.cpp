@@ -565,6 +565,9 @@ void validate(const RunConfig& config) {
     if (config.psf_kind != PsfKind::kMoffat)
       fail(config, std::string("metacal = true needs psf_input = moffat or moffat_catalog (an analytic PSF to deconvolve "
                                "and widen); psf_input = ") + psf_input_value(config));
+    if (!config.save_images.empty())
+      fail(config, "save_images with metacal = true: not available (the row's fit is of the noshear image, with the "
+                   "reconvolution PSF, not of the data the images would show)");
   }
   if (config.psf_upsampling < 1)
     fail(config, "psf_upsampling = " + std::to_string(config.psf_upsampling) + ": must be >= 1");

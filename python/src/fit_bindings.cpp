@@ -85,6 +85,7 @@ class PyFitter {
     if (!psfs.empty()) model = psfs.front();
     py::gil_scoped_release release;
     fitter_ = std::make_unique<app::SingleStampFitter>(cfg, stamp_size, model);
+    metacal_ = cfg.metacal.enabled;
   }
 
   int stamp_size() const { return fitter_->stamp_size(); }
@@ -102,11 +103,12 @@ class PyFitter {
       std::lock_guard<std::mutex> lock(mutex_);
       row = fitter_->fit(values(s), w ? values(*w) : std::span<const double>(), id);
     }
-    return result_dict(row, io::PositionColumns::kGrid);
+    return result_dict(row, io::PositionColumns::kGrid, metacal_);
   }
 
  private:
   std::unique_ptr<app::SingleStampFitter> fitter_;
+  bool metacal_ = false;
   std::mutex mutex_;
 };
 
@@ -131,7 +133,7 @@ py::array fit_stamps(py::handle stamps, py::handle weights, py::handle psf, int 
     py::gil_scoped_release release;
     rows = app::fit_array_stamps(cfg, in, threads);
   }
-  return result_array(rows, io::PositionColumns::kGrid);
+  return result_array(rows, io::PositionColumns::kGrid, cfg.metacal.enabled);
 }
 
 }  // namespace

@@ -40,13 +40,15 @@ void bind_io(py::module_& m) {
       [](const std::string& path) {
         std::vector<ObjectRecord> rows;
         io::PositionColumns positions;
+        bool metacal = false;
         {
           py::gil_scoped_release release;
           io::CatalogReader r = io::CatalogReader::open(path);
           positions = r.positions();
+          metacal = r.metacal();
           rows = r.records(0, r.rows());
         }
-        return result_array(rows, positions);
+        return result_array(rows, positions, metacal);
       },
       py::arg("path"),
       "The RESULTS table of a `stampede fit` output as a structured array of its schema columns (the dtype "

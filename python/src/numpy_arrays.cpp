@@ -30,9 +30,9 @@ DoubleArray as_float64(py::handle obj, std::initializer_list<int> ndims, const c
   return DoubleArray::ensure(a);
 }
 
-py::dtype result_dtype(io::PositionColumns positions) {
+py::dtype result_dtype(io::PositionColumns positions, bool metacal) {
   py::list fields;
-  for (const io::ResultColumn& c : io::result_columns(positions)) {
+  for (const io::ResultColumn& c : io::result_columns(positions, metacal)) {
     const char* format = "<f8";
     switch (c.type) {
       case io::ColumnType::kInt64: format = "<i8"; break;
@@ -45,11 +45,11 @@ py::dtype result_dtype(io::PositionColumns positions) {
   return py::dtype::from_args(fields);
 }
 
-py::array result_array(const std::vector<ObjectRecord>& rows, io::PositionColumns positions) {
-  const py::dtype dt = result_dtype(positions);
+py::array result_array(const std::vector<ObjectRecord>& rows, io::PositionColumns positions, bool metacal) {
+  const py::dtype dt = result_dtype(positions, metacal);
   py::array out(dt, std::vector<py::ssize_t>{static_cast<py::ssize_t>(rows.size())});
   const py::dict fields = dt.attr("fields");
-  const auto cols = io::result_columns(positions);
+  const auto cols = io::result_columns(positions, metacal);
   std::vector<py::ssize_t> offsets;
   for (const io::ResultColumn& c : cols) offsets.push_back(fields[c.name].cast<py::tuple>()[1].cast<py::ssize_t>());
   char* base = static_cast<char*>(out.mutable_data());
@@ -86,9 +86,9 @@ py::array result_array(const std::vector<ObjectRecord>& rows, io::PositionColumn
   return out;
 }
 
-py::dict result_dict(const ObjectRecord& row, io::PositionColumns positions) {
+py::dict result_dict(const ObjectRecord& row, io::PositionColumns positions, bool metacal) {
   py::dict out;
-  for (const io::ResultColumn& c : io::result_columns(positions)) {
+  for (const io::ResultColumn& c : io::result_columns(positions, metacal)) {
     if (c.type == io::ColumnType::kFloat64) {
       out[c.name] = c.real(row);
     } else {

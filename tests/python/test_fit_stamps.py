@@ -101,3 +101,23 @@ def test_psf_arrays_one_for_all_and_one_per_stamp():
     assert columns_equal_bitwise(shared, per) == []
     with pytest.raises(stampede.Error, match="analytic PSF"):
         stampede.fit_stamps(sim["stamps"], psf=psf, options={"renderer": "exact"})
+
+
+def test_metacal_rows_equal_the_command_bitwise(tmp_path):
+    """metacal = true from numpy: the metacal columns, every column equal to `stampede fit`'s."""
+    path = os.path.join(MINI, "nf", "set_0.fits")
+    stamps = grid_stamps(stampede.read_image(path), 39)[:6]
+    opts = dict(MINI_PSF, renderer="exact", metacal=True)
+    rows = stampede.fit_stamps(stamps, options=opts, threads=2)
+    assert "R11" in rows.dtype.names and "radius_2m" in rows.dtype.names
+    assert np.all((rows["R11"] > 0.2) & (rows["R11"] < 2.0))
+    one = stampede.Fitter(opts, stamp_size=39).fit(stamps[3], id=3)
+    assert one["R22"] == rows["R22"][3] and one["e1_1p"] == rows["e1_1p"][3]
+
+
+def test_metacal_with_an_image_psf_is_refused():
+    stamps = np.zeros((2, 39, 39))
+    psf = np.zeros((39, 39))
+    psf[19, 19] = 1.0
+    with pytest.raises(ValueError, match="metacal = true needs a Moffat PSF"):
+        stampede.fit_stamps(stamps, psf=psf, options={"metacal": True})
