@@ -124,7 +124,10 @@ SingleStampFitter::SingleStampFitter(const io::RunConfig& config, int stamp_size
   const SharedPsf shared = psf ? prepare_shared_psf(*psf, cfg, setup_plans, "the stamps' PSF")
                                : build_shared_psf(cfg, setup_plans);
   std::optional<MetacalSetup> metacal;
-  if (cfg.metacal.enabled) metacal = MetacalSetup{cfg.metacal, shared.model};
+  if (cfg.metacal.enabled) {
+    checked_reconvolution_psf(shared.model, cfg);
+    metacal = MetacalSetup{cfg.metacal, shared.model};
+  }
   fitter_ = std::make_unique<StampFitter>(cfg.fitter, shared.prepared, nullptr, FftPlanning::kEstimate, shared.e1,
                                           shared.e2, shared.fwhm, metacal);
 }
@@ -173,7 +176,10 @@ std::vector<ObjectRecord> fit_array_stamps(const io::RunConfig& config, const Ar
                                           : prepare_shared_psf(in.psfs.front(), cfg, setup_plans, "the stamps' PSF");
     shared_psf = psf.prepared;
     psf_e1 = psf.e1, psf_e2 = psf.e2, psf_fwhm = psf.fwhm;
-    if (metacal) metacal->shared_psf = psf.model;
+    if (metacal) {
+      checked_reconvolution_psf(psf.model, cfg);
+      metacal->shared_psf = psf.model;
+    }
   }
 
   ArraySource source(in);

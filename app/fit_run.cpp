@@ -239,6 +239,7 @@ RunSummary FitRun::run() const {
   FftPlanCache setup_plans(planning);
   std::shared_ptr<const PreparedPsf> shared_psf;
   PsfModel shared_model;
+  double gamma_fwhm = NAN;  // metacal with one PSF: the reconvolution PSF's FWHM
   std::unique_ptr<PsfCache> psf_cache;
   double psf_e1 = NAN, psf_e2 = NAN, psf_fwhm = NAN;
   if (cfg.psf_from_catalogue) {
@@ -247,6 +248,7 @@ RunSummary FitRun::run() const {
     const app::SharedPsf psf = app::build_shared_psf(cfg, setup_plans);
     shared_psf = psf.prepared;
     shared_model = psf.model;
+    if (cfg.metacal.enabled) gamma_fwhm = app::checked_reconvolution_psf(shared_model, cfg).moffat.fwhm;
     psf_e1 = psf.e1, psf_e2 = psf.e2, psf_fwhm = psf.fwhm;
     // A set written by `stampede sim` or GalSim records its PSF; fitting it with another (e.g. the
     // default round Moffat) is almost always a forgotten option, and biases c by the difference.
@@ -275,6 +277,12 @@ RunSummary FitRun::run() const {
     wo.positions = a.catalog.empty() ? io::PositionColumns::kGrid : io::PositionColumns::kCatalogue;
     wo.metacal = cfg.metacal.enabled;
     wo.header = io::effective_options(cfg);
+    if (std::isfinite(gamma_fwhm)) {  // the reconvolution PSF the rows were fitted with
+      char text[32];
+      std::snprintf(text, sizeof text, "%.17g", gamma_fwhm);
+      wo.header.emplace_back("metacal_gamma_fwhm", text);
+      wo.header_types["metacal_gamma_fwhm"] = io::HeaderValueType::kReal;
+    }
     for (const io::OptionInfo& o : io::run_config_options())
       if (o.type != io::HeaderValueType::kText) wo.header_types[o.name] = o.type;
     wo.header.emplace_back("INPUT", a.input);

@@ -1,6 +1,9 @@
 // The run's shared PSF; see psf_setup.hpp.
 #include "app/psf_setup.hpp"
 
+#include "engine/metacal/metacal_imager.hpp"
+#include "engine/metacal/reconvolution_psf.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -100,6 +103,15 @@ void use_recorded_psf(const PsfModel& recorded, const std::string& where, io::Ru
   cfg->psf_from_catalogue = false;
   if (recorded.kind == PsfKind::kMoffat) cfg->moffat = recorded.moffat;
   if (recorded.kind == PsfKind::kAiry) cfg->airy = recorded.airy;
+}
+
+PsfModel checked_reconvolution_psf(const PsfModel& psf, const io::RunConfig& cfg) {
+  PsfModel gamma;
+  std::string why;
+  if (!reconvolution_psf(psf, cfg.metacal, &gamma, &why) ||
+      !MetacalFilters::build(psf, gamma, cfg.metacal.step, MetacalImager::padded_size(cfg.fitter.render.stamp_size), &why))
+    throw io::ConfigError("metacal_psf_dilation = " + io::get_option(cfg, "metacal_psf_dilation") + ": " + why);
+  return gamma;
 }
 
 }  // namespace stampede::app

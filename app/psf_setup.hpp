@@ -43,4 +43,8 @@ bool sets_psf_options(const io::RunConfig& cfg);
 // `where` (the file and HDU) when the recorded PSF is not a valid one.
 void use_recorded_psf(const PsfModel& recorded, const std::string& where, io::RunConfig* cfg);
 
+// The reconvolution PSF a metacal run uses with `psf` (cfg.metacal), checked by building the
+// filters once: throws io::ConfigError naming metacal_psf_dilation when metacal cannot use it (a Γ
+// not wider than the sheared PSF), so a run fails before fitting rather than flagging every row.
+PsfModel checked_reconvolution_psf(const PsfModel& psf, const io::RunConfig& cfg);
 }  // namespace stampede::app

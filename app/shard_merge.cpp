@@ -27,6 +27,7 @@ constexpr long long kChunkRows = 4096;
 std::vector<std::string> run_keys() {
   std::vector<std::string> keys;
   for (const io::OptionInfo& o : io::run_config_options()) keys.push_back(o.name);
+  keys.emplace_back("metacal_gamma_fwhm");  // a metacal run's reconvolution PSF
   for (const char* k : {"INPUT", "CATALOG", "WEIGHTS", io::kInputSetKey}) keys.emplace_back(k);
   return keys;
 }
@@ -121,6 +122,7 @@ ShardMergeSummary merge_shards(const ShardMergeOptions& o) {
   wo.header = shards.front().header;  // the run's keys, as a single process writes them
   for (const io::OptionInfo& info : io::run_config_options())
     if (info.type != io::HeaderValueType::kText) wo.header_types[info.name] = info.type;
+  wo.header_types["metacal_gamma_fwhm"] = io::HeaderValueType::kReal;
   wo.fingerprint = "stampede merge of " + std::to_string(by_index.size()) + " shards\n";
   auto writer = io::CatalogWriter::create(wo);
   ShardMergeSummary summary;

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <regex>
 #include <stdexcept>
 #include <string>
@@ -184,6 +185,26 @@ TEST_F(FitRunTest, MetacalRunsAreIdenticalForAnyThreadCount) {
     EXPECT_TRUE(same_bits(r11[i], rows[0][i].metacal.r11)) << i;
     EXPECT_TRUE(same_bits(radius[i], rows[1][i].metacal.radius[3])) << i;
   }
+}
+
+// A reconvolution PSF metacal cannot use (not wider than the PSF sheared, in every direction) is
+// an error before any fitting, not a table of PSF failures; the one used is in the header.
+TEST_F(FitRunTest, AMetacalReconvolutionPsfTooNarrowIsRefusedUpFront) {
+  app::FitRunOptions o = options(scratch.path("narrow.fits"), 1);
+  io::apply_set(o.config, "metacal=true");
+  io::apply_set(o.config, "metacal_psf_dilation=1");
+  const std::string message = stampede::testing::error_of<io::ConfigError>([&] { app::FitRun(o).run(); });
+  EXPECT_NE(message.find("metacal_psf_dilation = 1: metacal: the reconvolution PSF is not wider than the PSF"),
+            std::string::npos)
+      << message;
+  EXPECT_FALSE(std::filesystem::exists(scratch.path("narrow.fits")));
+  app::FitRunOptions ok = options(scratch.path("wide.fits"), 1);
+  io::apply_set(ok.config, "metacal=true");
+  io::apply_set(ok.config, "metacal_psf_dilation=1.2");
+  app::FitRun(ok).run();
+  io::FitsFile f = io::FitsFile::open_read(scratch.path("wide.fits"));
+  f.move_to("RESULTS");
+  EXPECT_DOUBLE_EQ(f.read_key_double("metacal_gamma_fwhm").value_or(NAN), 2.85 * 1.2);
 }
 
 // metacal needs an analytic PSF it can deconvolve and widen: refused before any fitting otherwise.
