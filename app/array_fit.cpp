@@ -101,13 +101,13 @@ io::RunConfig config_for(const io::RunConfig& config, int stamp_size, bool per_s
   return cfg;
 }
 
-// metacal deconvolves and widens an analytic PSF: a PSF given as an image cannot be used yet.
+// metacal deconvolves a PSF and widens it: the Airy disc (its transform vanishes beyond its
+// cut-off) cannot be used.
 void check_metacal_psfs(const io::RunConfig& cfg, const std::vector<PsfModel>& psfs) {
   if (!cfg.metacal.enabled) return;
   for (const PsfModel& p : psfs)
-    if (p.kind != PsfKind::kMoffat)
-      throw io::ConfigError(std::string("metacal = true needs a Moffat PSF; the stamps' PSF is '") + psf_kind_name(p.kind) +
-                            "' (give the PSF through the psf_* options, or fit without metacal)");
+    if (p.kind == PsfKind::kAiry)
+      throw io::ConfigError("metacal = true cannot use an Airy PSF (its transform vanishes beyond its cut-off)");
 }
 
 }  // namespace

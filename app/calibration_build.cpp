@@ -140,6 +140,9 @@ CalibrationBuild::CalibrationBuild(CalibrationBuildOptions options) : options_(s
   io::check_outputs(std::span(&output, 1), {}, options_.overwrite || options_.resume);
   lock_ = io::OutputLock::acquire(options_.output);
   io::validate(cfg);
+  if (cfg.metacal.enabled)
+    throw io::ConfigError("option 'metacal' = true: calibrate build simulates the plain fit's noise bias; a metacal run "
+                          "measures its response from its own images and needs no calibration table");
   if (cfg.psf_from_catalogue || cfg.psf_kind == PsfKind::kImage)
     throw io::ConfigError("option 'psf_input' = '" + io::psf_input_value(cfg) +
                           "': calibrate build simulates analytic PSFs only (moffat or airy)");

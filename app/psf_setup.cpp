@@ -45,7 +45,9 @@ SharedPsf prepare_shared_psf(const PsfModel& model, const io::RunConfig& cfg, Ff
   std::string error;
   out.prepared =
       make_renderer(cfg.fitter.renderer, cfg.fitter.render, cfg.fitter.model, plans)->prepare_psf(out.model, &error);
-  if (!out.prepared) throw std::runtime_error("PSF (" + what + "): " + error);
+  // A metacal run never fits the data with this PSF, only deconvolves it (checked_reconvolution_psf
+  // checks that), so a renderer that cannot take it (the exact one, an image) is no obstacle.
+  if (!out.prepared && !cfg.metacal.enabled) throw std::runtime_error("PSF (" + what + "): " + error);
   return out;
 }
 
@@ -106,12 +108,11 @@ void use_recorded_psf(const PsfModel& recorded, const std::string& where, io::Ru
 }
 
 PsfModel checked_reconvolution_psf(const PsfModel& psf, const io::RunConfig& cfg) {
-  PsfModel gamma;
   std::string why;
-  if (!reconvolution_psf(psf, cfg.metacal, &gamma, &why) ||
-      !MetacalFilters::build(psf, gamma, cfg.metacal.step, MetacalImager::padded_size(cfg.fitter.render.stamp_size), &why))
-    throw io::ConfigError("metacal_psf_dilation = " + io::get_option(cfg, "metacal_psf_dilation") + ": " + why);
-  return gamma;
+  const auto filters =
+      reconvolution_filters(psf, cfg.metacal, MetacalImager::padded_size(cfg.fitter.render.stamp_size), &why);
+  if (!filters) throw io::ConfigError("metacal_psf_dilation = " + io::get_option(cfg, "metacal_psf_dilation") + ": " + why);
+  return filters->reconvolution();
 }
 
 }  // namespace stampede::app

@@ -562,9 +562,9 @@ void validate(const RunConfig& config) {
   }
   if (config.metacal.enabled) {
     if (!config.metacal.IsValid(&why)) fail(config, why);
-    if (config.psf_kind != PsfKind::kMoffat)
-      fail(config, std::string("metacal = true needs psf_input = moffat or moffat_catalog (an analytic PSF to deconvolve "
-                               "and widen); psf_input = ") + psf_input_value(config));
+    if (config.psf_kind == PsfKind::kAiry)
+      fail(config, "metacal = true needs psf_input = moffat, moffat_catalog or image (the Airy disc's transform "
+                   "vanishes beyond its cut-off: nothing to deconvolve there); psf_input = airy");
     if (!config.save_images.empty())
       fail(config, "save_images with metacal = true: not available (the row's fit is of the noshear image, with the "
                    "reconvolution PSF, not of the data the images would show)");

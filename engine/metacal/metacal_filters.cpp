@@ -32,17 +32,30 @@ std::shared_ptr<const MetacalFilters> MetacalFilters::build(const PsfModel& psf,
   f->reconvolution_ = reconvolution;
   const int m = period, h = m / 2 + 1;
   const double dk = 2 * std::numbers::pi / m, norm = 1.0 / (static_cast<double>(m) * m);
-  // The observed PSF x pixel on the grid, once.
-  std::vector<std::complex<double>> observed(static_cast<std::size_t>(m) * h);
-  for (int r = 0; r < m; ++r) {
-    const double ky = dk * (r <= m / 2 ? r : r - m);
-    for (int c = 0; c < h; ++c) {
-      const std::complex<double> v = with_pixel(psf, dk * c, ky);
-      if (!std::isfinite(v.real()) || !std::isfinite(v.imag()) || std::abs(v) == 0)
-        return fail("metacal: the PSF's transform is not finite and non-zero on the grid");
-      observed[static_cast<std::size_t>(r) * h + c] = v;
-    }
+  // The observed PSF x pixel at (2 pi c / M, 2 pi r / M) for c in [0, M/2], r in [-M/2, M/2] (both
+  // Nyquist signs: the filters average over them); negative c by Hermitian symmetry. An image PSF
+  // in one separable transform, an analytic one point by point.
+  std::vector<std::complex<double>> observed(static_cast<std::size_t>(m + 1) * h);
+  if (psf.kind == PsfKind::kImage) {
+    if (!psf.image) return fail("metacal: the PSF image is missing");
+    std::vector<double> fx(h), fy(m + 1);
+    for (int c = 0; c < h; ++c) fx[c] = static_cast<double>(c) / m;
+    for (int r = 0; r <= m; ++r) fy[r] = static_cast<double>(r - m / 2) / m;
+    std::string why;
+    if (!psf.image->transform(fx, fy, 0.5 * psf.image->oversampling, observed, &why)) return fail("metacal: " + why);
+    for (int r = 0; r <= m; ++r)
+      for (int c = 0; c < h; ++c) observed[static_cast<std::size_t>(r) * h + c] *= sinc_half(dk * c) * sinc_half(dk * (r - m / 2));
+  } else {
+    for (int r = 0; r <= m; ++r)
+      for (int c = 0; c < h; ++c) observed[static_cast<std::size_t>(r) * h + c] = with_pixel(psf, dk * c, dk * (r - m / 2));
   }
+  for (const std::complex<double>& v : observed)
+    if (!std::isfinite(v.real()) || !std::isfinite(v.imag()) || std::abs(v) == 0)
+      return fail("metacal: the PSF's transform is not finite and non-zero on the grid");
+  auto observed_at = [&](int c, int r) {  // c in [-M/2, M/2], r in [-M/2, M/2]
+    if (c < 0) return std::conj(observed[static_cast<std::size_t>(-r + m / 2) * h - c]);
+    return observed[static_cast<std::size_t>(r + m / 2) * h + c];
+  };
   for (MetacalType t : kMetacalTypes) {
     const auto g = metacal_shear(t, step);
     const auto b = inverse_shear_matrix(g[0], g[1]);  // symmetric: A^-T = A^-1
@@ -50,7 +63,8 @@ std::shared_ptr<const MetacalFilters> MetacalFilters::build(const PsfModel& psf,
     auto& out = f->filters_[static_cast<int>(t)];
     out.resize(static_cast<std::size_t>(m) * h);
     for (int r = 0; r < m; ++r) {
-      const double ky = dk * (r <= m / 2 ? r : r - m);
+      const int rs = r <= m / 2 ? r : r - m;  // signed; the Nyquist row as +M/2
+      const double ky = dk * rs;
       const bool nyquist_row = r == m / 2;
       for (int c = 0; c < h; ++c) {
         const double kx = dk * c;
@@ -58,13 +72,13 @@ std::shared_ptr<const MetacalFilters> MetacalFilters::build(const PsfModel& psf,
         // At the Nyquist row and column, +pi and -pi are one sample (the data's coefficient
         // holds both): take the mean of the filter at each, so that the filtered spectrum stays
         // Hermitian (a sheared Gamma, or an elliptical PSF, is not even in one k alone).
-        std::complex<double> ratio = gamma(kx, ky) / observed[static_cast<std::size_t>(r) * h + c];
+        std::complex<double> ratio = gamma(kx, ky) / observed_at(c, rs);
         if (nyquist_row || nyquist_col) {
           int n = 1;
-          auto add = [&](double x, double y) { ratio += gamma(x, y) / with_pixel(psf, x, y), ++n; };
-          if (nyquist_row) add(kx, -ky);
-          if (nyquist_col) add(-kx, ky);
-          if (nyquist_row && nyquist_col) add(-kx, -ky);
+          auto add = [&](int cs, int rr) { ratio += gamma(dk * cs, dk * rr) / observed_at(cs, rr), ++n; };
+          if (nyquist_row) add(c, -rs);
+          if (nyquist_col) add(-c, rs);
+          if (nyquist_row && nyquist_col) add(-c, -rs);
           ratio /= static_cast<double>(n);
         }
         if (!std::isfinite(ratio.real()) || !std::isfinite(ratio.imag()) || std::abs(ratio) > max_gain) {

@@ -58,9 +58,9 @@ bool MetacalFitter::set_psf(const PsfModel& psf, std::string* error) {
   psf_ = psf;
   filters_.reset();
   fitter_->set_psf(nullptr);
-  if (!reconvolution_psf(psf, options_, &gamma_, error)) return false;
-  filters_ = MetacalFilters::build(psf, gamma_, options_.step, imager_.period(), error);
+  filters_ = reconvolution_filters(psf, options_, imager_.period(), error);
   if (!filters_) return false;
+  gamma_ = filters_->reconvolution();
   auto prepared = fitter_->renderer().prepare_psf(gamma_, error);
   if (!prepared) {
     filters_.reset();

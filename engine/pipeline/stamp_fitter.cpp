@@ -34,11 +34,13 @@ void StampFitter::fit(StampBatch& batch) {
     rec.psf_e2 = psf_e2_;
     rec.psf_fwhm = psf_fwhm_;
     if (per_object_) {
-      std::string error;
       const PsfModel& psf = batch.psf[k];
-      auto prepared = per_object_->get(psf, fitter_->renderer(), &error);
-      if (!prepared) input_flags |= kFlagPsfFailure;
-      fitter_->set_psf(prepared);
+      if (!metacal_fitter_) {  // metacal fits with its reconvolution PSF, never this one
+        std::string error;
+        auto prepared = per_object_->get(psf, fitter_->renderer(), &error);
+        if (!prepared) input_flags |= kFlagPsfFailure;
+        fitter_->set_psf(prepared);
+      }
       rec.psf_e1 = psf.e1();
       rec.psf_e2 = psf.e2();
       rec.psf_fwhm = psf.fwhm();

@@ -207,13 +207,13 @@ TEST_F(FitRunTest, AMetacalReconvolutionPsfTooNarrowIsRefusedUpFront) {
   EXPECT_DOUBLE_EQ(f.read_key_double("metacal_gamma_fwhm").value_or(NAN), 2.85 * 1.2);
 }
 
-// metacal needs an analytic PSF it can deconvolve and widen: refused before any fitting otherwise.
+// metacal cannot deconvolve the Airy disc beyond its cut-off: refused before any fitting.
 TEST_F(FitRunTest, MetacalWithAnAiryPsfIsRefusedUpFront) {
   app::FitRunOptions o = options(scratch.path("airy.fits"), 1);
   io::apply_set(o.config, "metacal=true");
   io::apply_set(o.config, "psf_input=airy");
   const std::string message = stampede::testing::error_of<io::ConfigError>([&] { app::FitRun(o).run(); });
-  EXPECT_NE(message.find("metacal = true needs psf_input = moffat or moffat_catalog"), std::string::npos) << message;
+  EXPECT_NE(message.find("metacal = true needs psf_input = moffat, moffat_catalog or image"), std::string::npos) << message;
 }
 
 TEST_F(FitRunTest, WithoutAnOutputTheRowsOnlyGoToTheCaller) {

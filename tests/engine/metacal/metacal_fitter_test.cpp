@@ -231,13 +231,13 @@ TEST(MetacalFitter, TheFixnoiseFieldIsKeyedByTheObject) {
   EXPECT_GT(v, 0);
 }
 
-// Metacal needs a PSF it can deconvolve and widen analytically: others are refused by name.
+// Metacal needs a PSF it can deconvolve everywhere on the grid: the Airy disc is refused by name.
 TEST(MetacalFitter, APsfItCannotUseIsRefusedWithAMessage) {
   FftPlanCache plans(FftPlanning::kEstimate);
   MetacalFitter mcal(fit_options(), MetacalOptions(), kStamp, plans, FftPlanning::kEstimate);
   std::string error;
   EXPECT_FALSE(mcal.set_psf(PsfModel::Airy({2.0, 0.0}), &error));
-  EXPECT_NE(error.find("needs a Moffat PSF"), std::string::npos) << error;
+  EXPECT_NE(error.find("needs a Moffat or image PSF"), std::string::npos) << error;
   FitResult r;
   MetacalRecord rec;
   std::uint32_t flags = 0;
