@@ -153,6 +153,9 @@ class FitsFile {
   void require_writable(const std::string& what);
   void require_header(const std::string& what);
   void require_table();
+  // For a file opened read-only: throws when the current HDU's data, as CFITSIO parsed its header,
+  // would end past the end of the file.
+  void require_data_in_file();
   std::optional<int> find_column(const std::string& name);
 
   void* fptr_ = nullptr;

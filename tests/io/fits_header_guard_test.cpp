@@ -257,5 +257,24 @@ TEST(FitsHeaderGuard, DataThatCannotFitInTheFileIsAnErrorNotAnAllocation) {
   EXPECT_EQ(f.read_image().size(), 16u);
 }
 
+// Found by the fuzz campaign (F12, fuzz_stamp_grid; out of memory): CFITSIO read NAXIS1 =
+// 854,775,807 from a card whose value indicator is not in column 9 (which the header scan, keeping
+// to the standard, skips), and the grid reader sized a 6.8 GB row buffer from it. The size CFITSIO
+// parsed is checked against the file when a reader asks for it.
+TEST(FitsHeaderGuard, DataCfitsioParsedBeyondTheFileIsAnErrorNotAnAllocation) {
+  const stampede::testing::ScratchDir dir("stampede_header_guard_");
+  const std::string path = dir.path("odd.fits");
+  std::ofstream(path, std::ios::binary) << image_file(dir, [](std::string& b) {
+    const std::size_t at = b.find("NAXIS1  = ");
+    b.replace(at, 80, ("NAXIS1  SEEDBITPIX  = 854775807/ length of data axis 1" + std::string(80, ' ')).substr(0, 80));
+  });
+  const std::string message = error_of<FitsError>([&] {
+    FitsFile f = FitsFile::open_read(path);
+    f.image_shape();
+  });
+  EXPECT_TRUE(Contains(message, "odd.fits")) << message;
+  EXPECT_TRUE(Contains(message, "but the file holds 5760 bytes: truncated, or the header's sizes are wrong")) << message;
+}
+
 }  // namespace
 }  // namespace stampede::io
