@@ -17,9 +17,20 @@ namespace {
 
 constexpr long long kBlock = 2880, kCard = 80;
 
-// The integer value of a card "KEY     = n", if it is one.
+// The value text of a card as CFITSIO reads it: after "= " in columns 9-10, or, where column 9
+// is not '=', after the first '=' further on (CFITSIO reads such free-format cards: fuzz findings
+// F12, "NAXIS1  SEEDBITPIX  = 854775807", and F13, a TFIELDS of 36,155,707 behind garbage).
+std::optional<std::string_view> card_value(std::string_view card) {
+  const std::size_t eq = card.find('=', 8);
+  if (eq == std::string_view::npos) return std::nullopt;
+  return card.substr(eq + 1);
+}
+
+// The integer value of a card, if it is one.
 std::optional<long long> card_integer(std::string_view card) {
-  std::string_view v = card.substr(10);
+  const auto value = card_value(card);
+  if (!value) return std::nullopt;
+  std::string_view v = *value;
   v.remove_prefix(std::min(v.find_first_not_of(' '), v.size()));
   if (v.starts_with('+')) v.remove_prefix(1);  // "+32" is a FITS integer; from_chars refuses the sign
   long long n = 0;
@@ -116,15 +127,14 @@ void check_fits_headers(const std::string& root) {
       }
       // CFITSIO takes an '=' in column 9 as a value indicator even without the standard's blank
       // in column 10 (fuzz finding F5): the column-name check must too.
-      if (key.starts_with("TTYPE") && card[8] == '=') {
-        const std::string_view v = card.substr(9);
+      if (key.starts_with("TTYPE") && card_value(card)) {
+        const std::string_view v = *card_value(card);
         const std::size_t first = v.find_first_not_of(' ');
         if (first != std::string_view::npos && v[first] != '\'')
           throw FitsError(root + "[HDU " + std::to_string(hdu) + "]: header card '" + std::string(key.substr(0, key.find(' '))) +
                           "' is not a quoted string (a column name must be one)");
         continue;
       }
-      if (card.substr(8, 2) != "= ") continue;
       const auto value = card_integer(card);
       if (key == "BITPIX  " && value) {
         bitpix = *value;

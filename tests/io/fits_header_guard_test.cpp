@@ -272,8 +272,30 @@ TEST(FitsHeaderGuard, DataCfitsioParsedBeyondTheFileIsAnErrorNotAnAllocation) {
     FitsFile f = FitsFile::open_read(path);
     f.image_shape();
   });
-  EXPECT_TRUE(Contains(message, "odd.fits")) << message;
-  EXPECT_TRUE(Contains(message, "but the file holds 5760 bytes: truncated, or the header's sizes are wrong")) << message;
+  EXPECT_TRUE(Contains(message, "odd.fits[HDU 0]: header says 27352825824 bytes of data")) << message;  // 854775807 x 4 x 8
+  EXPECT_TRUE(Contains(message, "truncated, or the header's sizes are wrong")) << message;
+}
+
+// Found by the fuzz campaign (F13, fuzz_catalogue; out of memory): a TFIELDS card whose value
+// indicator sits past garbage ("TFIELDS \xbd ... 27 SIMPLE  = 0...036155707"), which CFITSIO reads
+// as 36,155,707 fields and allocates 5.8 GB of column descriptors for while moving to the HDU. The
+// scan reads such cards as CFITSIO does.
+TEST(FitsHeaderGuard, AFreeFormatTfieldsBeyondTheStandardsLimitIsAnErrorNotAnAllocation) {
+  const stampede::testing::ScratchDir dir("stampede_header_guard_");
+  const std::string path =
+      table_with_card(dir, "TTYPE2  = 'x'");  // a valid table, whose TFIELDS card is then replaced
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::size_t at = bytes.find("TFIELDS = ");
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at, 80, (std::string("TFIELDS \xbd                   3 SIMPLE  =          000000000000000000000036155707") +
+                         std::string(80, ' ')).substr(0, 80));
+  const std::string message = open_error(dir, "fields.fits", bytes);
+  EXPECT_TRUE(Contains(message, "fields.fits[HDU 1]: header card 'TFIELDS' = 36155707 is outside the FITS standard's 0..999"))
+      << message;
 }
 
 }  // namespace
