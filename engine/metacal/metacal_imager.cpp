@@ -176,7 +176,7 @@ void MetacalImager::sheared(double a, double b, double cx, double cy, double* ou
   // s = (a - 1) / b; H(c + X Y X u) is three one-axis shifts, the last applied first to H.
   const double s = (a - 1) / b;
   auto* grid = static_cast<double*>(grid_.data());
-  auto* pad = static_cast<double*>(transposed_.data());
+  auto* transposed = static_cast<double*>(transposed_.data());
   // The coordinate of padded index i about centre c, on the periodic grid: in [-M/2, M/2).
   auto centred = [&](int i, double c) {
     double d = i - c;
@@ -186,9 +186,9 @@ void MetacalImager::sheared(double a, double b, double cx, double cy, double* ou
   };
   std::copy_n(static_cast<const double*>(h_.data()), static_cast<std::size_t>(m_) * m_, grid);
   shift_rows(grid, [&](int r) { return s * centred(r, cy); });          // F1(x, y) = H(x + s y, y)
-  transpose(grid, pad, m_, m_);
-  shift_rows(pad, [&](int c) { return b * centred(c, cx); });           // F2(x, y) = F1(x, y + b x)
-  transpose(pad, grid, m_, m_);
+  transpose(grid, transposed, m_, m_);
+  shift_rows(transposed, [&](int c) { return b * centred(c, cx); });           // F2(x, y) = F1(x, y + b x)
+  transpose(transposed, grid, m_, m_);
   shift_rows(grid, [&](int r) { return s * centred(r, cy); });          // R(x, y) = F2(x + s y, y)
   for (int y = 0; y < s_; ++y)
     std::copy_n(grid + static_cast<std::size_t>(offset_ + y) * m_ + offset_, s_, out + static_cast<std::size_t>(y) * s_);
