@@ -31,6 +31,8 @@ void write_common_keys(FitsFile& f, const Great08SimOptions& o, const SimSet& se
   f.write_key("ECONV", std::string("reduced shear g=(a-b)/(a+b)"), "ellipticity convention");
   f.write_key("RINGPAIR", std::string("T"), "objects 2m,2m+1 are 90-deg rotated pairs");
   f.write_key("NOISEPR", std::string(o.noise_pairs ? "T" : "F"), "4q+2,4q+3 = 4q,4q+1 with noise negated");
+  // -1: none; otherwise the set holding the same galaxies and noise under the opposite shear.
+  f.write_key("SHEARPR", o.shear_pairs ? (set.index ^ 1) : -1, "set with same galaxies, noise and -g (-1 none)");
   f.write_key("SIMCODE", std::string("stampede sim great08"), "simulator");
   f.write_key("SETIDX", set.index, "set index");
   f.write_key("NOISESD", static_cast<long long>(set.noise_seed & 0x7fffffffffffffffull),

@@ -13,6 +13,7 @@
 #include "engine/fit/fit_result.hpp"
 #include "engine/pipeline/object_record.hpp"
 #include "engine/analysis/metacal_shear.hpp"
+#include "engine/analysis/shear_pairs.hpp"
 #include "engine/analysis/shear_metrics.hpp"
 #include "io/catalog_reader.hpp"
 #include "io/fits_file.hpp"
@@ -26,7 +27,7 @@ void print_help() {
   std::printf(
       "usage: stampede metrics --fit FIT.fits --truth TRUTH.fits [--fit ... --truth ...]\n"
       "                        [--json OUT.json] [--bootstrap N] [--seed S] [--e-columns E1,E2]\n"
-      "                        [--metacal] [--cut-snr X] [--cut-radius R]\n"
+      "                        [--metacal] [--cut-snr X] [--cut-radius R] [--shear-pairs]\n"
       "\n"
       "Per set (a `stampede fit` table and the truth file of the same set, in the GREAT08-mini\n"
       "layout: SHEAR1 SHEAR2 in the primary header, a TRUTH table with `index` and `pair`):\n"
@@ -44,7 +45,11 @@ void print_help() {
       "                      the selection response of the cuts below made on each sheared image's\n"
       "                      quantities (Sheldon & Huff 2017); flag 262144 (metacal failure) excludes\n"
       "  --cut-snr X         keep objects with snr >= X (metacal: on every image's own snr)\n"
-      "  --cut-radius R      keep objects with radius >= R pixels (likewise)\n");
+      "  --cut-radius R      keep objects with radius >= R pixels (likewise)\n"
+      "  --shear-pairs       the sets come in pairs from `sim great08 --shear-pairs` (each +g set's\n"
+      "                      --fit/--truth followed by its -g partner's): also m from half the pair\n"
+      "                      differences and c from half the sums, where the galaxies and noise the\n"
+      "                      two share cancel; errors by a bootstrap resampling both sets alike\n");
 }
 
 struct Cuts {
@@ -52,9 +57,16 @@ struct Cuts {
   double min_snr = -INFINITY, min_radius = -INFINITY;
 };
 
-SetShear read_set(const std::string& fit_path, const std::string& truth_path, const std::string& e1_column,
-                  const std::string& e2_column, int bootstrap, std::uint64_t seed, const Cuts& cuts, double* psf_e1,
-                  double* psf_e2) {
+// A set's estimate, and what pairing it with its shear-pair partner needs.
+struct SetData {
+  SetShear shear;
+  std::unique_ptr<UnitShearEstimator> units;
+  long long index = -1, partner = -1;  // SETIDX and SHEARPR of the truth (-1: none)
+};
+
+SetData read_set(const std::string& fit_path, const std::string& truth_path, const std::string& e1_column,
+                 const std::string& e2_column, int bootstrap, std::uint64_t seed, const Cuts& cuts, double* psf_e1,
+                 double* psf_e2) {
   using F = io::ResultField;
   io::CatalogReader fit = io::CatalogReader::open(fit_path, {F::kId, F::kStatus, F::kFlags, F::kPsfE1, F::kPsfE2});
   const auto id = fit.column(F::kId), e1 = fit.column(e1_column), e2 = fit.column(e2_column),
@@ -62,6 +74,9 @@ SetShear read_set(const std::string& fit_path, const std::string& truth_path, co
              pe2 = fit.column(F::kPsfE2);
   io::FitsFile truth = io::FitsFile::open_read(truth_path);
   const double g1 = truth.key_double("SHEAR1"), g2 = truth.key_double("SHEAR2");
+  SetData out;
+  out.index = truth.read_key_long("SETIDX").value_or(-1);
+  out.partner = truth.read_key_long("SHEARPR").value_or(-1);
   // The set the fit was of (its input's SEED SETIDX NOISESD) must be the truth's: row-by-row ids
   // cannot tell two sets of one grid apart.
   const std::string fitted_set = fit.file().read_key_string(io::kInputSetKey).value_or("");
@@ -94,7 +109,7 @@ SetShear read_set(const std::string& fit_path, const std::string& truth_path, co
   auto passes = [&](double snr, double radius) {  // an unset cut keeps everything, NaN included
     return (!std::isfinite(cuts.min_snr) || snr >= cuts.min_snr) && (!std::isfinite(cuts.min_radius) || radius >= cuts.min_radius);
   };
-  SetShear set;
+  SetShear& set = out.shear;
   if (cuts.metacal) {
     if (!fit.has(F::kR11))
       throw std::runtime_error(fit.describe() + " has no metacal columns (R11 ...): fit with metacal = true, or drop --metacal");
@@ -113,8 +128,9 @@ SetShear read_set(const std::string& fit_path, const std::string& truth_path, co
       for (int t = 0; t < 4; ++t) bits |= (passes(snr_t[t][i], radius_t[t][i]) ? 1 : 0) << (t + 1);
       selected[i] = bits;
     }
-    const MetacalSetShear m = estimate_metacal_set_shear({e1, e2, {r11, r12, r21, r22}, selected, pair, step}, g1, g2,
-                                                         bootstrap, seed);
+    const MetacalRows rows{e1, e2, {r11, r12, r21, r22}, selected, pair, step};
+    const MetacalSetShear m = estimate_metacal_set_shear(rows, g1, g2, bootstrap, seed);
+    out.units = make_metacal_units(rows);
     std::printf("%s: <R> = [[%+.4f %+.4f] [%+.4f %+.4f]]  R_S = [[%+.4f %+.4f] [%+.4f %+.4f]]  <e> = (%+.6f, %+.6f)\n",
                 fit_path.c_str(), m.r[0], m.r[1], m.r[2], m.r[3], m.r_sel[0], m.r_sel[1], m.r_sel[2], m.r_sel[3],
                 m.g1_raw, m.g2_raw);
@@ -125,13 +141,37 @@ SetShear read_set(const std::string& fit_path, const std::string& truth_path, co
       for (std::size_t i = 0; i < id.size(); ++i) usable[i] = usable[i] && passes(snr[i], radius[i]);
     }
     set = estimate_set_shear(e1, e2, usable, pair, g1, g2, bootstrap, seed);
+    out.units = make_shear_units(e1, e2, usable, pair);
   }
   if (set.used == 0)
     throw std::runtime_error(fit.describe() + ": all " + std::to_string(id.size()) +
                              " rows are excluded (status not ok, flags 4/16/32/65536/131072/262144, e not finite, or "
                              "cut), so the "
                              "set has no shear estimate");
-  return set;
+  return out;
+}
+
+// Consecutive --fit sets as shear pairs: each odd one the SHEARPR partner of the one before, under
+// the opposite shear.
+ShearPairMetrics pair_sets(const std::vector<SetData>& sets, const std::vector<std::string>& truths, int bootstrap,
+                           std::uint64_t seed, double psf_e1, double psf_e2, std::vector<ShearPairEstimate>* pairs) {
+  if (sets.size() % 2 != 0)
+    throw std::invalid_argument("--shear-pairs: " + std::to_string(sets.size()) +
+                                " sets given; give each +g set followed by its -g partner");
+  for (std::size_t k = 0; k < sets.size(); k += 2) {
+    const SetData &plus = sets[k], &minus = sets[k + 1];
+    if (plus.partner < 0 || plus.partner != minus.index || minus.partner != plus.index)
+      throw std::invalid_argument("--shear-pairs: " + truths[k] + " (SETIDX " + std::to_string(plus.index) + ", SHEARPR " +
+                                  std::to_string(plus.partner) + ") and " + truths[k + 1] + " (SETIDX " +
+                                  std::to_string(minus.index) + ", SHEARPR " + std::to_string(minus.partner) +
+                                  ") are not a shear pair: simulate with `sim great08 --shear-pairs` and give each "
+                                  "pair's sets one after the other");
+    if (minus.shear.g1_true != -plus.shear.g1_true || minus.shear.g2_true != -plus.shear.g2_true)
+      throw std::invalid_argument("--shear-pairs: " + truths[k + 1] + " does not hold the opposite shear of " + truths[k]);
+    pairs->push_back(estimate_shear_pair(*plus.units, *minus.units, plus.shear.g1_true, plus.shear.g2_true, bootstrap,
+                                         seed + k));
+  }
+  return combine_shear_pairs(*pairs, psf_e1, psf_e2);
 }
 
 }  // namespace
@@ -143,6 +183,7 @@ int run_metrics_command(int argc, char** argv) {
   int bootstrap = 200;
   std::uint64_t seed = 1;
   Cuts cuts;
+  bool shear_pairs = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&] { return tools::option_value(argc, argv, &i); };
@@ -162,6 +203,8 @@ int run_metrics_command(int argc, char** argv) {
         throw std::invalid_argument("option --e-columns: " + tools::quoted_value(v) + " is not two column names 'E1,E2'");
       e1_column = v.substr(0, comma);
       e2_column = v.substr(comma + 1);
+    } else if (a == "--shear-pairs") {
+      shear_pairs = true;
     } else if (a == "--metacal") {
       cuts.metacal = true;
     } else if (a == "--cut-snr") {
@@ -180,9 +223,16 @@ int run_metrics_command(int argc, char** argv) {
     throw std::invalid_argument("give one --truth for each --fit (got " + std::to_string(fits.size()) + " and " +
                                 std::to_string(truths.size()) + ")");
   double psf_e1 = 0, psf_e2 = 0;
+  std::vector<SetData> data;
   std::vector<SetShear> sets;
-  for (std::size_t k = 0; k < fits.size(); ++k)
-    sets.push_back(read_set(fits[k], truths[k], e1_column, e2_column, bootstrap, seed + k, cuts, &psf_e1, &psf_e2));
+  for (std::size_t k = 0; k < fits.size(); ++k) {
+    data.push_back(read_set(fits[k], truths[k], e1_column, e2_column, bootstrap, seed + k, cuts, &psf_e1, &psf_e2));
+    sets.push_back(data.back().shear);
+  }
+  std::vector<ShearPairEstimate> pair_estimates;
+  ShearPairMetrics paired;
+  if (shear_pairs) paired = pair_sets(data, truths, bootstrap, seed, psf_e1, psf_e2, &pair_estimates);
+  data.clear();  // the units hold copies of every row
   const ShearMetrics m = combine_sets(sets, psf_e1, psf_e2);
   std::printf("%-4s %10s %10s %10s %9s %10s %10s %9s %6s %8s\n", "set", "g1_true", "g1", "g1-g1_t", "err1", "g2_true", "g2",
               "err2", "used", "excluded");
@@ -201,6 +251,22 @@ int run_metrics_command(int argc, char** argv) {
     std::printf("m, c: need at least two sets with different shears\n");
   }
   std::printf("Q = %.1f  (1e-4 / mean over sets and components of (g_est - g_true)^2)\n", m.q);
+  if (shear_pairs) {
+    std::printf("shear pairs: m from (g_+ - g_-) / 2 = (1 + m) g, c from (g_+ + g_-) / 2, joint bootstrap\n");
+    std::printf("%-4s %10s %12s %9s %12s %9s %10s %12s %9s %12s %9s\n", "pair", "g1_true", "(g+-g-)/2", "err", "(g++g-)/2",
+                "err", "g2_true", "(g+-g-)/2", "err", "(g++g-)/2", "err");
+    for (std::size_t j = 0; j < pair_estimates.size(); ++j) {
+      const ShearPairEstimate& p = pair_estimates[j];
+      std::printf("%-4zu %+10.6f %+12.6f %9.2e %+12.2e %9.2e %+10.6f %+12.6f %9.2e %+12.2e %9.2e\n", j, p.g1_true,
+                  p.half_difference[0], p.half_difference_err[0], p.half_sum[0], p.half_sum_err[0], p.g2_true,
+                  p.half_difference[1], p.half_difference_err[1], p.half_sum[1], p.half_sum_err[1]);
+    }
+    std::printf("paired m1 = %+.3e +- %.1e   c1 = %+.3e +- %.1e\n", paired.component[0].m, paired.component[0].m_err,
+                paired.component[0].c, paired.component[0].c_err);
+    std::printf("paired m2 = %+.3e +- %.1e   c2 = %+.3e +- %.1e\n", paired.component[1].m, paired.component[1].m_err,
+                paired.component[1].c, paired.component[1].c_err);
+    std::printf("paired PSF frame: c+ = %+.3e  cx = %+.3e\n", paired.c_plus, paired.c_cross);
+  }
   if (!json.empty()) {
     std::ofstream out(json);
     if (!out) throw std::runtime_error("cannot write '" + json + "'");
@@ -223,7 +289,15 @@ int run_metrics_command(int argc, char** argv) {
         << ", \"c1\": " << num(m.component[0].c) << ", \"c1_err\": " << num(m.component[0].c_err) << ",\n  \"m2\": "
         << num(m.component[1].m) << ", \"m2_err\": " << num(m.component[1].m_err) << ", \"c2\": " << num(m.component[1].c)
         << ", \"c2_err\": " << num(m.component[1].c_err) << ",\n  \"c_plus\": " << num(m.c_plus)
-        << ", \"c_cross\": " << num(m.c_cross) << ", \"q\": " << num(m.q) << "\n}\n";
+        << ", \"c_cross\": " << num(m.c_cross) << ", \"q\": " << num(m.q);
+    if (shear_pairs) {
+      const BiasFit &a = paired.component[0], &b = paired.component[1];
+      out << ",\n  \"paired\": {\"pairs\": " << pair_estimates.size() << ", \"m1\": " << num(a.m) << ", \"m1_err\": "
+          << num(a.m_err) << ", \"c1\": " << num(a.c) << ", \"c1_err\": " << num(a.c_err) << ", \"m2\": " << num(b.m)
+          << ", \"m2_err\": " << num(b.m_err) << ", \"c2\": " << num(b.c) << ", \"c2_err\": " << num(b.c_err)
+          << ", \"c_plus\": " << num(paired.c_plus) << ", \"c_cross\": " << num(paired.c_cross) << "}";
+    }
+    out << "\n}\n";
   }
   return 0;
 }

@@ -50,6 +50,8 @@ void print_help() {
       "  --noise-pairs             objects 4q+2, 4q+3 repeat the ring pair 4q, 4q+1 with the noise\n"
       "                            negated (pair label q for all four): odd noise orders cancel in\n"
       "                            the group mean, so noise bias is measured with far less scatter\n"
+      "  --shear-pairs             set 2j+1 repeats set 2j (galaxies and noise) under the opposite\n"
+      "                            shear: metrics --shear-pairs then cancels the noise common to both\n"
       "PSF:\n"
       "  --psf moffat|airy         profile (moffat)\n"
       "  --psf-beta B --psf-fwhm F Moffat beta (%g) and FWHM in pixels (%g)\n"
@@ -112,6 +114,7 @@ int run_sim_command(int argc, char** argv) {
     else if (a == "--noise-sigma") o.noise_sigma = number_value(argc, argv, &i);
     else if (a == "--noise-free") o.noise_free = true;
     else if (a == "--noise-pairs") o.noise_pairs = true;
+    else if (a == "--shear-pairs") o.shear_pairs = true;
     else if (a == "--psf") {
       const std::string v = tools::option_value(argc, argv, &i);
       if (v == "moffat") o.psf.kind = PsfKind::kMoffat;

@@ -27,7 +27,7 @@ struct Estimate {
 };
 
 // The estimate from units[i] taken count[i] times.
-Estimate estimate(const std::vector<Unit>& units, const std::vector<int>& count, double step) {
+Estimate estimate_from_units(const std::vector<Unit>& units, std::span<const int> count, double step) {
   // Means over the units passing selection s: e (all s), R (s = 0 only).
   double n[5] = {}, e1[5] = {}, e2[5] = {};
   std::array<double, 4> r{};
@@ -64,66 +64,98 @@ Estimate estimate(const std::vector<Unit>& units, const std::vector<int>& count,
   return out;
 }
 
+// The rows' units: ring pairs (or lone objects) in order of first appearance.
+class MetacalUnits final : public UnitShearEstimator {
+ public:
+  explicit MetacalUnits(const MetacalRows& rows) : step_(rows.step) {
+    const std::size_t n = rows.e1.size();
+    bool sizes = rows.e2.size() == n && rows.selected.size() == n && (rows.pair.empty() || rows.pair.size() == n);
+    for (const auto& col : rows.r) sizes = sizes && col.size() == n;
+    if (!sizes) throw std::invalid_argument("estimate_metacal_set_shear: columns of different lengths");
+    std::map<long long, std::size_t> by_pair;
+    for (std::size_t i = 0; i < n; ++i) {
+      std::uint8_t sel = rows.selected[i];
+      bool finite = std::isfinite(rows.e1[i]) && std::isfinite(rows.e2[i]);
+      for (const auto& col : rows.r) finite = finite && std::isfinite(col[i]);
+      if (!finite) sel = 0;
+      std::size_t u = units_.size();
+      if (rows.pair.empty() || rows.pair[i] < 0) {
+        labels_.push_back(-1 - static_cast<long long>(i));
+        units_.emplace_back();
+      } else {
+        const auto [it, added] = by_pair.emplace(rows.pair[i], u);
+        if (added) {
+          labels_.push_back(rows.pair[i]);
+          units_.emplace_back();
+        }
+        u = it->second;
+      }
+      Unit& unit = units_[u];
+      unit.selected &= sel;
+      ++unit.members;
+      if (!finite) continue;
+      unit.e1 += rows.e1[i];
+      unit.e2 += rows.e2[i];
+      for (int k = 0; k < 4; ++k) unit.r[k] += rows.r[k][i];
+    }
+    for (Unit& u : units_) {
+      u.e1 /= u.members;
+      u.e2 /= u.members;
+      for (double& v : u.r) v /= u.members;
+      if (u.selected & 1)
+        used_ += u.members;
+      else
+        excluded_ += u.members;
+    }
+  }
+
+  std::span<const long long> labels() const override { return labels_; }
+  std::array<double, 2> estimate(std::span<const int> count) const override {
+    const Estimate e = full_estimate(count);
+    return {e.g1, e.g2};
+  }
+  Estimate full_estimate(std::span<const int> count) const { return estimate_from_units(units_, count, step_); }
+  long long used() const { return used_; }
+  long long excluded() const { return excluded_; }
+
+ private:
+  std::vector<Unit> units_;
+  std::vector<long long> labels_;
+  double step_;
+  long long used_ = 0, excluded_ = 0;
+};
+
 }  // namespace
+
+std::unique_ptr<UnitShearEstimator> make_metacal_units(const MetacalRows& rows) {
+  return std::make_unique<MetacalUnits>(rows);
+}
 
 MetacalSetShear estimate_metacal_set_shear(const MetacalRows& rows, double g1_true, double g2_true, int bootstrap,
                                            std::uint64_t seed) {
-  const std::size_t n = rows.e1.size();
-  bool sizes = rows.e2.size() == n && rows.selected.size() == n && (rows.pair.empty() || rows.pair.size() == n);
-  for (const auto& col : rows.r) sizes = sizes && col.size() == n;
-  if (!sizes) throw std::invalid_argument("estimate_metacal_set_shear: columns of different lengths");
-  std::vector<Unit> units;
-  std::map<long long, std::size_t> by_pair;
-  for (std::size_t i = 0; i < n; ++i) {
-    std::uint8_t sel = rows.selected[i];
-    bool finite = std::isfinite(rows.e1[i]) && std::isfinite(rows.e2[i]);
-    for (const auto& col : rows.r) finite = finite && std::isfinite(col[i]);
-    if (!finite) sel = 0;
-    std::size_t u;
-    if (rows.pair.empty() || rows.pair[i] < 0) {
-      u = units.size();
-      units.emplace_back();
-    } else {
-      const auto [it, added] = by_pair.emplace(rows.pair[i], units.size());
-      if (added) units.emplace_back();
-      u = it->second;
-    }
-    Unit& unit = units[u];
-    unit.selected &= sel;
-    ++unit.members;
-    if (!finite) continue;
-    unit.e1 += rows.e1[i];
-    unit.e2 += rows.e2[i];
-    for (int k = 0; k < 4; ++k) unit.r[k] += rows.r[k][i];
-  }
+  const MetacalUnits units(rows);
   MetacalSetShear out;
   out.shear.g1_true = g1_true;
   out.shear.g2_true = g2_true;
-  for (Unit& u : units) {
-    u.e1 /= u.members;
-    u.e2 /= u.members;
-    for (double& v : u.r) v /= u.members;
-    if (u.selected & 1)
-      out.shear.used += u.members;
-    else
-      out.shear.excluded += u.members;
-  }
-  std::vector<int> count(units.size(), 1);
-  const Estimate all = estimate(units, count, rows.step);
+  out.shear.used = units.used();
+  out.shear.excluded = units.excluded();
+  std::vector<int> count(units.labels().size(), 1);
+  const Estimate all = units.full_estimate(count);
   out.shear.g1 = all.g1;
   out.shear.g2 = all.g2;
   out.r = all.r;
   out.r_sel = all.r_sel;
   out.g1_raw = all.raw1;
   out.g2_raw = all.raw2;
-  if (bootstrap > 1 && units.size() > 1 && std::isfinite(all.g1)) {
+  const std::size_t n_units = count.size();
+  if (bootstrap > 1 && n_units > 1 && std::isfinite(all.g1)) {
     std::uint64_t state = seed;
     double a1 = 0, a2 = 0, q1 = 0, q2 = 0;
     int done = 0;
     for (int b = 0; b < bootstrap; ++b) {
       std::fill(count.begin(), count.end(), 0);
-      for (std::size_t k = 0; k < units.size(); ++k) ++count[splitmix64(state) % units.size()];
-      const Estimate e = estimate(units, count, rows.step);
+      for (std::size_t k = 0; k < n_units; ++k) ++count[splitmix64(state) % n_units];
+      const Estimate e = units.full_estimate(count);
       if (!std::isfinite(e.g1) || !std::isfinite(e.g2)) continue;
       a1 += e.g1, a2 += e.g2, q1 += e.g1 * e.g1, q2 += e.g2 * e.g2;
       ++done;

@@ -8,9 +8,11 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
 
 #include "engine/analysis/shear_metrics.hpp"
+#include "engine/analysis/unit_shear_estimator.hpp"
 
 namespace stampede {
 
@@ -33,5 +35,9 @@ struct MetacalSetShear {
 
 MetacalSetShear estimate_metacal_set_shear(const MetacalRows& rows, double g1_true, double g2_true, int bootstrap,
                                            std::uint64_t seed);
+
+// The same estimate over resampled units, for pairing with another set (shear_pairs.hpp). The
+// units copy what they need from the columns.
+std::unique_ptr<UnitShearEstimator> make_metacal_units(const MetacalRows& rows);
 
 }  // namespace stampede

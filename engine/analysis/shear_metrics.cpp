@@ -1,6 +1,7 @@
 // Shear metrics; see shear_metrics.hpp.
 #include "engine/analysis/shear_metrics.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <stdexcept>
@@ -9,85 +10,118 @@
 
 namespace stampede {
 
-SetShear estimate_set_shear(std::span<const double> e1, std::span<const double> e2, std::span<const int> usable,
-                            std::span<const long long> pair, double g1_true, double g2_true, int bootstrap,
-                            std::uint64_t seed) {
-  const std::size_t n = e1.size();
-  if (e2.size() != n || usable.size() != n || (!pair.empty() && pair.size() != n))
-    throw std::invalid_argument("estimate_set_shear: columns of different lengths");
-  // Units: a ring pair whose members are all usable, or a lone usable object.
+namespace {
+
+// Ring pairs (all members usable) and lone usable objects, in order of first appearance.
+class ShearUnits final : public UnitShearEstimator {
+ public:
+  ShearUnits(std::span<const double> e1, std::span<const double> e2, std::span<const int> usable,
+             std::span<const long long> pair) {
+    const std::size_t n = e1.size();
+    if (e2.size() != n || usable.size() != n || (!pair.empty() && pair.size() != n))
+      throw std::invalid_argument("estimate_set_shear: columns of different lengths");
+    std::map<long long, std::size_t> by_pair;
+    for (std::size_t i = 0; i < n; ++i) {
+      const bool ok = usable[i] && std::isfinite(e1[i]) && std::isfinite(e2[i]);
+      std::size_t u = units_.size();
+      if (pair.empty() || pair[i] < 0) {
+        labels_.push_back(-1 - static_cast<long long>(i));
+        units_.emplace_back();
+      } else {
+        const auto [it, added] = by_pair.emplace(pair[i], u);
+        if (added) {
+          labels_.push_back(pair[i]);
+          units_.emplace_back();
+        }
+        u = it->second;
+      }
+      Unit& unit = units_[u];
+      ++unit.members;
+      unit.bad |= !ok;
+      if (ok) unit.e1 += e1[i], unit.e2 += e2[i];
+    }
+    for (Unit& u : units_) {
+      if (u.bad) {
+        excluded_ += u.members;  // the whole pair: its partner alone would not cancel
+        continue;
+      }
+      u.e1 /= u.members;
+      u.e2 /= u.members;
+      used_ += u.members;
+    }
+  }
+
+  std::span<const long long> labels() const override { return labels_; }
+
+  std::array<double, 2> estimate(std::span<const int> count) const override {
+    double n = 0, m1 = 0, m2 = 0;
+    for (std::size_t i = 0; i < units_.size(); ++i) {
+      if (units_[i].bad || !count[i]) continue;
+      n += count[i];
+      m1 += count[i] * units_[i].e1;
+      m2 += count[i] * units_[i].e2;
+    }
+    if (n == 0) return {NAN, NAN};
+    return {m1 / n, m2 / n};
+  }
+
+  long long used() const { return used_; }
+  long long excluded() const { return excluded_; }
+
+ private:
   struct Unit {
     double e1 = 0, e2 = 0;
     int members = 0;
     bool bad = false;
   };
-  std::map<long long, Unit> pairs;
-  std::vector<Unit> units;
+  std::vector<Unit> units_;
+  std::vector<long long> labels_;
+  long long used_ = 0, excluded_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<UnitShearEstimator> make_shear_units(std::span<const double> e1, std::span<const double> e2,
+                                                     std::span<const int> usable, std::span<const long long> pair) {
+  return std::make_unique<ShearUnits>(e1, e2, usable, pair);
+}
+
+SetShear estimate_set_shear(std::span<const double> e1, std::span<const double> e2, std::span<const int> usable,
+                            std::span<const long long> pair, double g1_true, double g2_true, int bootstrap,
+                            std::uint64_t seed) {
+  const ShearUnits units(e1, e2, usable, pair);
   SetShear s;
   s.g1_true = g1_true;
   s.g2_true = g2_true;
-  for (std::size_t i = 0; i < n; ++i) {
-    const bool ok = usable[i] && std::isfinite(e1[i]) && std::isfinite(e2[i]);
-    if (pair.empty() || pair[i] < 0) {
-      if (ok)
-        units.push_back({e1[i], e2[i], 1, false});
-      else
-        ++s.excluded;
-      continue;
-    }
-    Unit& u = pairs[pair[i]];
-    ++u.members;
-    if (!ok) {
-      u.bad = true;
-      continue;
-    }
-    u.e1 += e1[i];
-    u.e2 += e2[i];
-  }
-  for (auto& [label, u] : pairs) {
-    if (u.bad) {
-      s.excluded += u.members;  // drop the whole pair: its partner alone would not cancel
-      continue;
-    }
-    units.push_back({u.e1 / u.members, u.e2 / u.members, u.members, false});
-  }
-  if (units.empty()) {
-    s.g1 = s.g2 = s.err1 = s.err2 = NAN;
+  s.used = units.used();
+  s.excluded = units.excluded();
+  const std::size_t n = units.labels().size();
+  std::vector<int> count(n, 1);
+  const auto g = units.estimate(count);
+  s.g1 = g[0];
+  s.g2 = g[1];
+  if (!std::isfinite(s.g1)) {
+    s.err1 = s.err2 = NAN;
     return s;
   }
-  double m1 = 0, m2 = 0;
-  long long used = 0;
-  for (const Unit& u : units) {
-    m1 += u.e1;
-    m2 += u.e2;
-    used += u.members;
-  }
-  s.g1 = m1 / units.size();
-  s.g2 = m2 / units.size();
-  s.used = used;
-  // Bootstrap over units.
-  if (bootstrap > 1 && units.size() > 1) {
-    // splitmix64 is identical on every platform, so bootstrap errors are reproducible.
+  // Bootstrap over units; splitmix64 is identical on every platform, so errors are reproducible.
+  if (bootstrap > 1 && n > 1) {
     std::uint64_t state = seed;
     double a1 = 0, a2 = 0, q1 = 0, q2 = 0;
+    int done = 0;
     for (int b = 0; b < bootstrap; ++b) {
-      double b1 = 0, b2 = 0;
-      for (std::size_t k = 0; k < units.size(); ++k) {
-        const Unit& u = units[splitmix64(state) % units.size()];
-        b1 += u.e1;
-        b2 += u.e2;
-      }
-      b1 /= units.size();
-      b2 /= units.size();
-      a1 += b1;
-      a2 += b2;
-      q1 += b1 * b1;
-      q2 += b2 * b2;
+      std::fill(count.begin(), count.end(), 0);
+      for (std::size_t k = 0; k < n; ++k) ++count[splitmix64(state) % n];
+      const auto e = units.estimate(count);
+      if (!std::isfinite(e[0]) || !std::isfinite(e[1])) continue;
+      a1 += e[0], a2 += e[1], q1 += e[0] * e[0], q2 += e[1] * e[1];
+      ++done;
     }
-    a1 /= bootstrap;
-    a2 /= bootstrap;
-    s.err1 = std::sqrt(std::max(0.0, q1 / bootstrap - a1 * a1));
-    s.err2 = std::sqrt(std::max(0.0, q2 / bootstrap - a2 * a2));
+    if (done > 1) {
+      a1 /= done, a2 /= done;
+      s.err1 = std::sqrt(std::max(0.0, q1 / done - a1 * a1));
+      s.err2 = std::sqrt(std::max(0.0, q2 / done - a2 * a2));
+    }
   }
   return s;
 }
@@ -145,14 +179,17 @@ ShearMetrics combine_sets(std::vector<SetShear> sets, double psf_e1, double psf_
   } else {
     m.component[0] = m.component[1] = {NAN, NAN, NAN, NAN};
   }
-  // c in the PSF frame: rotate by minus twice the PSF position angle.
-  const double phi = std::atan2(psf_e2, psf_e1);  // = 2 theta_psf
-  const double c1 = m.component[0].c, c2 = m.component[1].c;
-  const bool round = psf_e1 == 0 && psf_e2 == 0;
-  m.c_plus = round ? c1 : c1 * std::cos(phi) + c2 * std::sin(phi);
-  m.c_cross = round ? c2 : -c1 * std::sin(phi) + c2 * std::cos(phi);
+  rotate_into_psf_frame(m.component[0].c, m.component[1].c, psf_e1, psf_e2, &m.c_plus, &m.c_cross);
   m.q = terms > 0 ? 1e-4 / (sq / terms) : NAN;
   return m;
+}
+
+void rotate_into_psf_frame(double c1, double c2, double psf_e1, double psf_e2, double* c_plus, double* c_cross) {
+  // Rotate by minus twice the PSF position angle.
+  const double phi = std::atan2(psf_e2, psf_e1);  // = 2 theta_psf
+  const bool round = psf_e1 == 0 && psf_e2 == 0;
+  *c_plus = round ? c1 : c1 * std::cos(phi) + c2 * std::sin(phi);
+  *c_cross = round ? c2 : -c1 * std::sin(phi) + c2 * std::cos(phi);
 }
 
 }  // namespace stampede

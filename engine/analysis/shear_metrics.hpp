@@ -8,8 +8,11 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
+
+#include "engine/analysis/unit_shear_estimator.hpp"
 
 namespace stampede {
 
@@ -43,5 +46,13 @@ struct ShearMetrics {
 
 // psf_e1, psf_e2: the PSF's ellipticity defining the frame (0, 0: c_plus = c1, c_cross = c2).
 ShearMetrics combine_sets(std::vector<SetShear> sets, double psf_e1, double psf_e2);
+
+// (c1, c2) in the PSF frame: c_plus along the PSF's major axis, c_cross at 45 degrees to it.
+void rotate_into_psf_frame(double c1, double c2, double psf_e1, double psf_e2, double* c_plus, double* c_cross);
+
+// The units of estimate_set_shear (ring pairs whose members are all usable, or lone usable
+// objects; a pair with an unusable member counts as unusable), for resampling with another set.
+std::unique_ptr<UnitShearEstimator> make_shear_units(std::span<const double> e1, std::span<const double> e2,
+                                                     std::span<const int> usable, std::span<const long long> pair);
 
 }  // namespace stampede

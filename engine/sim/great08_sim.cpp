@@ -176,10 +176,13 @@ SimSet Great08Simulator::simulate_set(int k) const {
   const Great08SimOptions& o = options_;
   SimSet set;
   set.index = k;
-  RandomStream shear_rng({o.seed, static_cast<std::uint64_t>(k), kShearStream});
-  set.shear1 = shear_rng.uniform(-o.shear_max, o.shear_max);
-  set.shear2 = shear_rng.uniform(-o.shear_max, o.shear_max);
-  set.noise_seed = o.noise_free ? 0 : RandomStream({o.seed, static_cast<std::uint64_t>(k), kNoiseStream}).next() | 1;
+  // Every stream is keyed by the drawn set: with shear pairs, set 2j+1 redraws set 2j under -g.
+  const std::uint64_t drawn = static_cast<std::uint64_t>(o.shear_pairs ? k & ~1 : k);
+  const double shear_sign = o.shear_pairs && (k & 1) ? -1.0 : 1.0;
+  RandomStream shear_rng({o.seed, drawn, kShearStream});
+  set.shear1 = shear_sign * shear_rng.uniform(-o.shear_max, o.shear_max);
+  set.shear2 = shear_sign * shear_rng.uniform(-o.shear_max, o.shear_max);
+  set.noise_seed = o.noise_free ? 0 : RandomStream({o.seed, drawn, kNoiseStream}).next() | 1;
   const int s = o.stamp_size;
   set.width = o.grid * s;
   set.image.assign(static_cast<std::size_t>(set.width) * set.width, 0.0);
@@ -211,7 +214,7 @@ SimSet Great08Simulator::simulate_set(int k) const {
       [&](Scratch& scratch, long long pair) {  // pair: the group's index
         SimWorkspace& ws = *scratch.workspace;
         std::vector<double>& stamp = scratch.stamp;
-        RandomStream rng({o.seed, static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(pair), kGalaxyStream});
+        RandomStream rng({o.seed, drawn, static_cast<std::uint64_t>(pair), kGalaxyStream});
         double bf = 0;
         switch (o.galaxy_type) {
           case SimGalaxyType::kBulge:
@@ -306,7 +309,7 @@ SimSet Great08Simulator::simulate_set(int k) const {
               tc.y_image = tc.iy * s + tc.y_centre;
             }
             const double noise_sign = copy == 0 ? 1.0 : -1.0;
-            RandomStream noise({o.seed, static_cast<std::uint64_t>(k), static_cast<std::uint64_t>(index), kNoiseStream});
+            RandomStream noise({o.seed, drawn, static_cast<std::uint64_t>(index), kNoiseStream});
             for (int y = 0; y < s; ++y) {
               double* row = set.image.data() + (static_cast<std::size_t>(tc.iy) * s + y) * set.width + tc.ix * s;
               for (int x = 0; x < s; ++x) {

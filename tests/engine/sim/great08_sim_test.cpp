@@ -244,6 +244,37 @@ TEST(Great08Sim, NoisePairsRepeatTheRingPairWithNegatedNoise) {
     EXPECT_NEAR(std::sqrt(noise2 / (s * s)), o.noise_sigma, 0.1);  // every copy is noisy
   }
 }
+
+// Shear pairs: set 2j+1 is set 2j under -g: the same intrinsic galaxies and the same noise field
+// (noisy minus noise-free stamps agree pixel for pixel), opposite shears, and set 2j unchanged.
+TEST(Great08Sim, ShearPairsRepeatGalaxiesAndNoiseUnderTheOppositeShear) {
+  Great08SimOptions o = small_options();
+  const SimSet unpaired = Great08Simulator(o).simulate_set(2);
+  o.shear_pairs = true;
+  const SimSet plus = Great08Simulator(o).simulate_set(2), minus = Great08Simulator(o).simulate_set(3);
+  o.noise_free = true;
+  const SimSet plus_clean = Great08Simulator(o).simulate_set(2), minus_clean = Great08Simulator(o).simulate_set(3);
+  EXPECT_EQ(plus.image, unpaired.image);  // the even set is the unpaired run's set
+  EXPECT_EQ(minus.shear1, -plus.shear1);
+  EXPECT_EQ(minus.shear2, -plus.shear2);
+  EXPECT_NE(plus.shear1, 0.0);
+  EXPECT_EQ(minus.noise_seed, plus.noise_seed);
+  ASSERT_EQ(plus.truth.size(), minus.truth.size());
+  for (std::size_t i = 0; i < plus.truth.size(); ++i) {
+    EXPECT_EQ(minus.truth[i].e1_int, plus.truth[i].e1_int);
+    EXPECT_EQ(minus.truth[i].e2_int, plus.truth[i].e2_int);
+    EXPECT_EQ(minus.truth[i].x_centre, plus.truth[i].x_centre);
+    EXPECT_EQ(minus.truth[i].g1, -plus.truth[i].g1);
+  }
+  double largest = 0, sheared = 0;
+  for (std::size_t p = 0; p < plus.image.size(); ++p) {
+    largest = std::max(largest, std::abs((minus.image[p] - minus_clean.image[p]) - (plus.image[p] - plus_clean.image[p])));
+    sheared = std::max(sheared, std::abs(minus_clean.image[p] - plus_clean.image[p]));
+  }
+  EXPECT_LT(largest, 1e-12);  // the same noise, to the rounding of signal + noise
+  EXPECT_GT(sheared, 1e-3);  // while the galaxies differ by the shear
+}
+
 // The b+d branch: a misaligned, offset bulge with its own radius, and the round-galaxy size kept.
 TEST(Great08Sim, BulgePlusDiscBranch) {
   Great08SimOptions o = small_options();
