@@ -9,6 +9,7 @@
 #include <charconv>
 #include <climits>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <limits>
 #include <string_view>
@@ -200,19 +201,24 @@ void FitsFile::move_to(int hdu_index) {
 }
 
 void FitsFile::move_to(const std::string& extname) {
+  if (!move_to_if_present(extname)) fail("no HDU with EXTNAME '" + extname + "'");
+}
+
+bool FitsFile::move_to_if_present(const std::string& extname) {
   fitsfile* f = as_fits(handle());
   int before = 1;
   fits_get_hdu_num(f, &before);
-  std::string name = extname;  // ffmnhd takes a non-const char*
+  std::string name = extname;
   int status = 0;
   fits_movnam_hdu(f, ANY_HDU, name.data(), 0, &status);
-  if (status != 0) {
-    const std::string text = cfitsio_status_text(status);
-    restore_hdu(f, before);
-    if (status == BAD_HDU_NUM) fail("no HDU with EXTNAME '" + extname + "'");
-    fail("cannot move to HDU '" + extname + "': " + text);
+  if (status == 0) {
+    auto_image_ = false;
+    return true;
   }
-  auto_image_ = false;
+  const std::string text = cfitsio_status_text(status);
+  restore_hdu(f, before);
+  if (status == BAD_HDU_NUM) return false;
+  fail("cannot move to HDU '" + extname + "': " + text);
 }
 
 int FitsFile::hdu_index() {
@@ -510,6 +516,37 @@ void FitsFile::read_image_rows(long y_begin, long n_rows, std::span<double> out)
   }
 }
 
+long long FitsFile::image_length() {
+  fitsfile* f = as_fits(handle());
+  resolve_auto_image();
+  int status = 0, type = 0, naxis = 0;
+  fits_get_hdu_type(f, &type, &status);
+  if (status != 0) fail_status(status, "cannot read HDU type");
+  if (type != IMAGE_HDU) fail("not an image HDU (it is a table)");
+  fits_get_img_dim(f, &naxis, &status);
+  if (status != 0) fail_status(status, "cannot read NAXIS");
+  if (naxis != 1) fail("not a 1-D image (NAXIS = " + std::to_string(naxis) + ")");
+  LONGLONG length = 0;
+  fits_get_img_sizell(f, 1, &length, &status);
+  if (status != 0) fail_status(status, "cannot read image size");
+  require_data_in_file();
+  return static_cast<long long>(length);
+}
+
+void FitsFile::read_image_range(long long first, std::span<double> out) {
+  const long long length = image_length();
+  if (first < 0 || static_cast<long long>(out.size()) > length - first)
+    fail("cannot read pixels " + std::to_string(first) + ".." + std::to_string(first + static_cast<long long>(out.size()) - 1) +
+         ": the image has " + std::to_string(length));
+  if (out.empty()) return;
+  LONGLONG start[1] = {static_cast<LONGLONG>(first) + 1};
+  double nulval = kNaN;
+  int anynul = 0, status = 0;
+  fits_read_pixll(as_fits(handle()), TDOUBLE, start, static_cast<LONGLONG>(out.size()), image_nulval(&nulval), out.data(),
+                  &anynul, &status);
+  if (status != 0) fail_status(status, "cannot read pixels from " + std::to_string(first));
+}
+
 std::vector<double> FitsFile::read_image() {
   const ImageShape s = image_shape();
   if (s.nx == 0 || s.ny == 0) return {};
@@ -616,7 +653,7 @@ bool FitsFile::has_column(const std::string& name) {
   return find_column(name).has_value();
 }
 
-int FitsFile::numeric_column(const std::string& name, void** nulval_if_integer) {
+int FitsFile::numeric_column(const std::string& name, void** nulval_if_integer, long long* repeat_out) {
   require_table();
   const auto col = find_column(name);
   if (!col) fail("no column '" + name + "'");
@@ -629,7 +666,10 @@ int FitsFile::numeric_column(const std::string& name, void** nulval_if_integer) 
   if (status != 0) fail_status(status, "cannot read the type of column '" + name + "'");
   if (type < 0) fail("column '" + name + "' is variable-length; only scalar columns can be read");
   if (!is_numeric_column_type(type)) fail("column '" + name + "' is not numeric");
-  if (repeat != 1) {
+  if (repeat_out) {
+    if (repeat < 1) fail("column '" + name + "' has no values per row (repeat " + std::to_string(repeat) + ")");
+    *repeat_out = repeat;
+  } else if (repeat != 1) {
     fail("column '" + name + "' has " + std::to_string(repeat) +
          " values per row; only scalar columns can be read");
   }
@@ -659,10 +699,7 @@ std::vector<double> FitsFile::read_column(const std::string& name) {
 void FitsFile::read_column_rows(const std::string& name, long long first_row, std::span<double> out) {
   void* nulval = nullptr;
   const int col = numeric_column(name, &nulval);
-  const long long rows = table_rows();
-  if (first_row < 0 || static_cast<long long>(out.size()) > rows - first_row)
-    fail("cannot read rows " + std::to_string(first_row) + ".." + std::to_string(first_row + out.size() - 1) +
-         " of column '" + name + "': the table has " + std::to_string(rows) + " rows");
+  require_rows(name, first_row, out.size(), 1);
   if (out.empty()) return;
   double nan = kNaN;
   int anynul = 0, status = 0;
@@ -675,15 +712,79 @@ void FitsFile::read_column_rows(const std::string& name, long long first_row, st
   void* nulval = nullptr;
   const int col = numeric_column(name, &nulval);
   if (nulval == nullptr) fail("column '" + name + "' is not an integer column");
-  const long long rows = table_rows();
-  if (first_row < 0 || static_cast<long long>(out.size()) > rows - first_row)
-    fail("cannot read rows " + std::to_string(first_row) + ".." + std::to_string(first_row + out.size() - 1) +
-         " of column '" + name + "': the table has " + std::to_string(rows) + " rows");
+  require_rows(name, first_row, out.size(), 1);
   if (out.empty()) return;
   int anynul = 0, status = 0;
   fits_read_col(as_fits(handle()), TLONGLONG, col, first_row + 1, 1, static_cast<LONGLONG>(out.size()), nullptr,
                 out.data(), &anynul, &status);
   if (status != 0) fail_status(status, "cannot read column '" + name + "'");
+}
+
+long long FitsFile::column_repeat(const std::string& name) {
+  void* nulval = nullptr;
+  long long repeat = 0;
+  numeric_column(name, &nulval, &repeat);
+  return repeat;
+}
+
+void FitsFile::require_rows(const std::string& name, long long first_row, std::size_t values, long long repeat) {
+  const long long rows = table_rows();
+  if (values % static_cast<std::size_t>(repeat) != 0)
+    fail("reading column '" + name + "': " + std::to_string(values) + " values are not whole rows of " +
+         std::to_string(repeat));
+  const long long n = static_cast<long long>(values / static_cast<std::size_t>(repeat));
+  if (first_row < 0 || n > rows - first_row)
+    fail("cannot read rows " + std::to_string(first_row) + ".." + std::to_string(first_row + n - 1) + " of column '" +
+         name + "': the table has " + std::to_string(rows) + " rows");
+}
+
+void FitsFile::read_vector_rows(const std::string& name, long long first_row, std::span<double> out) {
+  void* nulval = nullptr;
+  long long repeat = 0;
+  const int col = numeric_column(name, &nulval, &repeat);
+  require_rows(name, first_row, out.size(), repeat);
+  if (out.empty()) return;
+  double nan = kNaN;
+  int anynul = 0, status = 0;
+  fits_read_col(as_fits(handle()), TDOUBLE, col, first_row + 1, 1, static_cast<LONGLONG>(out.size()),
+                nulval ? &nan : nullptr, out.data(), &anynul, &status);
+  if (status != 0) fail_status(status, "cannot read column '" + name + "'");
+}
+
+void FitsFile::read_vector_rows(const std::string& name, long long first_row, std::span<long long> out) {
+  void* nulval = nullptr;
+  long long repeat = 0;
+  const int col = numeric_column(name, &nulval, &repeat);
+  if (nulval == nullptr) fail("column '" + name + "' is not an integer column");
+  require_rows(name, first_row, out.size(), repeat);
+  if (out.empty()) return;
+  int anynul = 0, status = 0;
+  fits_read_col(as_fits(handle()), TLONGLONG, col, first_row + 1, 1, static_cast<LONGLONG>(out.size()), nullptr,
+                out.data(), &anynul, &status);
+  if (status != 0) fail_status(status, "cannot read column '" + name + "'");
+}
+
+std::string FitsFile::read_string(const std::string& name, long long row) {
+  require_table();
+  const auto col = find_column(name);
+  if (!col) fail("no column '" + name + "'");
+  fitsfile* f = as_fits(handle());
+  int type = 0, status = 0;
+  LONGLONG repeat = 0, width = 0;
+  fits_get_coltypell(f, *col, &type, &repeat, &width, &status);
+  if (status != 0) fail_status(status, "cannot read the type of column '" + name + "'");
+  if (type != TSTRING) fail("column '" + name + "' is not a character column");
+  require_rows(name, row, 1, 1);
+  // CFITSIO writes the string and its terminator: repeat characters at most.
+  if (repeat > 1 << 20) fail("column '" + name + "' holds strings of " + std::to_string(repeat) + " characters");
+  std::string buffer(static_cast<std::size_t>(repeat) + 1, '\0');
+  char* value = buffer.data();
+  int anynul = 0;
+  fits_read_col(f, TSTRING, *col, row + 1, 1, 1, nullptr, &value, &anynul, &status);
+  if (status != 0) fail_status(status, "cannot read column '" + name + "'");
+  buffer.resize(std::strlen(buffer.c_str()));
+  while (!buffer.empty() && buffer.back() == ' ') buffer.pop_back();
+  return buffer;
 }
 
 void FitsFile::write_table(const std::string& extname, const std::vector<OutputColumn>& columns) {

@@ -47,6 +47,8 @@ class FitsFile {
   int hdu_count();
   void move_to(int hdu_index);               // 0-based
   void move_to(const std::string& extname);  // EXTNAME (or HDUNAME), case-insensitive
+  // Moves to the HDU named `extname` and returns true, or stays and returns false when none is.
+  bool move_to_if_present(const std::string& extname);
   int hdu_index();                           // 0-based current HDU
   // "FILE[HDU n 'EXTNAME']" ("FILE[HDU n]" when there is no EXTNAME); FILE is the path without
   // CFITSIO's bracketed extended syntax. Never throws.
@@ -95,6 +97,11 @@ class FitsFile {
   // is decompressed into memory as a whole when opened: CFITSIO cannot seek in gzip streams).
   void read_image_rows(long y_begin, long n_rows, std::span<double> out);
   std::vector<double> read_image();  // the whole image, row-major
+  // 1-D image HDUs (MEDS keeps every cutout of a type in one flat array): the number of pixels
+  // (throws unless NAXIS = 1), and pixels [first, first + out.size()), converted as above; only
+  // the tiles or blocks holding them are read.
+  long long image_length();
+  void read_image_range(long long first, std::span<double> out);
   // Appends an image HDU (BITPIX -64) of nx * ny pixels (row-major) and makes it current; the
   // first one in a new file becomes the primary. A non-empty `extname` is written as EXTNAME.
   enum class PixelType { kFloat64, kFloat32 };  // BITPIX -64 or -32 on disk
@@ -117,6 +124,14 @@ class FitsFile {
   // beyond 2^53 included; TNULL is not applied). Throws "... column 'NAME' is not an integer
   // column" for a floating-point column.
   void read_column_rows(const std::string& name, long long first_row, std::span<long long> out);
+  // Vector numeric columns ('5K', '1681E'): values per row, and rows [first_row, first_row +
+  // out.size() / repeat) into `out`, row after row (out.size() must be a multiple of repeat).
+  // Scalar columns have repeat 1. Integer columns read as doubles are exact up to 2^53.
+  long long column_repeat(const std::string& name);
+  void read_vector_rows(const std::string& name, long long first_row, std::span<double> out);
+  void read_vector_rows(const std::string& name, long long first_row, std::span<long long> out);
+  // Row `row` of a character column ('17A'), trailing blanks removed. Throws for other types.
+  std::string read_string(const std::string& name, long long row);
   // The nx x ny pixels whose lower-left pixel is (x_begin, y_begin), 0-based, row-major.
   void read_image_region(long x_begin, long y_begin, long nx, long ny, std::span<double> out);
   // Appends a binary table of scalar columns (all of one length) and makes it current. Integer
@@ -143,7 +158,9 @@ class FitsFile {
   void* handle();
   // Column number of a scalar numeric column (throws otherwise); *nulval_if_integer is left
   // non-null for integer columns, whose TNULL values must read as NaN.
-  int numeric_column(const std::string& name, void** nulval_if_integer);
+  int numeric_column(const std::string& name, void** nulval_if_integer, long long* repeat = nullptr);
+  // Checks that `values` values from row first_row of a column of `repeat` per row are in the table.
+  void require_rows(const std::string& name, long long first_row, std::size_t values, long long repeat);
   void close_noexcept() noexcept;
   [[noreturn]] void fail(const std::string& what);
   [[noreturn]] void fail_status(int status, const std::string& what);

@@ -1,0 +1,183 @@
+// MEDS tiles read object by object; see meds_file.hpp.
+#include "io/meds_file.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace stampede::io {
+namespace {
+
+constexpr const char* kHduNames[kNumMedsCutoutTypes] = {"image_cutouts", "weight_cutouts", "seg_cutouts",
+                                                        "bmask_cutouts", "noise_cutouts"};
+// Per-cutout columns, [NMAX] each: integers first, then doubles (the order of the scratch rows).
+constexpr const char* kCutoutInts[] = {"file_id", "start_row", "orig_start_row", "orig_start_col"};
+constexpr const char* kCutoutDoubles[] = {"orig_row", "orig_col", "cutout_row", "cutout_col",
+                                          "dudrow",   "dudcol",   "dvdrow",     "dvdcol"};
+constexpr int kNumInts = 4, kNumDoubles = 8;
+// Larger boxes are not cutouts of galaxies but corrupt rows; this also keeps box^2 far from overflow.
+constexpr long long kMaxBoxSize = 16384;
+
+// "'start_row'[2]"; built by appending (GCC 12 warns falsely on "'" + std::string(...)).
+std::string with_index(const char* column, int icut) {
+  std::string s(1, '\'');
+  s.append(column).append("'[").append(std::to_string(icut)).push_back(']');
+  return s;
+}
+
+}  // namespace
+
+const char* meds_hdu_name(MedsCutoutType type) { return kHduNames[static_cast<int>(type)]; }
+
+MedsFile MedsFile::open(const std::string& path) {
+  MedsFile m(FitsFile::open_read(path), path);
+  FitsFile& f = m.file_;
+  for (const char* required : {"object_data", "image_info", "image_cutouts"})
+    if (!f.move_to_if_present(required))
+      throw FitsError(path + ": not a MEDS file: no HDU '" + required +
+                      "' (a MEDS tile has object_data, image_info and image_cutouts)");
+  // The flat cutout arrays.
+  for (int t = 0; t < kNumMedsCutoutTypes; ++t) {
+    m.length_[t] = -1;
+    if (f.move_to_if_present(kHduNames[t])) {
+      m.length_[t] = f.image_length();
+      m.hdu_[t] = f.hdu_index();
+    }
+  }
+  // image_info: small (one row per source image), read whole.
+  f.move_to("image_info");
+  const long long n_images = f.table_rows();
+  if (n_images < 1) throw FitsError(f.describe() + ": no rows (a MEDS tile lists at least one source image)");
+  if (n_images > 10000000) throw FitsError(f.describe() + ": " + std::to_string(n_images) + " rows is not a tile's image list");
+  const bool has_psf_path = f.has_column("psf_path"), has_scale = f.has_column("scale"),
+             has_offset = f.has_column("position_offset"), has_id = f.has_column("image_id"),
+             has_flags = f.has_column("image_flags");
+  const std::vector<double> magzp = f.read_column("magzp");
+  std::vector<double> scale, offset;
+  if (has_scale) scale = f.read_column("scale");
+  if (has_offset) offset = f.read_column("position_offset");
+  std::vector<long long> ids(static_cast<std::size_t>(n_images)), flags(static_cast<std::size_t>(n_images));
+  if (has_id) f.read_column_rows("image_id", 0, ids);
+  if (has_flags) f.read_column_rows("image_flags", 0, flags);
+  m.images_.resize(static_cast<std::size_t>(n_images));
+  for (long long i = 0; i < n_images; ++i) {
+    MedsImageInfo& info = m.images_[static_cast<std::size_t>(i)];
+    info.image_path = f.read_string("image_path", i);
+    if (has_psf_path) info.psf_path = f.read_string("psf_path", i);
+    info.magzp = magzp[static_cast<std::size_t>(i)];
+    if (has_scale) info.scale = scale[static_cast<std::size_t>(i)];
+    if (has_offset) info.position_offset = offset[static_cast<std::size_t>(i)];
+    info.image_id = ids[static_cast<std::size_t>(i)];
+    info.image_flags = flags[static_cast<std::size_t>(i)];
+  }
+  // object_data: the columns and their common NMAX; rows are read on demand.
+  f.move_to("object_data");
+  m.object_hdu_ = f.hdu_index();
+  m.n_objects_ = f.table_rows();
+  for (const char* scalar : {"id", "number", "box_size", "ra", "dec", "ncutout"})
+    if (f.column_repeat(scalar) != 1)
+      throw FitsError(f.describe() + ": column '" + scalar + "' has " + std::to_string(f.column_repeat(scalar)) +
+                      " values per row; MEDS has one");
+  long long nmax = -1;
+  for (const char* const* names : {kCutoutInts, kCutoutDoubles}) {
+    const int n = names == kCutoutInts ? kNumInts : kNumDoubles;
+    for (int c = 0; c < n; ++c) {
+      const long long repeat = f.column_repeat(names[c]);
+      if (nmax < 0) nmax = repeat;
+      if (repeat != nmax)
+        throw FitsError(f.describe() + ": column '" + names[c] + "' has " + std::to_string(repeat) +
+                        " values per row but 'file_id' has " + std::to_string(nmax) + " (all per-cutout columns hold NMAX)");
+    }
+  }
+  if (nmax > 100000) throw FitsError(f.describe() + ": NMAX = " + std::to_string(nmax) + " cutouts per object is not a tile's");
+  m.nmax_ = static_cast<int>(nmax);
+  m.ints_.resize(static_cast<std::size_t>(kNumInts * nmax));
+  m.doubles_.resize(static_cast<std::size_t>(kNumDoubles * nmax));
+  return m;
+}
+
+std::string MedsFile::describe_object(const MedsObject& o) {
+  return file_.describe() + ": object " + std::to_string(o.row) + " (id " + std::to_string(o.id) + ")";
+}
+
+MedsObject MedsFile::object(long long row) {
+  file_.move_to(object_hdu_);
+  if (row < 0 || row >= n_objects_)
+    throw FitsError(file_.describe() + ": no object " + std::to_string(row) + " (the table has " +
+                    std::to_string(n_objects_) + " rows)");
+  MedsObject o;
+  o.row = row;
+  long long v = 0;
+  std::span<long long> one(&v, 1);
+  file_.read_column_rows("id", row, one), o.id = v;
+  file_.read_column_rows("number", row, one), o.number = v;
+  file_.read_column_rows("box_size", row, one), o.box_size = v;
+  file_.read_column_rows("ncutout", row, one);
+  const long long ncutout = v;
+  double d = 0;
+  file_.read_column_rows("ra", row, std::span<double>(&d, 1)), o.ra = d;
+  file_.read_column_rows("dec", row, std::span<double>(&d, 1)), o.dec = d;
+  if (o.box_size < 1 || o.box_size > kMaxBoxSize) {
+    o.problem = describe_object(o) + ": column 'box_size' = " + std::to_string(o.box_size) + " is not a cutout size (1.." +
+                std::to_string(kMaxBoxSize) + ")";
+    return o;
+  }
+  if (ncutout < 0 || ncutout > nmax_) {
+    o.problem = describe_object(o) + ": column 'ncutout' = " + std::to_string(ncutout) + " is outside 0.." +
+                std::to_string(nmax_) + " (NMAX)";
+    return o;
+  }
+  const std::size_t n = static_cast<std::size_t>(nmax_);
+  for (int c = 0; c < kNumInts; ++c)
+    file_.read_vector_rows(kCutoutInts[c], row, std::span<long long>(ints_).subspan(c * n, n));
+  for (int c = 0; c < kNumDoubles; ++c)
+    file_.read_vector_rows(kCutoutDoubles[c], row, std::span<double>(doubles_).subspan(c * n, n));
+  const long long pixels = o.box_size * o.box_size;
+  o.cutouts.resize(static_cast<std::size_t>(ncutout));
+  for (int i = 0; i < ncutout; ++i) {
+    MedsCutout& c = o.cutouts[static_cast<std::size_t>(i)];
+    auto integer = [&](int col) { return ints_[col * n + static_cast<std::size_t>(i)]; };
+    auto real = [&](int col) { return doubles_[col * n + static_cast<std::size_t>(i)]; };
+    c.file_id = integer(0);
+    c.start_row = integer(1);
+    c.orig_start_row = integer(2);
+    c.orig_start_col = integer(3);
+    c.orig_row = real(0), c.orig_col = real(1), c.cutout_row = real(2), c.cutout_col = real(3);
+    c.dudrow = real(4), c.dudcol = real(5), c.dvdrow = real(6), c.dvdcol = real(7);
+    const std::string where = describe_object(o) + ", cutout " + std::to_string(i) + ": ";
+    if (c.file_id < 0 || c.file_id >= static_cast<long long>(images_.size())) {
+      c.problem = where + "column " + with_index("file_id", i) + " = " + std::to_string(c.file_id) +
+                  " is not a row of image_info (0.." + std::to_string(images_.size() - 1) + ")";
+      continue;
+    }
+    for (int t = 0; t < kNumMedsCutoutTypes && c.problem.empty(); ++t) {
+      if (length_[t] < 0) continue;
+      if (c.start_row < 0 || c.start_row > length_[t] - pixels)
+        c.problem = where + "column " + with_index("start_row", i) + " = " + std::to_string(c.start_row) +
+                    " with box_size^2 = " + std::to_string(pixels) + " runs past the " + std::to_string(length_[t]) +
+                    " pixels of HDU '" + kHduNames[t] + "'";
+    }
+    if (!c.problem.empty()) continue;
+    const double det = c.dudrow * c.dvdcol - c.dudcol * c.dvdrow;
+    if (!std::isfinite(det) || det == 0)
+      c.problem = where + "columns 'dudrow dudcol dvdrow dvdcol'[" + std::to_string(i) + "] = (" +
+                  std::to_string(c.dudrow) + ", " + std::to_string(c.dudcol) + ", " + std::to_string(c.dvdrow) + ", " +
+                  std::to_string(c.dvdcol) + ") have no inverse (determinant " + std::to_string(det) + ")";
+    else if (!std::isfinite(c.cutout_row) || !std::isfinite(c.cutout_col))
+      c.problem = where + "columns " + with_index("cutout_row", i) + ", " + with_index("cutout_col", i) + " are not finite";
+  }
+  return o;
+}
+
+void MedsFile::read_cutout(const MedsObject& object, int icut, MedsCutoutType type, std::span<double> out) {
+  const int t = static_cast<int>(type);
+  if (length_[t] < 0) throw FitsError(path_ + ": no HDU '" + kHduNames[t] + "'");
+  if (!object.problem.empty() || icut < 0 || icut >= static_cast<int>(object.cutouts.size()) ||
+      !object.cutouts[static_cast<std::size_t>(icut)].problem.empty())
+    throw FitsError(path_ + ": object " + std::to_string(object.row) + " has no usable cutout " + std::to_string(icut));
+  if (out.size() != static_cast<std::size_t>(object.box_size * object.box_size))
+    throw FitsError(path_ + ": read_cutout: output holds " + std::to_string(out.size()) + " values, not box_size^2");
+  file_.move_to(hdu_[t]);
+  file_.read_image_range(object.cutouts[static_cast<std::size_t>(icut)].start_row, out);
+}
+
+}  // namespace stampede::io
