@@ -109,6 +109,7 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
   }
   if (!column_plan_ || !row_plan_) throw std::runtime_error("FFTW could not plan the exact renderer's inverse transform");
   for (auto& s : component_stamps_) s.assign(static_cast<std::size_t>(stamp_size_) * stamp_size_, 0.0);
+  for (auto& s : position_stamps_) s.assign(static_cast<std::size_t>(stamp_size_) * stamp_size_, 0.0);
   bin_x_re_.assign(static_cast<std::size_t>(row_stride_), 0.0);
   bin_x_im_.assign(static_cast<std::size_t>(row_stride_), 0.0);
   bin_y_re_.assign(static_cast<std::size_t>(n_), 0.0);
@@ -180,8 +181,26 @@ void ExactRenderer::component_fluxes(const ParamVector& p, double* bulge, double
   model_.fluxes(p, bulge, disc);
 }
 
+void ExactRenderer::set_frame(const PixelFrame& frame) {
+  frame_ = frame;
+  pixel_area_ = frame.identity() ? 1.0 : std::abs(frame.determinant());
+}
+
+void ExactRenderer::to_frame_pixels(ModelComponents* comp) const {
+  if (frame_.identity()) return;
+  for (kernels::SersicDerivativeBlock* b : {&comp->bulge, &comp->disc}) {
+    frame_.to_pixel(b->shape.x0, b->shape.y0, &b->shape.x0, &b->shape.y0);
+    b->shape.q = frame_.to_pixel(b->shape.q);
+    b->dq_de1 = frame_.to_pixel(b->dq_de1);
+    b->dq_de2 = frame_.to_pixel(b->dq_de2);
+  }
+  // The radii and amplitudes stay the model's: they set the flux, which the frame keeps. The wrap's
+  // real-space wings, per pixel, scale them by the pixel's area (pixel_area_).
+}
+
 bool ExactRenderer::prepare(const ParamVector& p, kernels::KSpaceModel* m, ModelComponents* comp) {
   if (!model_.components(p, comp)) return false;
+  to_frame_pixels(comp);
   const double bulge_n = p[index(Param::kBulgeIndex)], disc_n = p[index(Param::kDiscIndex)];
   if (disc_n != 1.0) throw std::invalid_argument("ExactRenderer: a disc index other than 1");
   if (bulge_n != bulge_index_) {  // once per run: the index is fixed by the options
@@ -218,7 +237,8 @@ bool ExactRenderer::prepare(const ParamVector& p, kernels::KSpaceModel* m, Model
   // one per value; the rounding grows by ~1 ulp per step), and each alias's e^{-i 2 pi m.x0}.
   const kernels::KSpaceTerms& terms = psf_->terms();
   const double dk = 2 * kPi / n_;
-  const double x0 = p[index(Param::kX0)], y0 = p[index(Param::kY0)];
+  double x0 = p[index(Param::kX0)], y0 = p[index(Param::kY0)];
+  if (!frame_.identity()) frame_.to_pixel(x0, y0, &x0, &y0);
   const std::complex<double> step_x = std::polar(1.0, -dk * x0), step_y = std::polar(1.0, -dk * y0);
   std::complex<double> z = 1.0;
   for (int j = 0; j < row_stride_; ++j, z *= step_x) {
@@ -294,8 +314,9 @@ kernels::WingComponent wing_of(const kernels::SersicDerivativeBlock& b) {
 void ExactRenderer::find_copies(const ModelComponents& comp, const kernels::KSpaceModel& m) {
   const kernels::BlurMoments& blur_m = psf_->blur();
   const double blur = 0.5 * (blur_m.xx + blur_m.yy);
-  auto find = [&](const kernels::SersicDerivativeBlock& b, double radius, double flux_per_amplitude,
+  auto find = [&](const kernels::SersicDerivativeBlock& b, double model_radius, double flux_per_amplitude,
                   std::vector<kernels::CopyOffset> WrapGrid::*list) {
+    const double radius = model_radius / std::sqrt(pixel_area_);  // in pixels
     // Copies below 1e-8 of the component's blurred peak (flux / (2 pi (r^2 + sigma^2)), unit
     // amplitude) are left out: even fifty of them stay below 5e-7 of it.
     const double peak = flux_per_amplitude / (2 * kPi * (radius * radius + blur));
@@ -329,7 +350,7 @@ void ExactRenderer::subtract_wrap(const ModelComponents& comp, const kernels::KS
     auto add = [&](const kernels::SersicDerivativeBlock& b, const std::vector<kernels::CopyOffset>& copies) {
       if (copies.empty() || b.amplitude == 0) return;
       wrap_kernels_->add_wings(wing_of(b), psf_->blur(), copies.data(), static_cast<int>(copies.size()),
-                               w.node_x.data(), w.node_y.data(), count, -b.amplitude, v, 0.0, nullptr);
+                               w.node_x.data(), w.node_y.data(), count, -b.amplitude * pixel_area_, v, 0.0, nullptr);
     };
     add(comp.bulge, w.bulge);
     add(comp.disc, w.disc);
@@ -354,7 +375,7 @@ void ExactRenderer::subtract_wrap(const ModelComponents& comp, const kernels::KS
       if (copies.empty()) return;
       // The component image per unit amplitude; the shape derivatives at the model's amplitude.
       wrap_kernels_->add_wings(wing_of(b), psf_->blur(), copies.data(), static_cast<int>(copies.size()),
-                               w.node_x.data(), w.node_y.data(), count, -1.0, image, -b.amplitude,
+                               w.node_x.data(), w.node_y.data(), count, -pixel_area_, image, -b.amplitude * pixel_area_,
                                derivatives ? d.data() : nullptr);
     };
     add(comp.bulge, w.bulge, v);
@@ -414,10 +435,21 @@ RenderStatus ExactRenderer::render_with_jacobian(const ParamVector& p, std::span
   inverse(kernels::kKBulge, component_stamps_[0].data());
   inverse(kernels::kKDisc, component_stamps_[1].data());
   std::array<double*, 5> shape{};  // x0, y0, e1, e2, radius images, where wanted
+  // In a frame, d/du0 and d/dv0 mix both pixel derivatives: draw both into scratch.
+  const bool framed_position =
+      !frame_.identity() && std::any_of(free.begin(), free.end(), [](Param q) { return q == Param::kX0 || q == Param::kY0; });
+  if (framed_position) {
+    inverse(kernels::kKX0, shape[0] = position_stamps_[0].data());
+    inverse(kernels::kKY0, shape[1] = position_stamps_[1].data());
+  }
   for (std::size_t k = 0; k < free.size(); ++k) {
     switch (free[k]) {
-      case Param::kX0: inverse(kernels::kKX0, shape[0] = jacobian[k]); break;
-      case Param::kY0: inverse(kernels::kKY0, shape[1] = jacobian[k]); break;
+      case Param::kX0:
+        if (!framed_position) inverse(kernels::kKX0, shape[0] = jacobian[k]);
+        break;
+      case Param::kY0:
+        if (!framed_position) inverse(kernels::kKY0, shape[1] = jacobian[k]);
+        break;
       case Param::kE1: inverse(kernels::kKE1, shape[2] = jacobian[k]); break;
       case Param::kE2: inverse(kernels::kKE2, shape[3] = jacobian[k]); break;
       case Param::kRadius: inverse(kernels::kKRadius, shape[4] = jacobian[k]); break;
@@ -427,6 +459,17 @@ RenderStatus ExactRenderer::render_with_jacobian(const ParamVector& p, std::span
     }
   }
   if (corrects_wrap()) subtract_wrap(comp, m, component_stamps_[0].data(), component_stamps_[1].data(), shape);
+  if (framed_position) {
+    double inv[2][2];  // d(x, y) / d(u, v)
+    frame_.inverse(inv);
+    const double* dx = position_stamps_[0].data();
+    const double* dy = position_stamps_[1].data();
+    for (std::size_t k = 0; k < free.size(); ++k) {
+      if (free[k] != Param::kX0 && free[k] != Param::kY0) continue;
+      const int c = free[k] == Param::kX0 ? 0 : 1;
+      for (std::size_t i = 0; i < model.size(); ++i) jacobian[k][i] = dx[i] * inv[0][c] + dy[i] * inv[1][c];
+    }
+  }
   const double ab = p[index(Param::kBulgeA)], ad = p[index(Param::kDiscA)];
   const auto& bulge = component_stamps_[0];
   const auto& disc = component_stamps_[1];

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "engine/model/galaxy_model.hpp"
+#include "engine/model/pixel_frame.hpp"
 #include "engine/model/psf_model.hpp"
 #include "engine/render/fft_plans.hpp"
 #include "engine/render/render_options.hpp"
@@ -77,6 +78,12 @@ class ExactRenderer final : public Renderer {
   bool effective_params(const ParamVector& p, ParamVector* out) const override;
   void component_fluxes(const ParamVector& p, double* bulge, double* disc) const override;
 
+  // The frame the model's parameters live in (model/pixel_frame.hpp): x0, y0 become (u0, v0) and
+  // the shape is (u, v)'s, and d/dx0, d/dy0 become d/du0, d/dv0. The identity (the default) is the
+  // stamp's own pixels, drawn exactly as without a frame. Allocates nothing.
+  void set_frame(const PixelFrame& frame);
+  const PixelFrame& frame() const { return frame_; }
+
   int period() const { return n_; }
   const GalaxyModel& galaxy_model() const { return model_; }
   const ExactPsf* psf() const { return psf_.get(); }
@@ -98,8 +105,14 @@ class ExactRenderer final : public Renderer {
   // The copies each component needs, split between the two wrap grids.
   void find_copies(const ModelComponents& comp, const kernels::KSpaceModel& m);
 
+  // The model's components carried into the frame's pixels (identity: untouched).
+  void to_frame_pixels(ModelComponents* comp) const;
+
   int stamp_size_;
   int n_;
+  PixelFrame frame_;
+  double pixel_area_ = 1;  // |det J|: model units (arcsec^2) per pixel
+  std::array<std::vector<double>, 2> position_stamps_;  // d/dx0, d/dy0 in pixels, combined into d/du0, d/dv0
   ExactRenderOptions options_;
   GalaxyModel model_;
   std::shared_ptr<const ExactPsf> psf_;
