@@ -8,7 +8,7 @@ S="$(realpath "${1:-build/tools/stampede}")"
 C=fuzz/corpus
 T="$(mktemp -d)"
 trap 'rm -rf "$T"' EXIT
-mkdir -p "$C"/{stamp_grid,weight_map,catalogue,run_config,psf_image,calibration_table,catalog_reader}
+mkdir -p "$C"/{stamp_grid,weight_map,catalogue,run_config,psf_image,calibration_table,catalog_reader,meds,psfex}
 q=(--quiet --threads 1)
 
 # Grids: 2 x 2 stamps of 8 (16 x 16, the weight target's image shape) and 1 x 1 stamp of 8.
@@ -39,4 +39,12 @@ printf '[fit]\nstamp_size = 8\nnoise_sigma = 1.5  # trailing comment\npsf_input 
 # A calibration table: the smallest grid (one radius, one bulge fraction, four e steps).
 "$S" calibrate build -o "$C/calibration_table/small.fits" --radii 2 --bulge-fractions 0.5 --e-steps 4 \
   --realisations 2 --set stamp_size=12 --set noise_sigma=1 "${q[@]}"
+# MEDS and PSFEx: cut from the tile the meds package wrote (../shared/data/meds-sample): two
+# objects of two 4 x 4 cutouts (fuzz/cut_meds_seed.cpp), and a degree-1 and a degree-0 PSFEx model.
+SAMPLE=../shared/data/meds-sample
+c++ -O1 -o "$T/cut_meds_seed" fuzz/cut_meds_seed.cpp $(pkg-config --cflags --libs cfitsio)
+"$T/cut_meds_seed" "$SAMPLE/meds.fits" "$C/meds/sample_2_objects.fits"
+cp "$SAMPLE/psfex/se_e1.psf" "$C/psfex/degree1.psf"
+cp "$SAMPLE/psfex/se_e2.psf" "$C/psfex/degree0.psf"
+chmod 644 "$C/psfex/"*.psf
 ls -l "$C"/*

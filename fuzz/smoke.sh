@@ -16,7 +16,7 @@ declare -A dict=([run_config]=ini.dict [catalogue]=fits.dict [stamp_grid]=fits.d
                  [meds]=fits.dict [psfex]=fits.dict)
 declare -A runs=([stamp_grid]=60000 [weight_map]=30000 [catalogue]=30000 [psf_image]=2000
                  [calibration_table]=18000 [catalog_reader]=13000 [run_config]=5000
-                 [meds]=RUNS_MEDS [psfex]=RUNS_PSFEX)
+                 [meds]=30000 [psfex]=50000)
 run() {
   local t="$1" work="$B/fuzz-corpus/$1"
   mkdir -p "$work"  # new inputs go here; the committed corpus is only read
