@@ -11,6 +11,7 @@
 
 #include "engine/model/pixel_frame.hpp"
 #include "engine/render/exact_renderer.hpp"
+#include "support/sky_to_pixel.hpp"
 
 namespace stampede {
 namespace {
@@ -55,37 +56,20 @@ ParamVector sky_model() {
   return p;
 }
 
-// The same galaxy in the frame's pixels, worked out here from the real-space quadratic form
-// (kernels/ellipse: q = N / ((1 - s) r^2), N = [[1 + s - 2 e1, -2 e2], [., 1 + s + 2 e1]], det q =
-// r^-4), not through PixelFrame: Q_pix(dx) = Q_sky(J dx); centre x_ref + J^-1 u0; amplitudes so
-// that A r^2 (the flux's scale) is kept.
+// The same galaxy in the frame's pixels (tests/support/sky_to_pixel.hpp, derived independently of
+// PixelFrame), with amplitudes that keep A r^2, the flux's scale.
 ParamVector pixel_model(const ParamVector& sky, const PixelFrame& f) {
-  const double e1 = sky[index(Param::kE1)], e2 = sky[index(Param::kE2)], r = sky[index(Param::kRadius)];
-  const double s = e1 * e1 + e2 * e2, k = 1 / ((1 - s) * r * r);
-  const double qxx = (1 + s - 2 * e1) * k, qxy = -2 * e2 * k, qyy = (1 + s + 2 * e1) * k;
-  const double J[2][2] = {{f.dudx, f.dudy}, {f.dvdx, f.dvdy}};
-  double P[2][2];  // J^T Q J
-  const double Q[2][2] = {{qxx, qxy}, {qxy, qyy}};
-  for (int i = 0; i < 2; ++i)
-    for (int j = 0; j < 2; ++j) {
-      P[i][j] = 0;
-      for (int a = 0; a < 2; ++a)
-        for (int b = 0; b < 2; ++b) P[i][j] += J[a][i] * Q[a][b] * J[b][j];
-    }
-  const double det = P[0][0] * P[1][1] - P[0][1] * P[0][1];
-  const double rp = std::pow(det, -0.25);
-  const double t = (P[0][0] + P[1][1]) * rp * rp / 2;  // (1 + s') / (1 - s')
-  const double sp = (t - 1) / (t + 1);
+  const double r = sky[index(Param::kRadius)];
+  const testing::PixelEllipse e = testing::sky_to_pixel(sky[index(Param::kE1)], sky[index(Param::kE2)], r,
+                                                        sky[index(Param::kX0)], sky[index(Param::kY0)], f);
   ParamVector p = sky;
-  p[index(Param::kE1)] = (P[1][1] - P[0][0]) * rp * rp * (1 - sp) / 4;
-  p[index(Param::kE2)] = -P[0][1] * rp * rp * (1 - sp) / 2;
-  p[index(Param::kRadius)] = rp;
-  const double jd = J[0][0] * J[1][1] - J[0][1] * J[1][0];
-  const double u = sky[index(Param::kX0)], v = sky[index(Param::kY0)];
-  p[index(Param::kX0)] = f.x_ref + (J[1][1] * u - J[0][1] * v) / jd;
-  p[index(Param::kY0)] = f.y_ref + (-J[1][0] * u + J[0][0] * v) / jd;
-  p[index(Param::kBulgeA)] *= r * r / (rp * rp);
-  p[index(Param::kDiscA)] *= r * r / (rp * rp);
+  p[index(Param::kE1)] = e.e1;
+  p[index(Param::kE2)] = e.e2;
+  p[index(Param::kRadius)] = e.radius;
+  p[index(Param::kX0)] = e.x;
+  p[index(Param::kY0)] = e.y;
+  p[index(Param::kBulgeA)] *= r * r / (e.radius * e.radius);
+  p[index(Param::kDiscA)] *= r * r / (e.radius * e.radius);
   return p;
 }
 

@@ -1,0 +1,203 @@
+// Joint fits over cutouts; see multi_epoch_fitter.hpp.
+#include "engine/fit/multi_epoch_fitter.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace stampede {
+
+class MultiEpochFitter::Problem final : public LeastSquaresProblem {
+ public:
+  explicit Problem(MultiEpochFitter& f) : f_(f) {}
+
+  // The fit's cutouts, its full parameter vector and which of them are free.
+  void reset(std::span<const EpochData> epochs, const ParamVector& start, std::span<const Param> free) {
+    epochs_ = epochs;
+    p_ = start;
+    free_ = free;
+    pixels_ = 0;
+    double sum = 0;
+    for (const EpochData& e : epochs)
+      for (std::size_t i = 0; i < e.weight.size(); ++i) {
+        pixels_ += e.weight[i] > 0;
+        sum += e.weight[i] * e.pixels[i] * e.pixels[i];
+      }
+    // As the single-stamp fit's: a model within ~1e-7 rms of the data, relative to it, is exact for
+    // any purpose (noise-free data would otherwise keep chi2 halving to the iteration limit).
+    negligible_chi2_ = 1e-14 * sum;
+  }
+  int num_pixels() const override { return pixels_; }
+  double negligible_chi2() const override { return negligible_chi2_; }
+
+  ParamVector full(const LmVector& x) const {
+    ParamVector p = p_;
+    for (std::size_t k = 0; k < free_.size(); ++k) p[index(free_[k])] = x[static_cast<Eigen::Index>(k)];
+    return p;
+  }
+
+  bool chi2(const LmVector& x, double* chi2) override {
+    const ParamVector p = full(x);
+    double sum = 0;
+    for (const EpochData& e : epochs_) {
+      ExactRenderer& r = select(e);
+      if (r.render(p, model_span_) != RenderStatus::kOk) return false;
+      for (std::size_t i = 0; i < e.pixels.size(); ++i) {
+        const double d = e.pixels[i] - e.flux_scale * model_[i];
+        sum += e.weight[i] * d * d;
+      }
+    }
+    *chi2 = sum;
+    return std::isfinite(sum);
+  }
+
+  bool normal_equations(const LmVector& x, double* chi2, LmMatrix* alpha, LmVector* beta) override {
+    const ParamVector p = full(x);
+    const int n = static_cast<int>(free_.size());
+    alpha->setZero(n, n);
+    beta->setZero(n);
+    double sum = 0, signal = 0;
+    for (const EpochData& e : epochs_) {
+      ExactRenderer& r = select(e);
+      if (r.render_with_jacobian(p, free_, model_span_, std::span<double* const>(columns_.data(), free_.size())) !=
+          RenderStatus::kOk)
+        return false;
+      for (std::size_t i = 0; i < e.pixels.size(); ++i) {
+        const double w = e.weight[i];
+        if (w == 0) continue;
+        const double m = e.flux_scale * model_[i], d = e.pixels[i] - m;
+        sum += w * d * d;
+        signal += w * m * m;
+        for (int a = 0; a < n; ++a) {
+          const double ja = e.flux_scale * jacobian_[static_cast<std::size_t>(a)][i] * w;
+          (*beta)[a] += ja * d;
+          for (int b = 0; b <= a; ++b) (*alpha)(a, b) += ja * e.flux_scale * jacobian_[static_cast<std::size_t>(b)][i];
+        }
+      }
+    }
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < a; ++b) (*alpha)(b, a) = (*alpha)(a, b);
+    *chi2 = sum;
+    signal_ = signal;
+    return std::isfinite(sum) && alpha->allFinite() && beta->allFinite();
+  }
+
+  double signal() const { return signal_; }  // sum w m^2 at the last normal_equations
+
+ private:
+  // The renderer for e's size, set to its PSF and frame, with scratch sized for it.
+  ExactRenderer& select(const EpochData& e) {
+    ExactRenderer& r = f_.renderer_for(e.box_size);
+    r.set_psf(e.psf);
+    r.set_frame(e.frame);
+    const std::size_t n = static_cast<std::size_t>(e.box_size) * e.box_size;
+    if (model_.size() < n) {  // grows to the largest box once, then never again
+      model_.resize(n);
+      for (auto& j : jacobian_) j.resize(n);
+    }
+    model_span_ = std::span<double>(model_.data(), n);
+    for (std::size_t k = 0; k < jacobian_.size(); ++k) columns_[k] = jacobian_[k].data();
+    return r;
+  }
+
+  MultiEpochFitter& f_;
+  std::span<const EpochData> epochs_;
+  ParamVector p_{};
+  std::span<const Param> free_;
+  int pixels_ = 0;
+  double negligible_chi2_ = 0;
+  double signal_ = NAN;
+  std::vector<double> model_;
+  std::span<double> model_span_;
+  std::array<std::vector<double>, kNumParams> jacobian_;
+  std::array<double*, kNumParams> columns_{};
+};
+
+MultiEpochFitter::MultiEpochFitter(const FitterOptions& options)
+    : options_(options), problem_(std::make_unique<Problem>(*this)) {
+  if (options.renderer != RendererKind::kExact)
+    throw std::invalid_argument("MultiEpochFitter: cutouts with WCS Jacobians need renderer = exact");
+}
+
+MultiEpochFitter::~MultiEpochFitter() = default;
+
+ExactRenderer& MultiEpochFitter::renderer_for(int box_size) {
+  auto it = renderers_.find(box_size);
+  if (it == renderers_.end()) {
+    RenderOptions ro = options_.render;
+    ro.stamp_size = box_size;
+    it = renderers_.emplace(box_size, std::make_unique<ExactRenderer>(ro, options_.model)).first;
+  }
+  return *it->second;
+}
+
+FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, const ParamVector& start) {
+  FitResult r;
+  std::array<Param, kNumParams> free_all{};
+  const int nf = options_.params.free_params(&free_all);
+  const std::span<const Param> free(free_all.data(), static_cast<std::size_t>(nf));
+  for (const EpochData& e : epochs) {
+    if (!e.psf) {
+      r.status = FitStatus::kPsfFailure;
+      return r;
+    }
+    const std::size_t n = static_cast<std::size_t>(e.box_size) * e.box_size;
+    if (e.box_size < 1 || e.pixels.size() != n || e.weight.size() != n)
+      throw std::invalid_argument("MultiEpochFitter::fit: a cutout's pixels or weights are not box_size^2");
+  }
+  problem_->reset(epochs, start, free);
+  if (problem_->num_pixels() == 0) {
+    r.status = FitStatus::kNoData;
+    return r;
+  }
+  LmVector x0(nf);
+  for (int k = 0; k < nf; ++k) x0[k] = start[index(free[static_cast<std::size_t>(k)])];
+  const LmSummary sum = levenberg_marquardt(*problem_, x0, options_.lm);
+  r.stop_reason = sum.reason;
+  r.stop_value = sum.stop_value;
+  r.stop_threshold = sum.stop_threshold;
+  r.iterations = sum.iterations;
+  r.evaluations = sum.evaluations;
+  r.n_pixels = problem_->num_pixels();
+  if (sum.reason == StopReason::kInvalidStart) {
+    r.status = FitStatus::kModelFailure;
+    return r;
+  }
+  double chi2 = sum.chi2;
+  LmMatrix alpha;
+  LmVector beta;
+  ++r.evaluations;  // J^T W J and the S/N at the optimum
+  if (!problem_->normal_equations(sum.x, &chi2, &alpha, &beta)) {
+    r.status = FitStatus::kSolverFailure;
+    return r;
+  }
+  const ParamVector p = problem_->full(sum.x);
+  std::uint32_t flags = 0;
+  Eigen::LDLT<LmMatrix> ldlt(alpha);
+  const LmMatrix cov = ldlt.solve(LmMatrix::Identity(nf, nf));
+  const bool cov_ok = ldlt.info() == Eigen::Success && cov.allFinite() && (cov.diagonal().array() > 0).all();
+  if (!cov_ok) flags |= kFlagNoErrors;
+  for (int k = 0; k < nf; ++k)
+    if (cov_ok) r.errors[index(free[static_cast<std::size_t>(k)])] = std::sqrt(cov(k, k));
+  if (std::hypot(p[index(Param::kE1)], p[index(Param::kE2)]) > options_.model.ellipticity_mirror) flags |= kFlagMirrored;
+  ExactRenderer& any = renderer_for(epochs.front().box_size);
+  any.effective_params(p, &r.params);
+  r.e1_err = r.errors[index(Param::kE1)];
+  r.e2_err = r.errors[index(Param::kE2)];
+  any.component_fluxes(p, &r.bulge_flux, &r.disc_flux);
+  r.flux = r.bulge_flux + r.disc_flux;
+  r.chi2 = chi2;
+  r.likelihood = -0.5 * chi2;
+  r.snr = std::sqrt(problem_->signal());
+  switch (sum.reason) {
+    case StopReason::kMaxIterations:
+      r.status = FitStatus::kMaxIterations;
+      flags |= kFlagNotConverged;
+      break;
+    case StopReason::kSingular: r.status = FitStatus::kSolverFailure; break;
+    default: r.status = FitStatus::kOk; break;
+  }
+  r.flags = flags;
+  return r;
+}
+
+}  // namespace stampede

@@ -1,0 +1,55 @@
+// Fits one galaxy jointly to all its cutouts (the paper's extension (i); DES Y1's im3shape): the
+// model lives on the sky's tangent plane (u, v) in arcsec, and each cutout sees it through its own
+// WCS Jacobian (model/pixel_frame), PSF, weights and flux scale:
+//   chi2 = sum over cutouts c, pixels i of w_ci (d_ci - s_c M_c(p)_i)^2,
+// its normal equations summed likewise. Levenberg-Marquardt over every free parameter jointly
+// (x0, y0 are u0, v0; the radius is in arcsec; amplitudes per arcsec^2), drawn by the exact
+// renderer, which carries the frames exactly (render/exact_renderer). One fitter per thread;
+// renderers are made per cutout size on first use and kept, so a run allocates only as new box
+// sizes appear.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "engine/fit/fit_result.hpp"
+#include "engine/fit/fitter.hpp"
+#include "engine/model/pixel_frame.hpp"
+#include "engine/render/exact_renderer.hpp"
+
+namespace stampede {
+
+// One cutout as the fit sees it. psf: prepared by renderer_for(box_size) (any renderer of the
+// fitter's options and that size).
+struct EpochData {
+  std::span<const double> pixels;  // box_size^2, row-major (rows slow)
+  std::span<const double> weight;  // inverse variance per pixel; 0 masks
+  int box_size = 0;
+  PixelFrame frame;
+  std::shared_ptr<const PreparedPsf> psf;
+  double flux_scale = 1;  // data = flux_scale x model (a zero point's factor)
+};
+
+class MultiEpochFitter {
+ public:
+  // options.renderer must be kExact; options.render.stamp_size is not used (each cutout's is).
+  MultiEpochFitter(const FitterOptions& options);
+  ~MultiEpochFitter();
+
+  // The renderer for cutouts of box_size pixels (made on first use), e.g. to prepare their PSFs.
+  ExactRenderer& renderer_for(int box_size);
+
+  // Fits from `start` (sky units). Result: params, errors and fluxes in sky units; chi2 and S/N
+  // summed over the cutouts; n_pixels the unmasked pixels of all of them.
+  FitResult fit(std::span<const EpochData> epochs, const ParamVector& start);
+
+ private:
+  class Problem;
+  FitterOptions options_;
+  std::map<int, std::unique_ptr<ExactRenderer>> renderers_;
+  std::unique_ptr<Problem> problem_;
+};
+
+}  // namespace stampede
