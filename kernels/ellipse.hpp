@@ -22,6 +22,9 @@ struct EllipseQuadratic {
 // Requires |e| < 1 and r > 0.
 EllipseQuadratic ellipse_quadratic(double e1, double e2, double r);
 
+// The inverse of ellipse_quadratic: e1, e2 and r of a positive-definite form. False otherwise.
+bool ellipse_parameters(const EllipseQuadratic& q, double* e1, double* e2, double* r);
+
 // Partial derivatives of ellipse_quadratic(e1, e2, r) with respect to e1 and e2 at fixed r.
 void ellipse_quadratic_derivatives(double e1, double e2, double r, EllipseQuadratic* d_e1,
                                    EllipseQuadratic* d_e2);

@@ -113,7 +113,7 @@ class MultiEpochFitter::Problem final : public LeastSquaresProblem {
 };
 
 MultiEpochFitter::MultiEpochFitter(const FitterOptions& options)
-    : options_(options), problem_(std::make_unique<Problem>(*this)) {
+    : options_(options), plans_(FftPlanning::kEstimate), problem_(std::make_unique<Problem>(*this)) {
   if (options.renderer != RendererKind::kExact)
     throw std::invalid_argument("MultiEpochFitter: cutouts with WCS Jacobians need renderer = exact");
 }
@@ -128,6 +128,49 @@ ExactRenderer& MultiEpochFitter::renderer_for(int box_size) {
     it = renderers_.emplace(box_size, std::make_unique<ExactRenderer>(ro, options_.model)).first;
   }
   return *it->second;
+}
+
+ParamVector MultiEpochFitter::sky_start(const EpochData& e, std::uint32_t* flags) {
+  auto it = starters_.find(e.box_size);
+  if (it == starters_.end()) {
+    FitterOptions o = options_;
+    o.render.stamp_size = e.box_size;
+    it = starters_.emplace(e.box_size, std::make_unique<Fitter>(o, nullptr, plans_)).first;
+  }
+  Fitter& f = *it->second;
+  f.set_psf(e.psf);
+  const ParamVector pixel = f.starting_point(e.pixels, e.weight, flags);
+  // The moments' ellipse in pixels, carried to (u, v); the flux kept (A r^2), over the flux scale.
+  ParamVector sky = pixel;
+  const double rp = std::abs(pixel[index(Param::kRadius)]);
+  double e1 = 0, e2 = 0, r = rp * std::sqrt(std::abs(e.frame.determinant()));
+  const kernels::EllipseQuadratic q =
+      e.frame.to_sky(kernels::ellipse_quadratic(pixel[index(Param::kE1)], pixel[index(Param::kE2)], rp));
+  if (!kernels::ellipse_parameters(q, &e1, &e2, &r)) e1 = e2 = 0;
+  sky[index(Param::kE1)] = e1;
+  sky[index(Param::kE2)] = e2;
+  sky[index(Param::kRadius)] = r;
+  const double dx = pixel[index(Param::kX0)] - e.frame.x_ref, dy = pixel[index(Param::kY0)] - e.frame.y_ref;
+  sky[index(Param::kX0)] = e.frame.dudx * dx + e.frame.dudy * dy;
+  sky[index(Param::kY0)] = e.frame.dvdx * dx + e.frame.dvdy * dy;
+  const double area = rp * rp / (r * r) / e.flux_scale;
+  sky[index(Param::kBulgeA)] *= area;
+  sky[index(Param::kDiscA)] *= area;
+  return sky;
+}
+
+FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, std::size_t first) {
+  if (first >= epochs.size()) throw std::invalid_argument("MultiEpochFitter::fit: no epoch to start from");
+  if (!epochs[first].psf) {
+    FitResult r;
+    r.status = FitStatus::kPsfFailure;
+    return r;
+  }
+  std::uint32_t flags = 0;
+  const ParamVector start = sky_start(epochs[first], &flags);
+  FitResult r = fit(epochs, start);
+  r.flags |= flags;
+  return r;
 }
 
 FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, const ParamVector& start) {

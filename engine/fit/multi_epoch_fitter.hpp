@@ -44,11 +44,18 @@ class MultiEpochFitter {
   // Fits from `start` (sky units). Result: params, errors and fluxes in sky units; chi2 and S/N
   // summed over the cutouts; n_pixels the unmasked pixels of all of them.
   FitResult fit(std::span<const EpochData> epochs, const ParamVector& start);
+  // Fits from the single-stamp fit's moment start on epochs[first] (its own PSF), carried to the
+  // sky through its frame; *flags gains what that start reports (kFlagDefaultStart).
+  FitResult fit(std::span<const EpochData> epochs, std::size_t first = 0);
+  // That start alone.
+  ParamVector sky_start(const EpochData& epoch, std::uint32_t* flags);
 
  private:
   class Problem;
   FitterOptions options_;
+  FftPlanCache plans_;  // for the single-stamp fitters' start (the exact renderer plans its own)
   std::map<int, std::unique_ptr<ExactRenderer>> renderers_;
+  std::map<int, std::unique_ptr<Fitter>> starters_;  // per box size: moments for the start
   std::unique_ptr<Problem> problem_;
 };
 

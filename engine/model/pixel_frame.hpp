@@ -34,6 +34,16 @@ struct PixelFrame {
     const double d = determinant();
     m[0][0] = dvdy / d, m[0][1] = -dudy / d, m[1][0] = -dvdx / d, m[1][1] = dudx / d;
   }
+  // A quadratic form in pixel offsets as one in (u, v): J^-T Q J^-1.
+  kernels::EllipseQuadratic to_sky(const kernels::EllipseQuadratic& q) const {
+    double m[2][2];
+    inverse(m);
+    auto form = [&](double ax, double ay, double bx, double by) {
+      return ax * (q.xx * bx + q.xy * by) + ay * (q.xy * bx + q.yy * by);
+    };
+    return {form(m[0][0], m[1][0], m[0][0], m[1][0]), form(m[0][0], m[1][0], m[0][1], m[1][1]),
+            form(m[0][1], m[1][1], m[0][1], m[1][1])};
+  }
   // A quadratic form in (u, v) as one in pixel offsets: J^T Q J.
   kernels::EllipseQuadratic to_pixel(const kernels::EllipseQuadratic& q) const {
     // Columns of J: a = (dudx, dvdx), b = (dudy, dvdy); (J^T Q J)_ij = col_i^T Q col_j.

@@ -125,5 +125,23 @@ TEST(EllipseQuadraticDerivatives, ClosedFormAtZeroEllipticity) {
   EXPECT_DOUBLE_EQ(d2.yy, 0.0);
 }
 
+
+// ellipse_parameters inverts ellipse_quadratic, and refuses forms that are no ellipse.
+TEST(EllipseParameters, InvertEllipseQuadratic) {
+  for (double e1 : {-0.7, -0.2, 0.0, 0.35, 0.9})
+    for (double e2 : {-0.3, 0.0, 0.25})
+      for (double r : {0.05, 1.0, 37.0}) {
+        if (e1 * e1 + e2 * e2 >= 0.95) continue;
+        double a = 0, b = 0, c = 0;
+        ASSERT_TRUE(ellipse_parameters(ellipse_quadratic(e1, e2, r), &a, &b, &c));
+        EXPECT_NEAR(a, e1, 1e-12);
+        EXPECT_NEAR(b, e2, 1e-12);
+        EXPECT_NEAR(c, r, 1e-12 * r);
+      }
+  double a, b, c;
+  EXPECT_FALSE(ellipse_parameters({1.0, 2.0, 1.0}, &a, &b, &c));   // indefinite
+  EXPECT_FALSE(ellipse_parameters({-1.0, 0.0, -1.0}, &a, &b, &c));  // negative definite
+}
+
 }  // namespace
 }  // namespace stampede::kernels
