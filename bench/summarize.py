@@ -98,6 +98,14 @@ def main():
     if c1 and m1:
         print(f"- MPI driver overhead per object (1-rank job beyond the plain command): "
               f"{m1['ms_per_object'] - c1['ms_per_object']:+.3f} ms of {c1['ms_per_object']:.3f} ms")
+    one = all_runs.get("BM_OneEpoch/real_time")
+    four = all_runs.get("BM_FourEpochs/real_time")
+    if one and four:
+        print(f"- multi-epoch: four cutouts {seconds(four) / seconds(one):.2f}x one (target <= 4.5)")
+    one_fit = all_runs.get("BM_OneFit/real_time")
+    mcal = all_runs.get("BM_Metacal/real_time")
+    if one_fit and mcal:
+        print(f"- metacal: {seconds(mcal) / seconds(one_fit):.2f}x one fit (target <= 6)")
     p1 = all_runs.get("BM_PythonFitStamps/threads:1")
     p2 = all_runs.get("BM_PythonFitStamps/threads:2")
     call = all_runs.get("BM_PythonFitterCall")

@@ -1,0 +1,94 @@
+// A joint fit's cost against the number of cutouts (issue 20's budget: four epochs <= 4.5x one).
+// Eight bulge + disc galaxies (half-light radius 0.5-0.7", |e| <= 0.4), each seen in four 48-pixel
+// cutouts with DES-like random WCS Jacobians (0.263"/px within 3 %, any rotation, WCS shear <= 0.02)
+// and Moffat PSFs of FWHM 0.85-1.05", drawn by the simulator, noise at S/N 30 per cutout; exact
+// renderer, single thread, each fit from the first cutout's moments.
+//   BM_OneEpoch    the first cutout alone
+//   BM_FourEpochs  all four jointly
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "engine/fit/multi_epoch_fitter.hpp"
+#include "engine/sim/sim_renderer.hpp"
+
+namespace {
+
+using namespace stampede;
+
+constexpr int kBox = 48, kGalaxies = 8, kEpochs = 4;
+
+struct Cutout {
+  PixelFrame frame;
+  PsfModel psf;
+  std::vector<double> pixels, weight;
+};
+
+FitterOptions options() {
+  FitterOptions o;
+  o.renderer = RendererKind::kExact;
+  return o;
+}
+
+const std::vector<Cutout>& cutouts() {
+  static const std::vector<Cutout> all = [] {
+    std::vector<Cutout> out;
+    std::mt19937 rng(2026);
+    std::uniform_real_distribution<double> u(-1, 1);
+    std::normal_distribution<double> noise(0, 1);
+    for (int g = 0; g < kGalaxies; ++g) {
+      const double e1 = 0.28 * u(rng), e2 = 0.28 * u(rng), radius = 0.6 + 0.1 * u(rng), fb = 0.5 + 0.5 * u(rng);
+      for (int k = 0; k < kEpochs; ++k) {
+        Cutout c;
+        const double angle = M_PI * u(rng), scale = 0.263 * (1 + 0.03 * u(rng)), g1 = 0.02 * u(rng), g2 = 0.02 * u(rng);
+        const double co = std::cos(angle), si = std::sin(angle);
+        c.frame = {scale * (co * (1 + g1) - si * g2), scale * (co * g2 - si * (1 - g1)), scale * (si * (1 + g1) + co * g2),
+                   scale * (si * g2 + co * (1 - g1)), 23.5 + 0.5 * u(rng), 23.5 + 0.5 * u(rng)};
+        c.psf.kind = PsfKind::kMoffat;
+        c.psf.moffat = {3.0, (0.95 + 0.1 * u(rng)) / 0.263, 0.03 * u(rng), 0.03 * u(rng), 0.0};
+        double pe1 = 0, pe2 = 0, pr = 0, x = 0, y = 0;
+        kernels::ellipse_parameters(c.frame.to_pixel(kernels::ellipse_quadratic(e1, e2, radius)), &pe1, &pe2, &pr);
+        c.frame.to_pixel(0.0, 0.0, &x, &y);
+        const SimComponent parts[2] = {{4.0, fb, pr, pe1, pe2, x, y}, {1.0, 1 - fb, pr, pe1, pe2, x, y}};
+        std::vector<double> img(kBox * kBox);
+        SimWorkspace ws;
+        SimRenderer(c.psf, SimRenderer::Options{}).render(parts, kBox, img, ws);
+        double sum2 = 0;
+        for (double v : img) sum2 += v * v;
+        const double flux = 30 / std::sqrt(sum2);  // S/N 30 at unit noise
+        c.pixels.resize(img.size());
+        for (std::size_t i = 0; i < img.size(); ++i) c.pixels[i] = flux * img[i] + noise(rng);
+        c.weight.assign(img.size(), 1.0);
+        out.push_back(std::move(c));
+      }
+    }
+    return out;
+  }();
+  return all;
+}
+
+void fit_epochs(benchmark::State& state, int epochs) {
+  MultiEpochFitter fitter(options());
+  std::vector<EpochData> data;
+  for (const Cutout& c : cutouts()) {
+    std::string error;
+    data.push_back({c.pixels, c.weight, kBox, c.frame, fitter.renderer_for(kBox).prepare_psf(c.psf, &error), 1.0});
+    if (!data.back().psf) return state.SkipWithError(error.c_str());
+  }
+  long long n = 0;
+  for (auto _ : state)
+    for (int g = 0; g < kGalaxies; ++g, ++n)
+      benchmark::DoNotOptimize(fitter.fit(std::span<const EpochData>(data).subspan(g * kEpochs, epochs)));
+  state.counters["ms_per_object"] = benchmark::Counter(n * 1e-3, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
+void BM_OneEpoch(benchmark::State& state) { fit_epochs(state, 1); }
+void BM_FourEpochs(benchmark::State& state) { fit_epochs(state, kEpochs); }
+BENCHMARK(BM_OneEpoch)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_FourEpochs)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();
