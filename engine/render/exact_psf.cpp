@@ -170,8 +170,87 @@ bool blur_moments(const PsfModel& psf, kernels::BlurMoments* out) {
   return true;
 }
 
+namespace {
+
+std::shared_ptr<const ExactPsf> build_image_psf(const PsfImage& img, int n, std::string* error) {
+  auto fail = [&](const std::string& why) -> std::shared_ptr<const ExactPsf> {
+    if (error) *error = "exact renderer, image PSF: " + why;
+    return nullptr;
+  };
+  if (img.oversampling != 1 || !img.pixel_integrated)
+    return fail("only pixel integrals at the data's sampling (oversampling 1, pixel-integrated) can be drawn");
+  if (img.nx != img.ny || img.nx < 3) return fail("the image must be square, 3 pixels or more");
+  if (n < 8) return fail("period below 8 pixels");
+  // The term list: every bin of the principal zone once, weight 1 / n^2 (FFTW's normalisation).
+  auto terms = std::make_shared<kernels::KSpaceTerms>();
+  const int half = n / 2 + 1;
+  const int stride = (half + kernels::kKBlock - 1) / kernels::kKBlock * kernels::kKBlock;
+  const int per_row = stride / kernels::kKBlock;
+  const double dk = 2 * kPi / n, norm = 1.0 / (static_cast<double>(n) * n);
+  terms->n = n;
+  terms->row_stride = stride;
+  terms->alias_max = 0;
+  terms->kx_values.resize(static_cast<std::size_t>(stride));
+  terms->ky_values.resize(static_cast<std::size_t>(n));
+  for (int jx = 0; jx < stride; ++jx) terms->kx_values[static_cast<std::size_t>(jx)] = dk * jx;
+  for (int jy = 0; jy < n; ++jy) terms->ky_values[static_cast<std::size_t>(jy)] = dk * signed_row(jy, n);
+  for (int jy = 0; jy < n; ++jy)
+    for (int b = 0; b < per_row; ++b) {
+      terms->block_begin.push_back(static_cast<std::int32_t>(terms->entry_ix.size()));
+      terms->entry_ix.push_back(b * kernels::kKBlock);
+      terms->entry_iy.push_back(jy);
+      terms->entry_alias.push_back(0);
+      for (int l = 0; l < kernels::kKBlock; ++l) terms->ppi.push_back(b * kernels::kKBlock + l < half ? norm : 0.0);
+    }
+  terms->block_begin.push_back(static_cast<std::int32_t>(terms->entry_ix.size()));
+  // D(k) at the bins: the samples' transform about the PSF's centre, normalised by their sum.
+  std::vector<double> fx(static_cast<std::size_t>(half)), fy(static_cast<std::size_t>(n));
+  for (int jx = 0; jx < half; ++jx) fx[static_cast<std::size_t>(jx)] = static_cast<double>(jx) / n;
+  for (int jy = 0; jy < n; ++jy) fy[static_cast<std::size_t>(jy)] = static_cast<double>(signed_row(jy, n)) / n;
+  std::vector<std::complex<double>> d(static_cast<std::size_t>(n) * half);
+  std::string why;
+  // PsfImage::transform divides a pixel-integrated image's top-hat out (the upsampled renderer adds
+  // its own); here the samples' transform is wanted as it is, PSF x pixel.
+  PsfImage samples = img;
+  samples.pixel_integrated = false;
+  if (!samples.transform(fx, fy, 0.5, d, &why)) return fail(why);
+  std::vector<double> re(static_cast<std::size_t>(n) * stride, 0.0), im(re.size(), 0.0);
+  for (int jy = 0; jy < n; ++jy)
+    for (int jx = 0; jx < half; ++jx) {
+      const std::complex<double> v = d[static_cast<std::size_t>(jy) * half + jx];
+      re[static_cast<std::size_t>(jy) * stride + jx] = v.real();
+      im[static_cast<std::size_t>(jy) * stride + jx] = v.imag();
+    }
+  // Second moments about the centre (the samples are PSF x pixel already), and adaptive ones.
+  const double cx = std::isnan(img.centre_x) ? 0.5 * (img.nx - 1) : img.centre_x;
+  const double cy = std::isnan(img.centre_y) ? 0.5 * (img.ny - 1) : img.centre_y;
+  double s = 0, sxx = 0, sxy = 0, syy = 0;
+  for (int y = 0; y < img.ny; ++y)
+    for (int x = 0; x < img.nx; ++x) {
+      const double v = img.pixels[static_cast<std::size_t>(y) * img.nx + x];
+      s += v, sxx += v * (x - cx) * (x - cx), sxy += v * (x - cx) * (y - cy), syy += v * (y - cy) * (y - cy);
+    }
+  kernels::BlurMoments blur{sxx / s, sxy / s, syy / s};
+  if (!(blur.xx > 0 && blur.yy > 0 && blur.xx * blur.yy > blur.xy * blur.xy))
+    return fail("its second moments are not those of a PSF (not positive definite)");
+  const std::vector<double> ones(img.pixels.size(), 1.0);
+  const kernels::ImageMoments m = kernels::adaptive_moments(img.pixels, ones, img.nx);
+  if (!m.valid) return fail("the PSF's adaptive moments did not converge");
+  return std::make_shared<const ExactPsf>(std::move(terms), blur, m.xx, m.xy, m.yy, std::move(re), std::move(im));
+}
+
+}  // namespace
+
 std::shared_ptr<const ExactPsf> build_exact_psf(const PsfModel& psf, int period, double tolerance,
                                                 std::string* error) {
+  if (psf.kind == PsfKind::kImage) {
+    std::string why;
+    if (!psf.IsValid(&why) || !psf.image) {
+      if (error) *error = "exact renderer, image PSF: " + why;
+      return nullptr;
+    }
+    return build_image_psf(*psf.image, period, error);
+  }
   std::shared_ptr<const kernels::KSpaceTerms> terms;
   try {
     terms = build_kspace_terms(psf, period, tolerance);

@@ -272,7 +272,21 @@ bool ExactRenderer::prepare(const ParamVector& p, kernels::KSpaceModel* m, Model
   return true;
 }
 
+void ExactRenderer::apply_bin_factor(int k) {
+  if (!psf_->has_bin_factor()) return;
+  double* re = spectrum_re(k);
+  double* im = spectrum_im(k);
+  const double* dr = psf_->bin_re();
+  const double* di = psf_->bin_im();
+  for (std::size_t i = 0; i < spectrum_size_; ++i) {
+    const double a = re[i], b = im[i];
+    re[i] = a * dr[i] - b * di[i];
+    im[i] = a * di[i] + b * dr[i];
+  }
+}
+
 void ExactRenderer::inverse(int k, double* stamp) {
+  apply_bin_factor(k);
   const int half = n_ / 2 + 1;
   auto* c = static_cast<double*>(complex_.data());
   const double* re = spectrum_re(k);

@@ -94,7 +94,9 @@ class ExactRenderer final : public Renderer {
   // The kernels' per-render parameters and the components' real-space forms; false when no model
   // exists for p.
   bool prepare(const ParamVector& p, kernels::KSpaceModel* m, ModelComponents* comp);
-  // Inverse FFT of spectrum k into grid image k, and the stamp cut from it.
+  // An image PSF's transform times spectrum k, bin by bin (nothing for analytic PSFs).
+  void apply_bin_factor(int k);
+  // Inverse FFT of spectrum k (after apply_bin_factor) into grid image k, and the stamp cut from it.
   void inverse(int k, double* stamp);
   // Subtracts the copies' light: from the model (jacobian false), or from the component images
   // and the five shape derivative images (shape[k] null: not wanted).
