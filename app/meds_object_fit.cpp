@@ -1,0 +1,160 @@
+// One MEDS object's joint fit; see meds_object_fit.hpp.
+#include "app/meds_object_fit.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <stdexcept>
+
+#include "io/psfex_file.hpp"
+
+namespace stampede::app {
+
+void apply_uberseg(std::span<const double> seg, int box_size, std::int64_t number, std::span<double> weight) {
+  struct Labelled {
+    int x, y;
+    bool own;
+  };
+  std::vector<Labelled> labelled;
+  for (int y = 0; y < box_size; ++y)
+    for (int x = 0; x < box_size; ++x) {
+      const double v = seg[static_cast<std::size_t>(y) * box_size + x];
+      if (v != 0) labelled.push_back({x, y, v == static_cast<double>(number)});
+    }
+  if (labelled.empty()) return;
+  for (int y = 0; y < box_size; ++y)
+    for (int x = 0; x < box_size; ++x) {
+      long best_own = -1, best_other = -1;
+      for (const Labelled& l : labelled) {
+        const long d = static_cast<long>(l.x - x) * (l.x - x) + static_cast<long>(l.y - y) * (l.y - y);
+        long& best = l.own ? best_own : best_other;
+        if (best < 0 || d < best) best = d;
+      }
+      if (best_other >= 0 && (best_own < 0 || best_other < best_own)) weight[static_cast<std::size_t>(y) * box_size + x] = 0;
+    }
+}
+
+MedsObjectFitter::MedsObjectFitter(io::MedsFile& meds, const MedsFitOptions& options)
+    : meds_(meds), options_(options), fitter_(options.fitter) {
+  models_.resize(meds.images().size());
+  model_errors_.resize(meds.images().size());
+  if (options_.psf_dir.empty()) options_.psf_dir = std::filesystem::path(meds.path()).parent_path().string();
+}
+
+MedsObjectFitter::~MedsObjectFitter() = default;
+
+const PsfexModel* MedsObjectFitter::psfex(long long file_id, std::string* problem) {
+  const std::size_t i = static_cast<std::size_t>(file_id);
+  if (!models_[i] && model_errors_[i].empty()) {
+    const std::string& name = meds_.images()[i].psf_path;
+    if (name.empty()) {
+      model_errors_[i] = meds_.path() + ": image_info row " + std::to_string(file_id) + " names no PSFEx model (psf_path)";
+    } else {
+      const std::filesystem::path path = std::filesystem::path(name).is_absolute()
+                                             ? std::filesystem::path(name)
+                                             : std::filesystem::path(options_.psf_dir.empty() ? "." : options_.psf_dir) / name;
+      try {
+        models_[i] = io::read_psfex_model(path.string());
+      } catch (const std::runtime_error& e) {
+        model_errors_[i] = e.what();
+      }
+    }
+  }
+  if (!models_[i]) {
+    *problem = model_errors_[i];
+    return nullptr;
+  }
+  return &*models_[i];
+}
+
+MedsObjectResult MedsObjectFitter::fit(long long row) {
+  MedsObjectResult out;
+  last_psfs_.clear();
+  const io::MedsObject o = meds_.object(row);
+  out.id = o.id, out.number = o.number, out.ra = o.ra, out.dec = o.dec;
+  auto note = [&](const std::string& why) {
+    if (out.problem.empty()) out.problem = why;
+  };
+  if (!o.problem.empty()) {
+    note(o.problem);
+    out.flags |= kFlagNoUsableEpoch;
+    return out;
+  }
+  const int box = static_cast<int>(o.box_size);
+  const std::size_t npix = static_cast<std::size_t>(box) * box;
+  std::vector<EpochData> epochs;
+  long long pixels_total = 0, pixels_unmasked = 0;
+  double psf_e1 = 0, psf_e2 = 0, psf_size = 0;
+  const int first = options_.fit_coadd ? 0 : 1, last = options_.fit_coadd ? 1 : static_cast<int>(o.cutouts.size());
+  if (pixels_.size() < o.cutouts.size()) pixels_.resize(o.cutouts.size()), weights_.resize(o.cutouts.size());
+  for (int k = first; k < last && k < static_cast<int>(o.cutouts.size()); ++k) {
+    const io::MedsCutout& c = o.cutouts[static_cast<std::size_t>(k)];
+    if (!c.problem.empty()) {
+      note(c.problem);
+      continue;
+    }
+    std::vector<double>& pixels = pixels_[static_cast<std::size_t>(k)];
+    std::vector<double>& weight = weights_[static_cast<std::size_t>(k)];
+    pixels.resize(npix);
+    weight.resize(npix);
+    meds_.read_cutout(o, k, io::MedsCutoutType::kImage, pixels);
+    if (meds_.has(io::MedsCutoutType::kWeight))
+      meds_.read_cutout(o, k, io::MedsCutoutType::kWeight, weight);
+    else
+      std::fill(weight.begin(), weight.end(), 1.0);
+    if (meds_.has(io::MedsCutoutType::kBmask)) {
+      bmask_.resize(npix);
+      meds_.read_cutout(o, k, io::MedsCutoutType::kBmask, bmask_);
+      for (std::size_t i = 0; i < npix; ++i)
+        if (static_cast<std::uint32_t>(static_cast<std::int64_t>(bmask_[i])) & options_.bmask_bits) weight[i] = 0;
+    }
+    if (options_.uberseg && meds_.has(io::MedsCutoutType::kSeg)) {
+      seg_.resize(npix);
+      meds_.read_cutout(o, k, io::MedsCutoutType::kSeg, seg_);
+      apply_uberseg(seg_, box, o.number, weight);
+    }
+    for (std::size_t i = 0; i < npix; ++i)
+      if (!std::isfinite(pixels[i]) || !(weight[i] >= 0) || !std::isfinite(weight[i])) weight[i] = 0, pixels[i] = 0;
+    long long unmasked = 0;
+    for (double w : weight) unmasked += w > 0;
+    pixels_total += static_cast<long long>(npix);
+    pixels_unmasked += unmasked;
+    if (unmasked == 0) {
+      note(meds_.path() + ": object " + std::to_string(row) + ", cutout " + std::to_string(k) + ": every pixel masked");
+      continue;
+    }
+    // The PSF: the source image's PSFEx model at the object's position there (1-based X_IMAGE).
+    std::string why;
+    const PsfexModel* model = psfex(c.file_id, &why);
+    std::shared_ptr<const PsfImage> image = model ? model->image_at(c.orig_col + 1, c.orig_row + 1, &why) : nullptr;
+    std::shared_ptr<const PreparedPsf> prepared;
+    if (image) prepared = fitter_.renderer_for(box).prepare_psf(PsfModel::Image(image), &why);
+    if (!prepared) {
+      note(meds_.path() + ": object " + std::to_string(row) + ", cutout " + std::to_string(k) + ": PSF: " + why);
+      out.flags |= kFlagPsfFailure;
+      continue;
+    }
+    const io::MedsImageInfo& info = meds_.images()[static_cast<std::size_t>(c.file_id)];
+    const double scale = std::pow(10.0, 0.4 * (info.magzp - options_.magzp_ref));
+    epochs.push_back({pixels, weight, box, PixelFrame::from_meds(c.dudrow, c.dudcol, c.dvdrow, c.dvdcol, c.cutout_row, c.cutout_col),
+                      prepared, scale});
+    last_psfs_.push_back(image);
+    const double xx = prepared->xx(), xy = prepared->xy(), yy = prepared->yy();
+    psf_e1 += (xx - yy) / (xx + yy), psf_e2 += 2 * xy / (xx + yy), psf_size += std::sqrt(0.5 * (xx + yy));
+  }
+  out.n_epochs = static_cast<int>(epochs.size());
+  out.masked_fraction = pixels_total > 0 ? 1.0 - static_cast<double>(pixels_unmasked) / pixels_total : NAN;
+  if (epochs.empty()) {
+    out.flags |= kFlagNoUsableEpoch;
+    return out;
+  }
+  out.psf_e1 = psf_e1 / out.n_epochs, out.psf_e2 = psf_e2 / out.n_epochs, out.psf_size = psf_size / out.n_epochs;
+  if (1.0 - out.masked_fraction < options_.min_unmasked_fraction) {
+    out.flags |= kFlagTooMasked;
+    return out;
+  }
+  out.fit = fitter_.fit(epochs, 0);
+  out.flags |= out.fit.flags;
+  return out;
+}
+
+}  // namespace stampede::app

@@ -1,0 +1,77 @@
+// One MEDS object fitted on all its usable single-epoch cutouts (issue 20): each cutout read from
+// the tile, masked (zero weight, bmask bits, uberseg from the seg map), given its PSF (the PSFEx
+// model of its source image at the object's position there) and its frame (the WCS Jacobian), its
+// flux scaled to the reference zero point, and the object fitted jointly (MultiEpochFitter).
+// The seam for `stampede fit --meds`, which is not yet built: this fits one object at a time.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "engine/fit/multi_epoch_fitter.hpp"
+#include "engine/model/psfex_model.hpp"
+#include "engine/pipeline/object_record.hpp"
+#include "io/meds_file.hpp"
+
+namespace stampede::app {
+
+// Row flags of a MEDS fit, above the input flags of engine/pipeline/object_record.hpp.
+enum MedsFlag : std::uint32_t {
+  kFlagNoUsableEpoch = 1u << 19,  // no cutout could be used (all masked, bad, or without a PSF)
+  kFlagTooMasked = 1u << 20,      // the usable pixels' fraction fell below min_unmasked_fraction
+};
+
+struct MedsFitOptions {
+  FitterOptions fitter;  // renderer must be exact; stamp_size is each cutout's
+  bool fit_coadd = false;  // fit cutout 0 (the coadd) alone instead of the single epochs
+  std::uint32_t bmask_bits = 0xffffffffu;  // a pixel with any of these bmask bits set is masked
+  bool uberseg = true;                     // mask pixels nearest another object in the seg map
+  double min_unmasked_fraction = 0.5;      // of the usable cutouts' pixels
+  double magzp_ref = 30;                   // the output fluxes' zero point
+  std::string psf_dir;                     // where image_info's psf_path is relative to
+};
+
+struct MedsObjectResult {
+  std::int64_t id = -1, number = -1;
+  double ra = NAN, dec = NAN;
+  FitResult fit;  // sky units: e in (u, v), radius in arcsec, fluxes at magzp_ref
+  std::uint32_t flags = 0;
+  int n_epochs = 0;                 // cutouts fitted
+  double masked_fraction = NAN;     // of the usable cutouts' pixels
+  double psf_e1 = NAN, psf_e2 = NAN, psf_size = NAN;  // mean over the fitted cutouts, pixel frame, adaptive moments
+  std::string problem;              // why cutouts or the object were not used (the first reason)
+};
+
+class MedsObjectFitter {
+ public:
+  // `meds` must outlive it. Throws std::invalid_argument for options that cannot work (renderer).
+  MedsObjectFitter(io::MedsFile& meds, const MedsFitOptions& options);
+  ~MedsObjectFitter();
+  MedsObjectResult fit(long long row);
+  // What the last fit used for cutout k of its epochs (for tests: the PSF from its PSFEx model).
+  const std::vector<std::shared_ptr<const PsfImage>>& last_psfs() const { return last_psfs_; }
+
+ private:
+  // The PSFEx model of image_info row `file_id`, loaded on first use; null with *problem if not.
+  const PsfexModel* psfex(long long file_id, std::string* problem);
+
+  io::MedsFile& meds_;
+  MedsFitOptions options_;
+  MultiEpochFitter fitter_;
+  std::vector<std::optional<PsfexModel>> models_;
+  std::vector<std::string> model_errors_;
+  // Per cutout of the current object: pixels, weights, and scratch for seg and bmask.
+  std::vector<std::vector<double>> pixels_, weights_;
+  std::vector<double> seg_, bmask_;
+  std::vector<std::shared_ptr<const PsfImage>> last_psfs_;
+};
+
+// Uberseg: in a box_size^2 seg cutout, zero the weight of every pixel whose nearest labelled seg
+// pixel (Euclidean, pixel centres) belongs to another object than `number`; ties keep the pixel.
+// A cutout with no labelled pixel is left alone.
+void apply_uberseg(std::span<const double> seg, int box_size, std::int64_t number, std::span<double> weight);
+
+}  // namespace stampede::app
