@@ -194,7 +194,8 @@ TEST_F(BrokenMeds, ASingularJacobianIsThatCutoutsProblem) {
   set_cell("object_data", "dudrow", 2, 1, 0.0);
   set_cell("object_data", "dudcol", 2, 1, 0.0);
   MedsFile m = MedsFile::open(path);
-  const std::string& p = m.object(2).cutouts[1].problem;
+  const MedsObject o = m.object(2);
+  const std::string& p = o.cutouts[1].problem;
   EXPECT_TRUE(Contains(p, "object 2")) << p;
   EXPECT_TRUE(Contains(p, "cutout 1")) << p;
   EXPECT_TRUE(Contains(p, "'dudrow dudcol dvdrow dvdcol'[1]")) << p;
