@@ -697,27 +697,11 @@ std::vector<double> FitsFile::read_column(const std::string& name) {
 }
 
 void FitsFile::read_column_rows(const std::string& name, long long first_row, std::span<double> out) {
-  void* nulval = nullptr;
-  const int col = numeric_column(name, &nulval);
-  require_rows(name, first_row, out.size(), 1);
-  if (out.empty()) return;
-  double nan = kNaN;
-  int anynul = 0, status = 0;
-  fits_read_col(as_fits(handle()), TDOUBLE, col, first_row + 1, 1, static_cast<LONGLONG>(out.size()),
-                nulval ? &nan : nullptr, out.data(), &anynul, &status);
-  if (status != 0) fail_status(status, "cannot read column '" + name + "'");
+  read_rows(name, first_row, out, false);
 }
 
 void FitsFile::read_column_rows(const std::string& name, long long first_row, std::span<long long> out) {
-  void* nulval = nullptr;
-  const int col = numeric_column(name, &nulval);
-  if (nulval == nullptr) fail("column '" + name + "' is not an integer column");
-  require_rows(name, first_row, out.size(), 1);
-  if (out.empty()) return;
-  int anynul = 0, status = 0;
-  fits_read_col(as_fits(handle()), TLONGLONG, col, first_row + 1, 1, static_cast<LONGLONG>(out.size()), nullptr,
-                out.data(), &anynul, &status);
-  if (status != 0) fail_status(status, "cannot read column '" + name + "'");
+  read_rows(name, first_row, out, false);
 }
 
 long long FitsFile::column_repeat(const std::string& name) {
@@ -739,9 +723,17 @@ void FitsFile::require_rows(const std::string& name, long long first_row, std::s
 }
 
 void FitsFile::read_vector_rows(const std::string& name, long long first_row, std::span<double> out) {
+  read_rows(name, first_row, out, true);
+}
+
+void FitsFile::read_vector_rows(const std::string& name, long long first_row, std::span<long long> out) {
+  read_rows(name, first_row, out, true);
+}
+
+void FitsFile::read_rows(const std::string& name, long long first_row, std::span<double> out, bool vector) {
   void* nulval = nullptr;
-  long long repeat = 0;
-  const int col = numeric_column(name, &nulval, &repeat);
+  long long repeat = 1;
+  const int col = numeric_column(name, &nulval, vector ? &repeat : nullptr);
   require_rows(name, first_row, out.size(), repeat);
   if (out.empty()) return;
   double nan = kNaN;
@@ -751,10 +743,10 @@ void FitsFile::read_vector_rows(const std::string& name, long long first_row, st
   if (status != 0) fail_status(status, "cannot read column '" + name + "'");
 }
 
-void FitsFile::read_vector_rows(const std::string& name, long long first_row, std::span<long long> out) {
+void FitsFile::read_rows(const std::string& name, long long first_row, std::span<long long> out, bool vector) {
   void* nulval = nullptr;
-  long long repeat = 0;
-  const int col = numeric_column(name, &nulval, &repeat);
+  long long repeat = 1;
+  const int col = numeric_column(name, &nulval, vector ? &repeat : nullptr);
   if (nulval == nullptr) fail("column '" + name + "' is not an integer column");
   require_rows(name, first_row, out.size(), repeat);
   if (out.empty()) return;

@@ -159,6 +159,10 @@ class FitsFile {
   // Column number of a scalar numeric column (throws otherwise); *nulval_if_integer is left
   // non-null for integer columns, whose TNULL values must read as NaN.
   int numeric_column(const std::string& name, void** nulval_if_integer, long long* repeat = nullptr);
+  // Rows of a numeric column as doubles (TNULL -> NaN for integer columns) or exact integers;
+  // vector: any repeat (out holds whole rows), else a scalar column only.
+  void read_rows(const std::string& name, long long first_row, std::span<double> out, bool vector);
+  void read_rows(const std::string& name, long long first_row, std::span<long long> out, bool vector);
   // Checks that `values` values from row first_row of a column of `repeat` per row are in the table.
   void require_rows(const std::string& name, long long first_row, std::size_t values, long long repeat);
   void close_noexcept() noexcept;

@@ -18,4 +18,14 @@ const char* ToString(FitStatus s) {
 
 bool IsUsable(FitStatus s) { return s == FitStatus::kOk || s == FitStatus::kMaxIterations; }
 
+FitStatus status_of_stop(StopReason reason, std::uint32_t* flags) {
+  switch (reason) {
+    case StopReason::kMaxIterations:
+      *flags |= kFlagNotConverged;
+      return FitStatus::kMaxIterations;
+    case StopReason::kSingular: return FitStatus::kSolverFailure;
+    default: return FitStatus::kOk;
+  }
+}
+
 }  // namespace stampede

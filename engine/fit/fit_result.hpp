@@ -21,6 +21,9 @@ inline constexpr int kFitStatusCount = static_cast<int>(FitStatus::kPsfFailure) 
 const char* ToString(FitStatus s);
 // Whether the fitted parameters may be used for science (kMaxIterations: with a flag).
 bool IsUsable(FitStatus s);
+// The status of a fit the solver ended with `reason` (past a valid start); *flags gains
+// kFlagNotConverged at the iteration limit.
+FitStatus status_of_stop(StopReason reason, std::uint32_t* flags);
 
 // Flag bits (documented in README, "Output flags").
 enum FitFlag : std::uint32_t {

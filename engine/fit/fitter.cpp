@@ -532,14 +532,7 @@ FitResult Fitter::run(const ParamVector& start, std::uint32_t flags) {
     for (std::size_t i = 0; i < m.size(); ++i) s2 += weight_[i] * m[i] * m[i];
     r.snr = std::sqrt(s2 * units_.chi2());
   }
-  switch (sum.reason) {
-    case StopReason::kMaxIterations:
-      r.status = FitStatus::kMaxIterations;
-      flags |= kFlagNotConverged;
-      break;
-    case StopReason::kSingular: r.status = FitStatus::kSolverFailure; break;
-    default: r.status = FitStatus::kOk; break;
-  }
+  r.status = status_of_stop(sum.reason, &flags);
   r.flags = flags;
   return r;
 }

@@ -231,14 +231,7 @@ FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, const ParamVe
   r.chi2 = chi2;
   r.likelihood = -0.5 * chi2;
   r.snr = std::sqrt(problem_->signal());
-  switch (sum.reason) {
-    case StopReason::kMaxIterations:
-      r.status = FitStatus::kMaxIterations;
-      flags |= kFlagNotConverged;
-      break;
-    case StopReason::kSingular: r.status = FitStatus::kSolverFailure; break;
-    default: r.status = FitStatus::kOk; break;
-  }
+  r.status = status_of_stop(sum.reason, &flags);
   r.flags = flags;
   return r;
 }
