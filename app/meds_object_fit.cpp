@@ -33,8 +33,23 @@ void apply_uberseg(std::span<const double> seg, int box_size, std::int64_t numbe
     }
 }
 
+namespace {
+
+// The options with one amplitude fixed at 0 (bord's pure bulge or pure disc).
+FitterOptions single_component(FitterOptions o, Param zero) {
+  o.params[zero].free = false;
+  o.params[zero].start = 0;
+  return o;
+}
+
+}  // namespace
+
 MedsObjectFitter::MedsObjectFitter(io::MedsFile& meds, const MedsFitOptions& options)
-    : meds_(meds), options_(options), fitter_(options.fitter) {
+    : meds_(meds),
+      options_(options),
+      fitter_(options.model == MedsModel::kBulgeOrDisc ? single_component(options.fitter, Param::kBulgeA) : options.fitter) {
+  if (options.model == MedsModel::kBulgeOrDisc)
+    bulge_fitter_ = std::make_unique<MultiEpochFitter>(single_component(options.fitter, Param::kDiscA));
   models_.resize(meds.images().size());
   model_errors_.resize(meds.images().size());
   if (options_.psf_dir.empty()) options_.psf_dir = std::filesystem::path(meds.path()).parent_path().string();
@@ -153,6 +168,15 @@ MedsObjectResult MedsObjectFitter::fit(long long row) {
     return out;
   }
   out.fit = fitter_.fit(epochs, 0);
+  if (bulge_fitter_) {
+    // The PSFs were prepared by fitter_'s renderers: the same kind, options and box size.
+    FitResult bulge = bulge_fitter_->fit(epochs, 0);
+    const bool disc_ok = IsUsable(out.fit.status), bulge_ok = IsUsable(bulge.status);
+    const bool take_bulge = bulge_ok && (!disc_ok || bulge.likelihood > out.fit.likelihood);
+    if (take_bulge) std::swap(out.fit, bulge);
+    out.is_bulge = take_bulge;
+    out.other_likelihood = bulge.likelihood;  // the loser's, after the swap
+  }
   out.flags |= out.fit.flags;
   return out;
 }

@@ -24,8 +24,13 @@ enum MedsFlag : std::uint32_t {
   kFlagTooMasked = 1u << 20,      // the usable pixels' fraction fell below min_unmasked_fraction
 };
 
+// `bd`: the co-elliptical bulge + disc; `bord`: a pure bulge and a pure disc fitted each, the
+// better likelihood kept (DES Y1's im3shape).
+enum class MedsModel { kBulgeDisc, kBulgeOrDisc };
+
 struct MedsFitOptions {
-  FitterOptions fitter;  // renderer must be exact; stamp_size is each cutout's
+  FitterOptions fitter;  // renderer must be exact; stamp_size is each cutout's; amplitudes free for bd
+  MedsModel model = MedsModel::kBulgeDisc;
   bool fit_coadd = false;  // fit cutout 0 (the coadd) alone instead of the single epochs
   std::uint32_t bmask_bits = 0xffffffffu;  // a pixel with any of these bmask bits set is masked
   bool uberseg = true;                     // mask pixels nearest another object in the seg map
@@ -43,6 +48,8 @@ struct MedsObjectResult {
   double masked_fraction = NAN;     // of the usable cutouts' pixels
   double psf_e1 = NAN, psf_e2 = NAN, psf_size = NAN;  // mean over the fitted cutouts, pixel frame, adaptive moments
   std::string problem;              // why cutouts or the object were not used (the first reason)
+  bool is_bulge = false;            // bord: the pure bulge won
+  double other_likelihood = NAN;    // bord: the losing model's
 };
 
 class MedsObjectFitter {
@@ -60,7 +67,8 @@ class MedsObjectFitter {
 
   io::MedsFile& meds_;
   MedsFitOptions options_;
-  MultiEpochFitter fitter_;
+  MultiEpochFitter fitter_;  // bd; bord: the pure disc
+  std::unique_ptr<MultiEpochFitter> bulge_fitter_;  // bord: the pure bulge
   std::vector<std::optional<PsfexModel>> models_;
   std::vector<std::string> model_errors_;
   // Per cutout of the current object: pixels, weights, and scratch for seg and bmask.

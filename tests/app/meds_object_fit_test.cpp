@@ -80,6 +80,25 @@ TEST(MedsObjectFit, EachCutoutUsesItsPsfexModelAtTheObjectsPosition) {
   EXPECT_LT(worst, 2e-6);
 }
 
+// bord: a pure bulge and a pure disc, the better likelihood kept; each is the single-component
+// fit alone, and its other amplitude is 0.
+TEST(MedsObjectFit, BulgeOrDiscKeepsTheBetterLikelihood) {
+  io::MedsFile meds = io::MedsFile::open(kSample + "/meds.fits");
+  MedsFitOptions o = options();
+  o.model = MedsModel::kBulgeOrDisc;
+  MedsObjectFitter bord(meds, o);
+  int bulges = 0;
+  for (long long row = 0; row < 6; ++row) {
+    const MedsObjectResult r = bord.fit(row);
+    ASSERT_EQ(r.fit.status, FitStatus::kOk) << r.problem;
+    EXPECT_GE(r.fit.likelihood, r.other_likelihood);
+    EXPECT_EQ(r.fit.params[index(r.is_bulge ? Param::kDiscA : Param::kBulgeA)], 0.0);
+    EXPECT_GT(r.fit.params[index(r.is_bulge ? Param::kBulgeA : Param::kDiscA)], 0.0);
+    bulges += r.is_bulge;
+  }
+  std::printf("bord: %d of 6 objects fitted best by the pure bulge\n", bulges);
+}
+
 // Uberseg on a hand-built 6 x 6 seg map: object 5 in the top-left, object 9 in the bottom-right;
 // each pixel keeps its weight unless a pixel of 9 is strictly nearer than every pixel of 5.
 TEST(MedsObjectFit, UbersegMasksWhatIsNearerAnotherObject) {
