@@ -96,7 +96,8 @@ MedsObjectResult MedsObjectFitter::fit(long long row) {
   }
   const int box = static_cast<int>(o.box_size);
   const std::size_t npix = static_cast<std::size_t>(box) * box;
-  std::vector<EpochData> epochs;
+  std::vector<EpochData>& epochs = epochs_;
+  epochs.clear();
   long long pixels_total = 0, pixels_unmasked = 0;
   double psf_e1 = 0, psf_e2 = 0, psf_size = 0;
   const int first = options_.fit_coadd ? 0 : 1, last = options_.fit_coadd ? 1 : static_cast<int>(o.cutouts.size());

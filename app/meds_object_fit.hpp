@@ -75,6 +75,7 @@ class MedsObjectFitter {
   std::vector<std::vector<double>> pixels_, weights_;
   std::vector<double> seg_, bmask_;
   std::vector<std::shared_ptr<const PsfImage>> last_psfs_;
+  std::vector<EpochData> epochs_;  // the current object's, reused
 };
 
 // Uberseg: in a box_size^2 seg cutout, zero the weight of every pixel whose nearest labelled seg

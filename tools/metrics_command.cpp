@@ -60,13 +60,13 @@ struct Cuts {
 // A set's estimate, and what pairing it with its shear-pair partner needs.
 struct SetData {
   SetShear shear;
-  std::unique_ptr<UnitShearEstimator> units;
+  std::unique_ptr<UnitShearEstimator> units;  // --shear-pairs only: a copy of the set's rows
   long long index = -1, partner = -1;  // SETIDX and SHEARPR of the truth (-1: none)
 };
 
 SetData read_set(const std::string& fit_path, const std::string& truth_path, const std::string& e1_column,
                  const std::string& e2_column, int bootstrap, std::uint64_t seed, const Cuts& cuts, double* psf_e1,
-                 double* psf_e2) {
+                 double* psf_e2, bool units) {
   using F = io::ResultField;
   io::CatalogReader fit = io::CatalogReader::open(fit_path, {F::kId, F::kStatus, F::kFlags, F::kPsfE1, F::kPsfE2});
   const auto id = fit.column(F::kId), e1 = fit.column(e1_column), e2 = fit.column(e2_column),
@@ -130,7 +130,7 @@ SetData read_set(const std::string& fit_path, const std::string& truth_path, con
     }
     const MetacalRows rows{e1, e2, {r11, r12, r21, r22}, selected, pair, step};
     const MetacalSetShear m = estimate_metacal_set_shear(rows, g1, g2, bootstrap, seed);
-    out.units = make_metacal_units(rows);
+    if (units) out.units = make_metacal_units(rows);
     std::printf("%s: <R> = [[%+.4f %+.4f] [%+.4f %+.4f]]  R_S = [[%+.4f %+.4f] [%+.4f %+.4f]]  <e> = (%+.6f, %+.6f)\n",
                 fit_path.c_str(), m.r[0], m.r[1], m.r[2], m.r[3], m.r_sel[0], m.r_sel[1], m.r_sel[2], m.r_sel[3],
                 m.g1_raw, m.g2_raw);
@@ -141,7 +141,7 @@ SetData read_set(const std::string& fit_path, const std::string& truth_path, con
       for (std::size_t i = 0; i < id.size(); ++i) usable[i] = usable[i] && passes(snr[i], radius[i]);
     }
     set = estimate_set_shear(e1, e2, usable, pair, g1, g2, bootstrap, seed);
-    out.units = make_shear_units(e1, e2, usable, pair);
+    if (units) out.units = make_shear_units(e1, e2, usable, pair);
   }
   if (set.used == 0)
     throw std::runtime_error(fit.describe() + ": all " + std::to_string(id.size()) +
@@ -226,7 +226,8 @@ int run_metrics_command(int argc, char** argv) {
   std::vector<SetData> data;
   std::vector<SetShear> sets;
   for (std::size_t k = 0; k < fits.size(); ++k) {
-    data.push_back(read_set(fits[k], truths[k], e1_column, e2_column, bootstrap, seed + k, cuts, &psf_e1, &psf_e2));
+    data.push_back(read_set(fits[k], truths[k], e1_column, e2_column, bootstrap, seed + k, cuts, &psf_e1, &psf_e2,
+                            shear_pairs));
     sets.push_back(data.back().shear);
   }
   std::vector<ShearPairEstimate> pair_estimates;

@@ -72,24 +72,14 @@ class MetacalUnits final : public UnitShearEstimator {
     bool sizes = rows.e2.size() == n && rows.selected.size() == n && (rows.pair.empty() || rows.pair.size() == n);
     for (const auto& col : rows.r) sizes = sizes && col.size() == n;
     if (!sizes) throw std::invalid_argument("estimate_metacal_set_shear: columns of different lengths");
-    std::map<long long, std::size_t> by_pair;
     for (std::size_t i = 0; i < n; ++i) {
       std::uint8_t sel = rows.selected[i];
       bool finite = std::isfinite(rows.e1[i]) && std::isfinite(rows.e2[i]);
       for (const auto& col : rows.r) finite = finite && std::isfinite(col[i]);
       if (!finite) sel = 0;
-      std::size_t u = units_.size();
-      if (rows.pair.empty() || rows.pair[i] < 0) {
-        labels_.push_back(-1 - static_cast<long long>(i));
-        units_.emplace_back();
-      } else {
-        const auto [it, added] = by_pair.emplace(rows.pair[i], u);
-        if (added) {
-          labels_.push_back(rows.pair[i]);
-          units_.emplace_back();
-        }
-        u = it->second;
-      }
+      bool added = false;
+      const std::size_t u = labels_.unit_of(i, rows.pair, &added);
+      if (added) units_.emplace_back();
       Unit& unit = units_[u];
       unit.selected &= sel;
       ++unit.members;
@@ -109,7 +99,7 @@ class MetacalUnits final : public UnitShearEstimator {
     }
   }
 
-  std::span<const long long> labels() const override { return labels_; }
+  std::span<const long long> labels() const override { return labels_.labels(); }
   std::array<double, 2> estimate(std::span<const int> count) const override {
     const Estimate e = full_estimate(count);
     return {e.g1, e.g2};
@@ -120,7 +110,7 @@ class MetacalUnits final : public UnitShearEstimator {
 
  private:
   std::vector<Unit> units_;
-  std::vector<long long> labels_;
+  UnitLabels labels_;
   double step_;
   long long used_ = 0, excluded_ = 0;
 };

@@ -20,21 +20,11 @@ class ShearUnits final : public UnitShearEstimator {
     const std::size_t n = e1.size();
     if (e2.size() != n || usable.size() != n || (!pair.empty() && pair.size() != n))
       throw std::invalid_argument("estimate_set_shear: columns of different lengths");
-    std::map<long long, std::size_t> by_pair;
     for (std::size_t i = 0; i < n; ++i) {
       const bool ok = usable[i] && std::isfinite(e1[i]) && std::isfinite(e2[i]);
-      std::size_t u = units_.size();
-      if (pair.empty() || pair[i] < 0) {
-        labels_.push_back(-1 - static_cast<long long>(i));
-        units_.emplace_back();
-      } else {
-        const auto [it, added] = by_pair.emplace(pair[i], u);
-        if (added) {
-          labels_.push_back(pair[i]);
-          units_.emplace_back();
-        }
-        u = it->second;
-      }
+      bool added = false;
+      const std::size_t u = labels_.unit_of(i, pair, &added);
+      if (added) units_.emplace_back();
       Unit& unit = units_[u];
       ++unit.members;
       unit.bad |= !ok;
@@ -51,7 +41,7 @@ class ShearUnits final : public UnitShearEstimator {
     }
   }
 
-  std::span<const long long> labels() const override { return labels_; }
+  std::span<const long long> labels() const override { return labels_.labels(); }
 
   std::array<double, 2> estimate(std::span<const int> count) const override {
     double n = 0, m1 = 0, m2 = 0;
@@ -75,7 +65,7 @@ class ShearUnits final : public UnitShearEstimator {
     bool bad = false;
   };
   std::vector<Unit> units_;
-  std::vector<long long> labels_;
+  UnitLabels labels_;
   long long used_ = 0, excluded_ = 0;
 };
 
