@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <stdexcept>
@@ -14,9 +15,11 @@
 
 #include <tbb/task_arena.h>
 
+#include "app/meds_batch_fitter.hpp"
 #include "app/psf_setup.hpp"
 #include "app/run_fingerprint.hpp"
 #include "app/run_memory.hpp"
+#include "engine/pipeline/index_source.hpp"
 #include "engine/pipeline/pipeline.hpp"
 #include "engine/pipeline/range_source.hpp"
 #include "engine/pipeline/stamp_fitter.hpp"
@@ -114,12 +117,182 @@ std::vector<io::RunOutput> outputs_of(const FitRunOptions& a, const io::RunConfi
 
 // Every file the run reads, as it is on disk.
 std::vector<io::RunInput> inputs_of(const FitRunOptions& a, const io::RunConfig& cfg) {
+  if (!a.meds.empty()) return {{"--meds", io::fits_root_name(a.meds)}};
   std::vector<io::RunInput> in = {{"input", io::fits_root_name(a.input)}};
   if (!a.catalog.empty()) in.push_back({"--catalog", io::fits_root_name(a.catalog)});
   if (!a.weight.empty()) in.push_back({"--weight", io::fits_root_name(a.weight)});
   if (!cfg.psf_image.empty()) in.push_back({"psf_image", io::fits_root_name(cfg.psf_image)});
   if (!cfg.fft_wisdom.empty()) in.push_back({"fft_wisdom", cfg.fft_wisdom});
   return in;
+}
+
+// The pipeline's progress as the run reports it: every progress_interval seconds at most, counting
+// the resumed objects as done.
+std::function<void(const PipelineProgress&)> progress_reporter(const FitRunOptions& a, long long total,
+                                                               long long done_before) {
+  return [&a, total, done_before, last_report = -1.0](const PipelineProgress& p) mutable {
+    if (!a.on_progress || p.seconds - last_report < a.progress_interval) return;
+    last_report = p.seconds;
+    FitRunProgress r;
+    r.objects_done = done_before + p.objects_done;
+    r.objects_total = total;
+    r.seconds = p.seconds;
+    r.objects_per_second = p.objects_done / std::max(p.seconds, 1e-9);
+    r.eta_seconds = (total - r.objects_done) / std::max(r.objects_per_second, 1e-9);
+    a.on_progress(r);
+  };
+}
+
+// Writer options every run's table shares: the path, the effective options as typed header keys.
+io::CatalogWriterOptions base_writer_options(const FitRunOptions& a, const io::RunConfig& cfg) {
+  io::CatalogWriterOptions wo;
+  wo.path = a.output;
+  wo.text_path = a.text_output;
+  wo.header = io::effective_options(cfg);
+  for (const io::OptionInfo& o : io::run_config_options())
+    if (o.type != io::HeaderValueType::kText) wo.header_types[o.name] = o.type;
+  return wo;
+}
+
+// Adds the shard's keys after the fingerprint's lines, and to it: a shard resumes only as that shard.
+void add_shard_keys(const FitRunOptions& a, long long input_objects, io::CatalogWriterOptions* wo) {
+  if (a.shards <= 1) return;
+  wo->header.emplace_back(kShardKey, std::to_string(a.shard) + "/" + std::to_string(a.shards));
+  wo->header.emplace_back(kShardTotalKey, std::to_string(input_objects));
+  wo->header_types[kShardTotalKey] = io::HeaderValueType::kInteger;
+  wo->fingerprint += "shard " + std::to_string(a.shard) + "/" + std::to_string(a.shards) + " of " +
+                     std::to_string(input_objects) + "\n";
+}
+
+// The problems of a survey run's objects, as warnings: the first few in full, then a count at the
+// end (a tile with many masked objects must not flood the terminal). Called from the fit threads.
+class ProblemReporter {
+ public:
+  static constexpr int kShown = 10;
+  explicit ProblemReporter(const FitRunOptions& a) : a_(a) {}
+  void report(long long row, const std::string& problem) {
+    std::lock_guard lock(mutex_);
+    if (++count_ <= kShown && a_.on_warning) a_.on_warning("object_data row " + std::to_string(row) + ": " + problem);
+  }
+  void finish() {
+    if (count_ > kShown && a_.on_warning)
+      a_.on_warning(std::to_string(count_ - kShown) + " more objects had problems (their rows' flags say which)");
+  }
+
+ private:
+  const FitRunOptions& a_;
+  std::mutex mutex_;
+  long long count_ = 0;
+};
+
+// A MEDS tile's run: an IndexSource of object_data rows, each fitted by a MedsBatchFitter.
+RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
+  auto warn = [&](const std::string& text) {
+    if (a.on_warning) a.on_warning(text);
+  };
+  io::RunConfig cfg = a.config;
+  if (!a.input.empty() || !a.catalog.empty() || !a.weight.empty())
+    throw io::ConfigError("--meds '" + a.meds + "' takes no INPUT, --catalog or --weight: the tile holds the cutouts and weights");
+  if (cfg.metacal.enabled) throw io::ConfigError("option 'metacal' = true: not available with --meds yet");
+  if (!cfg.save_images.empty()) throw io::ConfigError("option 'save_images': not available with --meds");
+  if (cfg.psf_from_catalogue) throw io::ConfigError("option 'psf_input' = 'moffat_catalog': not available with --meds");
+  if (cfg.fitter.renderer != RendererKind::kExact) {
+    if (cfg.explicitly_set.count("renderer"))
+      throw io::ConfigError("option 'renderer' = '" + io::get_option(cfg, "renderer") +
+                            "': --meds needs renderer = exact (it draws through each cutout's WCS Jacobian)");
+    cfg.fitter.renderer = RendererKind::kExact;
+  }
+  for (const char* key : {"psf_input", "psf_fwhm", "psf_beta", "psf_e1", "psf_e2", "psf_image"})
+    if (cfg.explicitly_set.count(key))
+      warn(std::string("option '") + key + "' is not used with --meds: each cutout's PSF is its source image's PSFEx model");
+  io::validate(cfg);
+
+  std::vector<io::OutputLock> locks;
+  if (!a.output.empty()) {
+    io::check_outputs(outputs_of(a, cfg), inputs_of(a, cfg), a.overwrite || a.resume);
+    locks.push_back(io::OutputLock::acquire(a.output));
+    if (!a.text_output.empty()) locks.push_back(io::OutputLock::acquire(a.text_output));
+  }
+  MedsFitOptions meds_options;
+  static_cast<io::MedsOptions&>(meds_options) = cfg.meds;
+  meds_options.fitter = cfg.fitter;
+  // The tile is opened here once, so that a bad file fails before any thread starts; each thread
+  // then opens its own handle.
+  const long long input_objects = io::MedsFile::open(a.meds).size();
+  IndexSource whole(input_objects);
+  std::unique_ptr<RangeSource> shard;
+  if (a.shards > 1)
+    shard = std::make_unique<RangeSource>(whole, shard_begin(input_objects, a.shard, a.shards),
+                                          shard_begin(input_objects, a.shard + 1, a.shards));
+  StampSource& source = shard ? static_cast<StampSource&>(*shard) : whole;
+
+  RunSummary summary;
+  summary.input = a.meds;
+  summary.output = a.output;
+  summary.text_output = a.text_output;
+  std::unique_ptr<io::CatalogWriter> writer;
+  if (!a.output.empty()) {
+    io::CatalogWriterOptions wo = base_writer_options(a, cfg);
+    wo.positions = io::PositionColumns::kSurvey;
+    wo.header.emplace_back("MEDS", a.meds);
+    wo.fingerprint = fit_fingerprint({{"meds", a.meds}}, wo.header);
+    add_shard_keys(a, input_objects, &wo);
+    if (a.resume) {
+      writer = io::CatalogWriter::resume(wo, &summary.resumed);
+      source.skip_to(summary.resumed);
+    } else {
+      writer = io::CatalogWriter::create(wo);
+    }
+  }
+  try {
+    class RowSink final : public BatchSink {
+     public:
+      RowSink(io::CatalogWriter* writer, const FitRunOptions& a) : writer_(writer), a_(a) {}
+      void write(const StampBatch& batch) override {
+        const std::span<const ObjectRecord> rows(batch.records.data(), static_cast<std::size_t>(batch.count));
+        if (writer_) writer_->append(rows);
+        if (a_.on_rows) a_.on_rows(rows);
+        for (const ObjectRecord& r : rows) ++by_status[static_cast<int>(r.fit.status)];
+      }
+      std::array<long long, kFitStatusCount> by_status{};
+
+     private:
+      io::CatalogWriter* writer_;
+      const FitRunOptions& a_;
+    } sink(writer.get(), a);
+    ProblemReporter problems(a);
+    PipelineOptions po;
+    po.threads = a.threads;
+    po.batch_size = cfg.batch_size;
+    po.stamp_size = 0;  // the fit stage reads each object's cutouts itself
+    std::function<std::unique_ptr<BatchFitter>()> make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
+      return std::make_unique<MedsBatchFitter>(a.meds, meds_options, [&problems](long long row, const std::string& p) {
+        problems.report(row, p);
+      });
+    };
+    if (a.distribute) {
+      FitDistribution d = a.distribute(cfg, make_fitter);
+      make_fitter = std::move(d.make_fitter);
+      po.threads = d.pipeline_threads;
+    }
+    summary.setup_seconds = since(start);
+    const PipelineSummary fitted =
+        run_pipeline(source, sink, make_fitter, po, progress_reporter(a, source.total_objects(), summary.resumed));
+    const Clock::time_point finish_start = Clock::now();
+    if (writer) writer->finish();
+    problems.finish();
+    summary.by_status = sink.by_status;
+    summary.objects = fitted.objects;
+    summary.batches = fitted.batches;
+    summary.threads = fitted.threads;
+    summary.pipeline_seconds = fitted.seconds;
+    summary.finish_seconds = since(finish_start);
+    summary.total_seconds = since(start);
+    return summary;
+  } catch (...) {
+    if (writer) writer->abandon();
+    throw;
+  }
 }
 
 }  // namespace
@@ -153,6 +326,7 @@ RunSummary FitRun::run() const {
   if (a.shards < 1 || a.shard < 0 || a.shard >= a.shards)
     throw io::ConfigError("--shard " + std::to_string(a.shard) + "/" + std::to_string(a.shards) +
                           ": must be i/N with 0 <= i < N");
+  if (!a.meds.empty()) return run_survey(a, start);
   io::RunConfig cfg = a.config;
   if (!a.weight.empty() && cfg.fitter.noise_sigma != 0) {
     const auto where = cfg.explicitly_set.find("noise_sigma");
@@ -271,20 +445,15 @@ RunSummary FitRun::run() const {
   summary.text_output = a.text_output;
   std::unique_ptr<io::CatalogWriter> writer;
   if (!a.output.empty()) {
-    io::CatalogWriterOptions wo;
-    wo.path = a.output;
-    wo.text_path = a.text_output;
+    io::CatalogWriterOptions wo = base_writer_options(a, cfg);
     wo.positions = a.catalog.empty() ? io::PositionColumns::kGrid : io::PositionColumns::kCatalogue;
     wo.metacal = cfg.metacal.enabled;
-    wo.header = io::effective_options(cfg);
     if (std::isfinite(gamma_fwhm)) {  // the reconvolution PSF the rows were fitted with
       char text[32];
       std::snprintf(text, sizeof text, "%.17g", gamma_fwhm);
       wo.header.emplace_back("metacal_gamma_fwhm", text);
       wo.header_types["metacal_gamma_fwhm"] = io::HeaderValueType::kReal;
     }
-    for (const io::OptionInfo& o : io::run_config_options())
-      if (o.type != io::HeaderValueType::kText) wo.header_types[o.name] = o.type;
     wo.header.emplace_back("INPUT", a.input);
     if (!a.catalog.empty()) wo.header.emplace_back("CATALOG", a.catalog);
     if (!a.weight.empty()) wo.header.emplace_back("WEIGHTS", a.weight);
@@ -294,13 +463,7 @@ RunSummary FitRun::run() const {
     if (cfg.psf_kind == PsfKind::kImage && !cfg.psf_from_catalogue) files.push_back({"psf_image", cfg.psf_image});
     wo.fingerprint = fit_fingerprint(files, wo.header);
     if (!input_set.empty()) wo.header.emplace_back(io::kInputSetKey, input_set);  // for `metrics` to match the truth
-    if (a.shards > 1) {  // after the fingerprint's lines, and in it: a shard resumes only as that shard
-      wo.header.emplace_back(kShardKey, std::to_string(a.shard) + "/" + std::to_string(a.shards));
-      wo.header.emplace_back(kShardTotalKey, std::to_string(input_objects));
-      wo.header_types[kShardTotalKey] = io::HeaderValueType::kInteger;
-      wo.fingerprint += "shard " + std::to_string(a.shard) + "/" + std::to_string(a.shards) + " of " +
-                        std::to_string(input_objects) + "\n";
-    }
+    add_shard_keys(a, input_objects, &wo);
     if (a.resume) {
       writer = io::CatalogWriter::resume(wo, &summary.resumed);
       source->skip_to(summary.resumed);
@@ -331,21 +494,9 @@ RunSummary FitRun::run() const {
       make_fitter = std::move(d.make_fitter);
       po.threads = d.pipeline_threads;
     }
-    double last_report = -1;
-    const long long total = source->total_objects(), done_before = summary.resumed;
-    auto progress = [&](const PipelineProgress& p) {
-      if (!a.on_progress || p.seconds - last_report < a.progress_interval) return;
-      last_report = p.seconds;
-      FitRunProgress r;
-      r.objects_done = done_before + p.objects_done;
-      r.objects_total = total;
-      r.seconds = p.seconds;
-      r.objects_per_second = p.objects_done / std::max(p.seconds, 1e-9);
-      r.eta_seconds = (total - r.objects_done) / std::max(r.objects_per_second, 1e-9);
-      a.on_progress(r);
-    };
     summary.setup_seconds = since(start);
-    const PipelineSummary fitted = run_pipeline(*source, sink, make_fitter, po, progress);
+    const PipelineSummary fitted =
+        run_pipeline(*source, sink, make_fitter, po, progress_reporter(a, source->total_objects(), summary.resumed));
     const Clock::time_point finish_start = Clock::now();
     if (writer) writer->finish();
     if (!cfg.fft_wisdom.empty() && !save_fftw_wisdom(cfg.fft_wisdom) && !a.quiet)

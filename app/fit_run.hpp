@@ -1,6 +1,6 @@
 // A fit run: the composition of `stampede fit` for any front end (the command line, later the
-// Python module and the MPI driver). It chooses the source (a stamp grid, or an image with a
-// catalogue), sets up the PSF, the writer and its fingerprint, runs the pipeline with the
+// Python module and the MPI driver). It chooses the source (a stamp grid, an image with a
+// catalogue, or a MEDS tile's objects), sets up the PSF, the writer and its fingerprint, runs the pipeline with the
 // requested threads in a task arena of its own, saves the images named by save_images, and
 // returns a RunSummary. It prints nothing and never exits: progress and warnings go to the
 // callbacks the caller gives; a systemic failure throws the error types of io/ (ConfigError,
@@ -56,6 +56,9 @@ using FitDistributor =
 
 struct FitRunOptions {
   std::string input;        // a grid of stamps, or with `catalog` the image to cut them from
+  // A MEDS tile (`--meds`), instead of `input`: each object fitted jointly on its cutouts
+  // (app/meds_object_fit; options meds_*), one survey row per object (io/result_columns).
+  std::string meds;
   std::string catalog;      // FITS table or text 'id x y' of objects in `input`; "" = grid input
   std::string weight;       // inverse-variance image of input's shape; "" = config's noise_sigma
   std::string output;       // FITS table; "" = none: rows only go to on_rows (no resume, no save_images)

@@ -83,6 +83,7 @@ const PsfexModel* MedsObjectFitter::psfex(long long file_id, std::string* proble
 
 MedsObjectResult MedsObjectFitter::fit(long long row) {
   MedsObjectResult out;
+  out.bulge_or_disc = options_.model == MedsModel::kBulgeOrDisc;
   last_psfs_.clear();
   const io::MedsObject o = meds_.object(row);
   out.id = o.id, out.number = o.number, out.ra = o.ra, out.dec = o.dec;
@@ -161,8 +162,10 @@ MedsObjectResult MedsObjectFitter::fit(long long row) {
   out.masked_fraction = pixels_total > 0 ? 1.0 - static_cast<double>(pixels_unmasked) / pixels_total : NAN;
   if (epochs.empty()) {
     out.flags |= kFlagNoUsableEpoch;
+    if (out.flags & kFlagPsfFailure) out.fit.status = FitStatus::kPsfFailure;
     return out;
   }
+  if (pixels_unmasked < pixels_total) out.flags |= kFlagMaskedPixels;
   out.psf_e1 = psf_e1 / out.n_epochs, out.psf_e2 = psf_e2 / out.n_epochs, out.psf_size = psf_size / out.n_epochs;
   if (1.0 - out.masked_fraction < options_.min_unmasked_fraction) {
     out.flags |= kFlagTooMasked;

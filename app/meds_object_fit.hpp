@@ -15,28 +15,14 @@
 #include "engine/model/psfex_model.hpp"
 #include "engine/pipeline/object_record.hpp"
 #include "io/meds_file.hpp"
+#include "io/meds_options.hpp"
 
 namespace stampede::app {
 
-// Row flags of a MEDS fit, above the input flags of engine/pipeline/object_record.hpp.
-enum MedsFlag : std::uint32_t {
-  kFlagNoUsableEpoch = 1u << 19,  // no cutout could be used (all masked, bad, or without a PSF)
-  kFlagTooMasked = 1u << 20,      // the usable pixels' fraction fell below min_unmasked_fraction
-};
+using MedsModel = io::MedsModel;
 
-// `bd`: the co-elliptical bulge + disc; `bord`: a pure bulge and a pure disc fitted each, the
-// better likelihood kept (DES Y1's im3shape).
-enum class MedsModel { kBulgeDisc, kBulgeOrDisc };
-
-struct MedsFitOptions {
+struct MedsFitOptions : io::MedsOptions {
   FitterOptions fitter;  // renderer must be exact; stamp_size is each cutout's; amplitudes free for bd
-  MedsModel model = MedsModel::kBulgeDisc;
-  bool fit_coadd = false;  // fit cutout 0 (the coadd) alone instead of the single epochs
-  std::uint32_t bmask_bits = 0xffffffffu;  // a pixel with any of these bmask bits set is masked
-  bool uberseg = true;                     // mask pixels nearest another object in the seg map
-  double min_unmasked_fraction = 0.5;      // of the usable cutouts' pixels
-  double magzp_ref = 30;                   // the output fluxes' zero point
-  std::string psf_dir;                     // where image_info's psf_path is relative to
 };
 
 struct MedsObjectResult {
@@ -48,6 +34,7 @@ struct MedsObjectResult {
   double masked_fraction = NAN;     // of the usable cutouts' pixels
   double psf_e1 = NAN, psf_e2 = NAN, psf_size = NAN;  // mean over the fitted cutouts, pixel frame, adaptive moments
   std::string problem;              // why cutouts or the object were not used (the first reason)
+  bool bulge_or_disc = false;       // the model was bord
   bool is_bulge = false;            // bord: the pure bulge won
   double other_likelihood = NAN;    // bord: the losing model's
 };

@@ -25,6 +25,7 @@ long long CatalogReader::rows() { return f_.table_rows(); }
 bool CatalogReader::has(ResultField field) { return f_.has_column(column_name(field)); }
 
 PositionColumns CatalogReader::positions() {
+  if (has(ResultField::kNumber)) return PositionColumns::kSurvey;
   return has(ResultField::kXImage) ? PositionColumns::kCatalogue : PositionColumns::kGrid;
 }
 

@@ -57,7 +57,8 @@ struct FlagDoc {
 static_assert(kFlagMaskedPixels == 1u << 0 && kFlagDefaultStart == 1u << 1 &&
               kFlagAtBound == 1u << 2 && kFlagMirrored == 1u << 3 && kFlagNoErrors == 1u << 4 &&
               kFlagNotConverged == 1u << 5 && kFlagUnweighted == 1u << 6 &&
-              kFlagEdge == 1u << 16 && kFlagPsfFailure == 1u << 17,
+              kFlagEdge == 1u << 16 && kFlagPsfFailure == 1u << 17 && kFlagMetacalFailure == 1u << 18 &&
+              kFlagNoUsableEpoch == 1u << 19 && kFlagTooMasked == 1u << 20,
               "flag bits changed: update kFlagDocs");
 const FlagDoc kFlagDocs[] = {
     {kFlagMaskedPixels, "some pixels had zero weight"},
@@ -69,6 +70,9 @@ const FlagDoc kFlagDocs[] = {
     {kFlagUnweighted, "unweighted fit; chi2, errors, snr in data units"},
     {kFlagEdge, "stamp reaches beyond the image; outside masked"},
     {kFlagPsfFailure, "the object's PSF could not be built"},
+    {kFlagMetacalFailure, "metacal: pixels masked or a sheared fit failed"},
+    {kFlagNoUsableEpoch, "survey: no cutout could be used"},
+    {kFlagTooMasked, "survey: unmasked fraction below the minimum"},
 };
 constexpr int kNumStatuses = 7;  // FitStatus::kOk .. kPsfFailure
 static_assert(static_cast<int>(FitStatus::kPsfFailure) == kNumStatuses - 1,
@@ -113,7 +117,8 @@ std::string serialise(const Checkpoint& c) {
   std::string out(kCheckpointMagic);
   out += "\nrows " + std::to_string(c.rows);
   out += "\ntext_bytes " + std::to_string(c.text_bytes);
-  out += c.positions == PositionColumns::kGrid ? "\npositions grid" : "\npositions catalogue";
+  out += "\npositions ";
+  out += position_name(c.positions);
   out += c.has_text ? "\ntext yes" : "\ntext no";
   // Length-prefixed: a fingerprint may hold any byte, newlines included.
   out += "\nfingerprint " + std::to_string(c.fingerprint.size()) + "\n" + c.fingerprint + "\nend\n";
@@ -145,10 +150,14 @@ Checkpoint parse_checkpoint(std::string_view text, const std::string& path) {
   Checkpoint c;
   c.rows = number("rows");
   c.text_bytes = number("text_bytes");
-  const std::string_view positions = line();
-  if (positions != "positions grid" && positions != "positions catalogue") bad("bad positions");
-  c.positions =
-      positions == "positions grid" ? PositionColumns::kGrid : PositionColumns::kCatalogue;
+  std::string_view positions = line();
+  bool known = false;
+  if (positions.starts_with("positions ")) {
+    positions.remove_prefix(10);
+    for (PositionColumns p : {PositionColumns::kGrid, PositionColumns::kCatalogue, PositionColumns::kSurvey})
+      if (positions == position_name(p)) c.positions = p, known = true;
+  }
+  if (!known) bad("bad positions");
   const std::string_view has_text = line();
   if (has_text != "text yes" && has_text != "text no") bad("bad text line");
   c.has_text = has_text == "text yes";
@@ -287,8 +296,14 @@ struct CatalogWriter::State {
       const std::string key = "TCOMM" + std::to_string(i + 1);
       fits_write_key_str(fits, key.c_str(), columns[i].description, "", &status);
     }
-    fits_write_comment(fits, "x0, y0: fitted centroid, 0-based pixels within the stamp (pixel "
-                       "centres at integers)", &status);
+    if (options.positions == PositionColumns::kSurvey) {
+      fits_write_comment(fits, "survey rows: e1 e2 in the tiles' (u, v) plane (meds, GalSim: u = -dRA", &status);
+      fits_write_comment(fits, "cos(dec), v = dDec: e1 > 0 east-west, e2 > 0 north-west); x0 y0 the", &status);
+      fits_write_comment(fits, "centroid's (u, v) offset from the MEDS position, arcsec", &status);
+    } else {
+      fits_write_comment(fits, "x0, y0: fitted centroid, 0-based pixels within the stamp (pixel "
+                         "centres at integers)", &status);
+    }
     if (options.positions == PositionColumns::kCatalogue) {
       fits_write_comment(fits, "x_image, y_image: catalogue position, FITS 1-based image pixels",
                          &status);

@@ -132,6 +132,20 @@ constexpr ResultColumn kColumns[] = {
          [](W r, double v) { r.metacal.snr[3] = v; }),
     real(F::kRadius_2m, "radius_2m", "pixel", "metacal 2m image: fitted radius", [](R r) { return r.metacal.radius[3]; },
          [](W r, double v) { r.metacal.radius[3] = v; }),
+    integer(F::kNumber, "number", T::kInt64, "the object's label in the seg map",
+            [](R r) -> std::int64_t { return r.survey.number; }, [](W r, std::int64_t v) { r.survey.number = v; }),
+    real(F::kRa, "ra", "deg", "right ascension", [](R r) { return r.survey.ra; }, [](W r, double v) { r.survey.ra = v; }),
+    real(F::kDec, "dec", "deg", "declination", [](R r) { return r.survey.dec; }, [](W r, double v) { r.survey.dec = v; }),
+    real(F::kPsfSize, "psf_size", "pixel", "mean PSF sqrt((Ixx + Iyy) / 2) over the fitted cutouts",
+         [](R r) { return r.survey.psf_size; }, [](W r, double v) { r.survey.psf_size = v; }),
+    integer(F::kNEpochs, "n_epochs", T::kInt32, "cutouts fitted",
+            [](R r) -> std::int64_t { return r.survey.n_epochs; },
+            [](W r, std::int64_t v) { r.survey.n_epochs = static_cast<std::int32_t>(v); }),
+    real(F::kMaskedFraction, "masked_frac", "", "masked fraction of the usable cutouts' pixels",
+         [](R r) { return r.survey.masked_fraction; }, [](W r, double v) { r.survey.masked_fraction = v; }),
+    integer(F::kIsBulge, "is_bulge", T::kInt32, "bord: 1 the pure bulge won, 0 the disc; bd: -1",
+            [](R r) -> std::int64_t { return r.survey.is_bulge; },
+            [](W r, std::int64_t v) { r.survey.is_bulge = static_cast<std::int32_t>(v); }),
 };
 
 constexpr bool indexed_by_field() {
@@ -145,6 +159,7 @@ static_assert(indexed_by_field(), "kColumns must list every ResultField in enum 
 
 constexpr int kFirstFitField = static_cast<int>(F::kX0);
 constexpr int kFirstMetacalField = static_cast<int>(F::kR11);
+constexpr int kFirstSurveyField = static_cast<int>(F::kNumber);
 constexpr std::size_t kTableColumns = 3 + kFirstMetacalField - kFirstFitField;
 constexpr std::size_t kMetacalTableColumns = kTableColumns + kNumMetacalFields;
 
@@ -159,7 +174,7 @@ constexpr std::array<ResultColumn, N> table(PositionColumns positions) {
     for (F f : {F::kId, F::kXImage, F::kYImage}) out[n++] = kColumns[static_cast<int>(f)];
     out[0].description = "object id from the input catalogue";
   }
-  const int last = N == kTableColumns ? kFirstMetacalField : kNumResultFields;
+  const int last = N == kTableColumns ? kFirstMetacalField : kFirstSurveyField;
   for (int f = kFirstFitField; f < last; ++f) out[n++] = kColumns[f];
   return out;
 }
@@ -169,9 +184,51 @@ constexpr auto kCatalogueTable = table<kTableColumns>(PositionColumns::kCatalogu
 constexpr auto kGridMetacalTable = table<kMetacalTableColumns>(PositionColumns::kGrid);
 constexpr auto kCatalogueMetacalTable = table<kMetacalTableColumns>(PositionColumns::kCatalogue);
 
+// A survey table: id number ra dec, the fit columns in sky units with psf_size for psf_fwhm, then
+// n_epochs masked_frac is_bulge.
+constexpr std::size_t kSurveyTableColumns = 4 + kFirstMetacalField - kFirstFitField + 3;
+constexpr std::array<ResultColumn, kSurveyTableColumns> survey_table() {
+  std::array<ResultColumn, kSurveyTableColumns> out{};
+  std::size_t n = 0;
+  for (F f : {F::kId, F::kNumber, F::kRa, F::kDec}) out[n++] = kColumns[static_cast<int>(f)];
+  out[0].description = "the MEDS object's id (object_data)";
+  for (int f = kFirstFitField; f < kFirstMetacalField; ++f) {
+    ResultColumn c = kColumns[f == static_cast<int>(F::kPsfFwhm) ? static_cast<int>(F::kPsfSize) : f];
+    switch (c.field) {
+      case F::kX0: c.unit = "arcsec", c.description = "fitted centroid u offset from ra, dec"; break;
+      case F::kY0: c.unit = "arcsec", c.description = "fitted centroid v offset from ra, dec"; break;
+      case F::kE1: c.description = "ellipticity (a-b)/(a+b) along u, after the mirror"; break;
+      case F::kE2: c.description = "ellipticity along u = v, after the mirror"; break;
+      case F::kRadius: c.unit = "arcsec"; break;
+      case F::kBulgeA: c.description = "bulge central intensity, flux units per arcsec^2"; break;
+      case F::kDiscA: c.description = "disc central intensity, flux units per arcsec^2"; break;
+      case F::kBulgeFlux: c.description = "bulge flux at the zero point magzp_ref"; break;
+      case F::kDiscFlux: c.description = "disc flux at the zero point magzp_ref"; break;
+      case F::kFlux: c.description = "total flux at the zero point magzp_ref"; break;
+      case F::kPsfE1: c.description = "mean PSF e1 over the fitted cutouts, pixel frames"; break;
+      case F::kPsfE2: c.description = "mean PSF e2 over the fitted cutouts, pixel frames"; break;
+      default: break;
+    }
+    out[n++] = c;
+  }
+  for (F f : {F::kNEpochs, F::kMaskedFraction, F::kIsBulge}) out[n++] = kColumns[static_cast<int>(f)];
+  return out;
+}
+constexpr auto kSurveyTable = survey_table();
+
 }  // namespace
 
+const char* position_name(PositionColumns positions) {
+  switch (positions) {
+    case PositionColumns::kGrid: return "grid";
+    case PositionColumns::kCatalogue: return "catalogue";
+    case PositionColumns::kSurvey: return "survey";
+  }
+  return "?";
+}
+
 std::span<const ResultColumn> result_columns(PositionColumns positions, bool metacal) {
+  if (positions == PositionColumns::kSurvey) return kSurveyTable;
   if (metacal)
     return positions == PositionColumns::kGrid ? std::span<const ResultColumn>(kGridMetacalTable)
                                                : std::span<const ResultColumn>(kCatalogueMetacalTable);

@@ -16,6 +16,10 @@
 //   time_us psf_e1 psf_e2 psf_fwhm (D)
 //   metacal runs: R11 R12 R21 R22, e1_T e2_T snr_T radius_T for T = 1p 1m 2p 2m (D); the fit
 //               columns above are then the noshear image's
+//   survey (MEDS) input: positions id number (K) ra dec (D, degrees); the fit columns in sky
+//               units (x0 y0 the (u, v) offset and radius in arcsec, e in (u, v), fluxes at
+//               magzp_ref), psf_fwhm replaced by psf_size, then n_epochs (J) masked_frac (D)
+//               is_bulge (J)
 // NaN means "not computed" in every D column, as in FitResult.
 #pragma once
 
@@ -31,7 +35,9 @@ namespace stampede::io {
 enum class PositionColumns {
   kGrid,       // id ix iy
   kCatalogue,  // id x_image y_image
+  kSurvey,     // id number ra dec (MEDS objects; the fit in sky units)
 };
+const char* position_name(PositionColumns positions);  // "grid", "catalogue", "survey"
 
 // Every column a result table can have, grid and catalogue positions together; one value per
 // column, so consumers name columns by value rather than by a re-typed string.
@@ -46,8 +52,10 @@ enum class ResultField : int {
   kR11, kR12, kR21, kR22,
   kE1_1p, kE2_1p, kSnr_1p, kRadius_1p, kE1_1m, kE2_1m, kSnr_1m, kRadius_1m,
   kE1_2p, kE2_2p, kSnr_2p, kRadius_2p, kE1_2m, kE2_2m, kSnr_2m, kRadius_2m,
+  // survey tables only (PositionColumns::kSurvey)
+  kNumber, kRa, kDec, kPsfSize, kNEpochs, kMaskedFraction, kIsBulge,
 };
-inline constexpr int kNumResultFields = static_cast<int>(ResultField::kRadius_2m) + 1;
+inline constexpr int kNumResultFields = static_cast<int>(ResultField::kIsBulge) + 1;
 inline constexpr int kNumMetacalFields = static_cast<int>(ResultField::kRadius_2m) - static_cast<int>(ResultField::kR11) + 1;
 
 // On-disk type: FITS TFORM 1K, 1J, 1V (unsigned, stored as J with TZERO = 2^31) and 1D.
@@ -70,6 +78,7 @@ struct ResultColumn {
 
 // The columns of a table with these positions, in table order; a metacal run's table adds the
 // metacal columns (R11 R12 R21 R22, then e1_1p e2_1p snr_1p radius_1p ... radius_2m) at the end.
+// Survey tables have no metacal form (metacal is refused for them).
 std::span<const ResultColumn> result_columns(PositionColumns positions, bool metacal = false);
 // The column of `field`. Grid and catalogue tables share every column they both have; only the
 // description of `id` differs (result_columns() has each table's).

@@ -398,6 +398,48 @@ std::vector<Entry> make_registry() {
   r.push_back(string_entry(cat, "catalog_psf_e2_column", "Moffat e2 (psf_input = moffat_catalog)",
                            [](auto& c) -> auto& { return c.catalog_psf_e2_column; }));
 
+  const char* meds = "Survey input (stampede fit --meds)";
+  r.push_back({"meds_model", "bd (co-elliptical bulge + disc) or bord (a pure bulge and a pure disc each fitted, the "
+               "better likelihood kept; column is_bulge)", meds,
+               [](const RunConfig& c) { return std::string(c.meds.model == MedsModel::kBulgeDisc ? "bd" : "bord"); },
+               [](RunConfig& c, const std::string& v) {
+                 const std::string l = lower(v);
+                 if (l == "bd") c.meds.model = MedsModel::kBulgeDisc;
+                 else if (l == "bord") c.meds.model = MedsModel::kBulgeOrDisc;
+                 else return std::string("expected bd or bord");
+                 return std::string();
+               }});
+  r.push_back(bool_entry(meds, "meds_fit_coadd", "true: fit cutout 0 (the coadd) alone; false: the single epochs jointly",
+                         [](auto& c) -> auto& { return c.meds.fit_coadd; }));
+  r.push_back({"meds_bmask_bits",
+               "a pixel whose bmask has any of these bits set is masked (decimal or 0x hex; 0 = bmask ignored)", meds,
+               [](const RunConfig& c) { return std::to_string(c.meds.bmask_bits); },
+               [](RunConfig& c, const std::string& v) {
+                 const bool hex = v.size() > 2 && v[0] == '0' && (v[1] == 'x' || v[1] == 'X');
+                 std::uint64_t bits = 0;
+                 const char* first = v.data() + (hex ? 2 : 0);
+                 const auto [end, ec] = std::from_chars(first, v.data() + v.size(), bits, hex ? 16 : 10);
+                 if (v.empty() || ec != std::errc() || end != v.data() + v.size() || bits > 0xffffffffu)
+                   return std::string("expected an unsigned 32-bit integer (decimal or 0x hex)");
+                 c.meds.bmask_bits = static_cast<std::uint32_t>(bits);
+                 return std::string();
+               },
+               HeaderValueType::kInteger});
+  r.push_back(bool_entry(meds, "meds_uberseg",
+                         "mask every pixel whose nearest labelled seg pixel belongs to another object (needs seg_cutouts)",
+                         [](auto& c) -> auto& { return c.meds.uberseg; }));
+  r.push_back(double_entry(meds, "meds_min_unmasked_fraction",
+                           "flag the row (too masked, not fitted) when the usable cutouts' unmasked pixels are a smaller "
+                           "fraction, in [0, 1]",
+                           DoubleKind::kFinite, [](auto& c) -> auto& { return c.meds.min_unmasked_fraction; }));
+  r.push_back(double_entry(meds, "meds_magzp_ref",
+                           "zero point of the output fluxes: each cutout's data are 10^(0.4 (magzp - meds_magzp_ref)) "
+                           "times the model",
+                           DoubleKind::kFinite, [](auto& c) -> auto& { return c.meds.magzp_ref; }));
+  r.push_back(string_entry(meds, "meds_psf_dir",
+                           "directory of image_info's relative psf_path (PSFEx files); empty = the tile's directory",
+                           [](auto& c) -> auto& { return c.meds.psf_dir; }));
+
   r.push_back({"save_images", "comma-separated object ids whose model and residual images are saved; empty = none",
                "Output", [](const RunConfig& c) { return c.save_images; },
                [](RunConfig& c, const std::string& v) {
@@ -569,6 +611,8 @@ void validate(const RunConfig& config) {
       fail(config, "save_images with metacal = true: not available (the row's fit is of the noshear image, with the "
                    "reconvolution PSF, not of the data the images would show)");
   }
+  if (!(config.meds.min_unmasked_fraction >= 0 && config.meds.min_unmasked_fraction <= 1))
+    fail(config, "meds_min_unmasked_fraction = " + format_double(config.meds.min_unmasked_fraction) + ": must be in [0, 1]");
   if (config.psf_upsampling < 1)
     fail(config, "psf_upsampling = " + std::to_string(config.psf_upsampling) + ": must be >= 1");
   if (config.batch_size < 1 || config.batch_size > 100000)

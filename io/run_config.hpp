@@ -26,6 +26,7 @@
 #include "engine/metacal/metacal_options.hpp"
 #include "engine/model/psf_model.hpp"
 #include "io/header_value.hpp"
+#include "io/meds_options.hpp"
 #include "kernels/psf_profile.hpp"
 
 namespace stampede::io {
@@ -40,6 +41,7 @@ class ConfigError : public Error {
 struct RunConfig {
   FitterOptions fitter;  // render, model, lm, params, noise_sigma (defaults as in those structs)
   MetacalOptions metacal;  // metacal, metacal_step, metacal_psf_dilation, metacal_fixnoise, metacal_seed
+  MedsOptions meds;        // meds_*: survey input (`stampede fit --meds`)
   // psf_input = moffat | airy | image names the kind of the run's one PSF (from the psf_* keys, the
   // airy_* keys or psf_image); psf_input = moffat_catalog is not a kind but a source: a Moffat per
   // object from the catalog_psf_* columns (psf_kind is then kMoffat; see psf_input_value).

@@ -22,6 +22,7 @@ constexpr const char* kUsage =
     "usage: stampede fit INPUT.fits -o OUT.fits [--config run.ini] [--set key=value ...]\n"
     "                    [--threads N] [--catalog CAT] [--weight W.fits] [--text OUT.txt]\n"
     "                    [--shard I/N] [--resume] [--overwrite] [--quiet]\n"
+    "       stampede fit --meds TILE.fits[.fz] -o OUT.fits [options]\n"
     "       stampede fit --input-list LIST -o DIR [options]\n";
 
 void print_help() {
@@ -44,6 +45,14 @@ void print_help() {
       "  --shard I/N   fit only shard I of N (0 <= I < N), a contiguous 1/N of the objects with their\n"
       "                whole-input ids, for job arrays; `stampede merge` joins the N tables into the\n"
       "                one table a single run writes\n"
+      "  --meds TILE   a MEDS tile (survey input): each object fitted jointly on its single-epoch\n"
+      "                cutouts (meds_fit_coadd: the coadd alone), each with its source image's PSFEx\n"
+      "                model (image_info psf_path, relative to meds_psf_dir), WCS Jacobian, weights,\n"
+      "                bmask bits (meds_bmask_bits) and uberseg (meds_uberseg), fluxes scaled to\n"
+      "                meds_magzp_ref; models meds_model = bd | bord. One row per object_data row, in\n"
+      "                order: id number ra dec, e1 e2 in (u, v), radius arcsec, n_epochs,\n"
+      "                masked_frac, psf_size, is_bulge, flags (no usable epoch 524288, too masked\n"
+      "                1048576, PSF failure 131072). renderer = exact is implied\n"
       "  --input-list L  fit every grid named in L (one path per line, # comments), each to\n"
       "                DIR/<name>_fit.fits, -o naming the directory (created if missing); with\n"
       "                --resume, complete outputs are skipped and interrupted ones resumed\n"
@@ -94,6 +103,8 @@ int parse_fit_arguments(int argc, char** argv, FitCommandLine* command) {
       if (!shard) throw std::invalid_argument("--shard " + tools::quoted_value(v) + ": must be I/N with 0 <= I < N <= 1000000");
       r.shard = shard->first;
       r.shards = shard->second;
+    } else if (s == "--meds") {
+      r.meds = value();
     } else if (s == "--input-list") {
       command->input_list = value();
     } else if (s == "--resume") {
@@ -117,7 +128,14 @@ int parse_fit_arguments(int argc, char** argv, FitCommandLine* command) {
     if (!r.catalog.empty() || !r.weight.empty() || !r.text_output.empty() || r.shards > 1)
       throw std::invalid_argument("--input-list takes grids of stamps only (no --catalog, --weight, --text or --shard)");
   }
-  if ((r.input.empty() && command->input_list.empty()) || r.output.empty()) {
+  if (!r.meds.empty()) {
+    if (!r.input.empty())
+      throw std::invalid_argument("--meds " + tools::quoted_value(r.meds) + " and INPUT " + tools::quoted_value(r.input) +
+                                  ": give one");
+    if (!command->input_list.empty() || !r.catalog.empty() || !r.weight.empty())
+      throw std::invalid_argument("--meds takes no --input-list, --catalog or --weight (the tile holds the cutouts and weights)");
+  }
+  if ((r.input.empty() && r.meds.empty() && command->input_list.empty()) || r.output.empty()) {
     std::fputs(kUsage, stderr);
     return 2;
   }

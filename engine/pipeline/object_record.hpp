@@ -10,6 +10,7 @@
 
 #include "engine/fit/fit_result.hpp"
 #include "engine/metacal/metacal_record.hpp"
+#include "engine/pipeline/survey_record.hpp"
 
 namespace stampede {
 
@@ -18,12 +19,15 @@ enum InputFlag : std::uint32_t {
   kFlagEdge = 1u << 16,          // the stamp reaches beyond the image; outside pixels masked
   kFlagPsfFailure = 1u << 17,    // the object's PSF could not be built
   kFlagMetacalFailure = 1u << 18,  // metacal: pixels masked, or a sheared image's fit not ok: R unusable
+  kFlagNoUsableEpoch = 1u << 19,   // survey input: no cutout could be used (all masked, bad, or without a PSF)
+  kFlagTooMasked = 1u << 20,       // survey input: the unmasked fraction fell below min_unmasked_fraction
 };
 
 // Rows whose ellipticity may enter a shear estimate (`stampede metrics`, the noise-bias
 // calibration): status ok and none of the flags that make e doubtful.
 constexpr std::uint32_t kShearExcludingFlags =
-    kFlagAtBound | kFlagNoErrors | kFlagNotConverged | kFlagEdge | kFlagPsfFailure | kFlagMetacalFailure;
+    kFlagAtBound | kFlagNoErrors | kFlagNotConverged | kFlagEdge | kFlagPsfFailure | kFlagMetacalFailure |
+    kFlagNoUsableEpoch | kFlagTooMasked;
 inline bool usable_for_shear(FitStatus status, std::uint32_t flags) {
   return status == FitStatus::kOk && !(flags & kShearExcludingFlags);
 }
@@ -38,6 +42,7 @@ struct ObjectRecord {
   double time_us = NAN;        // wall time of this object's fit, microseconds
   double psf_e1 = NAN, psf_e2 = NAN, psf_fwhm = NAN;
   MetacalRecord metacal;       // metacal runs only (fit is then the noshear image's)
+  SurveyRecord survey;         // survey (MEDS) input only
 };
 
 }  // namespace stampede

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "support/error_assertions.hpp"
+#include "support/meds_edit.hpp"
 #include "support/scratch_dir.hpp"
 
 namespace stampede::io {
@@ -116,51 +117,23 @@ class BrokenMeds : public ::testing::Test {
  protected:
   stampede::testing::ScratchDir dir{"stampede_meds_"};
   std::string path = dir.path("tile.fits");
+  stampede::testing::MedsEditor editor{path};
   void SetUp() override { std::filesystem::copy_file(kMeds, path); }
-  template <class F>
-  void edit(F&& change) {
-    fitsfile* f = nullptr;
-    int status = 0;
-    fits_open_file(&f, path.c_str(), READWRITE, &status);
-    change(f, &status);
-    fits_close_file(f, &status);
-    ASSERT_EQ(status, 0);
-  }
-  void set_cell(const char* hdu, const char* column, long long row, long long element, long long value) {
-    edit([&](fitsfile* f, int* status) {
-      fits_movnam_hdu(f, BINARY_TBL, const_cast<char*>(hdu), 0, status);
-      int col = 0;
-      fits_get_colnum(f, CASEINSEN, const_cast<char*>(column), &col, status);
-      fits_write_col(f, TLONGLONG, col, row + 1, element + 1, 1, &value, status);
-    });
-  }
-  void set_cell(const char* hdu, const char* column, long long row, long long element, double value) {
-    edit([&](fitsfile* f, int* status) {
-      fits_movnam_hdu(f, BINARY_TBL, const_cast<char*>(hdu), 0, status);
-      int col = 0;
-      fits_get_colnum(f, CASEINSEN, const_cast<char*>(column), &col, status);
-      fits_write_col(f, TDOUBLE, col, row + 1, element + 1, 1, &value, status);
-    });
+  template <class V>
+  void set_cell(const char* hdu, const char* column, long long row, long long element, V value) {
+    editor.set_cell(hdu, column, row, element, value);
   }
 };
 
 TEST_F(BrokenMeds, AMissingHduIsNamed) {
-  edit([](fitsfile* f, int* status) {
-    fits_movnam_hdu(f, ANY_HDU, const_cast<char*>("image_info"), 0, status);
-    fits_delete_hdu(f, nullptr, status);
-  });
+  editor.delete_hdu("image_info");
   const std::string e = error_of<FitsError>([&] { MedsFile::open(path); });
   EXPECT_TRUE(Contains(e, "tile.fits")) << e;
   EXPECT_TRUE(Contains(e, "no HDU 'image_info'")) << e;
 }
 
 TEST_F(BrokenMeds, AMissingColumnIsNamedWithItsHdu) {
-  edit([](fitsfile* f, int* status) {
-    fits_movnam_hdu(f, BINARY_TBL, const_cast<char*>("object_data"), 0, status);
-    int col = 0;
-    fits_get_colnum(f, CASEINSEN, const_cast<char*>("dvdcol"), &col, status);
-    fits_delete_col(f, col, status);
-  });
+  editor.delete_column("object_data", "dvdcol");
   const std::string e = error_of<FitsError>([&] { MedsFile::open(path); });
   EXPECT_TRUE(Contains(e, "'object_data'")) << e;
   EXPECT_TRUE(Contains(e, "no column 'dvdcol'")) << e;

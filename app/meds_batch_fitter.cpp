@@ -1,0 +1,40 @@
+// A MEDS tile's batches; see meds_batch_fitter.hpp.
+#include "app/meds_batch_fitter.hpp"
+
+#include <chrono>
+
+namespace stampede::app {
+
+MedsBatchFitter::MedsBatchFitter(const std::string& path, const MedsFitOptions& options,
+                                 std::function<void(long long, const std::string&)> on_problem)
+    : meds_(io::MedsFile::open(path)), fitter_(meds_, options), on_problem_(std::move(on_problem)) {}
+
+void MedsBatchFitter::fit(StampBatch& batch) {
+  using Clock = std::chrono::steady_clock;
+  for (int k = 0; k < batch.count; ++k) {
+    ObjectRecord& record = batch.records[static_cast<std::size_t>(k)];
+    const long long row = record.id;
+    const Clock::time_point start = Clock::now();
+    const MedsObjectResult result = fitter_.fit(row);
+    fill_survey_record(result, &record);
+    record.time_us = std::chrono::duration<double, std::micro>(Clock::now() - start).count();
+    if (on_problem_ && !result.problem.empty()) on_problem_(row, result.problem);
+  }
+}
+
+void fill_survey_record(const MedsObjectResult& r, ObjectRecord* out) {
+  out->id = r.id;
+  out->fit = r.fit;
+  out->flags = r.flags | r.fit.flags;
+  out->psf_e1 = r.psf_e1;
+  out->psf_e2 = r.psf_e2;
+  out->survey.number = r.number;
+  out->survey.ra = r.ra;
+  out->survey.dec = r.dec;
+  out->survey.n_epochs = r.n_epochs;
+  out->survey.masked_fraction = r.masked_fraction;
+  out->survey.psf_size = r.psf_size;
+  out->survey.is_bulge = r.bulge_or_disc ? (r.is_bulge ? 1 : 0) : -1;
+}
+
+}  // namespace stampede::app
