@@ -130,14 +130,18 @@ ExactRenderer& MultiEpochFitter::renderer_for(int box_size) {
   return *it->second;
 }
 
-ParamVector MultiEpochFitter::sky_start(const EpochData& e, std::uint32_t* flags) {
-  auto it = starters_.find(e.box_size);
+Fitter& MultiEpochFitter::starter_for(int box_size) {
+  auto it = starters_.find(box_size);
   if (it == starters_.end()) {
     FitterOptions o = options_;
-    o.render.stamp_size = e.box_size;
-    it = starters_.emplace(e.box_size, std::make_unique<Fitter>(o, nullptr, plans_)).first;
+    o.render.stamp_size = box_size;
+    it = starters_.emplace(box_size, std::make_unique<Fitter>(o, nullptr, plans_)).first;
   }
-  Fitter& f = *it->second;
+  return *it->second;
+}
+
+ParamVector MultiEpochFitter::sky_start(const EpochData& e, std::uint32_t* flags) {
+  Fitter& f = starter_for(e.box_size);
   f.set_psf(e.psf);
   const ParamVector pixel = f.starting_point(e.pixels, e.weight, flags);
   // The moments' ellipse in pixels, carried to (u, v); the flux kept (A r^2), over the flux scale.
@@ -164,6 +168,19 @@ FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, std::size_t f
   if (!epochs[first].psf) {
     FitResult r;
     r.status = FitStatus::kPsfFailure;
+    return r;
+  }
+  const EpochData& e = epochs.front();
+  if (epochs.size() == 1 && e.flux_scale == 1 && e.frame.dudx == 1 && e.frame.dudy == 0 && e.frame.dvdx == 0 &&
+      e.frame.dvdy == 1) {
+    // One cutout whose sky is its pixel grid is a single stamp: the single-stamp fit (amplitude
+    // projection, scaled units), so such a MEDS row is the grid path's row bit for bit; only the
+    // centroid is moved to the frame's reference.
+    Fitter& f = starter_for(e.box_size);
+    f.set_psf(e.psf);
+    FitResult r = f.fit(e.pixels, e.weight, WeightKind::kInverseVariance);
+    r.params[index(Param::kX0)] -= e.frame.x_ref;
+    r.params[index(Param::kY0)] -= e.frame.y_ref;
     return r;
   }
   std::uint32_t flags = 0;

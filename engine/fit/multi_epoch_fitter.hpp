@@ -45,13 +45,16 @@ class MultiEpochFitter {
   // summed over the cutouts; n_pixels the unmasked pixels of all of them.
   FitResult fit(std::span<const EpochData> epochs, const ParamVector& start);
   // Fits from the single-stamp fit's moment start on epochs[first] (its own PSF), carried to the
-  // sky through its frame; *flags gains what that start reports (kFlagDefaultStart).
+  // sky through its frame; *flags gains what that start reports (kFlagDefaultStart). One epoch
+  // whose frame is the pixel grid (J = 1, flux scale 1) is fitted by the single-stamp Fitter: its
+  // row is then the grid path's, the centroid taken relative to the frame's reference.
   FitResult fit(std::span<const EpochData> epochs, std::size_t first = 0);
   // That start alone.
   ParamVector sky_start(const EpochData& epoch, std::uint32_t* flags);
 
  private:
   class Problem;
+  Fitter& starter_for(int box_size);  // the single-stamp fitter for that box size (made on first use)
   FitterOptions options_;
   FftPlanCache plans_;  // for the single-stamp fitters' start (the exact renderer plans its own)
   std::map<int, std::unique_ptr<ExactRenderer>> renderers_;

@@ -1,0 +1,128 @@
+// A simulated MEDS tile on disk; see meds_simulation.hpp.
+#include "app/meds_simulation.hpp"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "io/durable_file.hpp"
+#include "io/fits_file.hpp"
+#include "io/meds_writer.hpp"
+#include "io/output_check.hpp"
+
+namespace stampede::app {
+
+namespace {
+
+constexpr long long kChunk = 64;
+constexpr double kRa0 = 45.0, kDec0 = 0.0;  // the tile's centre; objects on a line in RA
+
+}  // namespace
+
+void write_meds_simulation(const MedsSimOptions& options, const std::string& dir, bool overwrite,
+                           const std::function<void(long long, long long)>& progress) {
+  const MedsSimulator sim(options);
+  namespace fs = std::filesystem;
+  const std::string tile = (fs::path(dir) / "meds.fits").string(), truth_path = (fs::path(dir) / "truth.fits").string();
+  for (const std::string& p : {tile, truth_path})
+    if (fs::exists(p) && !overwrite) throw io::FileError("'" + p + "' exists (use --overwrite to replace it)");
+  fs::create_directories(fs::path(dir) / "psfex");
+  const int box = options.box_size, n = options.psf_size;
+
+  // image_info: row 0 the coadd (no PSF: never fitted by default), then one row per source image.
+  std::vector<io::MedsImageInfo> images(1);
+  images[0].image_path = "coadd.fits";
+  images[0].magzp = options.magzp;
+  for (std::size_t i = 0; i < sim.images().size(); ++i) {
+    const MedsSimImage& im = sim.images()[i];
+    const std::string name = "psfex/image_" + std::to_string(i) + ".psf";
+    io::write_psfex_constant((fs::path(dir) / name).string(), n, n, im.psf, im.psf_fwhm);
+    io::MedsImageInfo info;
+    info.image_path = "image_" + std::to_string(i) + ".fits";
+    info.psf_path = name;
+    info.image_id = static_cast<long long>(i) + 1;
+    info.magzp = static_cast<float>(im.magzp);  // the file's float32
+    images.push_back(info);
+  }
+
+  // The layout: every object's box and cutouts are known before any pixel is drawn.
+  const double deg_per_arcsec = 1.0 / 3600;
+  std::vector<io::MedsObjectLayout> layout(static_cast<std::size_t>(options.objects));
+  for (long long i = 0; i < options.objects; ++i) {
+    io::MedsObjectLayout& l = layout[static_cast<std::size_t>(i)];
+    l.id = i + 1, l.number = i + 1, l.box_size = box;
+    l.ra = kRa0 + (i % 100) * 20 * deg_per_arcsec, l.dec = kDec0 + (i / 100) * 20 * deg_per_arcsec;
+    l.cutouts.resize(static_cast<std::size_t>(options.epochs) + 1);
+    const std::vector<MedsSimCutout> epochs = sim.epochs(i);
+    for (std::size_t k = 0; k < epochs.size(); ++k) {
+      const MedsSimCutout& c = epochs[k];
+      io::MedsCutout& mc = l.cutouts[k + 1];
+      mc.file_id = c.image + 1;
+      mc.orig_row = c.orig_row, mc.orig_col = c.orig_col;
+      mc.orig_start_row = static_cast<long long>(std::floor(c.orig_row)) - box / 2 + 1;
+      mc.orig_start_col = static_cast<long long>(std::floor(c.orig_col)) - box / 2 + 1;
+      mc.cutout_row = c.cutout_row, mc.cutout_col = c.cutout_col;
+      mc.dudrow = c.dudrow, mc.dudcol = c.dudcol, mc.dvdrow = c.dvdrow, mc.dvdcol = c.dvdcol;
+    }
+    l.cutouts[0] = l.cutouts[1];  // the coadd slot: the first epoch's geometry, blank pixels
+    l.cutouts[0].file_id = 0;
+  }
+  io::MedsWriter writer(tile, layout, images,
+                        {io::MedsCutoutType::kWeight, io::MedsCutoutType::kSeg, io::MedsCutoutType::kBmask});
+  tbb::enumerable_thread_specific<std::unique_ptr<MedsSimulator::Workspace>> workspaces(
+      [&] { return sim.make_workspace(); });
+  std::vector<MedsSimObject> chunk;
+  io::FitsFile::OutputColumn cols[] = {{"id", true, {}},     {"number", true, {}}, {"pair", true, {}},
+                                       {"e1_int", false, {}}, {"e2_int", false, {}}, {"e1_obs", false, {}},
+                                       {"e2_obs", false, {}}, {"hlr", false, {}},    {"flux", false, {}},
+                                       {"bulge_frac", false, {}}, {"u0", false, {}}, {"v0", false, {}},
+                                       {"neighbour", true, {}}};
+  for (long long first = 0; first < options.objects; first += kChunk) {
+    const long long count = std::min<long long>(kChunk, options.objects - first);
+    chunk.assign(static_cast<std::size_t>(count), MedsSimObject{});
+    tbb::parallel_for(0LL, count, [&](long long k) {
+      auto& ws = workspaces.local();
+      chunk[static_cast<std::size_t>(k)] = sim.simulate(first + k, *ws);
+    });
+    std::vector<double> empty(static_cast<std::size_t>(box) * box, 0.0);
+    for (long long k = 0; k < count; ++k) {
+      const MedsSimObject& o = chunk[static_cast<std::size_t>(k)];
+      const long long row = first + k;
+      for (io::MedsCutoutType t : {io::MedsCutoutType::kImage, io::MedsCutoutType::kWeight, io::MedsCutoutType::kSeg,
+                                   io::MedsCutoutType::kBmask})
+        writer.write_cutout(row, 0, t, empty);
+      for (std::size_t e = 0; e < o.cutouts.size(); ++e) {
+        const MedsSimCutout& c = o.cutouts[e];
+        const int icut = static_cast<int>(e) + 1;
+        writer.write_cutout(row, icut, io::MedsCutoutType::kImage, c.pixels);
+        writer.write_cutout(row, icut, io::MedsCutoutType::kWeight, c.weight);
+        std::vector<double> seg = c.seg;
+        for (double& v : seg) v = v == 1 ? static_cast<double>(row + 1) : v == 2 ? static_cast<double>(options.objects + row + 1) : 0.0;
+        writer.write_cutout(row, icut, io::MedsCutoutType::kSeg, seg);
+        writer.write_cutout(row, icut, io::MedsCutoutType::kBmask, c.bmask);
+      }
+      const double values[] = {static_cast<double>(row + 1), static_cast<double>(row + 1), static_cast<double>(o.pair),
+                               o.e1_int, o.e2_int, o.e1_obs, o.e2_obs, o.hlr, o.flux, o.bulge_frac, o.u0, o.v0,
+                               o.neighbour ? 1.0 : 0.0};
+      for (std::size_t c = 0; c < std::size(cols); ++c) cols[c].values.push_back(values[c]);
+    }
+    if (progress) progress(first + count, options.objects);
+  }
+  writer.finish();
+  const std::string partial = truth_path + ".partial";
+  {
+    io::FitsFile truth = io::FitsFile::create(partial, true);
+    truth.write_empty_image();
+    truth.write_key("SHEAR1", options.g1, "the constant shear g1, (u, v) frame");
+    truth.write_key("SHEAR2", options.g2, "the constant shear g2");
+    truth.write_key("NOISEFRE", options.noise_free ? 1LL : 0LL, "1: noise-free");
+    truth.write_key("SNR", options.snr, "each object's S/N over its epochs");
+    truth.write_key("MAGZP", options.magzp, "zero point of the flux column");
+    truth.write_table("TRUTH", std::vector<io::FitsFile::OutputColumn>(std::begin(cols), std::end(cols)));
+  }
+  fs::rename(partial, truth_path);
+}
+
+}  // namespace stampede::app

@@ -1,0 +1,20 @@
+// A simulated MEDS tile on disk (`stampede sim meds`): DIR/meds.fits (image, weight, seg and bmask
+// cutouts; cutout 0 of each object is an empty coadd slot, so the single epochs are cutouts
+// 1..epochs as in a survey tile), DIR/psfex/image_K.psf (each source image's PSF as a constant
+// PSFEx model at PSF_SAMP = 1), and DIR/truth.fits (SHEAR1 SHEAR2 and a TRUTH row per object).
+// Objects are drawn in parallel in chunks and written in order: the files are identical for any
+// thread count, and memory is one chunk's.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "engine/sim/meds_sim.hpp"
+
+namespace stampede::app {
+
+// Object numbers in the seg map: object i is i + 1; its neighbour is objects + i + 1.
+void write_meds_simulation(const MedsSimOptions& options, const std::string& dir, bool overwrite,
+                           const std::function<void(long long done, long long total)>& progress = {});
+
+}  // namespace stampede::app
