@@ -64,6 +64,7 @@ MedsSimulator::MedsSimulator(const MedsSimOptions& options) : options_(options) 
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
   const int n = options.psf_size, c = n / 2;
   SimRenderer::Options so;
+  so.sersic_indices = {1.0};  // only the PSF is drawn here: no Sersic table to build
   for (int i = 0; i < options.images; ++i) {
     RandomStream rng({options.seed, kImagePurpose, static_cast<std::uint64_t>(i)});
     MedsSimImage im;

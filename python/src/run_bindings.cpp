@@ -47,9 +47,10 @@ void bind_run(py::module_& m) {
       "run_fit",
       [](const std::string& input, const std::string& output, const std::string& catalog, const std::string& weight,
          const std::string& text_output, py::handle options, int threads, bool resume, bool overwrite,
-         py::object progress, py::object shard) {
+         py::object progress, py::object shard, const std::string& meds) {
         app::FitRunOptions a;
         a.input = input;
+        a.meds = meds;
         a.output = output;
         a.catalog = catalog;
         a.weight = weight;
@@ -92,11 +93,13 @@ void bind_run(py::module_& m) {
         if (callback_error) std::rethrow_exception(callback_error);
         return summary_dict(s);
       },
-      py::arg("input"), py::arg("output") = "", py::arg("catalog") = "", py::arg("weight") = "",
+      py::arg("input") = "", py::arg("output") = "", py::arg("catalog") = "", py::arg("weight") = "",
       py::arg("text_output") = "", py::arg("options") = py::none(), py::arg("threads") = 0, py::arg("resume") = false,
-      py::arg("overwrite") = false, py::arg("progress") = py::none(), py::arg("shard") = py::none(), R"doc(
+      py::arg("overwrite") = false, py::arg("progress") = py::none(), py::arg("shard") = py::none(),
+      py::arg("meds") = "", R"doc(
 Runs `stampede fit` over files: `input` a grid of stamps (or, with `catalog`, the image to cut
-them from), `output` the FITS table ("" = none), `weight` an inverse-variance image. `options` as
+them from), or `meds` a MEDS tile instead (each object fitted on its cutouts, as `stampede fit
+--meds`; options meds_*), `output` the FITS table ("" = none), `weight` an inverse-variance image. `options` as
 for Options; `progress(done, total, seconds)` is called about once a second. Warnings (e.g. an
 input that records another PSF) arrive as UserWarning. `shard=(i, N)` fits shard i of N, as
 `stampede fit --shard i/N` (join them with merge_shards). Returns the run summary as a dict

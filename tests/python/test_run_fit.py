@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import stampede
-from conftest import MINI, MINI_PSF, columns_equal_bitwise, grid_stamps
+from conftest import DATA, MINI, MINI_PSF, columns_equal_bitwise, grid_stamps, run_cli
 
 SET0 = os.path.join(MINI, "nf", "set_0.fits")
 
@@ -64,3 +64,19 @@ def test_shards_merged_equal_the_whole_run(tmp_path):
     assert columns_equal_bitwise(stampede.read_results(merged), stampede.read_results(whole)) == []
     with pytest.raises(stampede.CatalogError, match="shard 1/3 is missing"):
         stampede.merge_shards([parts[0], parts[2]], str(tmp_path / "m2.fits"))
+
+
+def test_a_meds_tile_gives_the_commands_survey_rows(tmp_path):
+    tile = os.path.join(DATA, "meds-sample", "meds.fits")
+    out = str(tmp_path / "meds.fits")
+    s = stampede.run_fit(meds=tile, output=out, threads=2)
+    assert s["objects"] == 24 and s["status"].get("ok", 0) == 24
+    rows = stampede.read_results(out)
+    for name in ("id", "number", "ra", "dec", "n_epochs", "masked_frac", "psf_size", "is_bulge"):
+        assert name in rows.dtype.names
+    assert (rows["n_epochs"] == 4).all() and (rows["is_bulge"] == -1).all()
+    cli = str(tmp_path / "cli.fits")
+    run_cli("fit", "--meds", tile, "-o", cli, "--quiet")
+    assert columns_equal_bitwise(rows, stampede.read_results(cli)) == []
+    with pytest.raises(stampede.Error, match="takes no INPUT"):
+        stampede.run_fit(os.path.join(MINI, "nf", "set_0.fits"), meds=tile, output=str(tmp_path / "x.fits"))
