@@ -129,6 +129,14 @@ TEST(FitsHeaderGuard, AGzipSizeClaimBeyondDeflatesRatioIsAnErrorNotAnAllocation)
                        "liar.fits.gz: gzip trailer claims 1073741824 bytes uncompressed from 68"));
 }
 
+// Found by the fuzz campaign (F14, fuzz_psfex): a 125-byte file starting "PK" whose bytes 22-25
+// claim 3.3 GB made CFITSIO allocate that much to unzip it; PKZIP files are refused by name.
+TEST(FitsHeaderGuard, APkzipFileIsAnErrorNotAnAllocation) {
+  const stampede::testing::ScratchDir dir("stampede_header_guard_");
+  std::string bytes = "PKL" + std::string(107, '\xc3') + "DEG\x8b";
+  EXPECT_TRUE(Contains(open_error(dir, "model.psf", bytes), "model.psf: a PKZIP-compressed file (it starts 'PK') is not read"));
+}
+
 // Found by the fuzz campaign (F10, fuzz_calibration_table): "gzip" files whose trailer claims
 // less than their own size (0 from 17 KB, 8 KB from 10 KB) made CFITSIO allocate 4 GB more than
 // the claim (it takes such a claim for a file that wrapped past 4 GB).

@@ -133,14 +133,32 @@ TEST(RunConfigRegistry, ListsEveryKeyOnceWithItsDefaultAndHelp) {
         "psf_e1", "psf_e2", "psf_truncation", "airy_lambda_over_d", "airy_obscuration", "psf_image",
         "psf_upsampling", "psf_pixel_integrated", "batch_size", "fft_wisdom", "catalog_id_column",
         "catalog_x_column", "catalog_y_column", "catalog_psf_beta_column", "catalog_psf_fwhm_column",
-        "catalog_psf_e1_column", "catalog_psf_e2_column", "save_images"})
+        "catalog_psf_e1_column", "catalog_psf_e2_column", "meds_model", "meds_fit_coadd", "meds_bmask_bits",
+        "meds_uberseg", "meds_min_unmasked_fraction", "meds_magzp_ref", "meds_psf_dir", "save_images"})
     EXPECT_TRUE(names.contains(key)) << key;
   for (int k = 0; k < kNumParams; ++k) {
     const std::string n(param_name(static_cast<Param>(k)));
     for (const char* suffix : {"_start", "_min", "_max", "_free"})
       EXPECT_TRUE(names.contains(n + suffix)) << n + suffix;
   }
-  EXPECT_EQ(options.size(), 47u + 4u * kNumParams);
+  EXPECT_EQ(options.size(), 54u + 4u * kNumParams);
+}
+
+// The survey options: bmask bits in decimal or hex, the two models, and the bounds validate checks.
+TEST(RunConfigRegistry, MedsOptionsParseAndValidate) {
+  RunConfig c;
+  set_option(c, "meds_bmask_bits", "0x40000001");
+  EXPECT_EQ(c.meds.bmask_bits, 0x40000001u);
+  EXPECT_EQ(get_option(c, "meds_bmask_bits"), "1073741825");
+  set_option(c, "meds_bmask_bits", "4294967295");
+  EXPECT_EQ(c.meds.bmask_bits, 0xffffffffu);
+  for (const char* bad : {"-1", "4294967296", "0x", "12abc", ""})
+    EXPECT_TRUE(Contains(error_of<ConfigError>([&] { set_option(c, "meds_bmask_bits", bad); }), "meds_bmask_bits")) << bad;
+  set_option(c, "meds_model", "BORD");
+  EXPECT_EQ(c.meds.model, MedsModel::kBulgeOrDisc);
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { set_option(c, "meds_model", "sersic"); }), "expected bd or bord"));
+  set_option(c, "meds_min_unmasked_fraction", "1.5");
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }), "meds_min_unmasked_fraction = 1.5: must be in [0, 1]"));
 }
 
 // --- get / set -----------------------------------------------------------------------------------
@@ -462,10 +480,11 @@ TEST_F(RunConfigFile, TemplateDocumentsEveryKeyAndLoadsAsTheDefaults) {
     const std::string line = "#" + o.name + (o.default_value.empty() ? " =" : " = " + o.default_value);
     EXPECT_TRUE(Contains(text, "\n# " + o.help + "\n" + line + "\n"));
   }
+  const RunConfig kDefaults;  // named: GCC 12 warns falsely (maybe-uninitialized) on a temporary's strings
   RunConfig c;
   load_ini(c, write_ini(text, "template.ini"));
   EXPECT_TRUE(c.explicitly_set.empty());  // every assignment is commented out
-  EXPECT_EQ(effective_options(c), effective_options(RunConfig{}));
+  EXPECT_EQ(effective_options(c), effective_options(kDefaults));
 
   // Uncommented, it sets every key to its default: the template is also a valid full config.
   std::string uncommented;
@@ -475,7 +494,7 @@ TEST_F(RunConfigFile, TemplateDocumentsEveryKeyAndLoadsAsTheDefaults) {
   RunConfig d;
   load_ini(d, write_ini(uncommented, "full.ini"));
   EXPECT_EQ(d.explicitly_set.size(), run_config_options().size());
-  EXPECT_EQ(effective_options(d), effective_options(RunConfig{}));
+  EXPECT_EQ(effective_options(d), effective_options(kDefaults));
   EXPECT_NO_THROW(validate(d));
 }
 
