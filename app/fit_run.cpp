@@ -202,9 +202,11 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
                             "': --meds needs renderer = exact (it draws through each cutout's WCS Jacobian)");
     cfg.fitter.renderer = RendererKind::kExact;
   }
-  for (const char* key : {"psf_input", "psf_fwhm", "psf_beta", "psf_e1", "psf_e2", "psf_image"})
-    if (cfg.explicitly_set.count(key))
-      warn(std::string("option '") + key + "' is not used with --meds: each cutout's PSF is its source image's PSFEx model");
+  if (cfg.meds.psf != io::MedsPsfSource::kOptions)
+    for (const char* key : {"psf_input", "psf_fwhm", "psf_beta", "psf_e1", "psf_e2", "psf_image"})
+      if (cfg.explicitly_set.count(key))
+        warn(std::string("option '") + key + "' is not used with --meds unless meds_psf = options (each cutout's PSF " +
+             "is its psf cutout or its source image's PSFEx model)");
   io::validate(cfg);
 
   std::vector<io::OutputLock> locks;
@@ -216,9 +218,19 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
   MedsFitOptions meds_options;
   static_cast<io::MedsOptions&>(meds_options) = cfg.meds;
   meds_options.fitter = cfg.fitter;
+  if (cfg.meds.psf == io::MedsPsfSource::kOptions) {
+    FftPlanCache plans(FftPlanning::kEstimate);
+    meds_options.psf_model = app::build_shared_psf(cfg, plans).model;
+  }
   // The tile is opened here once, so that a bad file fails before any thread starts; each thread
   // then opens its own handle.
-  const long long input_objects = io::MedsFile::open(a.meds).size();
+  long long input_objects = 0;
+  {
+    io::MedsFile tile = io::MedsFile::open(a.meds);
+    input_objects = tile.size();
+    if (cfg.meds.psf == io::MedsPsfSource::kCutouts && !tile.has_psf_cutouts())
+      throw io::ConfigError("option 'meds_psf' = 'cutouts': " + tile.psf_cutouts_problem());
+  }
   IndexSource whole(input_objects);
   std::unique_ptr<RangeSource> shard;
   if (a.shards > 1)

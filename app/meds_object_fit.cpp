@@ -50,6 +50,11 @@ MedsObjectFitter::MedsObjectFitter(io::MedsFile& meds, const MedsFitOptions& opt
       fitter_(options.model == MedsModel::kBulgeOrDisc ? single_component(options.fitter, Param::kBulgeA) : options.fitter) {
   if (options.model == MedsModel::kBulgeOrDisc)
     bulge_fitter_ = std::make_unique<MultiEpochFitter>(single_component(options.fitter, Param::kDiscA));
+  source_ = options.psf;
+  if (source_ == io::MedsPsfSource::kAuto)
+    source_ = meds.has_psf_cutouts() ? io::MedsPsfSource::kCutouts : io::MedsPsfSource::kPsfex;
+  if (source_ == io::MedsPsfSource::kCutouts && !meds.has_psf_cutouts())
+    throw std::invalid_argument("meds_psf = cutouts: " + meds.psf_cutouts_problem());
   models_.resize(meds.images().size());
   model_errors_.resize(meds.images().size());
   if (options_.psf_dir.empty()) options_.psf_dir = std::filesystem::path(meds.path()).parent_path().string();
@@ -79,6 +84,44 @@ const PsfexModel* MedsObjectFitter::psfex(long long file_id, std::string* proble
     return nullptr;
   }
   return &*models_[i];
+}
+
+std::shared_ptr<const PreparedPsf> MedsObjectFitter::cutout_psf(const io::MedsObject& o, int k,
+                                                                 std::shared_ptr<const PsfImage>* used, std::string* why) {
+  const io::MedsCutout& c = o.cutouts[static_cast<std::size_t>(k)];
+  const int box = static_cast<int>(o.box_size);
+  std::shared_ptr<const PsfImage> image;
+  switch (source_) {
+    case io::MedsPsfSource::kOptions: {
+      std::shared_ptr<const PreparedPsf>& p = options_psf_[box];
+      if (!p) p = fitter_.renderer_for(box).prepare_psf(options_.psf_model, why);
+      return p;
+    }
+    case io::MedsPsfSource::kCutouts: {
+      if (!c.psf_problem.empty()) {
+        *why = c.psf_problem;
+        return nullptr;
+      }
+      auto img = std::make_shared<PsfImage>();
+      img->nx = static_cast<int>(c.psf_cols), img->ny = static_cast<int>(c.psf_rows);
+      img->pixels.resize(static_cast<std::size_t>(c.psf_rows * c.psf_cols));
+      meds_.read_psf_cutout(o, k, img->pixels);
+      img->centre_x = c.psf_cutout_col, img->centre_y = c.psf_cutout_row;
+      img->oversampling = 1;
+      img->pixel_integrated = true;
+      image = std::move(img);
+      break;
+    }
+    default: {
+      // The source image's PSFEx model at the object's position there (1-based X_IMAGE).
+      const PsfexModel* model = psfex(c.file_id, why);
+      if (model) image = model->image_at(c.orig_col + 1, c.orig_row + 1, why);
+      break;
+    }
+  }
+  *used = image;
+  if (!image) return nullptr;
+  return fitter_.renderer_for(box).prepare_psf(PsfModel::Image(image), why);
 }
 
 MedsObjectResult MedsObjectFitter::fit(long long row) {
@@ -139,12 +182,9 @@ MedsObjectResult MedsObjectFitter::fit(long long row) {
       note(meds_.path() + ": object " + std::to_string(row) + ", cutout " + std::to_string(k) + ": every pixel masked");
       continue;
     }
-    // The PSF: the source image's PSFEx model at the object's position there (1-based X_IMAGE).
     std::string why;
-    const PsfexModel* model = psfex(c.file_id, &why);
-    std::shared_ptr<const PsfImage> image = model ? model->image_at(c.orig_col + 1, c.orig_row + 1, &why) : nullptr;
-    std::shared_ptr<const PreparedPsf> prepared;
-    if (image) prepared = fitter_.renderer_for(box).prepare_psf(PsfModel::Image(image), &why);
+    std::shared_ptr<const PsfImage> image;
+    const std::shared_ptr<const PreparedPsf> prepared = cutout_psf(o, k, &image, &why);
     if (!prepared) {
       note(meds_.path() + ": object " + std::to_string(row) + ", cutout " + std::to_string(k) + ": PSF: " + why);
       out.flags |= kFlagPsfFailure;

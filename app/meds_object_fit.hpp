@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -23,6 +24,7 @@ using MedsModel = io::MedsModel;
 
 struct MedsFitOptions : io::MedsOptions {
   FitterOptions fitter;  // renderer must be exact; stamp_size is each cutout's; amplitudes free for bd
+  PsfModel psf_model;    // psf = kOptions: the PSF of every cutout, in its pixels
 };
 
 struct MedsObjectResult {
@@ -45,12 +47,17 @@ class MedsObjectFitter {
   MedsObjectFitter(io::MedsFile& meds, const MedsFitOptions& options);
   ~MedsObjectFitter();
   MedsObjectResult fit(long long row);
-  // What the last fit used for cutout k of its epochs (for tests: the PSF from its PSFEx model).
+  // What the last fit used for cutout k of its epochs (for tests: the PSF from its PSFEx model or
+  // the tile's psf cutout; null for the options' analytic PSF).
   const std::vector<std::shared_ptr<const PsfImage>>& last_psfs() const { return last_psfs_; }
 
  private:
   // The PSFEx model of image_info row `file_id`, loaded on first use; null with *problem if not.
   const PsfexModel* psfex(long long file_id, std::string* problem);
+  // Cutout k's PSF from the configured source, prepared for its box; null with *why if none.
+  // *used: the PSF image it came from (null for the options' analytic PSF).
+  std::shared_ptr<const PreparedPsf> cutout_psf(const io::MedsObject& o, int k, std::shared_ptr<const PsfImage>* used,
+                                                std::string* why);
 
   io::MedsFile& meds_;
   MedsFitOptions options_;
@@ -61,6 +68,8 @@ class MedsObjectFitter {
   // Per cutout of the current object: pixels, weights, and scratch for seg and bmask.
   std::vector<std::vector<double>> pixels_, weights_;
   std::vector<double> seg_, bmask_;
+  io::MedsPsfSource source_;  // resolved: never kAuto
+  std::map<int, std::shared_ptr<const PreparedPsf>> options_psf_;  // source kOptions, per box size
   std::vector<std::shared_ptr<const PsfImage>> last_psfs_;
   std::vector<EpochData> epochs_;  // the current object's, reused
 };

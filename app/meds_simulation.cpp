@@ -53,6 +53,7 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
   for (long long i = 0; i < options.objects; ++i) {
     io::MedsObjectLayout& l = layout[static_cast<std::size_t>(i)];
     l.id = i + 1, l.number = i + 1, l.box_size = box;
+    if (options.psf_cutouts) l.psf_size = n;
     l.ra = kRa0 + (i % 100) * 20 * deg_per_arcsec, l.dec = kDec0 + (i / 100) * 20 * deg_per_arcsec;
     l.cutouts.resize(static_cast<std::size_t>(options.epochs) + 1);
     const std::vector<MedsSimCutout> epochs = sim.epochs(i);
@@ -65,6 +66,7 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
       mc.orig_start_col = static_cast<long long>(std::floor(c.orig_col)) - box / 2 + 1;
       mc.cutout_row = c.cutout_row, mc.cutout_col = c.cutout_col;
       mc.dudrow = c.dudrow, mc.dudcol = c.dudcol, mc.dvdrow = c.dvdrow, mc.dvdcol = c.dvdcol;
+      mc.psf_cutout_row = mc.psf_cutout_col = n / 2;  // the PSF's centre sample, as PSFEx's
     }
     l.cutouts[0] = l.cutouts[1];  // the coadd slot: the first epoch's geometry, blank pixels
     l.cutouts[0].file_id = 0;
@@ -93,6 +95,7 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
       for (io::MedsCutoutType t : {io::MedsCutoutType::kImage, io::MedsCutoutType::kWeight, io::MedsCutoutType::kSeg,
                                    io::MedsCutoutType::kBmask})
         writer.write_cutout(row, 0, t, empty);
+      if (options.psf_cutouts) writer.write_psf_cutout(row, 0, std::vector<double>(static_cast<std::size_t>(n) * n, 0.0));
       for (std::size_t e = 0; e < o.cutouts.size(); ++e) {
         const MedsSimCutout& c = o.cutouts[e];
         const int icut = static_cast<int>(e) + 1;
@@ -102,6 +105,7 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
         for (double& v : seg) v = v == 1 ? static_cast<double>(row + 1) : v == 2 ? static_cast<double>(options.objects + row + 1) : 0.0;
         writer.write_cutout(row, icut, io::MedsCutoutType::kSeg, seg);
         writer.write_cutout(row, icut, io::MedsCutoutType::kBmask, c.bmask);
+        if (options.psf_cutouts) writer.write_psf_cutout(row, icut, sim.images()[static_cast<std::size_t>(c.image)].psf);
       }
       const double values[] = {static_cast<double>(row + 1), static_cast<double>(row + 1), static_cast<double>(o.pair),
                                o.e1_int, o.e2_int, o.e1_obs, o.e2_obs, o.hlr, o.flux, o.bulge_frac, o.u0, o.v0,

@@ -90,9 +90,86 @@ MedsFile MedsFile::open(const std::string& path) {
   }
   if (nmax > 100000) throw FitsError(f.describe() + ": NMAX = " + std::to_string(nmax) + " cutouts per object is not a tile's");
   m.nmax_ = static_cast<int>(nmax);
+  m.find_psf_cutouts();
   m.ints_.resize(static_cast<std::size_t>(kNumInts * nmax));
   m.doubles_.resize(static_cast<std::size_t>(kNumDoubles * nmax));
   return m;
+}
+
+void MedsFile::find_psf_cutouts() {
+  FitsFile& f = file_;
+  if (!f.move_to_if_present("psf")) {
+    psf_problem_ = path_ + ": no HDU 'psf' (the tile has no PSF cutouts)";
+    f.move_to(object_hdu_);
+    return;
+  }
+  psf_hdu_ = f.hdu_index();
+  psf_length_ = f.image_length();
+  f.move_to(object_hdu_);
+  const bool square = f.has_column("psf_box_size");
+  psf_columns_ = {"psf_start_row", "psf_cutout_row", "psf_cutout_col", square ? "psf_box_size" : "psf_row_size",
+                  square ? "psf_box_size" : "psf_col_size"};
+  for (std::size_t c = 0; c < psf_columns_.size(); ++c) {
+    if (!f.has_column(psf_columns_[c])) {
+      psf_problem_ = f.describe() + ": HDU 'psf' is present but there is no column '" + psf_columns_[c] + "'" +
+                     (c >= 3 ? " (nor 'psf_box_size')" : "");
+      return;
+    }
+    psf_repeat_[c] = f.column_repeat(psf_columns_[c]);
+    if (psf_repeat_[c] != 1 && psf_repeat_[c] != nmax_) {
+      psf_problem_ = f.describe() + ": column '" + psf_columns_[c] + "' has " + std::to_string(psf_repeat_[c]) +
+                     " values per row: one per object or NMAX = " + std::to_string(nmax_);
+      return;
+    }
+  }
+  psf_problem_.clear();
+  psf_scratch_.resize(static_cast<std::size_t>(nmax_));
+}
+
+void MedsFile::read_psf_columns(MedsObject& o) {
+  const std::size_t n = o.cutouts.size();
+  std::array<std::vector<double>, 5> values;
+  for (std::size_t c = 0; c < psf_columns_.size(); ++c) {
+    std::span<double> out(psf_scratch_.data(), static_cast<std::size_t>(psf_repeat_[c]));
+    file_.read_vector_rows(psf_columns_[c], o.row, out);
+    values[c].assign(n, 0.0);
+    for (std::size_t i = 0; i < n; ++i) values[c][i] = psf_repeat_[c] == 1 ? out[0] : out[i];
+  }
+  constexpr long long kMaxPsfSide = 1024;
+  for (std::size_t i = 0; i < n; ++i) {
+    MedsCutout& c = o.cutouts[i];
+    const std::string where = describe_object(o) + ", cutout " + std::to_string(i) + ": ";
+    const double start = values[0][i], rows = values[3][i], cols = values[4][i];
+    c.psf_cutout_row = values[1][i], c.psf_cutout_col = values[2][i];
+    if (!(rows >= 1 && rows <= kMaxPsfSide && cols >= 1 && cols <= kMaxPsfSide) || rows != std::floor(rows) ||
+        cols != std::floor(cols)) {
+      c.psf_problem = where + "columns '" + psf_columns_[3] + "', '" + psf_columns_[4] + "' = " + std::to_string(rows) +
+                      ", " + std::to_string(cols) + " are not a PSF image's size (1.." + std::to_string(kMaxPsfSide) + ")";
+      continue;
+    }
+    c.psf_rows = static_cast<long long>(rows), c.psf_cols = static_cast<long long>(cols);
+    if (!(start >= 0) || start != std::floor(start) || start > static_cast<double>(psf_length_ - c.psf_rows * c.psf_cols)) {
+      c.psf_problem = where + "column " + with_index("psf_start_row", static_cast<int>(i)) + " = " + std::to_string(start) +
+                      " with " + std::to_string(c.psf_rows * c.psf_cols) + " samples runs past the " +
+                      std::to_string(psf_length_) + " of HDU 'psf'";
+      continue;
+    }
+    c.psf_start_row = static_cast<long long>(start);
+    if (!std::isfinite(c.psf_cutout_row) || !std::isfinite(c.psf_cutout_col))
+      c.psf_problem = where + "columns 'psf_cutout_row', 'psf_cutout_col' are not finite";
+  }
+}
+
+void MedsFile::read_psf_cutout(const MedsObject& object, int icut, std::span<double> out) {
+  if (!psf_problem_.empty()) throw FitsError(psf_problem_);
+  if (!object.problem.empty() || icut < 0 || icut >= static_cast<int>(object.cutouts.size()) ||
+      !object.cutouts[static_cast<std::size_t>(icut)].psf_problem.empty())
+    throw FitsError(path_ + ": object " + std::to_string(object.row) + " has no usable PSF cutout " + std::to_string(icut));
+  const MedsCutout& c = object.cutouts[static_cast<std::size_t>(icut)];
+  if (out.size() != static_cast<std::size_t>(c.psf_rows * c.psf_cols))
+    throw FitsError(path_ + ": read_psf_cutout: output holds " + std::to_string(out.size()) + " values, not the PSF's");
+  file_.move_to(psf_hdu_);
+  file_.read_image_range(c.psf_start_row, out);
 }
 
 std::string MedsFile::describe_object(const MedsObject& o) {
@@ -165,6 +242,7 @@ MedsObject MedsFile::object(long long row) {
     else if (!std::isfinite(c.cutout_row) || !std::isfinite(c.cutout_col))
       c.problem = where + "columns " + with_index("cutout_row", i) + ", " + with_index("cutout_col", i) + " are not finite";
   }
+  if (psf_problem_.empty()) read_psf_columns(o);
   return o;
 }
 

@@ -47,6 +47,12 @@ struct MedsCutout {
   // (du, dv) = J (drow, dcol), arcsec: J = [[dudrow, dudcol], [dvdrow, dvdcol]].
   double dudrow = 0, dudcol = 0, dvdrow = 0, dvdcol = 0;
   std::string problem;  // empty, or why this cutout cannot be used (it names the column)
+  // Its PSF image in the `psf` HDU, when the tile has one (MedsFile::has_psf_cutouts): rows x cols
+  // samples at the cutout's pixel pitch from psf_start_row, centred on (psf_cutout_row,
+  // psf_cutout_col), 0-based.
+  long long psf_start_row = -1, psf_rows = 0, psf_cols = 0;
+  double psf_cutout_row = 0, psf_cutout_col = 0;
+  std::string psf_problem;  // empty, or why its PSF image cannot be read (it names the column)
 };
 
 struct MedsObject {
@@ -70,16 +76,26 @@ class MedsFile {
   bool has(MedsCutoutType type) const { return length_[static_cast<int>(type)] >= 0; }
   // Pixels in a cutout type's flat array (-1: the HDU is absent).
   long long array_length(MedsCutoutType type) const { return length_[static_cast<int>(type)]; }
+  // Whether the tile has PSF images per cutout: the `psf` HDU and object_data's psf_start_row,
+  // psf_cutout_row, psf_cutout_col and psf_box_size (or psf_row_size and psf_col_size), each one
+  // value per object or NMAX. Otherwise psf_cutouts_problem() says what is missing.
+  bool has_psf_cutouts() const { return psf_problem_.empty(); }
+  const std::string& psf_cutouts_problem() const { return psf_problem_; }
 
   // Row `row` of object_data (0 <= row < size()); sets `problem` for an object that cannot be fitted.
   MedsObject object(long long row);
   // The box_size^2 pixels (row-major, rows slow) of cutout `icut` of `object` from one array;
   // `object` must have no problem and `type` must be present. out.size() must be box_size^2.
   void read_cutout(const MedsObject& object, int icut, MedsCutoutType type, std::span<double> out);
+  // The psf_rows x psf_cols PSF samples of cutout `icut` (row-major); the tile must have PSF
+  // cutouts and the cutout no psf_problem. out.size() must be psf_rows * psf_cols.
+  void read_psf_cutout(const MedsObject& object, int icut, std::span<double> out);
 
  private:
   MedsFile(FitsFile file, std::string path) : file_(std::move(file)), path_(std::move(path)) {}
   std::string describe_object(const MedsObject& o);
+  void find_psf_cutouts();                // at open: sets psf_problem_ or the PSF columns
+  void read_psf_columns(MedsObject& o);   // each cutout's PSF image place, or its psf_problem
 
   FitsFile file_;
   std::string path_;
@@ -89,6 +105,13 @@ class MedsFile {
   std::array<long long, kNumMedsCutoutTypes> length_{};
   std::array<int, kNumMedsCutoutTypes> hdu_{};  // 0-based HDU index of each array (moving by index is cheap)
   int object_hdu_ = 0;
+  std::string psf_problem_ = "no PSF cutouts";  // empty when the tile has them
+  int psf_hdu_ = 0;
+  long long psf_length_ = -1;
+  // object_data's PSF columns: {start_row, cutout_row, cutout_col, rows, cols}; repeat 1 or NMAX.
+  std::array<std::string, 5> psf_columns_;
+  std::array<long long, 5> psf_repeat_{};
+  std::vector<double> psf_scratch_;
   // Scratch for one object_data row's per-cutout columns.
   std::vector<long long> ints_;
   std::vector<double> doubles_;

@@ -12,8 +12,14 @@ namespace stampede::io {
 // better likelihood kept (DES Y1's im3shape).
 enum class MedsModel { kBulgeDisc, kBulgeOrDisc };
 
+// Where each cutout's PSF comes from: the tile's `psf` cutouts, its source image's PSFEx model
+// (image_info psf_path), or the run's PSF options (one analytic PSF in every cutout's pixels, for
+// simulations); auto: the cutouts when the tile has them, else PSFEx.
+enum class MedsPsfSource { kAuto, kPsfex, kCutouts, kOptions };
+
 struct MedsOptions {
   MedsModel model = MedsModel::kBulgeDisc;
+  MedsPsfSource psf = MedsPsfSource::kAuto;
   bool fit_coadd = false;  // fit cutout 0 (the coadd) alone instead of the single epochs
   std::uint32_t bmask_bits = 0xffffffffu;  // a pixel with any of these bmask bits set is masked
   bool uberseg = true;                     // mask pixels nearest another object in the seg map

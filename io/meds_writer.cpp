@@ -26,6 +26,8 @@ struct MedsWriter::State {
   fitsfile* f = nullptr;
   std::vector<MedsObjectLayout> objects;
   std::vector<std::vector<long long>> start_row;  // per object, per cutout
+  std::vector<std::vector<long long>> psf_start_row;
+  int psf_hdu = 0;  // 0: no PSF images
   std::vector<int> hdu_of_type = std::vector<int>(kNumMedsCutoutTypes, 0);  // 1-based HDU number; 0 = absent
   std::vector<float> floats;
   std::vector<int> ints;
@@ -43,15 +45,20 @@ MedsWriter::MedsWriter(const std::string& path, std::vector<MedsObjectLayout> ob
   fits_create_file(&s.f, s.partial.c_str(), &status);
   check(status, s.partial, "create the MEDS tile");
   long nmax = 1;
-  long long total = 0;
+  long long total = 0, psf_total = 0;
+  bool with_psf = false;
   for (const MedsObjectLayout& o : s.objects) {
     nmax = std::max<long>(nmax, static_cast<long>(o.cutouts.size()));
-    std::vector<long long> rows;
+    with_psf = with_psf || o.psf_size > 0;
+    std::vector<long long> rows, psf_rows;
     for (std::size_t k = 0; k < o.cutouts.size(); ++k) {
       rows.push_back(total);
       total += static_cast<long long>(o.box_size) * o.box_size;
+      psf_rows.push_back(psf_total);
+      psf_total += static_cast<long long>(o.psf_size) * o.psf_size;
     }
     s.start_row.push_back(std::move(rows));
+    s.psf_start_row.push_back(std::move(psf_rows));
   }
   // A primary HDU with no data, then the tables.
   fits_create_img(s.f, BYTE_IMG, 0, nullptr, &status);
@@ -62,6 +69,10 @@ MedsWriter::MedsWriter(const std::string& path, std::vector<MedsObjectLayout> ob
                                       "orig_row", "orig_col", "orig_start_row", "orig_start_col", "cutout_row",
                                       "cutout_col", "dudrow", "dudcol", "dvdrow", "dvdcol"};
     std::vector<std::string> forms = {"1K", "1K", "1K", "1D", "1D", "1K", k, k, d, d, k, k, d, d, d, d, d, d};
+    if (with_psf) {
+      for (const char* name : {"psf_box_size", "psf_start_row", "psf_cutout_row", "psf_cutout_col"}) names.push_back(name);
+      for (const std::string& form : {std::string("1K"), k, d, d}) forms.push_back(form);
+    }
     std::vector<char*> tt, tf;
     for (auto& x : names) tt.push_back(x.data());
     for (auto& x : forms) tf.push_back(x.data());
@@ -98,6 +109,13 @@ MedsWriter::MedsWriter(const std::string& path, std::vector<MedsObjectLayout> ob
       doubles(16, [](const MedsCutout& c) { return c.dudcol; });
       doubles(17, [](const MedsCutout& c) { return c.dvdrow; });
       doubles(18, [](const MedsCutout& c) { return c.dvdcol; });
+      if (with_psf) {
+        long long psf_size = o.psf_size;
+        fits_write_col(s.f, TLONGLONG, 19, row, 1, 1, &psf_size, &status);
+        ints(20, [&](std::size_t k) { return s.psf_start_row[r][k]; });
+        doubles(21, [](const MedsCutout& c) { return c.psf_cutout_row; });
+        doubles(22, [](const MedsCutout& c) { return c.psf_cutout_col; });
+      }
     }
   }
   {
@@ -147,7 +165,27 @@ MedsWriter::MedsWriter(const std::string& path, std::vector<MedsObjectLayout> ob
     fits_get_hdu_num(s.f, &hdu);
     s.hdu_of_type[static_cast<std::size_t>(t)] = hdu;
   }
+  if (with_psf) {
+    long n[1] = {static_cast<long>(std::max<long long>(psf_total, 1))};
+    fits_create_img(s.f, FLOAT_IMG, 1, n, &status);
+    fits_update_key(s.f, TSTRING, "EXTNAME", const_cast<char*>("psf"), nullptr, &status);
+    fits_get_hdu_num(s.f, &s.psf_hdu);
+  }
   check(status, s.partial, "create the cutout arrays of");
+}
+
+void MedsWriter::write_psf_cutout(long long row, int icut, std::span<const double> samples) {
+  State& s = *s_;
+  const MedsObjectLayout& o = s.objects.at(static_cast<std::size_t>(row));
+  if (s.psf_hdu == 0 || o.psf_size <= 0) throw std::invalid_argument("MedsWriter: this tile's layout has no PSF images");
+  const std::size_t n = static_cast<std::size_t>(o.psf_size) * o.psf_size;
+  if (samples.size() != n) throw std::invalid_argument("MedsWriter::write_psf_cutout: not psf_size^2 values");
+  int status = 0;
+  fits_movabs_hdu(s.f, s.psf_hdu, nullptr, &status);
+  s.floats.assign(samples.begin(), samples.end());
+  const LONGLONG first = s.psf_start_row.at(static_cast<std::size_t>(row)).at(static_cast<std::size_t>(icut)) + 1;
+  fits_write_img(s.f, TFLOAT, first, static_cast<LONGLONG>(n), s.floats.data(), &status);
+  check(status, s.partial, "write a PSF cutout to");
 }
 
 MedsWriter::~MedsWriter() {

@@ -21,6 +21,7 @@ struct MedsObjectLayout {
   long long id = 0, number = 0;
   double ra = 0, dec = 0;
   int box_size = 0;
+  int psf_size = 0;  // > 0: each cutout has a psf_size^2 PSF image (HDU 'psf'; psf_cutout_row/col in cutouts)
   std::vector<MedsCutout> cutouts;
 };
 
@@ -37,6 +38,8 @@ class MedsWriter {
   // Cutout `icut` of object `row` of one type: box_size^2 values (seg and bmask are stored as
   // integers). Any order.
   void write_cutout(long long row, int icut, MedsCutoutType type, std::span<const double> pixels);
+  // Cutout `icut`'s PSF image (psf_size^2 values) of object `row`, when the layout has PSF images.
+  void write_psf_cutout(long long row, int icut, std::span<const double> samples);
   // Closes the file and renames it into place.
   void finish();
 

@@ -119,7 +119,10 @@ std::string parse_id_list(std::string_view text, std::vector<std::int64_t>* ids)
 
 std::string format_id_list(const std::vector<std::int64_t>& ids) {
   std::string out;
-  for (std::size_t i = 0; i < ids.size(); ++i) out += (i ? "," : "") + std::to_string(ids[i]);
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    if (i) out += ',';
+    out += std::to_string(ids[i]);  // appended apart: GCC 12 warns falsely (-Wrestrict) on "," + string
+  }
   return out;
 }
 
@@ -407,6 +410,27 @@ std::vector<Entry> make_registry() {
                  if (l == "bd") c.meds.model = MedsModel::kBulgeDisc;
                  else if (l == "bord") c.meds.model = MedsModel::kBulgeOrDisc;
                  else return std::string("expected bd or bord");
+                 return std::string();
+               }});
+  r.push_back({"meds_psf",
+               "each cutout's PSF: auto (the tile's psf cutouts if it has them, else PSFEx), psfex (image_info "
+               "psf_path), cutouts (the psf HDU) or options (the run's psf_* keys in every cutout's pixels)",
+               meds,
+               [](const RunConfig& c) {
+                 switch (c.meds.psf) {
+                   case MedsPsfSource::kPsfex: return std::string("psfex");
+                   case MedsPsfSource::kCutouts: return std::string("cutouts");
+                   case MedsPsfSource::kOptions: return std::string("options");
+                   default: return std::string("auto");
+                 }
+               },
+               [](RunConfig& c, const std::string& v) {
+                 const std::string l = lower(v);
+                 if (l == "auto") c.meds.psf = MedsPsfSource::kAuto;
+                 else if (l == "psfex") c.meds.psf = MedsPsfSource::kPsfex;
+                 else if (l == "cutouts") c.meds.psf = MedsPsfSource::kCutouts;
+                 else if (l == "options") c.meds.psf = MedsPsfSource::kOptions;
+                 else return std::string("expected auto, psfex, cutouts or options");
                  return std::string();
                }});
   r.push_back(bool_entry(meds, "meds_fit_coadd", "true: fit cutout 0 (the coadd) alone; false: the single epochs jointly",

@@ -49,6 +49,8 @@ void print_help() {
       "  --psf-fwhm MIN,MAX     Moffat FWHM range, arcsec (%g,%g; beta %g)\n"
       "  --psf-e-max E          each PSF's e1, e2 within +-E (%g)\n"
       "  --hlr MIN,MAX          disc half-light radius range, arcsec (%g,%g)\n"
+      "  --psf-cutouts          also write each cutout's PSF image into the tile (HDU 'psf'), which\n"
+      "                         `fit --meds` then uses (meds_psf = auto)\n"
       "  --bad-columns F        probability per cutout of a hot column, flagged in bmask (%g)\n"
       "  --neighbours F         probability per ring pair of a neighbour 2.2-3 arcsec away, with a\n"
       "                         seg map (%g)\n"
@@ -115,6 +117,8 @@ int run_sim_meds_command(int argc, char** argv) {
       o.psf_e_max = number();
     } else if (s == "--hlr") {
       std::tie(o.hlr_min, o.hlr_max) = pair_of(s, value());
+    } else if (s == "--psf-cutouts") {
+      o.psf_cutouts = true;
     } else if (s == "--bad-columns") {
       o.bad_column_fraction = number();
     } else if (s == "--neighbours") {

@@ -36,6 +36,7 @@ struct MedsSimOptions {
   double psf_fwhm_min = 0.9, psf_fwhm_max = 1.2;  // arcsec (in pixels at pixel_scale)
   double psf_e_max = 0.06;                         // each PSF's e1, e2 within +- this
   int psf_size = 25;                               // PSFEx samples per side (odd)
+  bool psf_cutouts = false;  // also write each cutout's PSF image into the tile (HDU 'psf')
   double g1 = 0.02, g2 = -0.015;                   // the shear
   double snr = 30;            // the object's S/N over all its epochs: sqrt(sum s^2 I^2) / noise_sigma
   double noise_sigma = 1;     // per pixel, every epoch

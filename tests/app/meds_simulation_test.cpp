@@ -227,6 +227,40 @@ TEST(MedsSimulation, MasksKeepTheCleanFitAndIgnoringThemDoesNot) {
   EXPECT_LT(crowded, 0.2 * crowded_ignored);
 }
 
+// The three PSF sources: the tile's psf cutouts (the same samples as the PSFEx files) give the
+// PSFEx fits; the run's analytic PSF fits a tile drawn with that PSF's samples to the samples'
+// aliasing.
+TEST(MedsSimulation, PsfCutoutsPsfexAndOptionsPsfs) {
+  testing::ScratchDir dir("stampede_meds_sim_");
+  MedsSimOptions o = small(6, 3, true);
+  o.psf_cutouts = true;
+  o.psf_fwhm_min = o.psf_fwhm_max = 1.0;  // every image the same round Moffat: 3.8 px at 0.263"
+  o.psf_e_max = 0;
+  write_meds_simulation(o, dir.path("tile"), false);
+  io::MedsFile meds = io::MedsFile::open(dir.path("tile/meds.fits"));
+  ASSERT_TRUE(meds.has_psf_cutouts()) << meds.psf_cutouts_problem();
+  fit_tile(dir.path("tile/meds.fits"), dir.path("auto.fits"));
+  fit_tile(dir.path("tile/meds.fits"), dir.path("psfex.fits"), {"meds_psf=psfex"});
+  fit_tile(dir.path("tile/meds.fits"), dir.path("options.fits"),
+           {"meds_psf=options", "psf_beta=3", "psf_fwhm=" + std::to_string(1.0 / o.pixel_scale), "psf_e1=0", "psf_e2=0"});
+  const auto t1 = truth(dir.path("tile"), "e1_obs"), t2 = truth(dir.path("tile"), "e2_obs");
+  double cut_vs_psfex = 0, options_vs_truth = 0;
+  for (const char* c : {"e1", "e2"}) {
+    const auto a = results(dir.path("auto.fits"), c), b = results(dir.path("psfex.fits"), c),
+               p = results(dir.path("options.fits"), c);
+    const auto& t = std::string(c) == "e1" ? t1 : t2;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      cut_vs_psfex = std::max(cut_vs_psfex, std::abs(a[i] - b[i]));
+      options_vs_truth = std::max(options_vs_truth, std::abs(p[i] - t[i]));
+    }
+  }
+  std::printf("psf cutouts against PSFEx: worst |de| = %.2e; the analytic Moffat against the tile drawn with its "
+              "samples: worst |e - e_true| = %.2e\n", cut_vs_psfex, options_vs_truth);
+  EXPECT_LT(cut_vs_psfex, 1e-12);     // the same samples, normalised once or twice
+  EXPECT_LT(options_vs_truth, 1e-3);  // samples vs the analytic form: 5.6e-5 of the peak at 3.5 px
+  EXPECT_GT(options_vs_truth, 1e-9);  // and not the same PSF
+}
+
 TEST(MedsSimulation, ATileIsTheSameForAnyThreadCount) {
   testing::ScratchDir dir("stampede_meds_sim_");
   MedsSimOptions o = small(70, 2, false);  // two chunks

@@ -133,7 +133,7 @@ TEST(RunConfigRegistry, ListsEveryKeyOnceWithItsDefaultAndHelp) {
         "psf_e1", "psf_e2", "psf_truncation", "airy_lambda_over_d", "airy_obscuration", "psf_image",
         "psf_upsampling", "psf_pixel_integrated", "batch_size", "fft_wisdom", "catalog_id_column",
         "catalog_x_column", "catalog_y_column", "catalog_psf_beta_column", "catalog_psf_fwhm_column",
-        "catalog_psf_e1_column", "catalog_psf_e2_column", "meds_model", "meds_fit_coadd", "meds_bmask_bits",
+        "catalog_psf_e1_column", "catalog_psf_e2_column", "meds_model", "meds_psf", "meds_fit_coadd", "meds_bmask_bits",
         "meds_uberseg", "meds_min_unmasked_fraction", "meds_magzp_ref", "meds_psf_dir", "save_images"})
     EXPECT_TRUE(names.contains(key)) << key;
   for (int k = 0; k < kNumParams; ++k) {
@@ -141,7 +141,7 @@ TEST(RunConfigRegistry, ListsEveryKeyOnceWithItsDefaultAndHelp) {
     for (const char* suffix : {"_start", "_min", "_max", "_free"})
       EXPECT_TRUE(names.contains(n + suffix)) << n + suffix;
   }
-  EXPECT_EQ(options.size(), 54u + 4u * kNumParams);
+  EXPECT_EQ(options.size(), 55u + 4u * kNumParams);
 }
 
 // The survey options: bmask bits in decimal or hex, the two models, and the bounds validate checks.

@@ -110,6 +110,10 @@ TEST_F(FitMeds, ABadFileIsAnErrorNamingTheFileHduAndColumn) {
   r = run({"--meds", kSample + "/meds.fits", "-o", path("out.fits"), "--set", "renderer=upsampled"});
   EXPECT_EQ(r.exit_code, 1) << r.err;
   EXPECT_TRUE(contains(r.err, "'renderer'")) << r.err;
+  r = run({"--meds", kSample + "/meds.fits", "-o", path("out.fits"), "--set", "meds_psf=cutouts"});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_TRUE(contains(r.err, "'meds_psf' = 'cutouts'")) << r.err;
+  EXPECT_TRUE(contains(r.err, "no HDU 'psf'")) << r.err;
   r = run({"--meds", kSample + "/meds.fits", "-o", path("out.fits"), "--set", "meds_min_unmasked_fraction=2"});
   EXPECT_EQ(r.exit_code, 1) << r.err;
   EXPECT_TRUE(contains(r.err, "meds_min_unmasked_fraction")) << r.err;
