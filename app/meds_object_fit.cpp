@@ -35,6 +35,10 @@ void apply_uberseg(std::span<const double> seg, int box_size, std::int64_t numbe
 
 namespace {
 
+// A fit renders each cutout on a Fourier grid of about (box + 57)^2 complex values per renderer and
+// derivative: beyond this a corrupt box size would cost gigabytes; DES and LSST boxes are <= 256.
+constexpr long long kMaxFitBoxSize = 1024;
+
 // The options with one amplitude fixed at 0 (bord's pure bulge or pure disc).
 FitterOptions single_component(FitterOptions o, Param zero) {
   o.params[zero].free = false;
@@ -135,6 +139,12 @@ MedsObjectResult MedsObjectFitter::fit(long long row) {
   };
   if (!o.problem.empty()) {
     note(o.problem);
+    out.flags |= kFlagNoUsableEpoch;
+    return out;
+  }
+  if (o.box_size > kMaxFitBoxSize) {
+    note(meds_.path() + ": object " + std::to_string(row) + ": column 'box_size' = " + std::to_string(o.box_size) +
+         " is larger than a galaxy fit takes (" + std::to_string(kMaxFitBoxSize) + ")");
     out.flags |= kFlagNoUsableEpoch;
     return out;
   }

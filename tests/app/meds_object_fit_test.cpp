@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "io/fits_file.hpp"
+#include "io/meds_writer.hpp"
 #include "support/scratch_dir.hpp"
 
 namespace stampede::app {
@@ -136,6 +137,37 @@ TEST(MedsObjectFit, AMissingPsfexFileIsAFlaggedRowNamingIt) {
   EXPECT_TRUE(r.flags & kFlagPsfFailure);
   EXPECT_NE(r.problem.find("nowhere/psfex/se_e1.psf"), std::string::npos) << r.problem;
   EXPECT_NE(r.problem.find("cutout 1"), std::string::npos) << r.problem;
+}
+
+}  // namespace
+}  // namespace stampede::app
+
+namespace stampede::app {
+namespace {
+
+// A box size the arrays really hold but no galaxy fit needs (a corrupt row, or a star mask's
+// cutout) is a flagged row: fitting it would cost gigabytes of Fourier grids.
+TEST(MedsObjectFit, AnOversizedBoxIsAFlaggedRowNotAnAllocation) {
+  testing::ScratchDir dir("stampede_meds_fit_");
+  io::MedsObjectLayout big;
+  big.id = big.number = 1, big.box_size = 1100;
+  big.cutouts.resize(2);
+  for (io::MedsCutout& c : big.cutouts) c.dudcol = c.dvdrow = 0.263, c.cutout_row = c.cutout_col = 549.5;
+  big.cutouts[1].file_id = 1;
+  std::vector<io::MedsImageInfo> images(2);
+  {
+    io::MedsWriter w(dir.path("big.fits"), {big}, images, {io::MedsCutoutType::kWeight});
+    const std::vector<double> ones(1100 * 1100, 1.0);
+    for (int k = 0; k < 2; ++k)
+      for (io::MedsCutoutType t : {io::MedsCutoutType::kImage, io::MedsCutoutType::kWeight}) w.write_cutout(0, k, t, ones);
+    w.finish();
+  }
+  io::MedsFile meds = io::MedsFile::open(dir.path("big.fits"));
+  ASSERT_TRUE(meds.object(0).cutouts[1].problem.empty());
+  MedsObjectFitter fitter(meds, options());
+  const MedsObjectResult r = fitter.fit(0);
+  EXPECT_TRUE(r.flags & kFlagNoUsableEpoch);
+  EXPECT_NE(r.problem.find("'box_size' = 1100 is larger than a galaxy fit takes (1024)"), std::string::npos) << r.problem;
 }
 
 }  // namespace
