@@ -126,6 +126,29 @@ std::vector<io::RunInput> inputs_of(const FitRunOptions& a, const io::RunConfig&
   return in;
 }
 
+// The outputs, checked before anything is read (a refused one costs nothing) and locked so that no
+// other run can write them until these locks are released, after the writer is done.
+std::vector<io::OutputLock> lock_outputs(const FitRunOptions& a, const io::RunConfig& cfg) {
+  std::vector<io::OutputLock> locks;
+  if (a.output.empty()) return locks;
+  io::check_outputs(outputs_of(a, cfg), inputs_of(a, cfg), a.overwrite || a.resume);
+  locks.push_back(io::OutputLock::acquire(a.output));
+  if (!a.text_output.empty()) locks.push_back(io::OutputLock::acquire(a.text_output));
+  return locks;
+}
+
+// The pipeline's counts and the phases' times into the run's summary.
+void add_pipeline_figures(const PipelineSummary& fitted, const std::array<long long, kFitStatusCount>& by_status,
+                          Clock::time_point start, Clock::time_point finish_start, RunSummary* summary) {
+  summary->by_status = by_status;
+  summary->objects = fitted.objects;
+  summary->batches = fitted.batches;
+  summary->threads = fitted.threads;
+  summary->pipeline_seconds = fitted.seconds;
+  summary->finish_seconds = since(finish_start);
+  summary->total_seconds = since(start);
+}
+
 // The pipeline's progress as the run reports it: every progress_interval seconds at most, counting
 // the resumed objects as done.
 std::function<void(const PipelineProgress&)> progress_reporter(const FitRunOptions& a, long long total,
@@ -209,12 +232,7 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
              "is its psf cutout or its source image's PSFEx model)");
   io::validate(cfg);
 
-  std::vector<io::OutputLock> locks;
-  if (!a.output.empty()) {
-    io::check_outputs(outputs_of(a, cfg), inputs_of(a, cfg), a.overwrite || a.resume);
-    locks.push_back(io::OutputLock::acquire(a.output));
-    if (!a.text_output.empty()) locks.push_back(io::OutputLock::acquire(a.text_output));
-  }
+  const std::vector<io::OutputLock> locks = lock_outputs(a, cfg);
   MedsFitOptions meds_options;
   static_cast<io::MedsOptions&>(meds_options) = cfg.meds;
   meds_options.fitter = cfg.fitter;
@@ -293,13 +311,7 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
     const Clock::time_point finish_start = Clock::now();
     if (writer) writer->finish();
     problems.finish();
-    summary.by_status = sink.by_status;
-    summary.objects = fitted.objects;
-    summary.batches = fitted.batches;
-    summary.threads = fitted.threads;
-    summary.pipeline_seconds = fitted.seconds;
-    summary.finish_seconds = since(finish_start);
-    summary.total_seconds = since(start);
+    add_pipeline_figures(fitted, sink.by_status, start, finish_start, &summary);
     return summary;
   } catch (...) {
     if (writer) writer->abandon();
@@ -354,12 +366,7 @@ RunSummary FitRun::run() const {
 
   // The outputs before anything is read: a refused one costs nothing, and from here on no other
   // run can write them (the locks are released last, after the writer is done).
-  std::vector<io::OutputLock> locks;
-  if (!a.output.empty()) {
-    io::check_outputs(outputs_of(a, cfg), inputs_of(a, cfg), a.overwrite || a.resume);
-    locks.push_back(io::OutputLock::acquire(a.output));
-    if (!a.text_output.empty()) locks.push_back(io::OutputLock::acquire(a.text_output));
-  }
+  const std::vector<io::OutputLock> locks = lock_outputs(a, cfg);
 
   // Input first: its header may fix the stamp size, and a bad file should fail before anything.
   std::unique_ptr<StampSource> source;
@@ -513,13 +520,7 @@ RunSummary FitRun::run() const {
     if (writer) writer->finish();
     if (!cfg.fft_wisdom.empty() && !save_fftw_wisdom(cfg.fft_wisdom) && !a.quiet)
       warn("could not write FFTW wisdom to '" + cfg.fft_wisdom + "'");
-    summary.by_status = sink.by_status;
-    summary.objects = fitted.objects;
-    summary.batches = fitted.batches;
-    summary.threads = fitted.threads;
-    summary.pipeline_seconds = fitted.seconds;
-    summary.finish_seconds = since(finish_start);
-    summary.total_seconds = since(start);
+    add_pipeline_figures(fitted, sink.by_status, start, finish_start, &summary);
     return summary;
   } catch (...) {
     if (writer) writer->abandon();
