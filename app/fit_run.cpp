@@ -216,6 +216,10 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
   io::RunConfig cfg = a.config;
   if (!a.input.empty() || !a.catalog.empty() || !a.weight.empty())
     throw io::ConfigError("--meds '" + a.meds + "' takes no INPUT, --catalog or --weight: the tile holds the cutouts and weights");
+  // The MPI driver's workers fit the pixels they are sent; a survey batch carries row numbers only.
+  if (a.distribute)
+    throw io::ConfigError("--meds with stampede-mpi: a tile's objects are not spread over ranks yet; run `stampede fit "
+                          "--meds` per tile (stampede-mpi --input-list is for grids), or a job array with --shard I/N");
   if (cfg.metacal.enabled) throw io::ConfigError("option 'metacal' = true: not available with --meds yet");
   if (!cfg.save_images.empty()) throw io::ConfigError("option 'save_images': not available with --meds");
   if (cfg.psf_from_catalogue) throw io::ConfigError("option 'psf_input' = 'moffat_catalog': not available with --meds");

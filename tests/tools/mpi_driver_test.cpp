@@ -161,4 +161,18 @@ TEST_F(MpiDriver, AnErrorOnRankZeroEndsTheJob) {
   EXPECT_NE(r.err.find("missing.fits"), std::string::npos) << r.err;
 }
 
+// The workers fit the pixels they are sent and a survey batch carries only row numbers: a MEDS tile
+// is refused by name (and nothing is written), never fitted wrong on the other ranks.
+TEST_F(MpiDriver, AMedsTileIsRefusedNotFittedWrong) {
+  const auto r = stampede::testing::finish(
+      spawn_mpi(2, {"--meds", std::string(STAMPEDE_DATA_DIR) + "/meds-sample/meds.fits", "-o", path("m.fits"), "--threads",
+                    "1", "--quiet"},
+                path("err.txt")),
+      path("err.txt"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("--meds with stampede-mpi"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("m.fits")));
+  EXPECT_FALSE(fs::exists(path("m.fits.partial")));
+}
+
 }  // namespace
