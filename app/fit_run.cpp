@@ -299,16 +299,11 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
     po.threads = a.threads;
     po.batch_size = cfg.batch_size;
     po.stamp_size = 0;  // the fit stage reads each object's cutouts itself
-    std::function<std::unique_ptr<BatchFitter>()> make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
+    const std::function<std::unique_ptr<BatchFitter>()> make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
       return std::make_unique<MedsBatchFitter>(a.meds, meds_options, [&problems](long long row, const std::string& p) {
         problems.report(row, p);
       });
     };
-    if (a.distribute) {
-      FitDistribution d = a.distribute(cfg, make_fitter);
-      make_fitter = std::move(d.make_fitter);
-      po.threads = d.pipeline_threads;
-    }
     summary.setup_seconds = since(start);
     const PipelineSummary fitted =
         run_pipeline(source, sink, make_fitter, po, progress_reporter(a, source.total_objects(), summary.resumed));
