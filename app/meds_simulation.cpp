@@ -76,7 +76,8 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
   tbb::enumerable_thread_specific<std::unique_ptr<MedsSimulator::Workspace>> workspaces(
       [&] { return sim.make_workspace(); });
   std::vector<MedsSimObject> chunk;
-  io::FitsFile::OutputColumn cols[] = {{"id", true, {}},     {"number", true, {}}, {"pair", true, {}},
+  // `index` repeats `id` under the name `stampede metrics` matches fit rows by (as in sim great08).
+  io::FitsFile::OutputColumn cols[] = {{"id", true, {}},     {"index", true, {}},  {"number", true, {}}, {"pair", true, {}},
                                        {"e1_int", false, {}}, {"e2_int", false, {}}, {"e1_obs", false, {}},
                                        {"e2_obs", false, {}}, {"hlr", false, {}},    {"flux", false, {}},
                                        {"bulge_frac", false, {}}, {"u0", false, {}}, {"v0", false, {}},
@@ -107,7 +108,8 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
         writer.write_cutout(row, icut, io::MedsCutoutType::kBmask, c.bmask);
         if (options.psf_cutouts) writer.write_psf_cutout(row, icut, sim.images()[static_cast<std::size_t>(c.image)].psf);
       }
-      const double values[] = {static_cast<double>(row + 1), static_cast<double>(row + 1), static_cast<double>(o.pair),
+      const double values[] = {static_cast<double>(row + 1), static_cast<double>(row + 1), static_cast<double>(row + 1),
+                               static_cast<double>(o.pair),
                                o.e1_int, o.e2_int, o.e1_obs, o.e2_obs, o.hlr, o.flux, o.bulge_frac, o.u0, o.v0,
                                o.neighbour ? 1.0 : 0.0};
       for (std::size_t c = 0; c < std::size(cols); ++c) cols[c].values.push_back(values[c]);

@@ -1,7 +1,8 @@
 // A simulated MEDS tile on disk (`stampede sim meds`): DIR/meds.fits (image, weight, seg and bmask
 // cutouts; cutout 0 of each object is an empty coadd slot, so the single epochs are cutouts
 // 1..epochs as in a survey tile), DIR/psfex/image_K.psf (each source image's PSF as a constant
-// PSFEx model at PSF_SAMP = 1), and DIR/truth.fits (SHEAR1 SHEAR2 and a TRUTH row per object).
+// PSFEx model at PSF_SAMP = 1), and DIR/truth.fits (SHEAR1 SHEAR2 and a TRUTH row per object,
+// `index` = the MEDS id, so `stampede metrics --fit OUT.fits --truth DIR/truth.fits` reads it).
 // Objects are drawn in parallel in chunks and written in order: the files are identical for any
 // thread count, and memory is one chunk's.
 #pragma once

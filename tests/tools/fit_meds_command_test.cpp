@@ -8,6 +8,8 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <thread>
 #include <vector>
@@ -162,6 +164,35 @@ TEST_F(FitMeds, BadObjectsAreFlaggedRowsNeverMissingOnes) {
     EXPECT_TRUE(static_cast<std::uint32_t>(psf_flags[i]) & stampede::kFlagPsfFailure) << i;
     EXPECT_EQ(psf_status[i], static_cast<int>(stampede::FitStatus::kPsfFailure)) << i;
   }
+}
+
+// The workflow a shear tester runs: two simulated tiles, fitted, measured by `stampede metrics`.
+TEST_F(FitMeds, SimulatedTilesFittedAndMeasuredByMetrics) {
+  std::vector<std::string> metrics_args;
+  const char* shears[2] = {"0.03,-0.02", "-0.02,0.035"};
+  for (int k = 0; k < 2; ++k) {
+    const std::string dir = path(k == 0 ? "t0" : "t1");
+    RunResult r = stampede::testing::finish(
+        spawn({"meds", "--out", dir, "--objects", "8", "--noise-free", "--shear", shears[k], "--seed", std::to_string(9 + k)},
+              path("sim.txt"), "sim"),
+        path("sim.txt"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    r = run({"--meds", dir + "/meds.fits", "-o", dir + "/fit.fits", "--quiet"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    metrics_args.insert(metrics_args.end(), {"--fit", dir + "/fit.fits", "--truth", dir + "/truth.fits"});
+  }
+  const RunResult m =
+      stampede::testing::finish(spawn(metrics_args, path("metrics.txt"), "metrics", path("out.txt")), path("metrics.txt"));
+  ASSERT_EQ(m.exit_code, 0) << m.err;
+  std::ifstream out(path("out.txt"));
+  const std::string text((std::istreambuf_iterator<char>(out)), {});
+  double m1 = NAN, c1 = NAN;
+  const std::size_t at = text.find("m1 = ");
+  ASSERT_NE(at, std::string::npos) << text;
+  ASSERT_EQ(std::sscanf(text.c_str() + at, "m1 = %lf +- %*f c1 = %lf", &m1, &c1), 2) << text;
+  // Noise-free, against the applied g: only the 4 ring pairs' own O(g e^2) response remains.
+  EXPECT_LT(std::abs(m1), 0.1) << text;
+  EXPECT_LT(std::abs(c1), 5e-3) << text;
 }
 
 }  // namespace
