@@ -250,8 +250,11 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
   {
     io::MedsFile tile = io::MedsFile::open(a.meds);
     input_objects = tile.size();
-    if (cfg.meds.psf == io::MedsPsfSource::kCutouts && !tile.has_psf_cutouts())
-      throw io::ConfigError("option 'meds_psf' = 'cutouts': " + tile.psf_cutouts_problem());
+    try {
+      const MedsObjectFitter check(tile, meds_options);  // the options the tile cannot serve
+    } catch (const std::invalid_argument& e) {
+      throw io::ConfigError(e.what());
+    }
   }
   IndexSource whole(input_objects);
   std::unique_ptr<RangeSource> shard;

@@ -25,7 +25,7 @@ void MedsBatchFitter::fit(StampBatch& batch) {
 void fill_survey_record(const MedsObjectResult& r, ObjectRecord* out) {
   out->id = r.id;
   out->fit = r.fit;
-  out->flags = r.flags | r.fit.flags;
+  out->flags = r.flags;  // the fit's own flags included
   out->psf_e1 = r.psf_e1;
   out->psf_e2 = r.psf_e2;
   out->survey.number = r.number;

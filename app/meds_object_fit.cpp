@@ -58,7 +58,7 @@ MedsObjectFitter::MedsObjectFitter(io::MedsFile& meds, const MedsFitOptions& opt
   if (source_ == io::MedsPsfSource::kAuto)
     source_ = meds.has_psf_cutouts() ? io::MedsPsfSource::kCutouts : io::MedsPsfSource::kPsfex;
   if (source_ == io::MedsPsfSource::kCutouts && !meds.has_psf_cutouts())
-    throw std::invalid_argument("meds_psf = cutouts: " + meds.psf_cutouts_problem());
+    throw std::invalid_argument("option 'meds_psf' = 'cutouts': " + meds.psf_cutouts_problem());
   models_.resize(meds.images().size());
   model_errors_.resize(meds.images().size());
   if (options_.psf_dir.empty()) options_.psf_dir = std::filesystem::path(meds.path()).parent_path().string();

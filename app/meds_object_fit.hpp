@@ -43,7 +43,8 @@ struct MedsObjectResult {
 
 class MedsObjectFitter {
  public:
-  // `meds` must outlive it. Throws std::invalid_argument for options that cannot work (renderer).
+  // `meds` must outlive it. Throws std::invalid_argument for options that cannot work (renderer, meds_psf =
+  // cutouts on a tile without them), naming the option.
   MedsObjectFitter(io::MedsFile& meds, const MedsFitOptions& options);
   ~MedsObjectFitter();
   MedsObjectResult fit(long long row);

@@ -4,7 +4,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
-#include <cmath>
+#include <algorithm>
 #include <filesystem>
 
 #include "io/durable_file.hpp"
@@ -62,8 +62,7 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
       io::MedsCutout& mc = l.cutouts[k + 1];
       mc.file_id = c.image + 1;
       mc.orig_row = c.orig_row, mc.orig_col = c.orig_col;
-      mc.orig_start_row = static_cast<long long>(std::floor(c.orig_row)) - box / 2 + 1;
-      mc.orig_start_col = static_cast<long long>(std::floor(c.orig_col)) - box / 2 + 1;
+      mc.orig_start_row = c.orig_start_row, mc.orig_start_col = c.orig_start_col;
       mc.cutout_row = c.cutout_row, mc.cutout_col = c.cutout_col;
       mc.dudrow = c.dudrow, mc.dudcol = c.dudcol, mc.dvdrow = c.dvdrow, mc.dvdcol = c.dvdcol;
       mc.psf_cutout_row = mc.psf_cutout_col = n / 2;  // the PSF's centre sample, as PSFEx's
@@ -76,6 +75,8 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
   tbb::enumerable_thread_specific<std::unique_ptr<MedsSimulator::Workspace>> workspaces(
       [&] { return sim.make_workspace(); });
   std::vector<MedsSimObject> chunk;
+  const std::vector<double> empty(static_cast<std::size_t>(box) * box, 0.0), empty_psf(static_cast<std::size_t>(n) * n, 0.0);
+  std::vector<double> seg(empty.size());
   // `index` repeats `id` under the name `stampede metrics` matches fit rows by (as in sim great08).
   io::FitsFile::OutputColumn cols[] = {{"id", true, {}},     {"index", true, {}},  {"number", true, {}}, {"pair", true, {}},
                                        {"e1_int", false, {}}, {"e2_int", false, {}}, {"e1_obs", false, {}},
@@ -89,21 +90,20 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
       auto& ws = workspaces.local();
       chunk[static_cast<std::size_t>(k)] = sim.simulate(first + k, *ws);
     });
-    std::vector<double> empty(static_cast<std::size_t>(box) * box, 0.0);
     for (long long k = 0; k < count; ++k) {
       const MedsSimObject& o = chunk[static_cast<std::size_t>(k)];
       const long long row = first + k;
       for (io::MedsCutoutType t : {io::MedsCutoutType::kImage, io::MedsCutoutType::kWeight, io::MedsCutoutType::kSeg,
                                    io::MedsCutoutType::kBmask})
         writer.write_cutout(row, 0, t, empty);
-      if (options.psf_cutouts) writer.write_psf_cutout(row, 0, std::vector<double>(static_cast<std::size_t>(n) * n, 0.0));
+      if (options.psf_cutouts) writer.write_psf_cutout(row, 0, empty_psf);
       for (std::size_t e = 0; e < o.cutouts.size(); ++e) {
         const MedsSimCutout& c = o.cutouts[e];
         const int icut = static_cast<int>(e) + 1;
         writer.write_cutout(row, icut, io::MedsCutoutType::kImage, c.pixels);
         writer.write_cutout(row, icut, io::MedsCutoutType::kWeight, c.weight);
-        std::vector<double> seg = c.seg;
-        for (double& v : seg) v = v == 1 ? static_cast<double>(row + 1) : v == 2 ? static_cast<double>(options.objects + row + 1) : 0.0;
+        for (std::size_t i = 0; i < seg.size(); ++i)
+          seg[i] = c.seg[i] == 1 ? static_cast<double>(row + 1) : c.seg[i] == 2 ? static_cast<double>(options.objects + row + 1) : 0.0;
         writer.write_cutout(row, icut, io::MedsCutoutType::kSeg, seg);
         writer.write_cutout(row, icut, io::MedsCutoutType::kBmask, c.bmask);
         if (options.psf_cutouts) writer.write_psf_cutout(row, icut, sim.images()[static_cast<std::size_t>(c.image)].psf);

@@ -31,6 +31,30 @@ struct MedsWriter::State {
   std::vector<int> hdu_of_type = std::vector<int>(kNumMedsCutoutTypes, 0);  // 1-based HDU number; 0 = absent
   std::vector<float> floats;
   std::vector<int> ints;
+
+  // Appends a 1-D array HDU of `length` values named `name`; returns its 1-based HDU number.
+  int create_array(bool integer, long long length, const char* name, int* status) {
+    long n[1] = {static_cast<long>(std::max<long long>(length, 1))};
+    fits_create_img(f, integer ? LONG_IMG : FLOAT_IMG, 1, n, status);
+    fits_update_key(f, TSTRING, "EXTNAME", const_cast<char*>(name), nullptr, status);
+    int hdu = 0;
+    fits_get_hdu_num(f, &hdu);
+    return hdu;
+  }
+  // Writes `values` into array HDU `hdu` from 0-based element `start` (as int32 or float32).
+  void write_range(int hdu, long long start, std::span<const double> values, bool integer, const char* what) {
+    int status = 0;
+    fits_movabs_hdu(f, hdu, nullptr, &status);
+    const LONGLONG first = start + 1, n = static_cast<LONGLONG>(values.size());
+    if (integer) {
+      ints.assign(values.begin(), values.end());
+      fits_write_img(f, TINT, first, n, ints.data(), &status);
+    } else {
+      floats.assign(values.begin(), values.end());
+      fits_write_img(f, TFLOAT, first, n, floats.data(), &status);
+    }
+    check(status, partial, what);
+  }
 };
 
 MedsWriter::MedsWriter(const std::string& path, std::vector<MedsObjectLayout> objects,
@@ -157,20 +181,9 @@ MedsWriter::MedsWriter(const std::string& path, std::vector<MedsObjectLayout> ob
   std::vector<MedsCutoutType> all = {MedsCutoutType::kImage};
   for (MedsCutoutType t : types)
     if (t != MedsCutoutType::kImage) all.push_back(t);
-  for (MedsCutoutType t : all) {
-    long n[1] = {static_cast<long>(std::max<long long>(total, 1))};
-    fits_create_img(s.f, integer_type(t) ? LONG_IMG : FLOAT_IMG, 1, n, &status);
-    fits_update_key(s.f, TSTRING, "EXTNAME", const_cast<char*>(meds_hdu_name(t)), nullptr, &status);
-    int hdu = 0;
-    fits_get_hdu_num(s.f, &hdu);
-    s.hdu_of_type[static_cast<std::size_t>(t)] = hdu;
-  }
-  if (with_psf) {
-    long n[1] = {static_cast<long>(std::max<long long>(psf_total, 1))};
-    fits_create_img(s.f, FLOAT_IMG, 1, n, &status);
-    fits_update_key(s.f, TSTRING, "EXTNAME", const_cast<char*>("psf"), nullptr, &status);
-    fits_get_hdu_num(s.f, &s.psf_hdu);
-  }
+  for (MedsCutoutType t : all)
+    s.hdu_of_type[static_cast<std::size_t>(t)] = s.create_array(integer_type(t), total, meds_hdu_name(t), &status);
+  if (with_psf) s.psf_hdu = s.create_array(false, psf_total, "psf", &status);
   check(status, s.partial, "create the cutout arrays of");
 }
 
@@ -180,12 +193,8 @@ void MedsWriter::write_psf_cutout(long long row, int icut, std::span<const doubl
   if (s.psf_hdu == 0 || o.psf_size <= 0) throw std::invalid_argument("MedsWriter: this tile's layout has no PSF images");
   const std::size_t n = static_cast<std::size_t>(o.psf_size) * o.psf_size;
   if (samples.size() != n) throw std::invalid_argument("MedsWriter::write_psf_cutout: not psf_size^2 values");
-  int status = 0;
-  fits_movabs_hdu(s.f, s.psf_hdu, nullptr, &status);
-  s.floats.assign(samples.begin(), samples.end());
-  const LONGLONG first = s.psf_start_row.at(static_cast<std::size_t>(row)).at(static_cast<std::size_t>(icut)) + 1;
-  fits_write_img(s.f, TFLOAT, first, static_cast<LONGLONG>(n), s.floats.data(), &status);
-  check(status, s.partial, "write a PSF cutout to");
+  s.write_range(s.psf_hdu, s.psf_start_row.at(static_cast<std::size_t>(row)).at(static_cast<std::size_t>(icut)), samples,
+                false, "write a PSF cutout to");
 }
 
 MedsWriter::~MedsWriter() {
@@ -203,17 +212,8 @@ void MedsWriter::write_cutout(long long row, int icut, MedsCutoutType type, std:
   const MedsObjectLayout& o = s.objects.at(static_cast<std::size_t>(row));
   const std::size_t n = static_cast<std::size_t>(o.box_size) * o.box_size;
   if (pixels.size() != n) throw std::invalid_argument("MedsWriter::write_cutout: not box_size^2 values");
-  const LONGLONG first = s.start_row.at(static_cast<std::size_t>(row)).at(static_cast<std::size_t>(icut)) + 1;
-  int status = 0;
-  fits_movabs_hdu(s.f, hdu, nullptr, &status);
-  if (integer_type(type)) {
-    s.ints.assign(pixels.begin(), pixels.end());
-    fits_write_img(s.f, TINT, first, static_cast<LONGLONG>(n), s.ints.data(), &status);
-  } else {
-    s.floats.assign(pixels.begin(), pixels.end());
-    fits_write_img(s.f, TFLOAT, first, static_cast<LONGLONG>(n), s.floats.data(), &status);
-  }
-  check(status, s.partial, "write a cutout to");
+  s.write_range(hdu, s.start_row.at(static_cast<std::size_t>(row)).at(static_cast<std::size_t>(icut)), pixels,
+                integer_type(type), "write a cutout to");
 }
 
 void MedsWriter::finish() {

@@ -171,8 +171,7 @@ FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, std::size_t f
     return r;
   }
   const EpochData& e = epochs.front();
-  if (epochs.size() == 1 && e.flux_scale == 1 && e.frame.dudx == 1 && e.frame.dudy == 0 && e.frame.dvdx == 0 &&
-      e.frame.dvdy == 1) {
+  if (epochs.size() == 1 && e.flux_scale == 1 && e.frame.unit_jacobian()) {
     // One cutout whose sky is its pixel grid is a single stamp: the single-stamp fit (amplitude
     // projection, scaled units), so such a MEDS row is the grid path's row bit for bit; only the
     // centroid is moved to the frame's reference.

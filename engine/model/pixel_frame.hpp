@@ -21,7 +21,9 @@ struct PixelFrame {
                               double cutout_col) {
     return {dudcol, dudrow, dvdcol, dvdrow, cutout_col, cutout_row};
   }
-  bool identity() const { return dudx == 1 && dudy == 0 && dvdx == 0 && dvdy == 1 && x_ref == 0 && y_ref == 0; }
+  // J is the unit matrix: (u, v) are pixel offsets from the reference.
+  bool unit_jacobian() const { return dudx == 1 && dudy == 0 && dvdx == 0 && dvdy == 1; }
+  bool identity() const { return unit_jacobian() && x_ref == 0 && y_ref == 0; }
   double determinant() const { return dudx * dvdy - dudy * dvdx; }  // arcsec^2 per pixel (signed)
 
   // The pixel at which (u, v) lands, and the inverse map's matrix d(x, y) / d(u, v).

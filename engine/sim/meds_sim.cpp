@@ -98,8 +98,6 @@ std::unique_ptr<MedsSimulator::Workspace> MedsSimulator::make_workspace() const 
   ro.stamp_size = options_.box_size;
   ws->renderer = std::make_unique<ExactRenderer>(ro, ModelOptions{});
   ws->psfs.resize(images_.size());
-  const std::size_t npix = static_cast<std::size_t>(options_.box_size) * options_.box_size;
-  ws->neighbour.resize(npix);
   return ws;
 }
 
@@ -124,8 +122,10 @@ std::vector<MedsSimCutout> MedsSimulator::epochs(long long index) const {
     c.dudcol = scale * (co * (1 + w1) - si * w2), c.dudrow = scale * (co * w2 - si * (1 - w1));
     c.dvdcol = scale * (si * (1 + w1) + co * w2), c.dvdrow = scale * (si * w2 + co * (1 - w1));
     c.orig_row = ep.uniform(100, 3900), c.orig_col = ep.uniform(100, 1900);
-    c.cutout_row = c.orig_row - (std::floor(c.orig_row) - box / 2 + 1);
-    c.cutout_col = c.orig_col - (std::floor(c.orig_col) - box / 2 + 1);
+    c.orig_start_row = static_cast<long long>(std::floor(c.orig_row)) - box / 2 + 1;
+    c.orig_start_col = static_cast<long long>(std::floor(c.orig_col)) - box / 2 + 1;
+    c.cutout_row = c.orig_row - static_cast<double>(c.orig_start_row);
+    c.cutout_col = c.orig_col - static_cast<double>(c.orig_start_col);
     out.push_back(std::move(c));
   }
   return out;
@@ -183,24 +183,22 @@ MedsSimObject MedsSimulator::simulate(long long object_index, Workspace& ws) con
     cut.weight.assign(npix, 1.0 / (o.noise_sigma * o.noise_sigma));
     cut.seg.assign(npix, 0.0);
     cut.bmask.assign(npix, 0.0);
-    PixelFrame f;
-    f.dudx = cut.dudcol, f.dudy = cut.dudrow, f.dvdx = cut.dvdcol, f.dvdy = cut.dvdrow;
-    f.x_ref = cut.cutout_col, f.y_ref = cut.cutout_row;
-    if (!ws.psfs[static_cast<std::size_t>(cut.image)]) {
+    const std::size_t image = static_cast<std::size_t>(cut.image);
+    std::shared_ptr<const PreparedPsf>& psf = ws.psfs[image];
+    if (!psf) {
       std::string why;
-      ws.psfs[static_cast<std::size_t>(cut.image)] = r.prepare_psf(PsfModel::Image(psf_images_[static_cast<std::size_t>(cut.image)]), &why);
-      if (!ws.psfs[static_cast<std::size_t>(cut.image)]) throw std::runtime_error("MedsSimulator: PSF: " + why);
+      psf = r.prepare_psf(PsfModel::Image(psf_images_[image]), &why);
+      if (!psf) throw std::runtime_error("MedsSimulator: PSF: " + why);
     }
-    r.set_psf(ws.psfs[static_cast<std::size_t>(cut.image)]);
-    r.set_frame(f);
+    r.set_psf(psf);
+    r.set_frame(PixelFrame::from_meds(cut.dudrow, cut.dudcol, cut.dvdrow, cut.dvdcol, cut.cutout_row, cut.cutout_col));
     if (r.render(p, cut.pixels) != RenderStatus::kOk) throw std::runtime_error("MedsSimulator: the galaxy could not be drawn");
-    const double s = std::pow(10.0, 0.4 * (images_[static_cast<std::size_t>(cut.image)].magzp - o.magzp));
+    const double s = std::pow(10.0, 0.4 * (images_[image].magzp - o.magzp));
     for (double& v : cut.pixels) v *= s, signal2 += v * v;
     if (out.neighbour) {
-      if (r.render(q, ws.neighbour) != RenderStatus::kOk) throw std::runtime_error("MedsSimulator: the neighbour could not be drawn");
-      for (double& v : ws.neighbour) v *= s;
-      // Its flux relative to the object's is set below, with the object's.
-      cut.seg = ws.neighbour;  // kept until the flux is known
+      // Drawn into the seg array, which holds it until the flux is known and the labels replace it.
+      if (r.render(q, cut.seg) != RenderStatus::kOk) throw std::runtime_error("MedsSimulator: the neighbour could not be drawn");
+      for (double& v : cut.seg) v *= s;
     }
   }
   out.flux = o.snr * o.noise_sigma / std::sqrt(signal2);

@@ -63,8 +63,9 @@ struct MedsSimImage {
 struct MedsSimCutout {
   int image = 0;  // source image (file_id is image + 1: row 0 of image_info is the coadd)
   double dudrow = 0, dudcol = 0, dvdrow = 0, dvdcol = 0;
-  double orig_row = 0, orig_col = 0;      // the object in its source image, 0-based
-  double cutout_row = 0, cutout_col = 0;  // and in the cutout (MEDS's conventions)
+  double orig_row = 0, orig_col = 0;              // the object in its source image, 0-based
+  long long orig_start_row = 0, orig_start_col = 0;  // the cutout's corner there (MEDS's conventions)
+  double cutout_row = 0, cutout_col = 0;          // the object in the cutout
   std::vector<double> pixels, weight, seg, bmask;  // box_size^2 each; seg: 1 the object, 2 its neighbour
   int bad_column = -1;                             // -1: none
 };
@@ -86,7 +87,6 @@ class MedsSimulator {
   struct Workspace {
     std::unique_ptr<ExactRenderer> renderer;
     std::vector<std::shared_ptr<const PreparedPsf>> psfs;  // per image, prepared on first use
-    std::vector<double> neighbour;
   };
   std::unique_ptr<Workspace> make_workspace() const;
   MedsSimObject simulate(long long index, Workspace& ws) const;
