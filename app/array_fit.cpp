@@ -128,7 +128,9 @@ SingleStampFitter::SingleStampFitter(const io::RunConfig& config, int stamp_size
     checked_reconvolution_psf(shared.model, cfg);
     metacal = MetacalSetup{cfg.metacal, shared.model};
   }
-  fitter_ = std::make_unique<StampFitter>(cfg.fitter, shared.prepared, nullptr, FftPlanning::kEstimate, shared.e1,
+  FitterOptions fitter_options = cfg.fitter;
+  fitter_options.renderer = shared.kind;
+  fitter_ = std::make_unique<StampFitter>(fitter_options, shared.prepared, nullptr, FftPlanning::kEstimate, shared.e1,
                                           shared.e2, shared.fwhm, metacal);
 }
 
@@ -167,6 +169,7 @@ std::vector<ObjectRecord> fit_array_stamps(const io::RunConfig& config, const Ar
   std::shared_ptr<const PreparedPsf> shared_psf;
   std::unique_ptr<PsfCache> psf_cache;
   double psf_e1 = NAN, psf_e2 = NAN, psf_fwhm = NAN;
+  RendererKind kind = cfg.fitter.renderer;  // per-object PSFs: auto draws with the exact renderer
   std::optional<MetacalSetup> metacal;
   if (cfg.metacal.enabled) metacal = MetacalSetup{cfg.metacal, {}};
   if (in.psfs.size() > 1) {
@@ -175,6 +178,7 @@ std::vector<ObjectRecord> fit_array_stamps(const io::RunConfig& config, const Ar
     const SharedPsf psf = in.psfs.empty() ? build_shared_psf(cfg, setup_plans)
                                           : prepare_shared_psf(in.psfs.front(), cfg, setup_plans, "the stamps' PSF");
     shared_psf = psf.prepared;
+    kind = psf.kind;
     psf_e1 = psf.e1, psf_e2 = psf.e2, psf_fwhm = psf.fwhm;
     if (metacal) {
       checked_reconvolution_psf(psf.model, cfg);
@@ -189,7 +193,8 @@ std::vector<ObjectRecord> fit_array_stamps(const io::RunConfig& config, const Ar
   po.batch_size = cfg.batch_size;
   po.per_object_psf = static_cast<bool>(psf_cache);
   po.stamp_size = in.stamp_size;
-  const FitterOptions fitter_options = cfg.fitter;
+  FitterOptions fitter_options = cfg.fitter;
+  fitter_options.renderer = kind;
   PsfCache* cache = psf_cache.get();
   auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
     return std::make_unique<StampFitter>(fitter_options, shared_psf, cache, FftPlanning::kEstimate, psf_e1, psf_e2,

@@ -196,7 +196,8 @@ CalibrationBuildSummary CalibrationBuild::run(const std::function<void(const Cal
     po.threads = options_.threads;
     po.batch_size = cfg.batch_size;
     po.stamp_size = options_.grid.stamp_size;
-    const FitterOptions fitter_options = cfg.fitter;
+    FitterOptions fitter_options = cfg.fitter;
+    fitter_options.renderer = psf_.kind;
     const app::SharedPsf& psf = psf_;
     auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
       return std::make_unique<StampFitter>(fitter_options, psf.prepared, nullptr, FftPlanning::kEstimate, psf.e1, psf.e2,

@@ -223,7 +223,7 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
   if (cfg.metacal.enabled) throw io::ConfigError("option 'metacal' = true: not available with --meds yet");
   if (!cfg.save_images.empty()) throw io::ConfigError("option 'save_images': not available with --meds");
   if (cfg.psf_from_catalogue) throw io::ConfigError("option 'psf_input' = 'moffat_catalog': not available with --meds");
-  if (cfg.fitter.renderer != RendererKind::kExact) {
+  if (cfg.fitter.renderer == RendererKind::kUpsampled) {
     if (cfg.explicitly_set.count("renderer"))
       throw io::ConfigError("option 'renderer' = '" + io::get_option(cfg, "renderer") +
                             "': --meds needs renderer = exact (it draws through each cutout's WCS Jacobian)");
@@ -443,6 +443,8 @@ RunSummary FitRun::run() const {
     const app::SharedPsf psf = app::build_shared_psf(cfg, setup_plans);
     shared_psf = psf.prepared;
     shared_model = psf.model;
+    cfg.fitter.renderer = psf.kind;
+    if (!psf.auto_note.empty()) warn(psf.auto_note);
     if (cfg.metacal.enabled) gamma_fwhm = app::checked_reconvolution_psf(shared_model, cfg).moffat.fwhm;
     psf_e1 = psf.e1, psf_e2 = psf.e2, psf_fwhm = psf.fwhm;
     // A set written by `stampede sim` or GalSim records its PSF; fitting it with another (e.g. the

@@ -43,8 +43,22 @@ SharedPsf prepare_shared_psf(const PsfModel& model, const io::RunConfig& cfg, Ff
   out.model = model;
   out.e1 = out.model.e1(), out.e2 = out.model.e2(), out.fwhm = out.model.fwhm();
   std::string error;
-  out.prepared =
-      make_renderer(cfg.fitter.renderer, cfg.fitter.render, cfg.fitter.model, plans)->prepare_psf(out.model, &error);
+  out.kind = cfg.fitter.renderer;
+  out.prepared = make_renderer(out.kind, cfg.fitter.render, cfg.fitter.model, plans)->prepare_psf(out.model, &error);
+  if (out.kind == RendererKind::kAuto) {
+    // auto: the exact renderer where it takes the PSF, the upsampled one where it refuses.
+    out.kind = RendererKind::kExact;
+    if (!out.prepared) {
+      std::string upsampled_error;
+      auto upsampled = make_renderer(RendererKind::kUpsampled, cfg.fitter.render, cfg.fitter.model, plans)
+                           ->prepare_psf(out.model, &upsampled_error);
+      if (upsampled) {
+        out.auto_note = "renderer = auto: the upsampled renderer (the exact one refuses this PSF: " + error + ")";
+        out.kind = RendererKind::kUpsampled;
+        out.prepared = std::move(upsampled);
+      }
+    }
+  }
   // A metacal run never fits the data with this PSF, only deconvolves it (checked_reconvolution_psf
   // checks that), so a renderer that cannot take it (the exact one, an image) is no obstacle.
   if (!out.prepared && !cfg.metacal.enabled) throw std::runtime_error("PSF (" + what + "): " + error);

@@ -10,13 +10,18 @@
 #include "engine/model/psf_model.hpp"
 #include "engine/render/fft_plans.hpp"
 #include "engine/render/renderer.hpp"
+#include "engine/render/renderer_factory.hpp"
 #include "io/run_config.hpp"
 
 namespace stampede::app {
 
 struct SharedPsf {
   PsfModel model;
-  std::shared_ptr<const PreparedPsf> prepared;  // by the run's renderer kind
+  std::shared_ptr<const PreparedPsf> prepared;  // by `kind`
+  // The run's renderer kind, renderer = auto resolved: exact when the exact renderer takes the
+  // PSF, else upsampled (auto_note then says why). Fitters of this PSF use this kind.
+  RendererKind kind = RendererKind::kAuto;
+  std::string auto_note;
   double e1 = NAN, e2 = NAN, fwhm = NAN;  // as written to the output rows (NaN: unknown, image PSF)
 };
 

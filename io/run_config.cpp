@@ -232,8 +232,11 @@ std::vector<Entry> make_registry() {
   const char* render = "Rendering (paper section 4.1)";
   r.push_back({"renderer",
                std::string("the fitter's renderer: ") + renderer_kind_names() +
-                   " (upsampled: the paper's sub-pixel grid, FFT convolution with the PSF, block average; exact: pixel "
-                   "values from the continuous transform of galaxy x PSF x pixel, at data resolution)",
+                   " (auto, the default: exact wherever it takes the PSF, i.e. Moffat beta > 2 and pixel-integrated "
+                   "image PSFs at the data's sampling, MEDS; upsampled for the Airy disc, Moffat beta <= 2 and "
+                   "oversampled or point-sampled image PSFs, said on stderr; exact: pixel values from the continuous "
+                   "transform of galaxy x PSF x pixel, at data resolution; upsampled: the paper's sub-pixel grid, FFT "
+                   "convolution with the PSF, block average, for im3shape comparisons)",
                render, [](const RunConfig& c) { return std::string(renderer_kind_name(c.fitter.renderer)); },
                [](RunConfig& c, const std::string& v) {
                  if (parse_renderer_kind(v, &c.fitter.renderer)) return std::string();
@@ -276,6 +279,26 @@ std::vector<Entry> make_registry() {
   r.push_back(int_entry(render, "exact_wrap_nodes",
                         "renderer = exact: Chebyshev nodes per stamp side for the copies' light",
                         [](auto& c) -> auto& { return c.fitter.render.exact.wrap_nodes; }));
+  r.push_back(bool_entry(render, "exact_surrogate",
+                         "renderer = exact: iterate first on a cheaper surrogate of the same model (a smaller "
+                         "period, looser terms), then exactly until the stopping rules hold; false: every "
+                         "iteration exact",
+                         [](auto& c) -> auto& { return c.fitter.render.exact.surrogate; }));
+  r.push_back(int_entry(render, "surrogate_period",
+                        "exact_surrogate: period of the surrogate's Fourier grid; 0 = the rule (stamp_size + 25, "
+                        "FFT-friendly)",
+                        [](auto& c) -> auto& { return c.fitter.render.exact.surrogate_period; }));
+  r.push_back(double_entry(render, "surrogate_psf_tolerance", "exact_surrogate: the surrogate's exact_psf_tolerance",
+                           DoubleKind::kFinite,
+                           [](auto& c) -> auto& { return c.fitter.render.exact.surrogate_psf_tolerance; }));
+  r.push_back(int_entry(render, "surrogate_wrap_rings", "exact_surrogate: the surrogate's exact_wrap_rings",
+                        [](auto& c) -> auto& { return c.fitter.render.exact.surrogate_wrap_rings; }));
+  r.push_back(int_entry(render, "surrogate_wrap_nodes", "exact_surrogate: the surrogate's exact_wrap_nodes",
+                        [](auto& c) -> auto& { return c.fitter.render.exact.surrogate_wrap_nodes; }));
+  r.push_back(double_entry(render, "surrogate_eps4",
+                           "exact_surrogate: levmar_eps4's rule for the surrogate iterations (the exact ones that "
+                           "follow use levmar_eps4)",
+                           DoubleKind::kFinite, [](auto& c) -> auto& { return c.fitter.surrogate_eps4; }));
   r.push_back(double_entry(render, "noise_sigma",
                            "per-pixel noise sigma when no weight map is given; 0 = unweighted (noise-free data)",
                            DoubleKind::kFinite, [](auto& c) -> auto& { return c.fitter.noise_sigma; }));

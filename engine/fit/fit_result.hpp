@@ -52,8 +52,11 @@ struct FitResult {
   double likelihood = NAN;   // -chi2 / 2
   double snr = NAN;          // sqrt(sum w m^2) of the best model (GREAT08 matched-filter S/N)
   int n_pixels = 0;          // pixels with non-zero weight
-  int iterations = 0;
-  int evaluations = 0;
+  int iterations = 0;   // exact (final-renderer) Jacobian evaluations
+  int evaluations = 0;  // exact model evaluations, Jacobian ones included
+  // The same counts of the surrogate iterations before them (Renderer::surrogate; 0 without).
+  int surrogate_iterations = 0;
+  int surrogate_evaluations = 0;
 
   FitResult() {
     params.fill(NAN);

@@ -15,6 +15,14 @@ namespace stampede {
 
 bool FitterOptions::IsValid(std::string* why) const {
   if (!render.IsValid(why) || !model.IsValid(why) || !lm.IsValid(why) || !params.IsValid(why)) return false;
+  if (!(surrogate_eps4 > 0 && surrogate_eps4 < 1)) {
+    if (why) {
+      std::ostringstream msg;
+      msg << "surrogate_eps4 = " << surrogate_eps4 << ": must be in (0, 1)";
+      *why = msg.str();
+    }
+    return false;
+  }
   if (!(noise_sigma >= 0.0 && std::isfinite(noise_sigma))) {
     if (why) {
       std::ostringstream msg;
@@ -76,7 +84,7 @@ class Fitter::Problem final : public LeastSquaresProblem {
   // A model that cannot be made has no chi2 (NaN); the solver gets `false` and rejects the step.
   bool chi2(const LmVector& x, double* chi2) override {
     ParamVector p;
-    if (!expand(x, &p) || f_.renderer_->render(p, model_) != RenderStatus::kOk) {
+    if (!expand(x, &p) || f_.active_->render(p, model_) != RenderStatus::kOk) {
       *chi2 = NAN;
       return false;
     }
@@ -87,7 +95,7 @@ class Fitter::Problem final : public LeastSquaresProblem {
     ParamVector p;
     const int nf = f_.num_free_;
     if (!expand(x, &p) ||
-        f_.renderer_->render_with_jacobian(p, std::span<const Param>(f_.free_.data(), nf), model_,
+        f_.active_->render_with_jacobian(p, std::span<const Param>(f_.free_.data(), nf), model_,
                                            std::span<double* const>(column_ptr_.data(), nf)) != RenderStatus::kOk) {
       *chi2 = NAN;
       return false;
@@ -151,7 +159,7 @@ class Fitter::ProjectedProblem final : public LeastSquaresProblem {
     cached_ = false;
     ParamVector p;
     const double none[2] = {0, 0};
-    if (!expand(x, none, &p) || f_.renderer_->render_components(p, bulge_, disc_) != RenderStatus::kOk) return false;
+    if (!expand(x, none, &p) || f_.active_->render_components(p, bulge_, disc_) != RenderStatus::kOk) return false;
     const std::span<const double> data = base_.data();
     const std::span<const double> weight = f_.weight_;
     std::array<double*, 2> cols = {bulge_.data(), disc_.data()};
@@ -177,7 +185,7 @@ class Fitter::ProjectedProblem final : public LeastSquaresProblem {
     // The model and the full Jacobian (every free parameter, amplitudes included) at x.
     auto& model = base_.model_buffer();
     double* const* cols = base_.columns();
-    if (f_.renderer_->render_with_jacobian(p, std::span<const Param>(f_.free_.data(), f_.num_free_), model,
+    if (f_.active_->render_with_jacobian(p, std::span<const Param>(f_.free_.data(), f_.num_free_), model,
                                            std::span<double* const>(cols, f_.num_free_)) != RenderStatus::kOk)
       return false;
     const double* b = cols[f_.amplitude_[0]];
@@ -240,6 +248,7 @@ Fitter::Fitter(const FitterOptions& options, std::shared_ptr<const PreparedPsf> 
   const int s = options_.render.stamp_size;
   const int npix = s * s;
   renderer_ = make_renderer(options_.renderer, options_.render, options_.model, plans);
+  active_ = renderer_.get();
   if (psf_) renderer_->set_psf(psf_);
   problem_ = std::make_unique<Problem>(*this, npix);
   projected_ = std::make_unique<ProjectedProblem>(*this, *problem_, npix);
@@ -458,7 +467,25 @@ FitResult Fitter::run(const ParamVector& start, std::uint32_t flags) {
     units.param[j] = units_.of(q);
   }
   LeastSquaresProblem& problem = project_ ? static_cast<LeastSquaresProblem&>(*projected_) : *problem_;
-  LmSummary sum = levenberg_marquardt(problem, x0, options_.lm, units);
+  LmOptions lm = options_.lm;
+  if (Renderer* coarse = renderer_->surrogate()) {
+    // The surrogate's optimum, to the looser rule, is where the renderer's own iterations start:
+    // near enough that they take one or two Jacobians (the surrogate's model error sets how far).
+    LmOptions first = options_.lm;
+    first.eps4 = std::max(options_.lm.eps4, options_.surrogate_eps4);
+    active_ = coarse;
+    const LmSummary s = levenberg_marquardt(problem, x0, first, units);
+    active_ = renderer_.get();
+    r.surrogate_iterations = s.iterations;
+    r.surrogate_evaluations = s.evaluations + (project_ ? projected_->extra_renders() : 0);
+    problem_->reset(start);
+    projected_->reset(start);
+    if (s.reason != StopReason::kInvalidStart && s.x.allFinite()) {
+      x0 = s.x;
+      lm.stop_at_jacobian = true;
+    }
+  }
+  LmSummary sum = levenberg_marquardt(problem, x0, lm, units);
   r.stop_reason = sum.reason;
   r.stop_value = sum.stop_value;
   r.stop_threshold = sum.stop_threshold;

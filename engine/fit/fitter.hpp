@@ -25,7 +25,7 @@
 namespace stampede {
 
 struct FitterOptions {
-  RendererKind renderer = RendererKind::kUpsampled;
+  RendererKind renderer = RendererKind::kAuto;
   RenderOptions render;
   ModelOptions model;
   LmOptions lm;
@@ -34,6 +34,11 @@ struct FitterOptions {
   // Solve the two amplitudes linearly at every trial shape (variable projection) when both are
   // free and unbounded; false: Levenberg-Marquardt over all free parameters jointly (the paper's).
   bool project_amplitudes = true;
+  // Iterate first on the renderer's surrogate (Renderer::surrogate), when it has one, until this
+  // relative chi2 change per pixel (levmar_eps4's rule), then on the renderer itself from there
+  // until lm's rules hold, a Jacobian point whose Gauss-Newton step predicts no more than eps4
+  // counting as converged: the optimum, errors and chi2 are the renderer's own.
+  double surrogate_eps4 = 1e-6;
 
   bool IsValid(std::string* why) const;
 };
@@ -89,6 +94,7 @@ class Fitter {
   FitterOptions options_;
   std::shared_ptr<const PreparedPsf> psf_;
   std::unique_ptr<Renderer> renderer_;
+  Renderer* active_ = nullptr;  // what the problems draw with: renderer_ or its surrogate
   const kernels::LeastSquaresKernels* least_squares_;  // options_.render.simd's build
   std::unique_ptr<Problem> problem_;
   std::unique_ptr<ProjectedProblem> projected_;

@@ -114,7 +114,7 @@ class MultiEpochFitter::Problem final : public LeastSquaresProblem {
 
 MultiEpochFitter::MultiEpochFitter(const FitterOptions& options)
     : options_(options), plans_(FftPlanning::kEstimate), problem_(std::make_unique<Problem>(*this)) {
-  if (options.renderer != RendererKind::kExact)
+  if (options.renderer == RendererKind::kUpsampled)
     throw std::invalid_argument("MultiEpochFitter: cutouts with WCS Jacobians need renderer = exact");
 }
 

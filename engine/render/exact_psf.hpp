@@ -32,6 +32,12 @@ class ExactPsf final : public PreparedPsf {
         yy_(yy),
         bin_re_(std::move(bin_re)),
         bin_im_(std::move(bin_im)) {}
+  // The same PSF prepared for the renderer's surrogate (exact_renderer.hpp), or null.
+  ExactPsf(const ExactPsf& base, std::shared_ptr<const ExactPsf> surrogate)
+      : ExactPsf(base) {
+    surrogate_ = std::move(surrogate);
+  }
+  const std::shared_ptr<const ExactPsf>& surrogate() const { return surrogate_; }
   bool has_bin_factor() const { return !bin_re_.empty(); }
   const double* bin_re() const { return bin_re_.data(); }
   const double* bin_im() const { return bin_im_.data(); }
@@ -52,6 +58,7 @@ class ExactPsf final : public PreparedPsf {
   kernels::BlurMoments blur_;
   double xx_, xy_, yy_;
   std::vector<double> bin_re_, bin_im_;
+  std::shared_ptr<const ExactPsf> surrogate_;
 };
 
 // The term list of a PSF on an N x N grid (terms with |PSF x pixel sinc| <= tolerance dropped by

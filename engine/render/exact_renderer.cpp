@@ -33,6 +33,8 @@ constexpr int kWrapImages = 2 + kernels::kWingDerivatives;
 
 int exact_period(int stamp_size) { return kernels::fft_friendly_size(stamp_size + kExactPeriodMargin); }
 
+int exact_surrogate_period(int stamp_size) { return kernels::fft_friendly_size(stamp_size + kSurrogatePeriodMargin); }
+
 int exact_uncorrected_period(int stamp_size) { return kernels::fft_friendly_size(4 * stamp_size); }
 
 std::shared_ptr<const kernels::SersicKTable> build_sersic_k_table(double n, double q_max) {
@@ -119,6 +121,17 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
     wrap_[0] = WrapGrid(stamp_size_, options_.wrap_nodes, render.simd, copies);
     wrap_[1] = WrapGrid(stamp_size_, std::min(options_.wrap_nodes, kFarWrapNodes), render.simd, copies);
   }
+  if (options_.surrogate) {
+    RenderOptions coarse = render;
+    coarse.exact.surrogate = false;
+    coarse.exact.period = options_.surrogate_period > 0 ? options_.surrogate_period : exact_surrogate_period(stamp_size_);
+    coarse.exact.psf_tolerance = options_.surrogate_psf_tolerance;
+    coarse.exact.wrap_rings = options_.surrogate_wrap_rings;
+    coarse.exact.wrap_nodes = options_.surrogate_wrap_nodes;
+    // A surrogate no cheaper than this renderer is none.
+    if (coarse.exact.period < n_ || coarse.exact.psf_tolerance > options_.psf_tolerance)
+      surrogate_ = std::make_unique<ExactRenderer>(coarse, model);
+  }
 }
 
 ExactRenderer::WrapGrid::WrapGrid(int stamp_size, int nodes, kernels::Isa isa, std::size_t copies)
@@ -154,7 +167,12 @@ std::shared_ptr<const PreparedPsf> ExactRenderer::prepare_psf(const PsfModel& ps
     }
     return nullptr;
   }
-  return prepared;
+  if (!surrogate_) return prepared;
+  // The surrogate's own preparation of the PSF; a PSF it cannot take is fitted without one.
+  std::string ignored;
+  auto coarse = std::dynamic_pointer_cast<const ExactPsf>(surrogate_->prepare_psf(psf, &ignored));
+  if (!coarse) return prepared;
+  return std::make_shared<const ExactPsf>(*prepared, std::move(coarse));
 }
 
 void ExactRenderer::set_psf(std::shared_ptr<const PreparedPsf> psf) {
@@ -170,6 +188,7 @@ void ExactRenderer::set_psf(std::shared_ptr<const PreparedPsf> psf) {
     alias_re_.resize(pairs);
     alias_im_.resize(pairs);
   }
+  if (surrogate_ && exact->surrogate()) surrogate_->set_psf(exact->surrogate());
   psf_ = std::move(exact);
 }
 
@@ -184,6 +203,7 @@ void ExactRenderer::component_fluxes(const ParamVector& p, double* bulge, double
 void ExactRenderer::set_frame(const PixelFrame& frame) {
   frame_ = frame;
   pixel_area_ = frame.identity() ? 1.0 : std::abs(frame.determinant());
+  if (surrogate_) surrogate_->set_frame(frame);
 }
 
 void ExactRenderer::to_frame_pixels(ModelComponents* comp) const {

@@ -47,6 +47,9 @@ inline constexpr int kExactPeriodMargin = 57;
 // WrappedLight: the light left is unchanged from all copies on wrap_nodes = 12).
 inline constexpr int kFarWrapNodes = 6;
 int exact_period(int stamp_size);
+// The surrogate's period rule (ExactRenderOptions::surrogate_period 0).
+inline constexpr int kSurrogatePeriodMargin = 25;
+int exact_surrogate_period(int stamp_size);
 int exact_uncorrected_period(int stamp_size);
 
 // The de Vaucouleurs (n = 4) transform table, built once per process on first use (thread-safe)
@@ -77,6 +80,9 @@ class ExactRenderer final : public Renderer {
   RenderStatus render_components(const ParamVector& p, std::span<double> bulge, std::span<double> disc) override;
   bool effective_params(const ParamVector& p, ParamVector* out) const override;
   void component_fluxes(const ParamVector& p, double* bulge, double* disc) const override;
+  // This renderer on the surrogate's period and tolerance, when the options ask for one and the
+  // current PSF was prepared with one.
+  Renderer* surrogate() override { return surrogate_ && psf_ && psf_->surrogate() ? surrogate_.get() : nullptr; }
 
   // The frame the model's parameters live in (model/pixel_frame.hpp): x0, y0 become (u0, v0) and
   // the shape is (u, v)'s, and d/dx0, d/dy0 become d/du0, d/dv0. The identity (the default) is the
@@ -148,6 +154,7 @@ class ExactRenderer final : public Renderer {
     std::vector<kernels::CopyOffset> bulge, disc;  // this grid's copies, reserved for every ring
   };
   std::array<WrapGrid, 2> wrap_;
+  std::unique_ptr<ExactRenderer> surrogate_;
 };
 
 }  // namespace stampede

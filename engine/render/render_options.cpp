@@ -15,6 +15,14 @@ bool ExactRenderOptions::IsValid(std::string* why) const {
     msg << "exact_wrap_rings = " << wrap_rings << ": must be 0 (no wrap correction) to 64";
   else if (wrap_nodes < 2 || wrap_nodes > 64)
     msg << "exact_wrap_nodes = " << wrap_nodes << ": must be 2 to 64";
+  else if (!(surrogate_psf_tolerance > 0 && surrogate_psf_tolerance < 1e-2))
+    msg << "surrogate_psf_tolerance = " << surrogate_psf_tolerance << ": must be in (0, 1e-2)";
+  else if (surrogate_period < 0 || surrogate_period > 4096)
+    msg << "surrogate_period = " << surrogate_period << ": must be 0 (the rule) or a grid size up to 4096 pixels";
+  else if (surrogate_wrap_rings < 0 || surrogate_wrap_rings > 64)
+    msg << "surrogate_wrap_rings = " << surrogate_wrap_rings << ": must be 0 (no wrap correction) to 64";
+  else if (surrogate_wrap_nodes < 2 || surrogate_wrap_nodes > 64)
+    msg << "surrogate_wrap_nodes = " << surrogate_wrap_nodes << ": must be 2 to 64";
   if (msg.str().empty()) return true;
   if (why) *why = msg.str();
   return false;

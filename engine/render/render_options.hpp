@@ -23,6 +23,16 @@ struct ExactRenderOptions {
   // nodes per stamp axis (measured: exact_renderer_test, WrappedLight).
   int wrap_rings = 6;
   int wrap_nodes = 12;
+  // The surrogate a fit iterates on before its exact iterations (Renderer::surrogate,
+  // engine/fit/fitter.hpp): this renderer on a smaller period (0: exact_surrogate_period, 64 for
+  // 39 pixels), a looser term tolerance and one ring of copies subtracted on coarser nodes; the
+  // same model to ~5e-4 of the peak at ~1/4 of a render's cost (docs/performance.md). Off: every
+  // iteration is exact.
+  bool surrogate = true;
+  int surrogate_period = 0;
+  double surrogate_psf_tolerance = 1e-4;
+  int surrogate_wrap_rings = 1;
+  int surrogate_wrap_nodes = 6;
 
   bool IsValid(std::string* why) const;
 };

@@ -65,6 +65,11 @@ class Renderer {
   virtual bool effective_params(const ParamVector& p, ParamVector* out) const = 0;
   // Analytic total flux of each component at p (before the PSF and the stamp's edge).
   virtual void component_fluxes(const ParamVector& p, double* bulge, double* disc) const = 0;
+
+  // A cheaper approximation of the same model for a fit to iterate on before its iterations with
+  // this renderer (same parameters, frame and PSF, set with this renderer's); null when there is
+  // none, or none for the current PSF.
+  virtual Renderer* surrogate() { return nullptr; }
 };
 
 }  // namespace stampede

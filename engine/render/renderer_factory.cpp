@@ -14,6 +14,7 @@ const char* renderer_kind_name(RendererKind kind) {
   switch (kind) {
     case RendererKind::kUpsampled: return "upsampled";
     case RendererKind::kExact: return "exact";
+    case RendererKind::kAuto: return "auto";
   }
   return "?";
 }
@@ -21,7 +22,7 @@ const char* renderer_kind_name(RendererKind kind) {
 bool parse_renderer_kind(std::string_view name, RendererKind* out) {
   std::string s(name);
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  for (RendererKind k : {RendererKind::kUpsampled, RendererKind::kExact})
+  for (RendererKind k : {RendererKind::kUpsampled, RendererKind::kExact, RendererKind::kAuto})
     if (s == renderer_kind_name(k)) {
       *out = k;
       return true;
@@ -29,13 +30,15 @@ bool parse_renderer_kind(std::string_view name, RendererKind* out) {
   return false;
 }
 
-const char* renderer_kind_names() { return "upsampled, exact"; }
+const char* renderer_kind_names() { return "auto, exact, upsampled"; }
+
 
 std::unique_ptr<Renderer> make_renderer(RendererKind kind, const RenderOptions& render, const ModelOptions& model,
                                         FftPlanCache& plans) {
   switch (kind) {
     case RendererKind::kUpsampled: return std::make_unique<UpsampledRenderer>(render, model, nullptr, plans);
-    case RendererKind::kExact: return std::make_unique<ExactRenderer>(render, model);
+    case RendererKind::kExact:
+    case RendererKind::kAuto: return std::make_unique<ExactRenderer>(render, model);
   }
   throw std::invalid_argument("make_renderer: unknown renderer kind");
 }

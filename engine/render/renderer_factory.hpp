@@ -15,12 +15,15 @@ namespace stampede {
 enum class RendererKind {
   kUpsampled,  // render/upsampled_renderer: the paper's upsampled grid, FFT convolution
   kExact,      // render/exact_renderer: the continuous transform at data resolution
+  // The default: exact wherever it can take the PSF, upsampled where it cannot (the run's PSF is
+  // resolved in app/psf_setup); make_renderer makes the exact renderer for it.
+  kAuto,
 };
-// "upsampled", "exact".
+// "upsampled", "exact", "auto".
 const char* renderer_kind_name(RendererKind kind);
 // Case-insensitive inverse of renderer_kind_name; false for anything else.
 bool parse_renderer_kind(std::string_view name, RendererKind* out);
-// The allowed names, comma-separated, for messages and help ("upsampled, exact").
+// The allowed names, comma-separated, for messages and help ("auto, exact, upsampled").
 const char* renderer_kind_names();
 
 // A renderer without a PSF (set_psf before rendering). `plans` are the calling thread's and must

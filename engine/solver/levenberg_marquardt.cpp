@@ -118,6 +118,13 @@ LmSummary levenberg_marquardt(LeastSquaresProblem& problem, const LmVector& x0, 
         if (d.allFinite()) gn_decrease = std::abs(d.dot(beta));
       }
     }
+    if (options.stop_at_jacobian && options.eps4 > 0) {
+      const double scale = std::max(chi2, negligible);
+      if (gn_decrease / scale < options.eps4 / npix) {
+        stop(StopReason::kRelativeChi2Change, gn_decrease / scale, options.eps4 / npix);
+        break;
+      }
+    }
     const double grad = (beta.cwiseQuotient(unit) * units.chi2_unit).cwiseAbs().maxCoeff();
     if (options.eps1 > 0 && grad <= options.eps1) {
       stop(StopReason::kGradient, grad, options.eps1);

@@ -10,6 +10,7 @@
 //   eps4: |chi2_prev - chi2| / max(chi2_prev, negligible_chi2) < eps4 / n_pixels after an accepted step, and either the
 //         undamped Gauss-Newton step predicts no more than that, or it is the third such step in a
 //         row (0 disables)
+//         (with stop_at_jacobian, also when a Jacobian point's Gauss-Newton step predicts no more)
 //   max_iterations: Jacobian evaluations.
 // A step to parameters where no model exists is rejected like an uphill step (the paper's
 // "chi2 = 2 per pixel" convention would be accepted by an unweighted fit of bright data).
@@ -35,6 +36,10 @@ struct LmOptions {
   double eps4 = 1e-6;           // levmar_eps4: relative chi2 change per pixel; 0 = off
   double init_mu = 1e-3;        // levmar_LM_INIT_MU: initial damping relative to diag(J^T W J)
   int max_iterations = 200;     // minimizer_max_iterations
+  // eps4 also holds at a Jacobian point whose undamped Gauss-Newton step predicts a chi2 decrease
+  // below eps4 / n_pixels of chi2 (no step is then taken): for a solve that starts next to its
+  // optimum, e.g. the exact iterations after a surrogate's (engine/fit/fitter.hpp).
+  bool stop_at_jacobian = false;
 
   bool IsValid(std::string* why) const;
 };

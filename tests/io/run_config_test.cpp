@@ -63,7 +63,10 @@ TEST(RunConfigDefaults, EqualTheEngineStructDefaults) {
   EXPECT_EQ(c.fitter.noise_sigma, 0.0);
   EXPECT_EQ(c.psf_kind, PsfKind::kMoffat);
   EXPECT_FALSE(c.psf_from_catalogue);
-  EXPECT_EQ(c.fitter.renderer, RendererKind::kUpsampled);
+  EXPECT_EQ(c.fitter.renderer, RendererKind::kAuto);
+  EXPECT_EQ(c.fitter.renderer, f.renderer);
+  EXPECT_EQ(c.fitter.render.exact.surrogate, f.render.exact.surrogate);
+  EXPECT_EQ(c.fitter.surrogate_eps4, f.surrogate_eps4);
   EXPECT_EQ(c.batch_size, 32);
   EXPECT_TRUE(c.explicitly_set.empty());
 
@@ -134,14 +137,15 @@ TEST(RunConfigRegistry, ListsEveryKeyOnceWithItsDefaultAndHelp) {
         "psf_upsampling", "psf_pixel_integrated", "batch_size", "fft_wisdom", "catalog_id_column",
         "catalog_x_column", "catalog_y_column", "catalog_psf_beta_column", "catalog_psf_fwhm_column",
         "catalog_psf_e1_column", "catalog_psf_e2_column", "meds_model", "meds_psf", "meds_fit_coadd", "meds_bmask_bits",
-        "meds_uberseg", "meds_min_unmasked_fraction", "meds_magzp_ref", "meds_psf_dir", "save_images"})
+        "meds_uberseg", "meds_min_unmasked_fraction", "meds_magzp_ref", "meds_psf_dir", "save_images", "exact_surrogate",
+        "surrogate_period", "surrogate_psf_tolerance", "surrogate_wrap_rings", "surrogate_wrap_nodes", "surrogate_eps4"})
     EXPECT_TRUE(names.contains(key)) << key;
   for (int k = 0; k < kNumParams; ++k) {
     const std::string n(param_name(static_cast<Param>(k)));
     for (const char* suffix : {"_start", "_min", "_max", "_free"})
       EXPECT_TRUE(names.contains(n + suffix)) << n + suffix;
   }
-  EXPECT_EQ(options.size(), 55u + 4u * kNumParams);
+  EXPECT_EQ(options.size(), 61u + 4u * kNumParams);
 }
 
 // The survey options: bmask bits in decimal or hex, the two models, and the bounds validate checks.
@@ -219,6 +223,7 @@ TEST(RunConfigSet, ParsesEachKindAndRecordsExplicitKeys) {
   set_option(c, "psf_input", "image");
   EXPECT_FALSE(c.psf_from_catalogue);
   EXPECT_EQ(c.psf_kind, PsfKind::kImage);
+  EXPECT_EQ(get_option(c, "renderer"), "auto");  // the default
   set_option(c, "renderer", "Upsampled");
   EXPECT_EQ(get_option(c, "renderer"), "upsampled");
   for (const char* t : {"true", "TRUE", "Yes", "1"}) {
@@ -269,7 +274,7 @@ TEST(RunConfigSet, RejectsBadValuesAndLeavesTheConfigUnchanged) {
       {"psf_pixel_integrated", "maybe", "expected true/false"},
       {"psf_pixel_integrated", "", "expected true/false"},
       {"psf_input", "gaussian", "expected moffat, airy, moffat_catalog or image"},
-      {"renderer", "gpu", "expected upsampled, exact"},
+      {"renderer", "gpu", "expected auto, exact, upsampled"},
       {"simd", "avx3", "expected best, scalar, sse4.2, avx2 or avx512"},
       {"save_images", "3,,4", "comma-separated"},
       {"save_images", "3,x", "comma-separated"},

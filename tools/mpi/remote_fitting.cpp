@@ -175,8 +175,10 @@ void run_worker(int /*threads*/) {
   } else {
     const app::SharedPsf psf = app::build_shared_psf(cfg, setup_plans);
     shared = psf.prepared;
+    cfg.fitter.renderer = psf.kind;
     e1 = psf.e1, e2 = psf.e2, fwhm = psf.fwhm;
   }
+
   const std::size_t max_message = max_batch_message(cfg.batch_size, cfg.fitter.render.stamp_size, cfg.psf_from_catalogue);
   auto serve_slot = [&](int j) {
       StampFitter fitter(cfg.fitter, shared, cache.get(), FftPlanning::kEstimate, e1, e2, fwhm);

@@ -343,6 +343,34 @@ TEST(LevenbergMarquardt, NoisyDataConvergesByRelativeChi2Change) {
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(p_min[k], kTruth[k], 0.1);
 }
 
+TEST(LevenbergMarquardt, StopAtJacobianEndsAtAJacobianPointThatPredictsNoMore) {
+  // Started at the minimum, the rule holds at the first Jacobian point: no step, J^T W J at x.
+  ExponentialProblem reference_problem(1e-2);
+  LmMatrix alpha;
+  double chi2_min = 0;
+  const LmVector p_min = gauss_newton_minimum(reference_problem, &alpha, &chi2_min);
+  LmOptions o;
+  o.stop_at_jacobian = true;
+  ExponentialProblem problem(1e-2);
+  const LmSummary at = levenberg_marquardt(problem, p_min, o);
+  EXPECT_EQ(at.reason, StopReason::kRelativeChi2Change);
+  EXPECT_EQ(at.iterations, 1);
+  EXPECT_EQ(at.evaluations, 1);
+  EXPECT_TRUE(at.alpha_at_x);
+  EXPECT_EQ(at.x, p_min);
+  EXPECT_LT(at.stop_value, o.eps4 / problem.num_pixels());
+  // From a poor start it takes steps, and where it stops the Gauss-Newton gain left is below the rule.
+  ExponentialProblem far_problem(1e-2);
+  const LmSummary far = levenberg_marquardt(far_problem, kPoorStart, o);
+  ASSERT_EQ(far.reason, StopReason::kRelativeChi2Change);
+  EXPECT_GT(far.iterations, 1);
+  EXPECT_LE(far.chi2 - chi2_min, 2.0 * o.eps4 / far_problem.num_pixels() * far.chi2);
+  // Without the rule the same start takes a step (and a Jacobian after it) before stopping.
+  ExponentialProblem plain_problem(1e-2);
+  const LmSummary plain = levenberg_marquardt(plain_problem, p_min, LmOptions{});
+  EXPECT_GT(plain.evaluations, 1);
+}
+
 TEST(LevenbergMarquardt, InvariantToWeightScale) {
   // With Marquardt's scaling D = diag(alpha) the step, the gain ratio and every relative stopping test
   // are invariant to a common factor on the weights: the same path and the same recorded relative
