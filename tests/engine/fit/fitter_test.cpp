@@ -27,6 +27,7 @@ TEST(Fitter, ReportsErrorsSnrAndFluxesWithNoise) {
   const auto cases = testing::load_render_cases();
   const auto& c = cases[9];
   FitterOptions fo;
+  fo.renderer = RendererKind::kUpsampled;  // kernel_for's kind
   fo.render.stamp_size = c.stamp;
   fo.noise_sigma = 0.5;
   Fitter fitter(fo, kernel_for(fo, testing::case_psf(c), plans), plans);
@@ -52,6 +53,7 @@ class FitterBadInput : public ::testing::Test {
   testing::RenderCase c = testing::load_render_cases()[6];
   FitterOptions fo = [this] {
     FitterOptions o;
+    o.renderer = RendererKind::kUpsampled;  // kernel_for's kind
     o.render.stamp_size = c.stamp;
     return o;
   }();

@@ -26,6 +26,7 @@ Stamps load(const std::string& kind) {
   io::StampGridReader grid(testing::data_path("galsim-great08-mini/" + kind + "/set_0.fits"));
   io::FitsFile& h = grid.file();
   Stamps s;
+  s.options.renderer = RendererKind::kUpsampled;  // the PsfKernel below is the upsampled renderer's
   s.options.render.stamp_size = grid.stamp_size();
   s.options.noise_sigma = h.key_double("NOISESIG");
   s.psf.moffat = {h.key_double("PSFBETA"), h.key_double("PSFFWHM"), h.key_double("PSFE1"), h.key_double("PSFE2"), 0.0};
