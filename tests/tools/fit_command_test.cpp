@@ -209,7 +209,8 @@ void write_grid(const std::string& file, int nx, int ny, int s,
 TEST_F(FitCommand, MemoryIsBoundedByTheBatchNotTheCatalogue) {
   write_grid(path("small.fits"), 200, 20, 9);
   write_grid(path("large.fits"), 200, 200, 9);
-  const std::vector<std::string> cheap = {"--set", "upsampling=1", "--set", "n_central_pixels_to_upsample=0", "--set",
+  const std::vector<std::string> cheap = {"--set", "renderer=upsampled", "--set", "upsampling=1", "--set",
+                                         "n_central_pixels_to_upsample=0", "--set",
                                          "padding=0", "--set", "minimizer_max_iterations=3", "--threads", "2", "--quiet"};
   const RunResult small = run(std::vector<std::string>{path("small.fits"), "-o", path("small_out.fits")} + cheap);
   const RunResult large = run(std::vector<std::string>{path("large.fits"), "-o", path("large_out.fits")} + cheap);
@@ -224,7 +225,8 @@ TEST_F(FitCommand, MemoryIsBoundedByTheBatchNotTheCatalogue) {
 // warning naming the file and each differing key with both values; none when they agree or when
 // the file records no PSF; an incomplete record is a warning too. The fit goes on with the run's PSF.
 TEST_F(FitCommand, WarnsWhenTheSetRecordsAnotherPsf) {
-  const std::vector<std::string> cheap = {"--set", "upsampling=1", "--set", "n_central_pixels_to_upsample=0", "--set",
+  const std::vector<std::string> cheap = {"--set", "renderer=upsampled", "--set", "upsampling=1", "--set",
+                                         "n_central_pixels_to_upsample=0", "--set",
                                          "padding=0", "--set", "minimizer_max_iterations=3", "--quiet"};
   write_grid(path("plain.fits"), 2, 2, 9);
   write_grid(path("moffat.fits"), 2, 2, 9, [](stampede::io::FitsFile& f) {
@@ -276,7 +278,8 @@ TEST_F(FitCommand, WarnsWhenTheSetRecordsAnotherPsf) {
 // sets' users expect), and records it as the effective options; a record the fit cannot use is an
 // error naming the file, and one the run overrides is only checked (above).
 TEST_F(FitCommand, TakesThePsfFromTheHeaderWhenTheRunSetsNone) {
-  const std::vector<std::string> cheap = {"--set", "upsampling=1", "--set", "n_central_pixels_to_upsample=0", "--set",
+  const std::vector<std::string> cheap = {"--set", "renderer=upsampled", "--set", "upsampling=1", "--set",
+                                         "n_central_pixels_to_upsample=0", "--set",
                                          "padding=0", "--set", "minimizer_max_iterations=3", "--quiet"};
   write_grid(path("moffat.fits"), 2, 2, 9, [](stampede::io::FitsFile& f) {
     f.write_key("PSFBETA", 3.5, "");
@@ -441,7 +444,8 @@ TEST_F(FitCommand, LockedWhileRunningAndResumeChecksTheInputsContent) {
 // partial is), a directory, or an existing file without --overwrite is refused before any fitting,
 // leaving the files as they were; --overwrite replaces an existing table.
 TEST_F(FitCommand, OutputsAreCheckedBeforeFitting) {
-  const std::vector<std::string> cheap = {"--set", "upsampling=1", "--set", "n_central_pixels_to_upsample=0", "--set",
+  const std::vector<std::string> cheap = {"--set", "renderer=upsampled", "--set", "upsampling=1", "--set",
+                                         "n_central_pixels_to_upsample=0", "--set",
                                          "padding=0", "--set", "minimizer_max_iterations=3", "--quiet"};
   write_grid(path("in.fits"), 2, 2, 9);
   fs::create_symlink(path("in.fits"), path("alias.fits"));

@@ -30,7 +30,7 @@ class MetricsCommand : public stampede::testing::FitCommandTest {
 
 TEST_F(MetricsCommand, AFitPairedWithAnotherSetsTruthIsRefused) {
   // Cheap fits: only the recorded identity matters here.
-  const std::vector<std::string> cheap = {"--quiet", "--set", "upsampling=1", "--set", "n_central_pixels_to_upsample=0",
+  const std::vector<std::string> cheap = {"--quiet", "--set", "renderer=upsampled", "--set", "upsampling=1", "--set", "n_central_pixels_to_upsample=0",
                                           "--set", "padding=0"};
   for (const char* k : {"0", "1"}) {
     const RunResult r = run(std::vector<std::string>{data(std::string("set_") + k + ".fits"), "-o",
