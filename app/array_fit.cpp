@@ -8,6 +8,7 @@
 #include <string>
 
 #include "app/psf_setup.hpp"
+#include "app/stamp_fitter_recipe.hpp"
 #include "engine/pipeline/pipeline.hpp"
 #include "engine/pipeline/stamp_fitter.hpp"
 #include "engine/render/psf_cache.hpp"
@@ -121,17 +122,7 @@ SingleStampFitter::SingleStampFitter(const io::RunConfig& config, int stamp_size
   const io::RunConfig cfg = config_for(config, stamp_size, false);
   check_metacal_psfs(cfg, shape.psfs);
   FftPlanCache setup_plans(FftPlanning::kEstimate);
-  const SharedPsf shared = psf ? prepare_shared_psf(*psf, cfg, setup_plans, "the stamps' PSF")
-                               : build_shared_psf(cfg, setup_plans);
-  std::optional<MetacalSetup> metacal;
-  if (cfg.metacal.enabled) {
-    checked_reconvolution_psf(shared.model, cfg);
-    metacal = MetacalSetup{cfg.metacal, shared.model};
-  }
-  FitterOptions fitter_options = cfg.fitter;
-  fitter_options.renderer = shared.kind;
-  fitter_ = std::make_unique<StampFitter>(fitter_options, shared.prepared, nullptr, FftPlanning::kEstimate, shared.e1,
-                                          shared.e2, shared.fwhm, metacal);
+  fitter_ = stamp_fitter_recipe(cfg, setup_plans, false, psf, "the stamps' PSF").make(FftPlanning::kEstimate);
 }
 
 SingleStampFitter::~SingleStampFitter() = default;
@@ -166,40 +157,18 @@ std::vector<ObjectRecord> fit_array_stamps(const io::RunConfig& config, const Ar
   std::vector<ObjectRecord> rows(static_cast<std::size_t>(in.count));
   if (in.count == 0) return rows;
   FftPlanCache setup_plans(FftPlanning::kEstimate);
-  std::shared_ptr<const PreparedPsf> shared_psf;
-  std::unique_ptr<PsfCache> psf_cache;
-  double psf_e1 = NAN, psf_e2 = NAN, psf_fwhm = NAN;
-  RendererKind kind = cfg.fitter.renderer;  // per-object PSFs: auto draws with the exact renderer
-  std::optional<MetacalSetup> metacal;
-  if (cfg.metacal.enabled) metacal = MetacalSetup{cfg.metacal, {}};
-  if (in.psfs.size() > 1) {
-    psf_cache = std::make_unique<PsfCache>(1024);
-  } else {
-    const SharedPsf psf = in.psfs.empty() ? build_shared_psf(cfg, setup_plans)
-                                          : prepare_shared_psf(in.psfs.front(), cfg, setup_plans, "the stamps' PSF");
-    shared_psf = psf.prepared;
-    kind = psf.kind;
-    psf_e1 = psf.e1, psf_e2 = psf.e2, psf_fwhm = psf.fwhm;
-    if (metacal) {
-      checked_reconvolution_psf(psf.model, cfg);
-      metacal->shared_psf = psf.model;
-    }
-  }
+  const std::optional<PsfModel> one_psf =
+      in.psfs.size() == 1 ? std::optional<PsfModel>(in.psfs.front()) : std::nullopt;
+  const StampFitterRecipe recipe = stamp_fitter_recipe(cfg, setup_plans, in.psfs.size() > 1, one_psf, "the stamps' PSF");
 
   ArraySource source(in);
   RowsSink sink(&rows);
   PipelineOptions po;
   po.threads = threads;
   po.batch_size = cfg.batch_size;
-  po.per_object_psf = static_cast<bool>(psf_cache);
+  po.per_object_psf = static_cast<bool>(recipe.psf_cache);
   po.stamp_size = in.stamp_size;
-  FitterOptions fitter_options = cfg.fitter;
-  fitter_options.renderer = kind;
-  PsfCache* cache = psf_cache.get();
-  auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
-    return std::make_unique<StampFitter>(fitter_options, shared_psf, cache, FftPlanning::kEstimate, psf_e1, psf_e2,
-                                         psf_fwhm, metacal);
-  };
+  auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> { return recipe.make(FftPlanning::kEstimate); };
   run_pipeline(source, sink, make_fitter, po);
   return rows;
 }

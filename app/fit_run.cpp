@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -19,6 +20,7 @@
 #include "app/psf_setup.hpp"
 #include "app/run_fingerprint.hpp"
 #include "app/run_memory.hpp"
+#include "app/stamp_fitter_recipe.hpp"
 #include "engine/pipeline/index_source.hpp"
 #include "engine/pipeline/pipeline.hpp"
 #include "engine/pipeline/range_source.hpp"
@@ -116,8 +118,13 @@ std::vector<io::RunOutput> outputs_of(const FitRunOptions& a, const io::RunConfi
 }
 
 // Every file the run reads, as it is on disk.
-std::vector<io::RunInput> inputs_of(const FitRunOptions& a, const io::RunConfig& cfg) {
-  if (!a.meds.empty()) return {{"--meds", io::fits_root_name(a.meds)}};
+std::vector<io::RunInput> inputs_of(const FitRunOptions& a, const io::RunConfig& cfg,
+                                   const std::vector<std::string>& psfex_files) {
+  if (!a.meds.empty()) {
+    std::vector<io::RunInput> in = {{"--meds", io::fits_root_name(a.meds)}};
+    for (const std::string& p : psfex_files) in.push_back({"PSFEx model", p});
+    return in;
+  }
   std::vector<io::RunInput> in = {{"input", io::fits_root_name(a.input)}};
   if (!a.catalog.empty()) in.push_back({"--catalog", io::fits_root_name(a.catalog)});
   if (!a.weight.empty()) in.push_back({"--weight", io::fits_root_name(a.weight)});
@@ -128,10 +135,11 @@ std::vector<io::RunInput> inputs_of(const FitRunOptions& a, const io::RunConfig&
 
 // The outputs, checked before anything is read (a refused one costs nothing) and locked so that no
 // other run can write them until these locks are released, after the writer is done.
-std::vector<io::OutputLock> lock_outputs(const FitRunOptions& a, const io::RunConfig& cfg) {
+std::vector<io::OutputLock> lock_outputs(const FitRunOptions& a, const io::RunConfig& cfg,
+                                         const std::vector<std::string>& psfex_files = {}) {
   std::vector<io::OutputLock> locks;
   if (a.output.empty()) return locks;
-  io::check_outputs(outputs_of(a, cfg), inputs_of(a, cfg), a.overwrite || a.resume);
+  io::check_outputs(outputs_of(a, cfg), inputs_of(a, cfg, psfex_files), a.overwrite || a.resume);
   locks.push_back(io::OutputLock::acquire(a.output));
   if (!a.text_output.empty()) locks.push_back(io::OutputLock::acquire(a.text_output));
   return locks;
@@ -187,6 +195,41 @@ void add_shard_keys(const FitRunOptions& a, long long input_objects, io::Catalog
                      std::to_string(input_objects) + "\n";
 }
 
+// After the fingerprint and the shard keys: each file's identity under its digest key (what merge
+// compares, not the path as typed) and RUNFP, the whole fingerprint's hash (what a complete
+// output's resume compares). `digests` as fit_fingerprint gave them for `files`.
+void add_identity_keys(const std::vector<FingerprintFile>& files, const std::vector<std::string>& digests,
+                       io::CatalogWriterOptions* wo) {
+  for (std::size_t k = 0; k < files.size(); ++k)
+    if (!files[k].digest_key.empty()) wo->header.emplace_back(files[k].digest_key, digests[k]);
+  wo->header.emplace_back(kRunFingerprintKey, RunFingerprint().text(wo->fingerprint).hex());
+}
+
+// skip_if_complete: true when a.output is already this run's complete table (its RUNFP is this
+// run's), so that the run is skipped; throws io::ConfigError naming it when it is another run's.
+bool output_is_this_complete_run(const FitRunOptions& a, const io::CatalogWriterOptions& wo) {
+  if (!a.resume || !a.skip_if_complete || !std::filesystem::exists(a.output) ||
+      std::filesystem::exists(a.output + ".checkpoint"))
+    return false;
+  std::string recorded;
+  try {
+    io::FitsFile f = io::FitsFile::open_read(a.output);
+    f.move_to("RESULTS");
+    recorded = f.read_key_string(kRunFingerprintKey).value_or("");
+  } catch (const std::exception& e) {
+    throw io::ConfigError(a.output + " exists and is not a result table --resume can check: " + e.what());
+  }
+  std::string mine;
+  for (const auto& [k, v] : wo.header)
+    if (k == kRunFingerprintKey) mine = v;
+  if (recorded == mine) return true;
+  throw io::ConfigError(a.output + " is complete but was written by another run (" +
+                        (recorded.empty() ? std::string("it records no ") + kRunFingerprintKey
+                                          : std::string(kRunFingerprintKey) + " = '" + recorded + "', this run's '" + mine + "'") +
+                        ": the input's content, the options or the program version differ); remove it, or refit "
+                        "it with --overwrite");
+}
+
 // The problems of a survey run's objects, as warnings: the first few in full, then a count at the
 // end (a tile with many masked objects must not flood the terminal). Called from the fit threads.
 class ProblemReporter {
@@ -236,7 +279,6 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
              "is its psf cutout or its source image's PSFEx model)");
   io::validate(cfg);
 
-  const std::vector<io::OutputLock> locks = lock_outputs(a, cfg);
   MedsFitOptions meds_options;
   static_cast<io::MedsOptions&>(meds_options) = cfg.meds;
   meds_options.fitter = cfg.fitter;
@@ -247,15 +289,19 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
   // The tile is opened here once, so that a bad file fails before any thread starts; each thread
   // then opens its own handle.
   long long input_objects = 0;
+  std::vector<std::string> psfex_files;
   {
     io::MedsFile tile = io::MedsFile::open(a.meds);
     input_objects = tile.size();
     try {
       const MedsObjectFitter check(tile, meds_options);  // the options the tile cannot serve
+      psfex_files = check.psfex_files();
     } catch (const std::invalid_argument& e) {
       throw io::ConfigError(e.what());
     }
   }
+  // Every file the run reads is protected from its outputs, PSFEx models included.
+  const std::vector<io::OutputLock> locks = lock_outputs(a, cfg, psfex_files);
   IndexSource whole(input_objects);
   std::unique_ptr<RangeSource> shard;
   if (a.shards > 1)
@@ -272,8 +318,27 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
     io::CatalogWriterOptions wo = base_writer_options(a, cfg);
     wo.positions = io::PositionColumns::kSurvey;
     wo.header.emplace_back("MEDS", a.meds);
-    wo.fingerprint = fit_fingerprint({{"meds", a.meds}}, wo.header);
+    // The PSFEx models are part of the run: a model replaced between kill and resume is refused. A
+    // missing one is a flagged row, not an error, and is fingerprinted as missing.
+    std::vector<FingerprintFile> files = {{"meds", a.meds, "MEDSDIGS"}};
+    std::string missing;
+    for (const std::string& p : psfex_files) {
+      if (std::filesystem::is_regular_file(p)) files.push_back({"psfex", p});
+      else missing += "psfex " + p + ": missing\n";
+    }
+    std::vector<std::string> digests;
+    wo.fingerprint = fit_fingerprint(files, wo.header, &digests) + missing;
     add_shard_keys(a, input_objects, &wo);
+    add_identity_keys(files, digests, &wo);
+    if (!psfex_files.empty()) {  // one key for all the models: merge compares it
+      RunFingerprint psfex;
+      for (std::size_t k = 1; k < files.size(); ++k) psfex.line(digests[k]);
+      wo.header.emplace_back("PSFEXDIG", psfex.text(missing).hex());
+    }
+    if (output_is_this_complete_run(a, wo)) {
+      summary.skipped = true;
+      return summary;
+    }
     if (a.resume) {
       writer = io::CatalogWriter::resume(wo, &summary.resumed);
       source.skip_to(summary.resumed);
@@ -429,28 +494,22 @@ RunSummary FitRun::run() const {
   if (const auto available = io::available_memory_bytes())
     check_fit_memory(estimate_fit_memory(cfg, threads, cfg.psf_from_catalogue), *available);
 
+  // Measured plans are chosen per process (by timing), so ranks could round differently.
+  if (a.distribute && !cfg.fft_wisdom.empty())
+    throw io::ConfigError("option 'fft_wisdom' with stampede-mpi: each rank would measure its own FFTW plans and "
+                          "the rows would differ in their last bits from a single process's; run without it");
   const FftPlanning planning = cfg.fft_wisdom.empty() ? FftPlanning::kEstimate : FftPlanning::kMeasure;
   if (!cfg.fft_wisdom.empty()) load_fftw_wisdom(cfg.fft_wisdom);  // a missing file is fine: it is made at the end
   FftPlanCache setup_plans(planning);
-  std::shared_ptr<const PreparedPsf> shared_psf;
-  PsfModel shared_model;
-  double gamma_fwhm = NAN;  // metacal with one PSF: the reconvolution PSF's FWHM
-  std::unique_ptr<PsfCache> psf_cache;
-  double psf_e1 = NAN, psf_e2 = NAN, psf_fwhm = NAN;
-  if (cfg.psf_from_catalogue) {
-    psf_cache = std::make_unique<PsfCache>(1024);
-  } else {
-    const app::SharedPsf psf = app::build_shared_psf(cfg, setup_plans);
-    shared_psf = psf.prepared;
-    shared_model = psf.model;
-    cfg.fitter.renderer = psf.kind;
-    if (!psf.auto_note.empty()) warn(psf.auto_note);
-    if (cfg.metacal.enabled) gamma_fwhm = app::checked_reconvolution_psf(shared_model, cfg).moffat.fwhm;
-    psf_e1 = psf.e1, psf_e2 = psf.e2, psf_fwhm = psf.fwhm;
+  const StampFitterRecipe recipe = stamp_fitter_recipe(cfg, setup_plans, cfg.psf_from_catalogue);
+  cfg.fitter.renderer = recipe.options.renderer;  // the header records the renderer auto chose
+  const double gamma_fwhm = recipe.gamma_fwhm;
+  if (!cfg.psf_from_catalogue) {
+    if (!recipe.auto_note.empty()) warn(recipe.auto_note);
     // A set written by `stampede sim` or GalSim records its PSF; fitting it with another (e.g. the
     // default round Moffat) is almost always a forgotten option, and biases c by the difference.
     if (recorded_psf) {
-      const std::vector<std::string> diff = app::psf_differences(*recorded_psf, psf.model);
+      const std::vector<std::string> diff = app::psf_differences(*recorded_psf, recipe.psf_model);
       if (!diff.empty()) {
         std::string list;
         for (const auto& d : diff) list += (list.empty() ? "" : ", ") + d;
@@ -480,13 +539,20 @@ RunSummary FitRun::run() const {
     wo.header.emplace_back("INPUT", a.input);
     if (!a.catalog.empty()) wo.header.emplace_back("CATALOG", a.catalog);
     if (!a.weight.empty()) wo.header.emplace_back("WEIGHTS", a.weight);
-    std::vector<FingerprintFile> files = {{"input", a.input}};
-    if (!a.catalog.empty()) files.push_back({"catalog", a.catalog});
-    if (!a.weight.empty()) files.push_back({"weight", a.weight});
-    if (cfg.psf_kind == PsfKind::kImage && !cfg.psf_from_catalogue) files.push_back({"psf_image", cfg.psf_image});
-    wo.fingerprint = fit_fingerprint(files, wo.header);
+    std::vector<FingerprintFile> files = {{"input", a.input, "INDIGEST"}};
+    if (!a.catalog.empty()) files.push_back({"catalog", a.catalog, "CATDIGST"});
+    if (!a.weight.empty()) files.push_back({"weight", a.weight, "WGTDIGST"});
+    if (cfg.psf_kind == PsfKind::kImage && !cfg.psf_from_catalogue)
+      files.push_back({"psf_image", cfg.psf_image, "PSFDIGST"});
+    std::vector<std::string> digests;
+    wo.fingerprint = fit_fingerprint(files, wo.header, &digests);
     if (!input_set.empty()) wo.header.emplace_back(io::kInputSetKey, input_set);  // for `metrics` to match the truth
     add_shard_keys(a, input_objects, &wo);
+    add_identity_keys(files, digests, &wo);
+    if (output_is_this_complete_run(a, wo)) {
+      summary.skipped = true;
+      return summary;
+    }
     if (a.resume) {
       writer = io::CatalogWriter::resume(wo, &summary.resumed);
       source->skip_to(summary.resumed);
@@ -498,19 +564,14 @@ RunSummary FitRun::run() const {
   // A run that fails with an error leaves no partial output (a killed one leaves it for --resume).
   const std::string images_path = images_path_for(a.output);
   try {
-    WriterSink sink(writer.get(), a, cfg, shared_psf, psf_cache.get(), images_path);
+    WriterSink sink(writer.get(), a, cfg, recipe.shared_psf, recipe.psf_cache.get(), images_path);
     PipelineOptions po;
     po.threads = a.threads;
     po.batch_size = cfg.batch_size;
-    po.per_object_psf = static_cast<bool>(psf_cache);
+    po.per_object_psf = static_cast<bool>(recipe.psf_cache);
     po.stamp_size = cfg.fitter.render.stamp_size;
-    const FitterOptions fitter_options = cfg.fitter;
-    PsfCache* cache = psf_cache.get();
-    std::optional<MetacalSetup> metacal;
-    if (cfg.metacal.enabled) metacal = MetacalSetup{cfg.metacal, shared_model};
     std::function<std::unique_ptr<BatchFitter>()> make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
-      return std::make_unique<StampFitter>(fitter_options, shared_psf, cache, planning, psf_e1, psf_e2, psf_fwhm,
-                                           metacal);
+      return recipe.make(planning);
     };
     if (a.distribute) {
       FitDistribution d = a.distribute(cfg, make_fitter);

@@ -29,6 +29,10 @@ namespace stampede::app {
 // The header keys of a shard's table: "i/N", and the whole input's object count.
 inline constexpr const char* kShardKey = "SHARD";
 inline constexpr const char* kShardTotalKey = "SHARDTOT";
+// The run's identity in its table's header: RUNFP, 16 hex digits of the whole fingerprint (inputs'
+// contents, options, program version, shard); per input file, its size and digest (what merge compares,
+// not the path as typed).
+inline constexpr const char* kRunFingerprintKey = "RUNFP";
 // "I/N" (the --shard argument and the SHARD key) as {I, N}; nullopt unless it is exactly two
 // integers with 0 <= I < N <= 1000000.
 std::optional<std::pair<int, int>> parse_shard(const std::string& text);
@@ -65,6 +69,9 @@ struct FitRunOptions {
   std::string text_output;  // the table also as whitespace text; "" = none
   bool resume = false;      // continue the interrupted run at `output` (same input and options)
   bool overwrite = false;   // replace existing outputs (table, text, images); else they are refused
+  // With resume, an output that is already complete (no checkpoint) is this run's when its RUNFP
+  // matches: the run is skipped (RunSummary::skipped); another run's is refused. `--input-list`.
+  bool skip_if_complete = false;
   int threads = 0;          // worker threads; 0 = all of the calling task arena's (all cores by default)
   // Job-array shard `shard` of `shards` (`--shard i/N`): the contiguous objects
   // [total*i/N, total*(i+1)/N) of the input, with their whole-input ids; the table records SHARD

@@ -1,6 +1,7 @@
 // One MEDS object's joint fit; see meds_object_fit.hpp.
 #include "app/meds_object_fit.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <stdexcept>
@@ -66,6 +67,22 @@ MedsObjectFitter::MedsObjectFitter(io::MedsFile& meds, const MedsFitOptions& opt
 
 MedsObjectFitter::~MedsObjectFitter() = default;
 
+std::filesystem::path MedsObjectFitter::psfex_file(const std::string& psf_path) const {
+  const std::filesystem::path name(psf_path);
+  return name.is_absolute() ? name : std::filesystem::path(options_.psf_dir.empty() ? "." : options_.psf_dir) / name;
+}
+
+std::vector<std::string> MedsObjectFitter::psfex_files() const {
+  std::vector<std::string> files;
+  if (source_ != io::MedsPsfSource::kPsfex) return files;
+  for (const io::MedsImageInfo& info : meds_.images()) {
+    if (info.psf_path.empty()) continue;
+    const std::string p = psfex_file(info.psf_path).lexically_normal().string();
+    if (std::find(files.begin(), files.end(), p) == files.end()) files.push_back(p);
+  }
+  return files;
+}
+
 const PsfexModel* MedsObjectFitter::psfex(long long file_id, std::string* problem) {
   const std::size_t i = static_cast<std::size_t>(file_id);
   if (!models_[i] && model_errors_[i].empty()) {
@@ -73,9 +90,7 @@ const PsfexModel* MedsObjectFitter::psfex(long long file_id, std::string* proble
     if (name.empty()) {
       model_errors_[i] = meds_.path() + ": image_info row " + std::to_string(file_id) + " names no PSFEx model (psf_path)";
     } else {
-      const std::filesystem::path path = std::filesystem::path(name).is_absolute()
-                                             ? std::filesystem::path(name)
-                                             : std::filesystem::path(options_.psf_dir.empty() ? "." : options_.psf_dir) / name;
+      const std::filesystem::path path = psfex_file(name);
       try {
         models_[i] = io::read_psfex_model(path.string());
       } catch (const std::runtime_error& e) {

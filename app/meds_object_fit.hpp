@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <optional>
@@ -51,8 +52,12 @@ class MedsObjectFitter {
   // What the last fit used for cutout k of its epochs (for tests: the PSF from its PSFEx model or
   // the tile's psf cutout; null for the options' analytic PSF).
   const std::vector<std::shared_ptr<const PsfImage>>& last_psfs() const { return last_psfs_; }
+  // The PSFEx files the fits would read (image_info's psf_path resolved against meds_psf_dir), in
+  // image_info order, without repeats; empty unless the PSFs come from PSFEx models.
+  std::vector<std::string> psfex_files() const;
 
  private:
+  std::filesystem::path psfex_file(const std::string& psf_path) const;
   // The PSFEx model of image_info row `file_id`, loaded on first use; null with *problem if not.
   const PsfexModel* psfex(long long file_id, std::string* problem);
   // Cutout k's PSF from the configured source, prepared for its box; null with *why if none.

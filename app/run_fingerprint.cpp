@@ -36,10 +36,14 @@ std::string RunFingerprint::hex() const {
 }
 
 std::string fit_fingerprint(const std::vector<FingerprintFile>& files,
-                            const std::vector<std::pair<std::string, std::string>>& header) {
+                            const std::vector<std::pair<std::string, std::string>>& header,
+                            std::vector<std::string>* digests) {
   std::string out = "stampede " + std::string(program_version()) + "\n";
-  for (const FingerprintFile& f : files)
-    out += f.role + " " + f.path + ": " + io::digest_file(io::fits_root_name(f.path)).text() + "\n";
+  for (const FingerprintFile& f : files) {
+    const std::string digest = io::digest_file(io::fits_root_name(f.path)).text();
+    out += f.role + " " + f.path + ": " + digest + "\n";
+    if (digests) digests->push_back(digest);
+  }
   for (const auto& [k, v] : header) out += k + "=" + v + "\n";
   return out;
 }

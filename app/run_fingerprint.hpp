@@ -37,14 +37,17 @@ class RunFingerprint {
 struct FingerprintFile {
   std::string role;
   std::string path;
+  // The header key that records this file's identity ("N bytes, xxh64 H"); "" = none.
+  std::string digest_key = "";
 };
 
 // `stampede fit`: "stampede VERSION\n"; then per file, in the order given, "ROLE PATH: N bytes,
 // xxh64 H\n" (io::FileDigest::text()); then "key=value\n" per pair of the output header (the
 // effective options and the INPUT/CATALOG/WEIGHTS keys). Reads every file once; throws io::FileError
-// naming a file it cannot read.
+// naming a file it cannot read. With `digests`, each file's "N bytes, xxh64 H" too, in order.
 std::string fit_fingerprint(const std::vector<FingerprintFile>& files,
-                            const std::vector<std::pair<std::string, std::string>>& header);
+                            const std::vector<std::pair<std::string, std::string>>& header,
+                            std::vector<std::string>* digests = nullptr);
 
 // `stampede calibrate build`: the program version line "stampede VERSION\n", the grid (radii and
 // bulge fractions, each followed by ',', then |snr|e_max|e_steps|realisations|seed|) and the

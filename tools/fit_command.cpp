@@ -70,7 +70,7 @@ void print_help() {
 
 }  // namespace
 
-int parse_fit_arguments(int argc, char** argv, FitCommandLine* command) {
+int parse_fit_arguments(int argc, char** argv, FitCommandLine* command, bool messages) {
   app::FitRunOptions& r = command->run;
   std::string config;
   std::vector<std::string> sets;
@@ -78,10 +78,10 @@ int parse_fit_arguments(int argc, char** argv, FitCommandLine* command) {
     const std::string s = argv[i];
     auto value = [&] { return tools::option_value(argc, argv, &i); };
     if (s == "--help" || s == "-h") {
-      print_help();
+      if (messages) print_help();
       return 0;
     } else if (s == "--help-config") {
-      std::fputs(io::ini_template().c_str(), stdout);
+      if (messages) std::fputs(io::ini_template().c_str(), stdout);
       return 0;
     } else if (s == "-o" || s == "--output") {
       r.output = value();
@@ -136,7 +136,7 @@ int parse_fit_arguments(int argc, char** argv, FitCommandLine* command) {
       throw std::invalid_argument("--meds takes no --input-list, --catalog or --weight (the tile holds the cutouts and weights)");
   }
   if ((r.input.empty() && r.meds.empty() && command->input_list.empty()) || r.output.empty()) {
-    std::fputs(kUsage, stderr);
+    if (messages) std::fputs(kUsage, stderr);
     return 2;
   }
 
@@ -151,6 +151,10 @@ int run_fit_with_reports(app::FitRunOptions& r) {
   r.on_warning = [](const std::string& w) { std::fprintf(stderr, "stampede fit: warning: %s\n", w.c_str()); };
   const app::RunSummary summary = app::FitRun(r).run();
   printer.finish();
+  if (summary.skipped) {
+    if (!r.quiet) std::fprintf(stderr, "stampede fit: %s is complete, skipped\n", r.output.c_str());
+    return 0;
+  }
   if (!r.quiet) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
   return 0;
 }
@@ -166,7 +170,13 @@ int run_fit_command(int argc, char** argv) {
 
 std::vector<app::ListedInput> listed_inputs(const FitCommandLine& command) {
   if (command.input_list.empty()) return {};
-  std::filesystem::create_directories(command.run.output);
+  const std::string& dir = command.run.output;
+  if (std::filesystem::exists(dir) && !std::filesystem::is_directory(dir))
+    throw std::invalid_argument("--input-list writes a table per input into the directory -o names; '" + dir +
+                                "' is a file");
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  if (error) throw std::invalid_argument("-o '" + dir + "': cannot create the directory: " + error.message());
   return app::read_input_list(command.input_list, command.run.output);
 }
 
@@ -174,10 +184,10 @@ int run_listed_input(const FitCommandLine& command, const app::ListedInput& inpu
   app::FitRunOptions r = command.run;
   r.input = input.input;
   r.output = input.output;
-  if (r.resume && std::filesystem::exists(input.output)) {
-    if (!r.quiet) std::fprintf(stderr, "stampede fit: %s is complete, skipped\n", input.output.c_str());
-    return 0;
-  }
-  if (r.resume && !std::filesystem::exists(input.output + ".checkpoint")) r.resume = false;  // not started yet
+  // A complete output is skipped only when it is this run's (the run checks its RUNFP); one not
+  // started yet is fitted afresh.
+  r.skip_if_complete = true;
+  if (r.resume && !std::filesystem::exists(input.output) && !std::filesystem::exists(input.output + ".checkpoint"))
+    r.resume = false;
   return run_fit_with_reports(r);
 }

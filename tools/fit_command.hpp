@@ -18,8 +18,9 @@ struct FitCommandLine {
   std::string input_list;            // --input-list FILE, or ""
 };
 // Parses the arguments (ini loaded, --set applied); returns -1 to go on, else the exit code (0
-// after --help or --help-config, 2 after a usage message). Throws for bad arguments.
-int parse_fit_arguments(int argc, char** argv, FitCommandLine* command);
+// after --help or --help-config, 2 after a usage message). Throws for bad arguments. `messages`
+// false: the help and usage texts are not printed (the MPI driver's ranks other than 0).
+int parse_fit_arguments(int argc, char** argv, FitCommandLine* command, bool messages = true);
 // The list's inputs with their outputs (the output directory created); empty without a list.
 std::vector<stampede::app::ListedInput> listed_inputs(const FitCommandLine& command);
 // Runs one input with progress and the summary on stderr (unless --quiet); returns the exit code.

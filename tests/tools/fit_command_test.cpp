@@ -131,6 +131,60 @@ TEST_F(FitCommand, KilledShardResumesAsItselfAndTheMergeEqualsTheSingleRun) {
   expect_tables_equal(path("full.fits"), path("merged.fits"));
 }
 
+// Issue 31: --input-list --resume skips a complete output only when it is this run's (RUNFP: the
+// input's content and the options); an input whose content changed, or other options, is refused.
+// A list naming a file as its output directory is a clear error.
+TEST_F(FitCommand, AListResumeSkipsOnlyTheSameRunsCompleteOutputs) {
+  fs::copy_file(data("galsim-great08-mini/nf/set_0.fits"), path("a.fits"));
+  std::ofstream(path("list.txt")) << path("a.fits") << "\n";
+  const std::vector<std::string> opts = kGreat08Psf + std::vector<std::string>{"--set", "renderer=exact", "--set",
+                                                                               "minimizer_max_iterations=2"};
+  const std::vector<std::string> list = {"--input-list", path("list.txt"), "-o", path("out")};
+  ASSERT_EQ(run(list + opts + std::vector<std::string>{"--quiet"}).exit_code, 0);
+  const RunResult same = run(list + opts + std::vector<std::string>{"--resume"});
+  EXPECT_EQ(same.exit_code, 0) << same.err;
+  EXPECT_NE(same.err.find("a_fit.fits is complete, skipped"), std::string::npos) << same.err;
+  const RunResult options = run(list + opts + std::vector<std::string>{"--resume", "--set", "minimizer_max_iterations=3"});
+  EXPECT_EQ(options.exit_code, 1);
+  EXPECT_NE(options.err.find("a_fit.fits is complete but was written by another run"), std::string::npos) << options.err;
+  fs::remove(path("a.fits"));
+  fs::copy_file(data("galsim-great08-mini/nf/set_1.fits"), path("a.fits"));  // new content, same path
+  const RunResult content = run(list + opts + std::vector<std::string>{"--resume"});
+  EXPECT_EQ(content.exit_code, 1);
+  EXPECT_NE(content.err.find("is complete but was written by another run"), std::string::npos) << content.err;
+  std::ofstream(path("file")) << "x";
+  const RunResult file = run(std::vector<std::string>{"--input-list", path("list.txt"), "-o", path("file")} + opts);
+  EXPECT_EQ(file.exit_code, 1);
+  EXPECT_NE(file.err.find("' is a file"), std::string::npos) << file.err;
+}
+
+// Issue 31: merge compares the inputs' contents, not their paths as typed: the same file reached by
+// two paths merges; another file at the same path is refused (by its content: the digest, or the
+// simulation identity the set records).
+TEST_F(FitCommand, MergeComparesTheInputsContentNotItsPath) {
+  fs::create_directories(path("d"));
+  fs::copy_file(data("galsim-great08-mini/nf/set_0.fits"), path("d/in.fits"));
+  const std::vector<std::string> opts = kGreat08Psf + std::vector<std::string>{"--set", "renderer=exact", "--set",
+                                                                               "minimizer_max_iterations=2", "--quiet"};
+  ASSERT_EQ(run(std::vector<std::string>{path("d/in.fits"), "-o", path("s0.fits"), "--shard", "0/2"} + opts).exit_code, 0);
+  ASSERT_EQ(run(std::vector<std::string>{path("d/./in.fits"), "-o", path("s1.fits"), "--shard", "1/2"} + opts).exit_code, 0);
+  auto merge = [&](const std::string& out) {
+    return finish(spawn({"-o", path(out), path("s0.fits"), path("s1.fits"), "--quiet"}, path("merge.txt"), "merge"),
+                  path("merge.txt"));
+  };
+  const RunResult same = merge("m.fits");
+  EXPECT_EQ(same.exit_code, 0) << same.err;
+  fs::remove(path("d/in.fits"));
+  fs::copy_file(data("galsim-great08-mini/nf/set_1.fits"), path("d/in.fits"));
+  ASSERT_EQ(run(std::vector<std::string>{path("d/in.fits"), "-o", path("s1.fits"), "--shard", "1/2", "--overwrite"} + opts)
+                .exit_code,
+            0);
+  const RunResult other = merge("n.fits");
+  EXPECT_NE(other.exit_code, 0);
+  EXPECT_NE(other.err.find("is from another run than"), std::string::npos) << other.err;
+  EXPECT_FALSE(fs::exists(path("n.fits")));
+}
+
 TEST_F(FitCommand, AnInputListFitsEveryGridToItsOwnTable) {
   const std::string nf0 = data("galsim-great08-mini/nf/set_0.fits"), nf1 = data("galsim-great08-mini/nf/set_1.fits");
   std::ofstream(path("list.txt")) << nf0 << "\n# a comment\n" << nf1 << "\n";

@@ -85,6 +85,32 @@ TEST_F(FitMeds, KillNineThenResumeEqualsUninterruptedRun) {
   expect_tables_equal(path("full.fits"), out, kSurveyColumns);
 }
 
+// Issue 31: the PSFEx models a run reads are part of it: one replaced between kill and resume is
+// refused (no table with two PSFs), and none can be an output of the run.
+TEST_F(FitMeds, PsfexModelsAreFingerprintedAndProtected) {
+  fs::create_directories(path("tile"));
+  fs::copy(kSample + "/psfex", path("tile/psfex"));
+  const std::string tile = path("tile/meds.fits");
+  fs::copy_file(kSample + "/meds.fits", tile);
+  const RunResult over = run({"--meds", tile, "-o", path("tile/psfex/se_e1.psf"), "--overwrite", "--quiet"});
+  EXPECT_EQ(over.exit_code, 1);
+  EXPECT_TRUE(contains(over.err, "is the PSFEx model")) << over.err;
+  const std::vector<std::string> opts = {"--set", "batch_size=1", "--threads", "1", "--quiet"};
+  const std::string out = path("resumed.fits");
+  const pid_t pid = spawn(std::vector<std::string>{"--meds", tile, "-o", out} + opts, path("stderr.txt"));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!fs::exists(out + ".checkpoint") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_EQ(kill(pid, SIGKILL), 0);
+  ASSERT_EQ(finish(pid, path("stderr.txt")).exit_code, 128 + SIGKILL) << "the run finished before it could be killed";
+  fs::copy_file(path("tile/psfex/se_e2.psf"), path("tile/psfex/se_e1.psf"), fs::copy_options::overwrite_existing);
+  const RunResult resumed = run(std::vector<std::string>{"--meds", tile, "-o", out, "--resume"} + opts);
+  EXPECT_EQ(resumed.exit_code, 1);
+  EXPECT_TRUE(contains(resumed.err, "was written by a different run")) << resumed.err;
+  EXPECT_TRUE(contains(resumed.err, "se_e1.psf")) << resumed.err;
+}
+
 TEST_F(FitMeds, ABadFileIsAnErrorNamingTheFileHduAndColumn) {
   const std::string tile = path("tile.fits");
   fs::copy_file(kSample + "/meds.fits", tile);

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -14,9 +15,11 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "io/catalog_reader.hpp"
+#include "io/fits_file.hpp"
 #include "support/command_runner.hpp"
 #include "support/fit_output.hpp"
 #include "support/scratch_dir.hpp"
@@ -69,6 +72,20 @@ pid_t rank_pid(const std::string& marker, int rank) {
       return static_cast<pid_t>(std::stol(name));
   }
   return -1;
+}
+
+// Every numeric column of two RESULTS tables but time_us, bitwise (NaN equals NaN); at least one.
+void expect_every_column_equal(const std::string& a, const std::string& b) {
+  auto f = io::FitsFile::open_read(a);
+  f.move_to("RESULTS");
+  std::vector<std::string> names;
+  for (long long k = 1, n = f.key_long("TFIELDS"); k <= n; ++k) {
+    const std::string name = f.key_string("TTYPE" + std::to_string(k));
+    if (name != "time_us" && f.column_repeat(name) == 1 && f.key_string("TFORM" + std::to_string(k)) != "1A")
+      names.push_back(name);
+  }
+  ASSERT_GT(names.size(), 20u) << a;
+  expect_tables_equal(a, b, names);
 }
 
 class MpiDriver : public ::testing::Test {
@@ -145,13 +162,22 @@ TEST_F(MpiDriver, RanksTakingWholeFilesWriteEachFilesTable) {
               0);
     expect_tables_equal(single, path("out/set_" + std::to_string(k) + "_fit.fits"));
   }
-  // --resume skips complete outputs.
+  // --resume skips a complete output of the same run (its RUNFP), and refuses another run's
+  // (issue 31: it once skipped outputs fitted with other options).
+  std::vector<std::string> loud = kOptions;
+  loud.pop_back();  // not --quiet: the skip is reported
   r = stampede::testing::finish(
-      spawn_mpi(2, (std::vector<std::string>{"--input-list", path("tiles.txt"), "-o", path("out"), "--resume"} + std::vector<std::string>{"--threads", "1"}),
+      spawn_mpi(2, std::vector<std::string>{"--input-list", path("tiles.txt"), "-o", path("out"), "--resume"} + loud,
                 path("again.txt")),
       path("again.txt"));
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.err.find("set_1_fit.fits is complete, skipped"), std::string::npos) << r.err;
+  r = stampede::testing::finish(
+      spawn_mpi(2, std::vector<std::string>{"--input-list", path("tiles.txt"), "-o", path("out"), "--resume", "--threads", "1"},
+                path("other.txt")),
+      path("other.txt"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("is complete but was written by another run (RUNFP = '"), std::string::npos) << r.err;
 }
 
 TEST_F(MpiDriver, AnErrorOnRankZeroEndsTheJob) {
@@ -159,6 +185,64 @@ TEST_F(MpiDriver, AnErrorOnRankZeroEndsTheJob) {
       spawn_mpi(2, (std::vector<std::string>{path("missing.fits"), "-o", path("x.fits")} + kOptions), path("err.txt")), path("err.txt"));
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("missing.fits"), std::string::npos) << r.err;
+}
+
+// Issue 31: every option family the driver accepts gives, under mpirun -n 2, the single process's
+// table bit for bit (a worker that built its fitter from its own recipe once wrote plain fits into a
+// metacal table). Input lists: RanksTakingWholeFilesWriteEachFilesTable.
+TEST_F(MpiDriver, EveryOptionFamilyUnderTwoRanksEqualsOneProcess) {
+  ASSERT_EQ(stampede::testing::finish(stampede::testing::spawn({"great08", "--out", path("sets"), "--sets", "1", "--grid",
+                                                                "6", "--snr", "40", "--seed", "3", "--stamp", "39"},
+                                                               path("sim.txt"), "sim"),
+                                      path("sim.txt"))
+                .exit_code,
+            0);
+  const std::string set = path("sets/set_0.fits");
+  {  // a sampled round Gaussian PSF of sigma 1.2 px
+    std::vector<double> psf(21 * 21);
+    for (int y = 0; y < 21; ++y)
+      for (int x = 0; x < 21; ++x) psf[y * 21 + x] = std::exp(-((x - 10) * (x - 10) + (y - 10) * (y - 10)) / (2 * 1.44));
+    io::FitsFile::create(path("psf.fits"), true).write_image(21, 21, psf);
+  }
+  {  // every stamp of the grid as a catalogue row, each with its own Moffat PSF
+    std::ofstream cat(path("cat.txt"));
+    cat << "# id x y psf_beta psf_fwhm psf_e1 psf_e2\n";
+    for (int k = 0; k < 36; ++k)
+      cat << 500 + k << " " << (k % 6) * 39 + 20 << " " << (k / 6) * 39 + 20 << " " << 2.5 + 0.05 * k << " "
+          << 2.6 + 0.02 * k << " " << 0.001 * (k - 18) << " " << 0.04 - 0.002 * k << "\n";
+  }
+  const std::vector<std::string> base = {"--set", "noise_sigma=1", "--set", "batch_size=4", "--threads", "1", "--quiet"};
+  const std::vector<std::pair<std::string, std::vector<std::string>>> families = {
+      {"plain", {}},
+      {"metacal", {"--set", "metacal=true"}},
+      {"image_psf", {"--set", "psf_input=image", "--set", "psf_image=" + path("psf.fits")}},
+      {"catalogue", {"--catalog", path("cat.txt"), "--set", "psf_input=moffat_catalog"}},
+      {"shard", {"--shard", "1/2"}},
+      {"upsampled", {"--set", "renderer=upsampled", "--set", "upsampling=3"}},
+  };
+  for (const auto& [name, options] : families) {
+    SCOPED_TRACE(name);
+    const std::string single = path(name + "_single.fits"), mpi = path(name + "_mpi.fits");
+    const auto s = stampede::testing::finish(
+        stampede::testing::spawn(std::vector<std::string>{set, "-o", single} + base + options, path("s.txt")),
+        path("s.txt"));
+    ASSERT_EQ(s.exit_code, 0) << s.err;
+    const auto m = stampede::testing::finish(spawn_mpi(2, std::vector<std::string>{set, "-o", mpi} + base + options, path("m.txt")),
+                                             path("m.txt"));
+    ASSERT_EQ(m.exit_code, 0) << m.err;
+    expect_every_column_equal(single, mpi);
+  }
+}
+
+// Measured FFTW plans are chosen per process, so ranks could round differently: refused by name.
+TEST_F(MpiDriver, MeasuredFftPlansAreRefused) {
+  const auto r = stampede::testing::finish(
+      spawn_mpi(2, std::vector<std::string>{kInput, "-o", path("w.fits"), "--set", "fft_wisdom=" + path("w.wisdom")} + kOptions,
+                path("err.txt")),
+      path("err.txt"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("option 'fft_wisdom'"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("w.fits")));
 }
 
 // The workers fit the pixels they are sent and a survey batch carries only row numbers: a MEDS tile

@@ -49,7 +49,7 @@ int run(int argc, char** argv, int rank, int ranks) {
   stampede::app::FitRunOptions& options = command.run;
   int exit_code = -1;
   try {
-    exit_code = parse_fit_arguments(argc - 1, argv + 1, &command);  // every rank: the same arguments
+    exit_code = parse_fit_arguments(argc - 1, argv + 1, &command, rank == 0);  // every rank: the same arguments
   } catch (const std::exception& e) {
     if (rank == 0) std::fprintf(stderr, "stampede-mpi fit: error: %s\n", e.what());
     return 1;

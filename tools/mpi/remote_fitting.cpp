@@ -15,7 +15,7 @@
 #include <thread>
 #include <vector>
 
-#include "app/psf_setup.hpp"
+#include "app/stamp_fitter_recipe.hpp"
 #include "engine/pipeline/stamp_fitter.hpp"
 #include "engine/render/psf_cache.hpp"
 #include "io/run_config.hpp"
@@ -167,21 +167,11 @@ void run_worker(int /*threads*/) {
   }
   io::validate(cfg);
   FftPlanCache setup_plans(FftPlanning::kEstimate);
-  std::shared_ptr<const PreparedPsf> shared;
-  double e1 = NAN, e2 = NAN, fwhm = NAN;
-  std::unique_ptr<PsfCache> cache;
-  if (cfg.psf_from_catalogue) {
-    cache = std::make_unique<PsfCache>(1024);
-  } else {
-    const app::SharedPsf psf = app::build_shared_psf(cfg, setup_plans);
-    shared = psf.prepared;
-    cfg.fitter.renderer = psf.kind;
-    e1 = psf.e1, e2 = psf.e2, fwhm = psf.fwhm;
-  }
+  const app::StampFitterRecipe recipe = app::stamp_fitter_recipe(cfg, setup_plans, cfg.psf_from_catalogue);
 
   const std::size_t max_message = max_batch_message(cfg.batch_size, cfg.fitter.render.stamp_size, cfg.psf_from_catalogue);
   auto serve_slot = [&](int j) {
-      StampFitter fitter(cfg.fitter, shared, cache.get(), FftPlanning::kEstimate, e1, e2, fwhm);
+      const std::unique_ptr<StampFitter> fitter = recipe.make(FftPlanning::kEstimate);
       StampBatch batch(cfg.batch_size, cfg.fitter.render.stamp_size, cfg.psf_from_catalogue);
       std::vector<char> message(max_message);
       for (;;) {
@@ -195,7 +185,7 @@ void run_worker(int /*threads*/) {
         MPI_Get_count(&status, MPI_BYTE, &size);
         if (size == 0) return;
         unpack_batch(message.data(), static_cast<std::size_t>(size), &batch);
-        fitter.fit(batch);
+        fitter->fit(batch);
         check(MPI_Send(batch.records.data(), static_cast<int>(batch.count * sizeof(ObjectRecord)), MPI_BYTE, 0,
                        rows_tag(j), MPI_COMM_WORLD),
               "send rows");

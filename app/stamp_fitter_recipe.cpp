@@ -1,0 +1,35 @@
+// One recipe for every stamp run's fitters; see stamp_fitter_recipe.hpp.
+#include "app/stamp_fitter_recipe.hpp"
+
+#include "app/psf_setup.hpp"
+
+namespace stampede::app {
+
+std::unique_ptr<StampFitter> StampFitterRecipe::make(FftPlanning planning) const {
+  return std::make_unique<StampFitter>(options, shared_psf, psf_cache.get(), planning, psf_e1, psf_e2, psf_fwhm,
+                                       metacal);
+}
+
+StampFitterRecipe stamp_fitter_recipe(const io::RunConfig& cfg, FftPlanCache& plans, bool per_object,
+                                      const std::optional<PsfModel>& psf, const std::string& what) {
+  StampFitterRecipe r;
+  r.options = cfg.fitter;
+  if (cfg.metacal.enabled) r.metacal = MetacalSetup{cfg.metacal, {}};
+  if (per_object) {  // renderer = auto stays auto: each object's PSF chooses when it is prepared
+    r.psf_cache = std::make_unique<PsfCache>(1024);
+    return r;
+  }
+  const SharedPsf shared = psf ? prepare_shared_psf(*psf, cfg, plans, what) : build_shared_psf(cfg, plans);
+  r.options.renderer = shared.kind;
+  r.shared_psf = shared.prepared;
+  r.psf_model = shared.model;
+  r.auto_note = shared.auto_note;
+  r.psf_e1 = shared.e1, r.psf_e2 = shared.e2, r.psf_fwhm = shared.fwhm;
+  if (r.metacal) {
+    r.gamma_fwhm = checked_reconvolution_psf(shared.model, cfg).moffat.fwhm;
+    r.metacal->shared_psf = shared.model;
+  }
+  return r;
+}
+
+}  // namespace stampede::app
