@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -75,6 +76,10 @@ void check_arrays(const ArrayStamps& in) {
   if (!in.weights.empty() && in.weights.size() != n)
     throw std::invalid_argument("weights hold " + std::to_string(in.weights.size()) + " values, the stamps " +
                                 std::to_string(n));
+  // ids first_id .. first_id + count - 1 must all be int64: never wrapped to negative.
+  if (in.count > 0 && in.first_id > std::numeric_limits<std::int64_t>::max() - (in.count - 1))
+    throw std::invalid_argument("first_id = " + std::to_string(in.first_id) + ": the ids of " + std::to_string(in.count) +
+                                " stamps would pass 2^63 - 1");
   if (in.psfs.size() > 1 && in.psfs.size() != static_cast<std::size_t>(in.count))
     throw std::invalid_argument(std::to_string(in.psfs.size()) + " PSFs for " + std::to_string(in.count) +
                                 " stamps (give one, or one per stamp)");

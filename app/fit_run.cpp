@@ -21,6 +21,7 @@
 #include "app/run_fingerprint.hpp"
 #include "app/run_memory.hpp"
 #include "app/stamp_fitter_recipe.hpp"
+#include "engine/common/number_text.hpp"
 #include "engine/pipeline/index_source.hpp"
 #include "engine/pipeline/pipeline.hpp"
 #include "engine/pipeline/range_source.hpp"
@@ -272,6 +273,10 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
                             "': --meds needs renderer = exact (it draws through each cutout's WCS Jacobian)");
     cfg.fitter.renderer = RendererKind::kExact;
   }
+  for (const char* key : {"noise_sigma", "stamp_size"})
+    if (cfg.explicitly_set.count(key))
+      warn(std::string("option '") + key + "' is not used with --meds (each cutout has its own " +
+           (std::string(key) == "noise_sigma" ? "weight map" : "box size") + ")");
   if (cfg.meds.psf != io::MedsPsfSource::kOptions)
     for (const char* key : {"psf_input", "psf_fwhm", "psf_beta", "psf_e1", "psf_e2", "psf_image"})
       if (cfg.explicitly_set.count(key))
@@ -451,6 +456,23 @@ RunSummary FitRun::run() const {
     }
     // What a user expects of a set that says what its PSF is (GREAT08, `stampede sim`, GalSim).
     if (recorded_psf && !app::sets_psf_options(cfg)) app::use_recorded_psf(*recorded_psf, recorded_where, &cfg);
+    // Its noise too (NOISESIG, as GREAT08-like sets and `stampede sim` write it): a run that sets no
+    // noise_sigma and gives no weight map is weighted with it, and says so.
+    if (a.weight.empty() && !cfg.explicitly_set.count("noise_sigma")) {
+      std::optional<double> sigma;
+      try {
+        sigma = grid->header().read_key_double("NOISESIG");
+      } catch (const io::FitsError& e) {
+        warn(std::string("the NOISESIG record is unreadable, not used: ") + e.what());
+      }
+      if (sigma && std::isfinite(*sigma) && *sigma > 0) {
+        io::set_option(cfg, "noise_sigma", number_text(*sigma));
+        warn("noise_sigma = " + number_text(*sigma) + " taken from " + recorded_where +
+             " NOISESIG (the run sets none; set noise_sigma to override)");
+      } else if (sigma && !(std::isfinite(*sigma) && *sigma >= 0)) {
+        warn(recorded_where + " NOISESIG = " + number_text(*sigma) + " is not a noise level, not used");
+      }
+    }
     try {
       input_set = io::simulation_identity(grid->header());
     } catch (const io::FitsError& e) {  // as the PSF record: only `metrics` checks it

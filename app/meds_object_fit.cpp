@@ -6,9 +6,14 @@
 #include <filesystem>
 #include <stdexcept>
 
+#include "engine/common/number_text.hpp"
 #include "io/psfex_file.hpp"
 
 namespace stampede::app {
+
+namespace {
+constexpr double kMaxZeroPointOffset = 25;  // magnitudes: a factor 1e10 in flux
+}  // namespace
 
 void apply_uberseg(std::span<const double> seg, int box_size, std::int64_t number, std::span<double> weight) {
   struct Labelled {
@@ -216,6 +221,16 @@ MedsObjectResult MedsObjectFitter::fit(long long row) {
       continue;
     }
     const io::MedsImageInfo& info = meds_.images()[static_cast<std::size_t>(c.file_id)];
+    // A zero point more than kMaxZeroPointOffset magnitudes from the reference (a NaN, 1e30, -100)
+    // is a broken record, not a calibration: the cutout would weigh nothing or everything.
+    if (!std::isfinite(info.magzp) || std::abs(info.magzp - options_.magzp_ref) > kMaxZeroPointOffset) {
+      note(meds_.path() + ": image_info row " + std::to_string(c.file_id) + ": magzp = " + number_text(info.magzp) +
+           " is not a usable zero point (more than " + number_text(kMaxZeroPointOffset) +
+           " mag from meds_magzp_ref = " + number_text(options_.magzp_ref) + "); object " + std::to_string(row) +
+           ", cutout " + std::to_string(k) + " dropped");
+      out.flags |= kFlagBadZeroPoint;
+      continue;
+    }
     const double scale = std::pow(10.0, 0.4 * (info.magzp - options_.magzp_ref));
     epochs.push_back({pixels, weight, box, PixelFrame::from_meds(c.dudrow, c.dudcol, c.dvdrow, c.dvdcol, c.cutout_row, c.cutout_col),
                       prepared, scale});

@@ -22,9 +22,15 @@ double RunSummary::objects_per_second() const { return objects / std::max(pipeli
 std::string RunSummary::BriefReport() const {
   std::string out = format("stampede fit: %lld objects (%lld resumed) in %.1f s, %.1f objects/s; status:",
                            objects + resumed, resumed, pipeline_seconds, objects_per_second());
-  for (int s = 0; s < kFitStatusCount; ++s)
-    if (by_status[s]) out += format(" %s=%lld", ToString(static_cast<FitStatus>(s)), by_status[s]);
+  if (const std::string counts = StatusCounts(); !counts.empty()) out += " " + counts;
   if (!output.empty()) out += "; wrote " + output;
+  return out;
+}
+
+std::string RunSummary::StatusCounts() const {
+  std::string out;
+  for (int s = 0; s < kFitStatusCount; ++s)
+    if (by_status[s]) out += format("%s%s=%lld", out.empty() ? "" : " ", ToString(static_cast<FitStatus>(s)), by_status[s]);
   return out;
 }
 

@@ -34,6 +34,8 @@ struct RunSummary {
   // "stampede fit: N objects (R resumed) in T s, X objects/s; status: ok=N ...; wrote OUT" (the
   // statuses that occurred, in enum order; "; wrote OUT" only with an output), no newline.
   std::string BriefReport() const;
+  // "ok=N psf_failure=M ..." for the statuses that occurred, in enum order.
+  std::string StatusCounts() const;
   // Every status with its count, the phases, the rate and the paths; lines end in '\n'.
   std::string FullReport() const;
 };

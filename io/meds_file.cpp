@@ -1,8 +1,11 @@
 // MEDS tiles read object by object; see meds_file.hpp.
 #include "io/meds_file.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+
+#include "engine/common/number_text.hpp"
 
 namespace stampede::io {
 namespace {
@@ -77,6 +80,19 @@ MedsFile MedsFile::open(const std::string& path) {
     if (f.column_repeat(scalar) != 1)
       throw FitsError(f.describe() + ": column '" + scalar + "' has " + std::to_string(f.column_repeat(scalar)) +
                       " values per row; MEDS has one");
+  {  // an id names one object: a tile that repeats one cannot be matched, merged or resumed by id
+    std::vector<long long> ids(static_cast<std::size_t>(m.n_objects_));
+    f.read_column_rows("id", 0, ids);
+    std::vector<std::pair<long long, long long>> sorted;
+    sorted.reserve(ids.size());
+    for (std::size_t i = 0; i < ids.size(); ++i) sorted.emplace_back(ids[i], static_cast<long long>(i));
+    std::sort(sorted.begin(), sorted.end());
+    for (std::size_t i = 1; i < sorted.size(); ++i)
+      if (sorted[i].first == sorted[i - 1].first)
+        throw FitsError(f.describe() + ": column 'id' holds " + std::to_string(sorted[i].first) + " in rows " +
+                        std::to_string(sorted[i - 1].second) + " and " + std::to_string(sorted[i].second) +
+                        " (0-based); each object needs its own id");
+  }
   long long nmax = -1;
   for (const char* const* names : {kCutoutInts, kCutoutDoubles}) {
     const int n = names == kCutoutInts ? kNumInts : kNumDoubles;
@@ -237,10 +253,15 @@ MedsObject MedsFile::object(long long row) {
     const double det = c.dudrow * c.dvdcol - c.dudcol * c.dvdrow;
     if (!std::isfinite(det) || det == 0)
       c.problem = where + "columns 'dudrow dudcol dvdrow dvdcol'[" + std::to_string(i) + "] = (" +
-                  std::to_string(c.dudrow) + ", " + std::to_string(c.dudcol) + ", " + std::to_string(c.dvdrow) + ", " +
-                  std::to_string(c.dvdcol) + ") have no inverse (determinant " + std::to_string(det) + ")";
+                  number_text(c.dudrow) + ", " + number_text(c.dudcol) + ", " + number_text(c.dvdrow) + ", " +
+                  number_text(c.dvdcol) + ") have no inverse (determinant " + number_text(det) + ")";
     else if (!std::isfinite(c.cutout_row) || !std::isfinite(c.cutout_col))
       c.problem = where + "columns " + with_index("cutout_row", i) + ", " + with_index("cutout_col", i) + " are not finite";
+    else if (const double box = static_cast<double>(o.box_size);
+             c.cutout_row < -1 || c.cutout_row > box || c.cutout_col < -1 || c.cutout_col > box)
+      c.problem = where + "columns " + with_index("cutout_row", i) + ", " + with_index("cutout_col", i) + " = (" +
+                  number_text(c.cutout_row) + ", " + number_text(c.cutout_col) + ") put the object outside its " +
+                  std::to_string(o.box_size) + " x " + std::to_string(o.box_size) + " cutout";
   }
   if (psf_problem_.empty()) read_psf_columns(o);
   return o;

@@ -156,6 +156,16 @@ int run_fit_with_reports(app::FitRunOptions& r) {
     return 0;
   }
   if (!r.quiet) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
+  // A table of nothing but failures is a run that did not work (a wrong meds_psf_dir, a PSF no
+  // object can use): said even with --quiet, and an exit status a job script sees.
+  long long usable = 0;
+  for (int k = 0; k < kFitStatusCount; ++k)
+    if (IsUsable(static_cast<FitStatus>(k))) usable += summary.by_status[static_cast<std::size_t>(k)];
+  if (summary.objects > 0 && usable == 0) {
+    std::fprintf(stderr, "stampede fit: error: none of the %lld objects could be fitted (status: %s); the table "
+                 "holds their flagged rows\n", summary.objects, summary.StatusCounts().c_str());
+    return 3;
+  }
   return 0;
 }
 

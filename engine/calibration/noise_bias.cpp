@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "engine/common/number_text.hpp"
 #include "engine/common/random_stream.hpp"
 #include "kernels/polynomial_fit.hpp"
 
@@ -78,7 +79,7 @@ NoiseBiasModel::NoiseBiasModel(const CalibrationTable& table) {
       for (int j = 0; j < 4; ++j) {
         if (!std::isfinite(c.coefficients[j]))
           throw std::invalid_argument("calibration table: no bias curve at r_d = " + std::to_string(c.radius) +
-                                      ", F = " + std::to_string(c.bulge_fraction) + " (too few usable fits)");
+                                      ", F = " + number_text(c.bulge_fraction) + " (too few usable fits)");
         values[n * kOutputs + 4 * k + j] = c.coefficients[j];
       }
     }

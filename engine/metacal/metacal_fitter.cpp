@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "engine/common/number_text.hpp"
 #include "engine/common/random_stream.hpp"
 #include "engine/metacal/reconvolution_psf.hpp"
 
@@ -27,11 +28,11 @@ constexpr std::uint64_t kFixnoisePurpose = 0x6669786e6f697365ull;  // "fixnoise"
 
 bool MetacalOptions::IsValid(std::string* why) const {
   if (!(step > 0 && step <= 0.1)) {
-    if (why) *why = "metacal_step = " + std::to_string(step) + ": must be in (0, 0.1]";
+    if (why) *why = "metacal_step = " + number_text(step) + ": must be in (0, 0.1]";
     return false;
   }
   if (!(psf_dilation == 0 || (psf_dilation >= 1 && psf_dilation <= 3))) {
-    if (why) *why = "metacal_psf_dilation = " + std::to_string(psf_dilation) + ": must be 0 (automatic) or in [1, 3]";
+    if (why) *why = "metacal_psf_dilation = " + number_text(psf_dilation) + ": must be 0 (automatic) or in [1, 3]";
     return false;
   }
   return true;

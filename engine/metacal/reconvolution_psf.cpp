@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "engine/common/number_text.hpp"
 #include "kernels/moments.hpp"
 
 namespace stampede {
@@ -57,7 +58,7 @@ std::shared_ptr<const MetacalFilters> reconvolution_filters(const PsfModel& psf,
       auto f = MetacalFilters::build(psf, round_moffat(3.0, fwhm), options.step, period, &why);
       if (f) return f;
     }
-    if (error) *error = why + " (round Moffats up to FWHM " + std::to_string(fwhm / 1.03) + " px tried)";
+    if (error) *error = why + " (round Moffats up to FWHM " + number_text(fwhm / 1.03) + " px tried)";
     return nullptr;
   }
   if (error)

@@ -21,6 +21,7 @@ enum InputFlag : std::uint32_t {
   kFlagMetacalFailure = 1u << 18,  // metacal: pixels masked, or a sheared image's fit not ok: R unusable
   kFlagNoUsableEpoch = 1u << 19,   // survey input: no cutout could be used (all masked, bad, or without a PSF)
   kFlagTooMasked = 1u << 20,       // survey input: the unmasked fraction fell below min_unmasked_fraction
+  kFlagBadZeroPoint = 1u << 21,    // survey input: a cutout dropped, its image's magzp not a usable zero point
 };
 
 // Rows whose ellipticity may enter a shear estimate (`stampede metrics`, the noise-bias

@@ -26,8 +26,16 @@ DoubleArray as_float64(py::handle obj, std::initializer_list<int> ndims, const c
                           "-D (shape " + py::str(py::tuple(a.attr("shape"))).cast<std::string>() + ")");
   }
   if (a.size() == 0) throw py::value_error(std::string(what) + " is empty");
-  // A no-op for C-contiguous float64; one converting copy otherwise.
-  return DoubleArray::ensure(a);
+  // A no-op for C-contiguous float64; one converting copy otherwise. Some dtypes (longdouble) are
+  // not converted by ensure(): numpy's own astype does it, and a failed conversion is an exception.
+  if (!a.dtype().is(py::dtype::of<double>())) a = a.attr("astype")("float64");
+  DoubleArray out = DoubleArray::ensure(a);
+  if (!out) {
+    PyErr_Clear();
+    throw py::type_error(std::string(what) + ": dtype " + py::str(a.dtype()).cast<std::string>() +
+                         " could not be converted to float64");
+  }
+  return out;
 }
 
 py::dtype result_dtype(io::PositionColumns positions, bool metacal) {

@@ -119,3 +119,19 @@ def test_errors_from_files_are_stampede_errors(tmp_path):
     with pytest.raises(stampede.Error, match="junk.fits"):
         stampede.run_fit(str(junk), output=str(tmp_path / "out.fits"))
     assert not (tmp_path / "out.fits").exists()
+
+
+# Issue 31: np.longdouble arrays once took the interpreter down; first_id near 2**63 wrapped ids.
+def test_longdouble_stamps_are_fitted_as_float64(stamps):
+    rows = stampede.fit_stamps(stamps.astype(np.longdouble), options=OPTS)
+    ref = stampede.fit_stamps(stamps, options=OPTS)
+    assert np.array_equal(rows["e1"], ref["e1"])
+    one = stampede.fit_stamp(stamps[0].astype(np.longdouble), options=OPTS)
+    assert one["e1"] == ref["e1"][0]
+
+
+def test_ids_that_would_pass_int64_are_refused(stamps):
+    with pytest.raises(ValueError, match="first_id"):
+        stampede.fit_stamps(stamps, first_id=2**63 - 3, options=OPTS)
+    rows = stampede.fit_stamps(stamps, first_id=2**63 - 4, options=OPTS)
+    assert rows["id"][-1] == 2**63 - 1

@@ -185,6 +185,22 @@ TEST_F(FitCommand, MergeComparesTheInputsContentNotItsPath) {
   EXPECT_FALSE(fs::exists(path("n.fits")));
 }
 
+// Issue 31: a set that records its noise (NOISESIG) is weighted with it when the run sets no
+// noise_sigma, as its PSF is taken, and the run says so; an explicit noise_sigma wins.
+TEST_F(FitCommand, TakesTheNoiseFromTheHeaderWhenTheRunSetsNone) {
+  const std::string set = data("galsim-great08-mini/snr40/set_0.fits");  // NOISESIG = 1
+  const std::vector<std::string> opts = {"--set", "renderer=exact", "--set", "minimizer_max_iterations=3"};
+  const RunResult taken = run(std::vector<std::string>{set, "-o", path("taken.fits")} + opts);
+  ASSERT_EQ(taken.exit_code, 0) << taken.err;
+  EXPECT_NE(taken.err.find("noise_sigma = 1 taken from"), std::string::npos) << taken.err;
+  const RunResult given = run(std::vector<std::string>{set, "-o", path("given.fits"), "--set", "noise_sigma=1"} + opts);
+  ASSERT_EQ(given.exit_code, 0) << given.err;
+  EXPECT_EQ(given.err.find("taken from"), std::string::npos) << given.err;
+  expect_tables_equal(path("taken.fits"), path("given.fits"));
+  for (double flags : column(path("taken.fits"), "flags")) EXPECT_EQ(static_cast<long long>(flags) & 64, 0);
+  for (double snr : column(path("taken.fits"), "snr")) EXPECT_TRUE(std::isfinite(snr));
+}
+
 TEST_F(FitCommand, AnInputListFitsEveryGridToItsOwnTable) {
   const std::string nf0 = data("galsim-great08-mini/nf/set_0.fits"), nf1 = data("galsim-great08-mini/nf/set_1.fits");
   std::ofstream(path("list.txt")) << nf0 << "\n# a comment\n" << nf1 << "\n";

@@ -111,6 +111,67 @@ TEST_F(FitMeds, PsfexModelsAreFingerprintedAndProtected) {
   EXPECT_TRUE(contains(resumed.err, "se_e1.psf")) << resumed.err;
 }
 
+// Issue 31: grid options --meds does not use are named, and a run in which no object could be
+// fitted (here: PSFEx models looked for in the wrong directory) says so and exits non-zero.
+TEST_F(FitMeds, UnusedOptionsAreNamedAndARunWithNothingFittedFails) {
+  const RunResult r = run({"--meds", kSample + "/meds.fits", "-o", path("none.fits"), "--set", "meds_psf=psfex", "--set",
+                           "meds_psf_dir=" + path("nowhere"), "--set", "noise_sigma=2", "--set", "stamp_size=32",
+                           "--quiet"});
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_TRUE(contains(r.err, "option 'noise_sigma' is not used with --meds")) << r.err;
+  EXPECT_TRUE(contains(r.err, "option 'stamp_size' is not used with --meds")) << r.err;
+  EXPECT_TRUE(contains(r.err, "none of the 24 objects could be fitted (status: psf_failure=24)")) << r.err;
+  EXPECT_EQ(column(path("none.fits"), "id").size(), 24u);  // the flagged rows are kept
+}
+
+// Issue 31: a broken zero point (NaN, 1e30, -100) drops that image's cutouts with a flag and a
+// warning naming image_info, magzp and the row; n_epochs counts the epochs used.
+TEST_F(FitMeds, ABadZeroPointDropsItsCutoutsWithAFlag) {
+  for (double bad : {static_cast<double>(NAN), 1e30, -100.0}) {
+    SCOPED_TRACE(bad);
+    const std::string tile = path("tile.fits");
+    fs::copy_file(kSample + "/meds.fits", tile, fs::copy_options::overwrite_existing);
+    stampede::testing::MedsEditor(tile).set_cell("image_info", "magzp", 2, 0, bad);
+    const RunResult r = run({"--meds", tile, "-o", path("bad.fits"), "--overwrite", "--set", "meds_psf_dir=" + kSample});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_TRUE(contains(r.err, "image_info row 2: magzp = ")) << r.err;
+    const auto n_epochs = column(path("bad.fits"), "n_epochs"), flags = column(path("bad.fits"), "flags"),
+               status = column(path("bad.fits"), "status");
+    for (std::size_t i = 0; i < n_epochs.size(); ++i) {
+      EXPECT_EQ(n_epochs[i], 3) << i;  // image_info row 2 is one of the four single epochs
+      EXPECT_NE(static_cast<long long>(flags[i]) & stampede::kFlagBadZeroPoint, 0) << i;
+      EXPECT_EQ(status[i], 0) << i;
+    }
+  }
+}
+
+// Issue 31: a tile that repeats an id is refused naming the column and both rows (grids and
+// catalogues refuse them too); a cutout whose object centre lies outside it is a dropped cutout
+// with a warning naming the columns, not a silent fit.
+TEST_F(FitMeds, RepeatedIdsAndCentresOutsideTheCutoutAreCaught) {
+  const std::string tile = path("tile.fits");
+  fs::copy_file(kSample + "/meds.fits", tile);
+  stampede::testing::MedsEditor(tile).set_cell("object_data", "cutout_row", 3, 1, 1e6);
+  const RunResult far = run({"--meds", tile, "-o", path("far.fits"), "--set", "meds_psf_dir=" + kSample});
+  ASSERT_EQ(far.exit_code, 0) << far.err;
+  EXPECT_TRUE(contains(far.err, "'cutout_row'[1]")) << far.err;
+  EXPECT_TRUE(contains(far.err, "outside its")) << far.err;
+  EXPECT_EQ(column(path("far.fits"), "n_epochs")[3], 3);
+  long long id0 = 0;
+  {
+    stampede::io::FitsFile f = stampede::io::FitsFile::open_read(tile);
+    f.move_to("object_data");
+    std::vector<long long> one(1);
+    f.read_column_rows("id", 0, one);
+    id0 = one[0];
+  }
+  stampede::testing::MedsEditor(tile).set_cell("object_data", "id", 5, 0, id0);
+  const RunResult dup = run({"--meds", tile, "-o", path("dup.fits"), "--set", "meds_psf_dir=" + kSample});
+  EXPECT_EQ(dup.exit_code, 1);
+  EXPECT_TRUE(contains(dup.err, "column 'id' holds " + std::to_string(id0) + " in rows 0 and 5")) << dup.err;
+  EXPECT_FALSE(fs::exists(path("dup.fits")));
+}
+
 TEST_F(FitMeds, ABadFileIsAnErrorNamingTheFileHduAndColumn) {
   const std::string tile = path("tile.fits");
   fs::copy_file(kSample + "/meds.fits", tile);
@@ -179,9 +240,10 @@ TEST_F(FitMeds, BadObjectsAreFlaggedRowsNeverMissingOnes) {
   for (double s : status) ok += s == 0;
   EXPECT_EQ(ok, 21);
 
-  // No PSFEx models where meds_psf_dir points: every row flagged, the warning names a file.
+  // No PSFEx models where meds_psf_dir points: every row flagged, the warning names a file, and
+  // with nothing fitted the run fails (exit 3) with the table of flagged rows written.
   const RunResult none = run({"--meds", tile, "-o", path("nopsf.fits"), "--set", "meds_psf_dir=" + path("")});
-  ASSERT_EQ(none.exit_code, 0) << none.err;
+  ASSERT_EQ(none.exit_code, 3) << none.err;
   EXPECT_TRUE(contains(none.err, ".psf")) << none.err;
   const auto psf_flags = column(path("nopsf.fits"), "flags"), psf_status = column(path("nopsf.fits"), "status");
   ASSERT_EQ(psf_flags.size(), 24u);
