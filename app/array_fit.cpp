@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "app/fit_run.hpp"
 #include "app/psf_setup.hpp"
 #include "app/stamp_fitter_recipe.hpp"
 #include "engine/pipeline/pipeline.hpp"
@@ -119,7 +120,8 @@ void check_metacal_psfs(const io::RunConfig& cfg, const std::vector<PsfModel>& p
 }  // namespace
 
 SingleStampFitter::SingleStampFitter(const io::RunConfig& config, int stamp_size, std::optional<PsfModel> psf)
-    : batch_(1, std::max(stamp_size, 1), false) {
+    : batch_(1, (config_for(config, std::max(stamp_size, 1), false), std::max(stamp_size, 1)), false) {
+  // (config_for first: a stamp size out of the options' range is their error, not an allocation's.)
   ArrayStamps shape;
   shape.stamp_size = stamp_size;
   if (psf) shape.psfs.push_back(*psf);
@@ -155,6 +157,7 @@ ObjectRecord SingleStampFitter::fit(std::span<const double> pixels, std::span<co
 }
 
 std::vector<ObjectRecord> fit_array_stamps(const io::RunConfig& config, const ArrayStamps& in, int threads) {
+  check_threads(threads, "threads");
   check_arrays(in);
   const io::RunConfig cfg = config_for(config, in.stamp_size, in.psfs.size() > 1);
   check_metacal_psfs(cfg, in.psfs);

@@ -412,9 +412,16 @@ std::string FitRunProgress::Line() const {
   return buf;
 }
 
+void check_threads(long long threads, const std::string& what) {
+  if (threads < 0 || threads > kMaxThreads)
+    throw io::ConfigError(what + " = " + std::to_string(threads) + ": must be 0 (all cores) or 1.." +
+                          std::to_string(kMaxThreads));
+}
+
 RunSummary FitRun::run() const {
   const Clock::time_point start = Clock::now();
   const FitRunOptions& a = options_;
+  check_threads(a.threads, "threads");
   auto warn = [&](const std::string& text) {
     if (a.on_warning) a.on_warning(text);
   };

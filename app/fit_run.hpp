@@ -33,6 +33,11 @@ inline constexpr const char* kShardTotalKey = "SHARDTOT";
 // contents, options, program version, shard); per input file, its size and digest (what merge compares,
 // not the path as typed).
 inline constexpr const char* kRunFingerprintKey = "RUNFP";
+
+// Worker threads, one rule for every front end (CLI --threads, Python threads=, MPI): 0 = all of
+// the machine's cores, else 1 .. kMaxThreads. Throws io::ConfigError naming `what` otherwise.
+inline constexpr int kMaxThreads = 4096;
+void check_threads(long long threads, const std::string& what);
 // "I/N" (the --shard argument and the SHARD key) as {I, N}; nullopt unless it is exactly two
 // integers with 0 <= I < N <= 1000000.
 std::optional<std::pair<int, int>> parse_shard(const std::string& text);

@@ -36,7 +36,7 @@ void print_help() {
       "  -o OUT.fits   output table (required)\n"
       "  --config F    im3shape-style ini file (key = value, # comments); see --help-config\n"
       "  --set K=V     override one option (repeatable); applied after --config\n"
-      "  --threads N   worker threads (default: all cores); results are identical for any N\n"
+      "  --threads N   worker threads, 1..4096 or 0 = all cores (the default); results are identical for any N\n"
       "  --catalog C   catalogue (FITS table or text 'id x y', FITS 1-based pixels) of objects to cut\n"
       "                from INPUT; stamps reaching past the image edge are fitted with the outside\n"
       "                masked and flagged (flag bit 65536)\n"
@@ -90,7 +90,7 @@ int parse_fit_arguments(int argc, char** argv, FitCommandLine* command, bool mes
     } else if (s == "--set") {
       sets.push_back(value());
     } else if (s == "--threads") {
-      r.threads = static_cast<int>(tools::integer_in(argc, argv, &i, 1, 4096));
+      r.threads = static_cast<int>(tools::integer_in(argc, argv, &i, 0, app::kMaxThreads));
     } else if (s == "--catalog") {
       r.catalog = value();
     } else if (s == "--weight") {

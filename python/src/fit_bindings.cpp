@@ -117,7 +117,6 @@ py::array fit_stamps(py::handle stamps, py::handle weights, py::handle psf, int 
   const DoubleArray s = as_float64(stamps, {3}, "stamps");
   const int side = square_side(s, "stamps");
   const std::optional<DoubleArray> w = weights_from(weights, s);
-  if (threads < 0) throw py::value_error("threads = " + std::to_string(threads) + ": must be >= 0 (0 = all cores)");
   if (grid_nx < 0) throw py::value_error("grid_nx = " + std::to_string(grid_nx) + ": must be >= 0");
   const io::RunConfig cfg = config_from(options);
   app::ArrayStamps in;

@@ -1,9 +1,12 @@
 """Must-show 3: bad arrays are a Python exception or a flagged row, never a crash."""
 
+import os
+
 import numpy as np
 import pytest
 
 import stampede
+from conftest import MINI
 
 STATUS = stampede.fit_status_names
 OPTS = {"renderer": "exact", "psf_e2": 0.05}
@@ -135,3 +138,19 @@ def test_ids_that_would_pass_int64_are_refused(stamps):
         stampede.fit_stamps(stamps, first_id=2**63 - 3, options=OPTS)
     rows = stampede.fit_stamps(stamps, first_id=2**63 - 4, options=OPTS)
     assert rows["id"][-1] == 2**63 - 1
+
+
+# Issue 31: one threads rule for every front end (0 = all cores, else 1..4096), refused before any
+# work; a stamp size out of range is the option's error, not a MemoryError.
+@pytest.mark.parametrize("threads", [-1, 5000, 10**6])
+def test_threads_outside_the_rule_are_refused_up_front(stamps, tmp_path, threads):
+    with pytest.raises(ValueError, match=f"threads = {threads}: must be 0 \\(all cores\\) or 1..4096"):
+        stampede.fit_stamps(stamps, threads=threads, options=OPTS)
+    with pytest.raises(ValueError, match=f"threads = {threads}: must be 0"):
+        stampede.run_fit(os.path.join(MINI, "nf", "set_0.fits"), str(tmp_path / "x.fits"), threads=threads)
+    assert not (tmp_path / "x.fits").exists()
+
+
+def test_a_huge_stamp_size_is_a_range_error():
+    with pytest.raises(ValueError, match="stamp_size"):
+        stampede.Fitter(stamp_size=10**6)
