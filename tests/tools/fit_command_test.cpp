@@ -86,7 +86,9 @@ TEST_F(FitCommand, IdenticalOutputForAnyThreadCount) {
 // Must-show 3: kill -9 in the middle of a run, then --resume, equals an uninterrupted run.
 TEST_F(FitCommand, KillNineThenResumeEqualsUninterruptedRun) {
   const std::string in = data("galsim-great08-mini/snr40/set_0.fits");
-  const std::vector<std::string> opts = kGreat08Psf + std::vector<std::string>{"--set", "noise_sigma=1", "--set", "batch_size=10", "--threads", "2", "--quiet"};
+  // The upsampled renderer: a run slow enough (~6 s) to be killed mid-way whatever the machine's load.
+  const std::vector<std::string> opts = kGreat08Psf + std::vector<std::string>{"--set", "noise_sigma=1", "--set", "batch_size=10",
+                                                                               "--set", "renderer=upsampled", "--threads", "2", "--quiet"};
   ASSERT_EQ(run(std::vector<std::string>{in, "-o", path("full.fits")} + opts).exit_code, 0);
   const std::string out = path("resumed.fits");
   const pid_t pid = spawn(std::vector<std::string>{in, "-o", out} + opts, path("stderr.txt"));
