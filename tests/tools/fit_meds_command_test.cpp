@@ -39,6 +39,17 @@ const std::vector<std::string> kSurveyColumns = {
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
+// Kills the run `pid` writing `out` with SIGKILL once it has committed rows (its checkpoint exists),
+// and checks that the kill, not the run's end, stopped it.
+void kill_after_a_commit(pid_t pid, const std::string& out, const std::string& err_path) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!fs::exists(out + ".checkpoint") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_EQ(kill(pid, SIGKILL), 0);
+  ASSERT_EQ(finish(pid, err_path).exit_code, 128 + SIGKILL) << "the run finished before it could be killed";
+}
+
 TEST_F(FitMeds, OneRowPerObjectInOrderForAnyThreadCount) {
   for (const char* threads : {"1", "2"}) {
     const RunResult r = run({"--meds", kSample + "/meds.fits", "-o", path(std::string("t") + threads + ".fits"),
@@ -73,12 +84,8 @@ TEST_F(FitMeds, KillNineThenResumeEqualsUninterruptedRun) {
   ASSERT_EQ(run(std::vector<std::string>{"--meds", tile, "-o", path("full.fits")} + opts).exit_code, 0);
   const std::string out = path("resumed.fits");
   const pid_t pid = spawn(std::vector<std::string>{"--meds", tile, "-o", out} + opts, path("stderr.txt"));
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (!fs::exists(out + ".checkpoint") && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  ASSERT_EQ(kill(pid, SIGKILL), 0);
-  ASSERT_EQ(finish(pid, path("stderr.txt")).exit_code, 128 + SIGKILL) << "the run finished before it could be killed";
+  kill_after_a_commit(pid, out, path("stderr.txt"));
+  if (::testing::Test::HasFatalFailure()) return;
   ASSERT_FALSE(fs::exists(out));
   const RunResult resumed = run(std::vector<std::string>{"--meds", tile, "-o", out, "--resume"} + opts);
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
@@ -98,12 +105,8 @@ TEST_F(FitMeds, PsfexModelsAreFingerprintedAndProtected) {
   const std::vector<std::string> opts = {"--set", "batch_size=1", "--threads", "1", "--quiet"};
   const std::string out = path("resumed.fits");
   const pid_t pid = spawn(std::vector<std::string>{"--meds", tile, "-o", out} + opts, path("stderr.txt"));
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (!fs::exists(out + ".checkpoint") && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  ASSERT_EQ(kill(pid, SIGKILL), 0);
-  ASSERT_EQ(finish(pid, path("stderr.txt")).exit_code, 128 + SIGKILL) << "the run finished before it could be killed";
+  kill_after_a_commit(pid, out, path("stderr.txt"));
+  if (::testing::Test::HasFatalFailure()) return;
   fs::copy_file(path("tile/psfex/se_e2.psf"), path("tile/psfex/se_e1.psf"), fs::copy_options::overwrite_existing);
   const RunResult resumed = run(std::vector<std::string>{"--meds", tile, "-o", out, "--resume"} + opts);
   EXPECT_EQ(resumed.exit_code, 1);
