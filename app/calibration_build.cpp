@@ -228,7 +228,11 @@ CalibrationBuildSummary CalibrationBuild::run(const std::function<void(const Cal
   CalibrationTable& table = summary.table;
   table.grid = options_.grid;
   table.points = grid.points();
-  table.config = io::effective_options(cfg);
+  // The renderer as renderer = auto resolved for this PSF: apply compares it with the science
+  // table's, which records its run's resolution alike.
+  io::RunConfig recorded = cfg;
+  recorded.fitter.renderer = psf_.kind;
+  table.config = io::effective_options(recorded);
   table.biases = checkpoint_->done();
   table.curves = fit_bias_curves(table.grid, table.points, table.biases);
   const std::string tmp = options_.output + ".tmp";

@@ -378,10 +378,12 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
       });
     };
     summary.setup_seconds = since(start);
+    po.stop = a.stop;
     const PipelineSummary fitted =
         run_pipeline(source, sink, make_fitter, po, progress_reporter(a, source.total_objects(), summary.resumed));
     const Clock::time_point finish_start = Clock::now();
-    if (writer) writer->finish();
+    summary.interrupted = fitted.stopped;
+    if (writer && !fitted.stopped) writer->finish();  // stopped: the partials stay, as a kill leaves them
     problems.finish();
     add_pipeline_figures(fitted, sink.by_status, start, finish_start, &summary);
     return summary;
@@ -608,10 +610,12 @@ RunSummary FitRun::run() const {
       po.threads = d.pipeline_threads;
     }
     summary.setup_seconds = since(start);
+    po.stop = a.stop;
     const PipelineSummary fitted =
         run_pipeline(*source, sink, make_fitter, po, progress_reporter(a, source->total_objects(), summary.resumed));
     const Clock::time_point finish_start = Clock::now();
-    if (writer) writer->finish();
+    summary.interrupted = fitted.stopped;
+    if (writer && !fitted.stopped) writer->finish();  // stopped: the partials stay, as a kill leaves them
     if (!cfg.fft_wisdom.empty() && !save_fftw_wisdom(cfg.fft_wisdom) && !a.quiet)
       warn("could not write FFTW wisdom to '" + cfg.fft_wisdom + "'");
     add_pipeline_figures(fitted, sink.by_status, start, finish_start, &summary);

@@ -12,6 +12,7 @@
 // leaves them for resume, whose fingerprint covers the inputs' contents (app/run_fingerprint.hpp).
 #pragma once
 
+#include <atomic>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -93,6 +94,10 @@ struct FitRunOptions {
   std::function<void(const std::string&)> on_warning;
   // Every batch's rows, in input order, from the writer thread, after they are written.
   std::function<void(std::span<const ObjectRecord>)> on_rows;
+  // Set from another thread to stop the run (the Python module's Ctrl-C): no batch is read after it
+  // is seen, those in flight are written, and run() returns with RunSummary::interrupted, the
+  // outputs left as a killed run leaves them (partials and checkpoint, for resume).
+  const std::atomic<bool>* stop = nullptr;
   // Empty: every fit in this process (threads). Set: the fits go where it says (FitDistribution).
   FitDistributor distribute;
 };

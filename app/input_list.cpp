@@ -6,6 +6,7 @@
 #include <map>
 
 #include "io/run_config.hpp"
+#include "io/text_lines.hpp"
 
 namespace stampede::app {
 
@@ -15,8 +16,12 @@ std::vector<ListedInput> read_input_list(const std::string& list_path, const std
   std::vector<ListedInput> out;
   std::map<std::string, int> line_of_output;
   int line_number = 0;
-  for (std::string line; std::getline(in, line);) {
+  std::string line;
+  for (io::TextLine read; (read = io::read_text_line(in, &line)) != io::TextLine::kEnd;) {
     ++line_number;
+    if (read == io::TextLine::kTooLong)
+      throw io::ConfigError(list_path + ":" + std::to_string(line_number) + ": a line longer than " +
+                            std::to_string(io::kMaxTextLine) + " bytes: not a list of input paths");
     if (const auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
     const auto first = line.find_first_not_of(" \t\r"), last = line.find_last_not_of(" \t\r");
     if (first == std::string::npos) continue;

@@ -35,6 +35,7 @@ void fill_survey_record(const MedsObjectResult& r, ObjectRecord* out) {
   out->survey.masked_fraction = r.masked_fraction;
   out->survey.psf_size = r.psf_size;
   out->survey.is_bulge = r.bulge_or_disc ? (r.is_bulge ? 1 : 0) : -1;
+  out->survey.other_likelihood = r.bulge_or_disc ? r.other_likelihood : NAN;
 }
 
 }  // namespace stampede::app

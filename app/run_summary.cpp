@@ -23,7 +23,12 @@ std::string RunSummary::BriefReport() const {
   std::string out = format("stampede fit: %lld objects (%lld resumed) in %.1f s, %.1f objects/s; status:",
                            objects + resumed, resumed, pipeline_seconds, objects_per_second());
   if (const std::string counts = StatusCounts(); !counts.empty()) out += " " + counts;
-  if (!output.empty()) out += "; wrote " + output;
+  if (interrupted) {
+    out += "; interrupted";
+    if (!output.empty()) out += ": " + output + ".partial kept, continue with resume";
+  } else if (!output.empty()) {
+    out += "; wrote " + output;
+  }
   return out;
 }
 

@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "io/fits_error.hpp"
+#include "io/text_lines.hpp"
 
 namespace stampede::io {
 namespace {
@@ -183,8 +184,11 @@ bool CatalogueStampSource::next_entry(Entry* e) {
     return true;
   }
   std::string line;
-  while (std::getline(text_, line)) {
+  for (TextLine read; (read = read_text_line(text_, &line)) != TextLine::kEnd;) {
     ++text_line_;
+    if (read == TextLine::kTooLong)
+      throw std::runtime_error(catalogue_path_ + ":" + std::to_string(text_line_) + ": a line longer than " +
+                               std::to_string(kMaxTextLine) + " bytes: not a text catalogue");
     const auto hash = line.find('#');
     if (hash != std::string::npos) line.erase(hash);
     auto where = [&] { return catalogue_path_ + ":" + std::to_string(text_line_) + ": "; };

@@ -146,6 +146,8 @@ constexpr ResultColumn kColumns[] = {
     integer(F::kIsBulge, "is_bulge", T::kInt32, "bord: 1 the pure bulge won, 0 the disc; bd: -1",
             [](R r) -> std::int64_t { return r.survey.is_bulge; },
             [](W r, std::int64_t v) { r.survey.is_bulge = static_cast<std::int32_t>(v); }),
+    real(F::kOtherLikelihood, "other_likelihood", "", "bord: the losing model's log-likelihood; bd: NaN",
+         [](R r) { return r.survey.other_likelihood; }, [](W r, double v) { r.survey.other_likelihood = v; }),
 };
 
 constexpr bool indexed_by_field() {
@@ -185,8 +187,8 @@ constexpr auto kGridMetacalTable = table<kMetacalTableColumns>(PositionColumns::
 constexpr auto kCatalogueMetacalTable = table<kMetacalTableColumns>(PositionColumns::kCatalogue);
 
 // A survey table: id number ra dec, the fit columns in sky units with psf_size for psf_fwhm, then
-// n_epochs masked_frac is_bulge.
-constexpr std::size_t kSurveyTableColumns = 4 + kFirstMetacalField - kFirstFitField + 3;
+// n_epochs masked_frac is_bulge other_likelihood.
+constexpr std::size_t kSurveyTableColumns = 4 + kFirstMetacalField - kFirstFitField + 4;
 constexpr std::array<ResultColumn, kSurveyTableColumns> survey_table() {
   std::array<ResultColumn, kSurveyTableColumns> out{};
   std::size_t n = 0;
@@ -211,7 +213,7 @@ constexpr std::array<ResultColumn, kSurveyTableColumns> survey_table() {
     }
     out[n++] = c;
   }
-  for (F f : {F::kNEpochs, F::kMaskedFraction, F::kIsBulge}) out[n++] = kColumns[static_cast<int>(f)];
+  for (F f : {F::kNEpochs, F::kMaskedFraction, F::kIsBulge, F::kOtherLikelihood}) out[n++] = kColumns[static_cast<int>(f)];
   return out;
 }
 constexpr auto kSurveyTable = survey_table();

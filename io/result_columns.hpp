@@ -19,7 +19,7 @@
 //   survey (MEDS) input: positions id number (K) ra dec (D, degrees); the fit columns in sky
 //               units (x0 y0 the (u, v) offset and radius in arcsec, e in (u, v), fluxes at
 //               magzp_ref), psf_fwhm replaced by psf_size, then n_epochs (J) masked_frac (D)
-//               is_bulge (J)
+//               is_bulge (J) other_likelihood (D)
 // NaN means "not computed" in every D column, as in FitResult.
 #pragma once
 
@@ -53,9 +53,9 @@ enum class ResultField : int {
   kE1_1p, kE2_1p, kSnr_1p, kRadius_1p, kE1_1m, kE2_1m, kSnr_1m, kRadius_1m,
   kE1_2p, kE2_2p, kSnr_2p, kRadius_2p, kE1_2m, kE2_2m, kSnr_2m, kRadius_2m,
   // survey tables only (PositionColumns::kSurvey)
-  kNumber, kRa, kDec, kPsfSize, kNEpochs, kMaskedFraction, kIsBulge,
+  kNumber, kRa, kDec, kPsfSize, kNEpochs, kMaskedFraction, kIsBulge, kOtherLikelihood,
 };
-inline constexpr int kNumResultFields = static_cast<int>(ResultField::kIsBulge) + 1;
+inline constexpr int kNumResultFields = static_cast<int>(ResultField::kOtherLikelihood) + 1;
 inline constexpr int kNumMetacalFields = static_cast<int>(ResultField::kRadius_2m) - static_cast<int>(ResultField::kR11) + 1;
 
 // On-disk type: FITS TFORM 1K, 1J, 1V (unsigned, stored as J with TZERO = 2^31) and 1D.

@@ -12,6 +12,7 @@
 
 #include "engine/common/quoted_value.hpp"
 #include "engine/model/psf_model.hpp"
+#include "io/text_lines.hpp"
 
 namespace stampede::io {
 namespace {
@@ -585,8 +586,12 @@ void load_ini(RunConfig& config, const std::string& path) {
   RunConfig updated = config;  // all or nothing
   std::map<std::string, int> line_of;  // key -> line that set it, to reject repeats
   std::string line;
-  for (int number = 1; std::getline(in, line); ++number) {
+  for (int number = 1;; ++number) {
+    const TextLine read = read_text_line(in, &line);
+    if (read == TextLine::kEnd) break;
     const std::string where = path + ":" + std::to_string(number);
+    if (read == TextLine::kTooLong)
+      throw ConfigError(where + ": a line longer than " + std::to_string(kMaxTextLine) + " bytes: not a configuration file");
     if (number == 1 && line.starts_with("\xEF\xBB\xBF")) line.erase(0, 3);  // UTF-8 byte-order mark
     const std::string text = trim(std::string_view(line).substr(0, line.find('#')));
     if (text.empty() || (text.front() == '[' && text.back() == ']')) continue;
@@ -649,6 +654,10 @@ void validate(const RunConfig& config) {
       if (config.psf_image.empty()) fail(config, "psf_input = image needs psf_image, the path of a FITS PSF image");
       break;
   }
+  // A PSF given two ways is refused, not resolved silently in favour of one.
+  if (config.psf_kind != PsfKind::kImage && !config.psf_image.empty())
+    fail(config, "psf_image = '" + config.psf_image + "' with psf_input = " + psf_input_value(config) +
+                     ": the image would not be used; set psf_input = image to fit with it, or leave psf_image out");
   if (config.metacal.enabled) {
     if (!config.metacal.IsValid(&why)) fail(config, why);
     if (config.psf_kind == PsfKind::kAiry)

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -178,6 +179,41 @@ void for_chunks(io::CatalogReader& f, const std::vector<io::ResultField>& fields
   }
 }
 
+// A noise-bias calibration holds for the estimator it measured: the renderer (renderer = auto as it
+// resolved) and the solver (the exact fit's surrogate stage, the amplitudes' projection) that built
+// it must be the science run's, else apply refuses, naming both. Tables or catalogues that do not
+// record them are refused too: nothing says which estimator they hold.
+void check_fit_method(const CalibrationTable& table, const std::string& calibration, io::FitsFile& science_file,
+                      const std::string& science) {
+  auto table_value = [&](const std::string& key) -> std::optional<std::string> {
+    for (const auto& [k, v] : table.config)
+      if (k == key) return canonical_option(key, v);
+    return std::nullopt;
+  };
+  auto science_value = [&](const std::string& key) -> std::optional<std::string> {
+    std::string upper = key;
+    for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    const auto v = science_file.read_key_string(upper);
+    return v ? std::optional<std::string>(canonical_option(key, *v)) : std::nullopt;
+  };
+  const std::string rebuild = "; rebuild the calibration with the science run's options (stampede calibrate build)";
+  const auto renderer = table_value("renderer"), science_renderer = science_value("renderer");
+  if (!renderer || *renderer == "auto")
+    throw std::invalid_argument(calibration + " does not record the renderer it was built with (an older table)" + rebuild);
+  if (!science_renderer || *science_renderer == "auto")
+    throw std::invalid_argument(science + " does not record the renderer that fitted it (not a stampede fit table, or "
+                                "a MEDS run's)");
+  std::vector<std::string> keys = {"renderer", "project_amplitudes"};
+  if (*renderer == "exact") keys.push_back("exact_surrogate");
+  for (const std::string& key : keys) {
+    const auto built = table_value(key), fitted = science_value(key);
+    if (built != fitted)
+      throw std::invalid_argument(calibration + " was built with " + key + " = " + built.value_or("(not recorded)") +
+                                  ", " + science + " fitted with " + key + " = " + fitted.value_or("(not recorded)") +
+                                  ": a calibration holds only for the renderer and solver that built it" + rebuild);
+  }
+}
+
 int run_apply(int argc, char** argv) {
   std::string science, calibration, deep, output;
   bool per_object = false, overwrite = false, quiet = false;
@@ -215,7 +251,8 @@ int run_apply(int argc, char** argv) {
 
   // The science run should have been fitted as the calibration was: warn about differences.
   io::CatalogReader in = io::CatalogReader::open(science, science_fields);
-  static const std::set<std::string> kMayDiffer = {"noise_sigma", "psf_e1", "psf_e2", "batch_size", "fft_wisdom",
+  check_fit_method(table, calibration, in.file(), science);
+  static const std::set<std::string> kMayDiffer = {"renderer", "project_amplitudes", "exact_surrogate", "noise_sigma", "psf_e1", "psf_e2", "batch_size", "fft_wisdom",
                                                    "save_images", "psf_input", "psf_image", "psf_upsampling",
                                                    "psf_pixel_integrated"};
   int differing = 0;

@@ -67,6 +67,7 @@ PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
   }
   MpscStack<StampBatch> finished;  // fit tasks -> writer, lock-free
   std::atomic<bool> reader_done{false}, cancelled{false};
+  bool stopped = false;  // the reader stage's (serial); read after the pipeline has joined
   std::atomic<long long> batches_read{0};
   std::exception_ptr writer_error;
   PipelineSummary summary;
@@ -132,6 +133,11 @@ PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
                                                 fc.stop();
                                                 return nullptr;
                                               }
+                                              if (options.stop && options.stop->load()) {
+                                                stopped = true;
+                                                fc.stop();
+                                                return nullptr;
+                                              }
                                               StampBatch* b = pool.take();  // blocks while all are in flight
                                               b->sequence = sequence;
                                               if (!source.fill(*b) || b->count == 0) {
@@ -176,6 +182,7 @@ PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
   if (pipeline_error) std::rethrow_exception(pipeline_error);
   if (writer_error) std::rethrow_exception(writer_error);
   summary.threads = threads;
+  summary.stopped = stopped;
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return summary;
 }

@@ -10,6 +10,7 @@
 // results do not depend on which thread fitted what.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <functional>
 #include <memory>
@@ -31,6 +32,9 @@ struct PipelineOptions {
   int batches_per_thread = 3;
   bool per_object_psf = false;
   int stamp_size = 39;
+  // Set from another thread to end the run early: no batch is read after it is seen, those in
+  // flight are fitted and written (PipelineSummary::stopped).
+  const std::atomic<bool>* stop = nullptr;
 };
 
 struct PipelineProgress {
@@ -44,6 +48,7 @@ struct PipelineSummary {
   long long batches = 0;
   int threads = 0;  // the arena's concurrency
   double seconds = 0;
+  bool stopped = false;  // ended by PipelineOptions::stop before the source was exhausted
 };
 
 PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,

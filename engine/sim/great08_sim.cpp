@@ -78,6 +78,8 @@ bool Great08SimOptions::IsValid(std::string* why) const {
     m << "--psf: the simulator draws analytic PSFs only (moffat, airy)";
   else if (!psf.IsValid(&psf_why))
     m << psf_why;
+  else if (!(psf.fwhm() <= stamp_size))  // a PSF wider than the stamp draws nothing to measure, and slowly
+    m << "--psf-fwhm " << psf.fwhm() << ": the PSF's FWHM must be at most the stamp (" << stamp_size << " pixels)";
   else if (!(e_sigma >= 0 && e_sigma <= 1))
     m << "--e-sigma " << e_sigma << ": must be in [0, 1]";
   else if (!(e_max > 0 && e_max <= 0.95))

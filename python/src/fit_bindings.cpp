@@ -3,6 +3,7 @@
 #include <pybind11/pybind11.h>
 
 #include <algorithm>
+#include <climits>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -10,6 +11,8 @@
 #include <vector>
 
 #include "app/array_fit.hpp"
+#include "app/fit_run.hpp"
+#include "arguments.hpp"
 #include "numpy_arrays.hpp"
 #include "options.hpp"
 
@@ -72,30 +75,57 @@ int square_side(const DoubleArray& a, const char* what) {
   return static_cast<int>(nx);
 }
 
+// A PSF or a noise level given two ways is refused, as the command line refuses --weight with
+// noise_sigma != 0 and psf_image with another psf_input.
+void check_psf_given_once(const io::RunConfig& cfg, const std::string& where) {
+  const auto set = cfg.explicitly_set.find("psf_input");
+  if (set != cfg.explicitly_set.end() && cfg.psf_kind != PsfKind::kImage)
+    throw io::ConfigError(where + " (an image) and option 'psf_input' = " + io::get_option(cfg, "psf_input") +
+                          " both give the PSF; give one (leave psf_input out, or psf=None)");
+  if (!cfg.psf_image.empty())
+    throw io::ConfigError(where + " (an image) and option 'psf_image' = '" + cfg.psf_image +
+                          "' both give the PSF; give one");
+}
+
+void check_noise_given_once(const io::RunConfig& cfg, const std::string& where) {
+  if (cfg.fitter.noise_sigma != 0)
+    throw io::ConfigError("option 'noise_sigma' = " + io::get_option(cfg, "noise_sigma") + " and " + where +
+                          " both give the noise; give one (noise_sigma = 0 with weights)");
+}
+
 // The Python-side Fitter: a SingleStampFitter behind a mutex, so that Python threads may share one
 // (each call releases the GIL while it fits).
 class PyFitter {
  public:
-  PyFitter(py::handle options, int stamp_size, py::handle psf, int psf_oversampling, bool psf_pixel_integrated) {
-    if (stamp_size < 1) throw py::value_error("stamp_size = " + std::to_string(stamp_size) + ": must be >= 1");
+  PyFitter(py::handle options, long long stamp_size, py::handle psf, long long psf_oversampling,
+           bool psf_pixel_integrated, const std::string& function) {
+    if (stamp_size < 1 || stamp_size > 100000)
+      throw py::value_error(function + "(): stamp_size = " + std::to_string(stamp_size) + ": must be in [1, 100000]");
+    if (psf_oversampling < 1 || psf_oversampling > 1000)
+      throw py::value_error(function + "(): psf_oversampling = " + std::to_string(psf_oversampling) +
+                            ": must be in [1, 1000]");
     const io::RunConfig cfg = config_from(options);
-    std::vector<PsfModel> psfs = psfs_from(psf, 1, stamp_size, psf_oversampling, psf_pixel_integrated);
-    if (psfs.size() > 1) throw py::value_error("a Fitter takes one 2-D PSF, not one per stamp");
+    if (!psf.is_none()) check_psf_given_once(cfg, function + "(): psf");
+    std::vector<PsfModel> psfs = psfs_from(psf, 1, static_cast<int>(stamp_size), static_cast<int>(psf_oversampling),
+                                           psf_pixel_integrated);
+    if (psfs.size() > 1) throw py::value_error(function + "(): psf: a Fitter takes one 2-D PSF, not one per stamp");
     std::optional<PsfModel> model;
     if (!psfs.empty()) model = psfs.front();
+    config_ = cfg;
     py::gil_scoped_release release;
-    fitter_ = std::make_unique<app::SingleStampFitter>(cfg, stamp_size, model);
+    fitter_ = std::make_unique<app::SingleStampFitter>(cfg, static_cast<int>(stamp_size), model);
     metacal_ = cfg.metacal.enabled;
   }
 
   int stamp_size() const { return fitter_->stamp_size(); }
 
-  py::dict fit(py::handle stamp, py::handle weights, std::int64_t id) {
+  py::dict fit(py::handle stamp, py::handle weights, std::int64_t id, const std::string& function) {
     const DoubleArray s = as_float64(stamp, {2}, "stamp");
     if (square_side(s, "stamp") != fitter_->stamp_size())
       throw py::value_error("stamp is " + std::to_string(s.shape(0)) + " x " + std::to_string(s.shape(1)) +
                             ", this Fitter's stamps " + std::to_string(fitter_->stamp_size()) + " x " +
                             std::to_string(fitter_->stamp_size()));
+    if (!weights.is_none()) check_noise_given_once(config_, function + "(): weight");
     const std::optional<DoubleArray> w = weights_from(weights, s);
     ObjectRecord row;
     {
@@ -108,29 +138,40 @@ class PyFitter {
 
  private:
   std::unique_ptr<app::SingleStampFitter> fitter_;
+  io::RunConfig config_;
   bool metacal_ = false;
   std::mutex mutex_;
 };
 
-py::array fit_stamps(py::handle stamps, py::handle weights, py::handle psf, int psf_oversampling,
-                     bool psf_pixel_integrated, py::handle options, int threads, int grid_nx, std::int64_t first_id) {
-  const DoubleArray s = as_float64(stamps, {3}, "stamps");
+py::array fit_stamps(py::args args, py::kwargs kwargs) {
+  const Arguments a("fit_stamps", args, kwargs,
+                    {{"stamps", true}, {"weights"}, {"psf"}, {"psf_oversampling"}, {"psf_pixel_integrated"},
+                     {"options"}, {"threads"}, {"grid_nx"}, {"first_id"}});
+  const DoubleArray s = as_float64(a.object("stamps"), {3}, "stamps");
   const int side = square_side(s, "stamps");
+  const py::object weights = a.object("weights"), psf = a.object("psf"), options = a.object("options");
   const std::optional<DoubleArray> w = weights_from(weights, s);
-  if (grid_nx < 0) throw py::value_error("grid_nx = " + std::to_string(grid_nx) + ": must be >= 0");
+  const long long psf_oversampling = a.integer_in("psf_oversampling", 1, 1, 1000);
+  const bool psf_pixel_integrated = a.flag("psf_pixel_integrated", true);
+  const long long threads = a.integer("threads", 0);
+  app::check_threads(threads, a.where("threads"));
+  const int grid_nx = static_cast<int>(a.integer_in("grid_nx", 0, 0, INT_MAX));
+  const std::int64_t first_id = a.integer("first_id", 0);
   const io::RunConfig cfg = config_from(options);
+  if (!psf.is_none()) check_psf_given_once(cfg, "fit_stamps(): psf");
+  if (w) check_noise_given_once(cfg, "fit_stamps(): weights");
   app::ArrayStamps in;
   in.count = static_cast<int>(s.shape(0));
   in.stamp_size = side;
   in.pixels = values(s);
   if (w) in.weights = values(*w);
-  in.psfs = psfs_from(psf, s.shape(0), side, psf_oversampling, psf_pixel_integrated);
+  in.psfs = psfs_from(psf, s.shape(0), side, static_cast<int>(psf_oversampling), psf_pixel_integrated);
   in.grid_nx = grid_nx;
   in.first_id = first_id;
   std::vector<ObjectRecord> rows;
   {
     py::gil_scoped_release release;
-    rows = app::fit_array_stamps(cfg, in, threads);
+    rows = app::fit_array_stamps(cfg, in, static_cast<int>(threads));
   }
   return result_array(rows, io::PositionColumns::kGrid, cfg.metacal.enabled);
 }
@@ -151,37 +192,51 @@ drawImage default) or point samples (method='no_pixel'). Weights are inverse var
 pixel); without them the fit uses noise_sigma. Bad pixels (NaN, Inf, negative weights) give a row
 with status bad_pixels, not an exception.
 )doc")
-      .def(py::init<py::handle, int, py::handle, int, bool>(), py::arg("options") = py::none(),
-           py::arg("stamp_size") = 39, py::arg("psf") = py::none(), py::arg("psf_oversampling") = 1,
-           py::arg("psf_pixel_integrated") = true)
+      .def(py::init([](py::args args, py::kwargs kwargs) {
+             const Arguments a("Fitter", args, kwargs,
+                               {{"options"}, {"stamp_size"}, {"psf"}, {"psf_oversampling"}, {"psf_pixel_integrated"}});
+             return std::make_unique<PyFitter>(a.object("options"), a.integer("stamp_size", 39), a.object("psf"),
+                                               a.integer("psf_oversampling", 1), a.flag("psf_pixel_integrated", true),
+                                               "Fitter");
+           }),
+           "Fitter(options=None, stamp_size=39, psf=None, psf_oversampling=1, psf_pixel_integrated=True)")
       .def_property_readonly("stamp_size", &PyFitter::stamp_size)
-      .def("fit", &PyFitter::fit, py::arg("stamp"), py::arg("weight") = py::none(), py::arg("id") = 0,
-           "Fits one square 2-D stamp; returns {column: value} as one row of the FITS table.");
+      .def(
+          "fit",
+          [](PyFitter& f, py::args args, py::kwargs kwargs) {
+            const Arguments a("Fitter.fit", args, kwargs, {{"stamp", true}, {"weight"}, {"id"}});
+            return f.fit(a.object("stamp"), a.object("weight"), a.integer("id", 0), "Fitter.fit");
+          },
+          "fit(stamp, weight=None, id=0)\n\nFits one square 2-D stamp; returns {column: value} as one row of the FITS "
+          "table.");
 
   m.def(
       "fit_stamp",
-      [](py::handle stamp, py::handle weight, py::handle psf, int psf_oversampling, bool psf_pixel_integrated,
-         py::handle options) {
-        const DoubleArray s = as_float64(stamp, {2}, "stamp");
-        PyFitter f(options, square_side(s, "stamp"), psf, psf_oversampling, psf_pixel_integrated);
-        return f.fit(s, weight, 0);
+      [](py::args args, py::kwargs kwargs) {
+        const Arguments a("fit_stamp", args, kwargs,
+                          {{"stamp", true}, {"weight"}, {"psf"}, {"psf_oversampling"}, {"psf_pixel_integrated"},
+                           {"options"}});
+        const DoubleArray s = as_float64(a.object("stamp"), {2}, "stamp");
+        PyFitter f(a.object("options"), square_side(s, "stamp"), a.object("psf"), a.integer("psf_oversampling", 1),
+                   a.flag("psf_pixel_integrated", true), "fit_stamp");
+        return f.fit(s, a.object("weight"), 0, "fit_stamp");
       },
-      py::arg("stamp"), py::arg("weight") = py::none(), py::arg("psf") = py::none(), py::arg("psf_oversampling") = 1,
-      py::arg("psf_pixel_integrated") = true, py::arg("options") = py::none(),
+      "fit_stamp(stamp, weight=None, psf=None, psf_oversampling=1, psf_pixel_integrated=True, options=None)\n\n"
       "Fits one stamp (a Fitter made for the call: for many stamps make one Fitter, or use fit_stamps).");
 
   py::list names;
   for (int i = 0; i < kFitStatusCount; ++i) names.append(ToString(static_cast<FitStatus>(i)));
   m.attr("fit_status_names") = names;  // the `status` column's codes, by value
 
-  m.def("fit_stamps", &fit_stamps, py::arg("stamps"), py::arg("weights") = py::none(), py::arg("psf") = py::none(),
-        py::arg("psf_oversampling") = 1, py::arg("psf_pixel_integrated") = true, py::arg("options") = py::none(),
-        py::arg("threads") = 0, py::arg("grid_nx") = 0, py::arg("first_id") = 0, R"doc(
+  m.def("fit_stamps", &fit_stamps, R"doc(fit_stamps(stamps, weights=None, psf=None, psf_oversampling=1,
+           psf_pixel_integrated=True, options=None, threads=0, grid_nx=0, first_id=0)
+
 Fits a batch of stamps (N x S x S) on the engine's threads, the GIL released, and returns a numpy
 structured array with exactly the columns of `stampede fit`'s RESULTS table (grid positions: id,
 ix, iy; then x0 ... psf_fwhm). Rows are numbered as a grid read row by row: id = first_id + k,
 ix = k % grid_nx, iy = k // grid_nx (grid_nx 0: one row). `psf`: None (the options' PSF), one
-2-D PSF image, or N of them (N x P x P). `threads` 0: all cores. The rows equal `stampede fit`'s on
+2-D PSF image, or N of them (N x P x P); not with options that give the PSF (psf_input,
+psf_image). `weights` (inverse variances): not with noise_sigma != 0. `threads` 0: all cores. The rows equal `stampede fit`'s on
 the same stamps and options, bit for bit, whatever the thread count.
 )doc");
 }

@@ -9,6 +9,7 @@
 
 #include "io/catalog_reader.hpp"
 #include "io/fits_file.hpp"
+#include "arguments.hpp"
 #include "numpy_arrays.hpp"
 
 namespace py = pybind11;
@@ -18,7 +19,8 @@ namespace stampede::python {
 void bind_io(py::module_& m) {
   m.def(
       "read_image",
-      [](const std::string& path) {
+      [](py::args args, py::kwargs kwargs) {
+        const std::string path = Arguments("read_image", args, kwargs, {{"path", true}}).text("path");
         std::vector<double> pixels;
         long nx = 0, ny = 0;
         {
@@ -32,12 +34,12 @@ void bind_io(py::module_& m) {
         std::copy(pixels.begin(), pixels.end(), out.mutable_data());
         return out;
       },
-      py::arg("path"),
-      "The first image of a FITS file (CFITSIO syntax: 'f.fits[2]', 'f.fits.gz'), as a 2-D float64 array "
+      "read_image(path)\n\nThe first image of a FITS file (CFITSIO syntax: 'f.fits[2]', 'f.fits.gz'), as a 2-D float64 array "
       "[y, x].");
   m.def(
       "read_results",
-      [](const std::string& path) {
+      [](py::args args, py::kwargs kwargs) {
+        const std::string path = Arguments("read_results", args, kwargs, {{"path", true}}).text("path");
         std::vector<ObjectRecord> rows;
         io::PositionColumns positions;
         bool metacal = false;
@@ -50,8 +52,7 @@ void bind_io(py::module_& m) {
         }
         return result_array(rows, positions, metacal);
       },
-      py::arg("path"),
-      "The RESULTS table of a `stampede fit` output as a structured array of its schema columns (the dtype "
+      "read_results(path)\n\nThe RESULTS table of a `stampede fit` output as a structured array of its schema columns (the dtype "
       "fit_stamps returns for grid input).");
 }
 

@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include "arguments.hpp"
 #include "errors.hpp"
 
 namespace py = pybind11;
@@ -17,13 +18,21 @@ std::string option_text(const std::string& key, py::handle value) {
   if (value.is_none()) throw io::ConfigError("option '" + key + "' = None: give a value (or leave the key out)");
   if (py::isinstance<py::bool_>(value)) return value.cast<bool>() ? "true" : "false";
   if (py::isinstance<py::float_>(value)) return py::repr(value).cast<std::string>();
+  // Numbers (Python's or numpy scalars) and strings; not containers or arrays, whose str() would be
+  // parsed as the value and echoed whole in the error.
+  const bool number = py::hasattr(value, "__index__") || py::hasattr(value, "__float__");
+  const bool scalar = !py::hasattr(value, "shape") || py::len(value.attr("shape")) == 0;
+  if (!(py::isinstance<py::str>(value) || (number && scalar)))
+    throw py::type_error("option '" + key + "' must be a number, bool or str, not " + describe(value));
+  if (py::hasattr(value, "dtype") && value.attr("dtype").attr("kind").cast<std::string>() == "f")
+    return py::repr(py::float_(py::reinterpret_borrow<py::object>(value))).cast<std::string>();
   return py::str(value).cast<std::string>();
 }
 
 void set_from(io::RunConfig& cfg, py::handle mapping) {
   for (auto item : py::reinterpret_borrow<py::dict>(mapping)) {
     if (!py::isinstance<py::str>(item.first))
-      throw io::ConfigError("option names are strings, not " + py::repr(item.first).cast<std::string>());
+      throw py::type_error("option names are strings, not " + describe(item.first));
     const std::string key = item.first.cast<std::string>();
     io::set_option(cfg, key, option_text(key, item.second));
   }
@@ -53,33 +62,59 @@ strings. A bad key or value raises stampede.ConfigError (a ValueError) naming th
     opts = stampede.Options(renderer="exact", psf_fwhm=2.85, psf_e2=0.05)
     opts["psf_fwhm"]      # '2.85': the canonical text, as in the output header
 )doc")
-      .def(py::init([](py::object mapping, py::kwargs kwargs) {
+      .def(py::init([](py::args args, py::kwargs kwargs) {
+             // Options(mapping=None, **options): `options=` names the mapping too (no option has that name).
+             py::kwargs options = kwargs;
+             py::object mapping = py::none();
+             if (args.size() > 1)
+               throw py::type_error("Options() takes one dict of option: value, then option keywords (" +
+                                    std::to_string(args.size()) + " positional arguments given)");
+             if (args.size() == 1) mapping = args[0];
+             if (options.contains("options")) {
+               if (args.size() == 1) throw py::type_error("Options() got the dict twice (positional and options=)");
+               mapping = options["options"];
+               PyDict_DelItemString(options.ptr(), "options");
+             }
              io::RunConfig cfg;
              if (!mapping.is_none()) {
                if (!py::isinstance<py::dict>(mapping))
-                 throw py::type_error("Options() takes a dict of option: value (or keywords)");
+                 throw py::type_error("Options() takes a dict of option: value (or keywords), not " + describe(mapping));
                set_from(cfg, mapping);
              }
-             set_from(cfg, kwargs);
+             set_from(cfg, options);
              io::validate(cfg);
              return cfg;
            }),
-           py::arg("options") = py::none())
+           "Options(mapping=None, **options)")
       .def_static(
           "from_ini",
-          [](const std::string& path, py::kwargs overrides) {
+          [](py::args args, py::kwargs kwargs) {
+            // from_ini(path, **overrides): the path is positional, every keyword an option.
+            if (args.size() != 1)
+              throw py::type_error("Options.from_ini() takes the ini file's path, then option keywords (" +
+                                   std::to_string(args.size()) + " positional arguments given)");
+            const py::kwargs overrides = kwargs;
+            const py::kwargs none;
+            const std::string path = Arguments("Options.from_ini", args, none, {{"path", true}}).text("path");
             io::RunConfig cfg;
             io::load_ini(cfg, path);
             set_from(cfg, overrides);
             io::validate(cfg);
             return cfg;
           },
-          py::arg("path"), "Reads an ini file (as `stampede fit --config`), then any keyword overrides.")
-      .def("__getitem__", [](const io::RunConfig& c, const std::string& key) { return io::get_option(c, key); })
+          "from_ini(path, **overrides)\n\nReads an ini file (as `stampede fit --config`), then any keyword overrides.")
+      .def("__getitem__",
+           [](const io::RunConfig& c, py::handle key) {
+             if (!py::isinstance<py::str>(key))
+               throw py::type_error("Options[key]: option names are strings, not " + describe(key));
+             return io::get_option(c, key.cast<std::string>());
+           })
       .def("__contains__",
-           [](const io::RunConfig&, const std::string& key) {
+           [](const io::RunConfig&, py::handle key) {
+             if (!py::isinstance<py::str>(key)) return false;
+             const std::string name = key.cast<std::string>();
              for (const io::OptionInfo& o : io::run_config_options())
-               if (o.name == key) return true;
+               if (o.name == name) return true;
              return false;
            })
       .def(

@@ -3,11 +3,19 @@
 #include <pybind11/stl.h>
 #include <pybind11/pybind11.h>
 
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <exception>
+#include <mutex>
+#include <optional>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "app/fit_run.hpp"
 #include "app/shard_merge.hpp"
+#include "arguments.hpp"
 #include "options.hpp"
 
 namespace py = pybind11;
@@ -40,79 +48,145 @@ py::dict summary_dict(const app::RunSummary& s) {
   return out;
 }
 
+// run_fit's run goes on a thread of its own while the calling thread, holding the GIL only
+// briefly, delivers the progress calls and warnings and checks for signals: so Ctrl-C (and an
+// exception from `progress` or from a warning made an error) stops the run as the CLI's SIGINT
+// does, its partial outputs kept for resume, and the exception is raised once the run has stopped.
+py::dict run_watched(app::FitRunOptions a, py::object progress) {
+  struct Shared {
+    std::mutex mutex;
+    std::condition_variable changed;
+    bool done = false;
+    std::optional<app::FitRunProgress> progress;
+    std::vector<std::string> warnings;
+  } shared;
+  std::atomic<bool> stop{false};
+  a.stop = &stop;
+  if (!progress.is_none()) {
+    a.on_progress = [&](const app::FitRunProgress& p) {
+      const std::lock_guard<std::mutex> lock(shared.mutex);
+      shared.progress = p;
+      shared.changed.notify_one();
+    };
+    a.progress_interval = 1.0;
+  }
+  a.on_warning = [&](const std::string& text) {
+    const std::lock_guard<std::mutex> lock(shared.mutex);
+    shared.warnings.push_back(text);
+    shared.changed.notify_one();
+  };
+  app::RunSummary summary;
+  std::exception_ptr run_error;
+  std::thread runner([&] {
+    try {
+      summary = app::FitRun(a).run();
+    } catch (...) {
+      run_error = std::current_exception();
+    }
+    const std::lock_guard<std::mutex> lock(shared.mutex);
+    shared.done = true;
+    shared.changed.notify_one();
+  });
+  std::optional<py::error_already_set> python_error;
+  try {
+    for (bool done = false; !done;) {
+      std::optional<app::FitRunProgress> p;
+      std::vector<std::string> warnings;
+      {
+        py::gil_scoped_release release;
+        std::unique_lock<std::mutex> lock(shared.mutex);
+        shared.changed.wait_for(lock, std::chrono::milliseconds(100),
+                                [&] { return shared.done || shared.progress || !shared.warnings.empty(); });
+        done = shared.done;
+        p.swap(shared.progress);
+        warnings.swap(shared.warnings);
+      }
+      if (python_error) continue;  // stopping: drain until the run has ended
+      for (const std::string& w : warnings)
+        if (PyErr_WarnEx(PyExc_UserWarning, w.c_str(), 1) != 0) throw py::error_already_set();
+      if (p) progress(p->objects_done, p->objects_total, p->seconds);
+      if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+    }
+  } catch (py::error_already_set& e) {
+    python_error.emplace(std::move(e));
+    stop.store(true);
+    py::gil_scoped_release release;
+    runner.join();
+  }
+  if (runner.joinable()) {
+    py::gil_scoped_release release;
+    runner.join();
+  }
+  if (python_error) throw std::move(*python_error);
+  if (run_error) std::rethrow_exception(run_error);
+  return summary_dict(summary);
+}
+
 }  // namespace
 
 void bind_run(py::module_& m) {
   m.def(
       "run_fit",
-      [](const std::string& input, const std::string& output, const std::string& catalog, const std::string& weight,
-         const std::string& text_output, py::handle options, int threads, bool resume, bool overwrite,
-         py::object progress, py::object shard, const std::string& meds) {
+      [](py::args args, py::kwargs kwargs) {
+        const Arguments in("run_fit", args, kwargs,
+                           {{"input"}, {"output"}, {"catalog"}, {"weight"}, {"text_output"}, {"options"}, {"threads"},
+                            {"resume"}, {"overwrite"}, {"progress"}, {"shard"}, {"meds"}});
         app::FitRunOptions a;
-        a.input = input;
-        a.meds = meds;
-        a.output = output;
-        a.catalog = catalog;
-        a.weight = weight;
-        a.text_output = text_output;
-        a.config = config_from(options);
-        a.threads = threads;
-        a.resume = resume;
-        a.overwrite = overwrite;
-        if (!shard.is_none()) {
-          const auto pair = shard.cast<std::pair<int, int>>();  // (i, N)
-          a.shard = pair.first;
-          a.shards = pair.second;
+        a.input = in.text("input");
+        a.meds = in.text("meds");
+        a.output = in.text("output");
+        a.catalog = in.text("catalog");
+        a.weight = in.text("weight");
+        a.text_output = in.text("text_output");
+        a.config = config_from(in.object("options"));
+        const long long threads = in.integer("threads", 0);
+        app::check_threads(threads, in.where("threads"));
+        a.threads = static_cast<int>(threads);
+        a.resume = in.flag("resume", false);
+        a.overwrite = in.flag("overwrite", false);
+        const py::object progress = in.object("progress");
+        if (!progress.is_none() && !PyCallable_Check(progress.ptr()))
+          throw py::type_error(in.where("progress") + " must be callable as progress(done, total, seconds), not " +
+                               describe(progress));
+        if (in.given("shard")) {
+          const py::object shard = in.object("shard");
+          const auto n = py::isinstance<py::tuple>(shard) || py::isinstance<py::list>(shard) ? py::len(shard) : 0;
+          if (n != 2)
+            throw py::type_error(in.where("shard") + " must be a pair (i, N) of ints, not " + describe(shard));
+          const py::args pair = py::reinterpret_borrow<py::args>(py::tuple(shard));
+          const Arguments ij(in.where("shard"), pair, py::kwargs(), {{"i"}, {"N"}});
+          a.shard = static_cast<int>(ij.integer_in("i", 0, 0, 999999));
+          a.shards = static_cast<int>(ij.integer_in("N", 1, 1, 1000000));
+          if (a.shard >= a.shards)
+            throw py::value_error(in.where("shard") + " = (" + std::to_string(a.shard) + ", " +
+                                  std::to_string(a.shards) + "): must have 0 <= i < N");
         }
-        // The callbacks run on the pipeline's writer thread: they take the GIL, and a Python
-        // exception in one is kept and raised when the run has ended (the run itself goes on).
-        std::exception_ptr callback_error;
-        if (!progress.is_none()) {
-          a.on_progress = [&](const app::FitRunProgress& p) {
-            py::gil_scoped_acquire gil;
-            if (callback_error) return;
-            try {
-              progress(p.objects_done, p.objects_total, p.seconds);
-            } catch (py::error_already_set&) {
-              callback_error = std::current_exception();
-            }
-          };
-          a.progress_interval = 1.0;
-        }
-        a.on_warning = [&](const std::string& text) {
-          py::gil_scoped_acquire gil;
-          if (PyErr_WarnEx(PyExc_UserWarning, text.c_str(), 1) != 0 && !callback_error) {
-            callback_error = std::make_exception_ptr(py::error_already_set());
-          }
-        };
-        app::RunSummary s;
-        {
-          py::gil_scoped_release release;
-          s = app::FitRun(a).run();
-        }
-        if (callback_error) std::rethrow_exception(callback_error);
-        return summary_dict(s);
+        return run_watched(std::move(a), progress);
       },
-      py::arg("input") = "", py::arg("output") = "", py::arg("catalog") = "", py::arg("weight") = "",
-      py::arg("text_output") = "", py::arg("options") = py::none(), py::arg("threads") = 0, py::arg("resume") = false,
-      py::arg("overwrite") = false, py::arg("progress") = py::none(), py::arg("shard") = py::none(),
-      py::arg("meds") = "", R"doc(
+      R"doc(run_fit(input="", output="", catalog="", weight="", text_output="", options=None, threads=0,
+        resume=False, overwrite=False, progress=None, shard=None, meds="")
+
 Runs `stampede fit` over files: `input` a grid of stamps (or, with `catalog`, the image to cut
 them from), or `meds` a MEDS tile instead (each object fitted on its cutouts, as `stampede fit
---meds`; options meds_*), `output` the FITS table ("" = none), `weight` an inverse-variance image. `options` as
-for Options; `progress(done, total, seconds)` is called about once a second. Warnings (e.g. an
-input that records another PSF) arrive as UserWarning. `shard=(i, N)` fits shard i of N, as
-`stampede fit --shard i/N` (join them with merge_shards). Returns the run summary as a dict
-(objects, status counts, phase times, objects_per_second, report).
+--meds`; options meds_*), `output` the FITS table ("" = none), `weight` an inverse-variance image.
+Paths are str or os.PathLike. `options` as for Options; `threads` 0: all cores, else 1..4096.
+`progress(done, total, seconds)` is called about once a second. Warnings (e.g. an input that
+records another PSF) arrive as UserWarning. `shard=(i, N)` fits shard i of N, as `stampede fit
+--shard i/N` (join them with merge_shards). Ctrl-C (or an exception raised by `progress`) stops the
+run as the CLI's SIGINT does: the batches in flight are written, the output stays partial
+(OUTPUT.partial and its checkpoint) and run_fit(..., resume=True) continues it; the exception is
+raised once the run has stopped. Returns the run summary as a dict (objects, status counts, phase
+times, objects_per_second, report).
 )doc");
 
   m.def(
       "merge_shards",
-      [](const std::vector<std::string>& shards, const std::string& output, bool overwrite) {
+      [](py::args args, py::kwargs kwargs) {
+        const Arguments in("merge_shards", args, kwargs, {{"shards", true}, {"output", true}, {"overwrite"}});
         app::ShardMergeOptions o;
-        o.shards = shards;
-        o.output = output;
-        o.overwrite = overwrite;
+        o.shards = in.texts("shards");
+        o.output = in.text("output");
+        o.overwrite = in.flag("overwrite", false);
         app::ShardMergeSummary s;
         {
           py::gil_scoped_release release;
@@ -124,9 +198,8 @@ input that records another PSF) arrive as UserWarning. `shard=(i, N)` fits shard
         out["seconds"] = s.seconds;
         return out;
       },
-      py::arg("shards"), py::arg("output"), py::arg("overwrite") = false,
-      "Joins the tables of run_fit(shard=(i, N)) or `stampede fit --shard` runs into the single run's table, as "
-      "`stampede merge`.");
+      "merge_shards(shards, output, overwrite=False)\n\nJoins the tables of run_fit(shard=(i, N)) or `stampede fit "
+      "--shard` runs (a list of paths) into the single run's table, as `stampede merge`.");
 }
 
 }  // namespace stampede::python

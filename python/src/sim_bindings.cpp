@@ -5,12 +5,14 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <climits>
 #include <cstring>
 #include <string>
 #include <vector>
 
 #include "engine/analysis/shear_metrics.hpp"
 #include "engine/sim/great08_sim.hpp"
+#include "arguments.hpp"
 #include "numpy_arrays.hpp"
 
 namespace py = pybind11;
@@ -144,12 +146,29 @@ py::dict set_shear_dict(const SetShear& s) {
 }  // namespace
 
 void bind_sim(py::module_& m) {
-  m.def("simulate_great08", &simulate, py::arg("set") = 0, py::kw_only(), py::arg("grid") = 20,
-        py::arg("stamp_size") = 39, py::arg("snr") = 40.0, py::arg("noise_sigma") = 1.0, py::arg("noise_free") = false,
-        py::arg("noise_pairs") = false, py::arg("size_ratio") = 1.4, py::arg("galaxy_type") = "bd",
-        py::arg("e_sigma") = 0.25, py::arg("e_max") = 0.9, py::arg("shear_max") = 0.05, py::arg("centre_offset") = 0.5,
-        py::arg("psf_fwhm") = 2.85, py::arg("psf_beta") = 3.0, py::arg("psf_e1") = 0.0, py::arg("psf_e2") = 0.05,
-        py::arg("seed") = 7, R"doc(
+  m.def(
+      "simulate_great08",
+      [](py::args args, py::kwargs kwargs) {
+        const Arguments a("simulate_great08", args, kwargs,
+                          {{"set"}, {"grid", false, true}, {"stamp_size", false, true}, {"snr", false, true},
+                           {"noise_sigma", false, true}, {"noise_free", false, true}, {"noise_pairs", false, true},
+                           {"size_ratio", false, true}, {"galaxy_type", false, true}, {"e_sigma", false, true},
+                           {"e_max", false, true}, {"shear_max", false, true}, {"centre_offset", false, true},
+                           {"psf_fwhm", false, true}, {"psf_beta", false, true}, {"psf_e1", false, true},
+                           {"psf_e2", false, true}, {"seed", false, true}});
+        return simulate(static_cast<int>(a.integer_in("set", 0, 0, INT_MAX - 1)),
+                        static_cast<int>(a.integer_in("grid", 20, 1, 100000)),
+                        static_cast<int>(a.integer_in("stamp_size", 39, 1, 100000)), a.real("snr", 40.0),
+                        a.real("noise_sigma", 1.0), a.flag("noise_free", false), a.flag("noise_pairs", false),
+                        a.real("size_ratio", 1.4), a.text("galaxy_type", "bd"), a.real("e_sigma", 0.25),
+                        a.real("e_max", 0.9), a.real("shear_max", 0.05), a.real("centre_offset", 0.5),
+                        a.real("psf_fwhm", 2.85), a.real("psf_beta", 3.0), a.real("psf_e1", 0.0),
+                        a.real("psf_e2", 0.05), static_cast<std::uint64_t>(a.integer_in("seed", 7, 0, LLONG_MAX)));
+      },
+      R"doc(simulate_great08(set=0, *, grid=20, stamp_size=39, snr=40.0, noise_sigma=1.0, noise_free=False,
+        noise_pairs=False, size_ratio=1.4, galaxy_type="bd", e_sigma=0.25, e_max=0.9, shear_max=0.05,
+        centre_offset=0.5, psf_fwhm=2.85, psf_beta=3.0, psf_e1=0.0, psf_e2=0.05, seed=7)
+
 Draws set `set` of a GREAT08-like simulation, as `stampede sim great08` (same seed, same pixels):
 a grid x grid grid of stamps sharing one shear, ring pairs 2m, 2m+1, every galaxy at S/N `snr`.
 Returns {'image': 2-D array, 'stamps': (grid^2, S, S) in grid order, 'truth': structured array
@@ -158,38 +177,62 @@ Returns {'image': 2-D array, 'stamps': (grid^2, S, S) in grid order, 'truth': st
 
   m.def(
       "set_shear",
-      [](py::handle e1, py::handle e2, py::handle usable, py::handle pair, double g1_true, double g2_true,
-         int bootstrap, std::uint64_t seed) {
+      [](py::args args, py::kwargs kwargs) {
+        const Arguments in("set_shear", args, kwargs,
+                           {{"e1", true}, {"e2", true}, {"usable", true}, {"pair", true}, {"g1_true", true},
+                            {"g2_true", true}, {"bootstrap"}, {"seed"}});
+        const py::object e1 = in.object("e1"), e2 = in.object("e2"), usable = in.object("usable"),
+                         pair = in.object("pair");
+        const double g1_true = in.real("g1_true", 0), g2_true = in.real("g2_true", 0);
+        const int bootstrap = static_cast<int>(in.integer_in("bootstrap", 200, 1, 1000000));
+        const auto seed = static_cast<std::uint64_t>(in.integer_in("seed", 1, 0, LLONG_MAX));
         const DoubleArray a = as_float64(e1, {1}, "e1"), b = as_float64(e2, {1}, "e2");
         const auto u = py::array_t<int, py::array::c_style | py::array::forcecast>::ensure(usable);
         const auto p = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(pair);
-        if (!u || !p) throw py::type_error("usable and pair must be integer arrays");
+        if (!u || !p) {
+          PyErr_Clear();
+          throw py::type_error("set_shear(): usable and pair must be integer arrays");
+        }
         if (b.size() != a.size() || u.size() != a.size() || p.size() != a.size())
           throw py::value_error("e1, e2, usable and pair must have one value per object");
-        if (bootstrap < 1) throw py::value_error("bootstrap = " + std::to_string(bootstrap) + ": must be >= 1");
         const std::size_t n = static_cast<std::size_t>(a.size());
         const SetShear s = estimate_set_shear(values(a), values(b), {u.data(), n}, {p.data(), n}, g1_true, g2_true,
                                               bootstrap, seed);
         return set_shear_dict(s);
       },
-      py::arg("e1"), py::arg("e2"), py::arg("usable"), py::arg("pair"), py::arg("g1_true"), py::arg("g2_true"),
-      py::arg("bootstrap") = 200, py::arg("seed") = 1,
-      "One set's shear estimate (ring pairs averaged first; bootstrap errors), as `stampede metrics` per set.");
+      "set_shear(e1, e2, usable, pair, g1_true, g2_true, bootstrap=200, seed=1)\n\nOne set's shear estimate (ring pairs averaged first; bootstrap errors), as `stampede metrics` per set.");
 
   m.def(
       "shear_metrics",
-      [](const std::vector<py::dict>& sets, double psf_e1, double psf_e2) {
+      [](py::args args, py::kwargs kwargs) {
+        const Arguments a("shear_metrics", args, kwargs, {{"sets", true}, {"psf_e1"}, {"psf_e2"}});
+        const double psf_e1 = a.real("psf_e1", 0.0), psf_e2 = a.real("psf_e2", 0.0);
+        const py::object sets = a.object("sets");
+        if (!py::isinstance<py::list>(sets) && !py::isinstance<py::tuple>(sets))
+          throw py::type_error("shear_metrics(): sets must be a list of set_shear() dicts, not " + describe(sets));
         std::vector<SetShear> in;
-        for (const py::dict& d : sets) {
+        for (py::handle item : sets) {
+          const std::string where = "shear_metrics(): sets[" + std::to_string(in.size()) + "]";
+          if (!py::isinstance<py::dict>(item))
+            throw py::type_error(where + " must be a set_shear() dict, not " + describe(item));
+          const py::dict d = py::reinterpret_borrow<py::dict>(item);
+          py::args none;
+          py::kwargs fields;
+          for (const char* key : {"g1_true", "g2_true", "g1", "g2", "err1", "err2", "used", "excluded"})
+            if (d.contains(key)) fields[key] = d[key];
+          for (const char* key : {"g1_true", "g2_true", "g1", "g2", "err1", "err2"})
+            if (!d.contains(key)) throw py::value_error(where + " has no '" + std::string(key) + "'");
+          const Arguments f(where, none, fields,
+                            {{"g1_true"}, {"g2_true"}, {"g1"}, {"g2"}, {"err1"}, {"err2"}, {"used"}, {"excluded"}});
           SetShear s;
-          s.g1_true = d["g1_true"].cast<double>();
-          s.g2_true = d["g2_true"].cast<double>();
-          s.g1 = d["g1"].cast<double>();
-          s.g2 = d["g2"].cast<double>();
-          s.err1 = d["err1"].cast<double>();
-          s.err2 = d["err2"].cast<double>();
-          s.used = d.contains("used") ? d["used"].cast<long long>() : 0;
-          s.excluded = d.contains("excluded") ? d["excluded"].cast<long long>() : 0;
+          s.g1_true = f.real("g1_true", 0);
+          s.g2_true = f.real("g2_true", 0);
+          s.g1 = f.real("g1", 0);
+          s.g2 = f.real("g2", 0);
+          s.err1 = f.real("err1", 0);
+          s.err2 = f.real("err2", 0);
+          s.used = f.integer("used", 0);
+          s.excluded = f.integer("excluded", 0);
           in.push_back(s);
         }
         if (in.size() < 2) throw py::value_error("shear_metrics needs at least two sets (a line through the shears)");
@@ -207,8 +250,7 @@ Returns {'image': 2-D array, 'stamps': (grid^2, S, S) in grid order, 'truth': st
         out["q"] = r.q;
         return out;
       },
-      py::arg("sets"), py::arg("psf_e1") = 0.0, py::arg("psf_e2") = 0.0,
-      "m and c per component, c in the PSF frame and the GREAT08 Q from set_shear() dicts, as `stampede metrics`.");
+      "shear_metrics(sets, psf_e1=0.0, psf_e2=0.0)\n\nm and c per component, c in the PSF frame and the GREAT08 Q from set_shear() dicts, as `stampede metrics`.");
 }
 
 }  // namespace stampede::python

@@ -2,12 +2,13 @@
 // `stampede fit` prints, and two runs in one process with different thread counts give identical
 // tables and leave no process-wide threading state behind. Outputs: locked for the run's life
 // (a second run on them is refused), not replaced without overwrite, and a run that fails with an
-// error leaves no partial files.
+// error leaves no partial files; one stopped (FitRunOptions::stop) leaves them for resume.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -266,6 +267,35 @@ TEST_F(FitRunTest, AFailedRunRemovesItsPartialOutputs) {
   o.on_rows = nullptr;
   EXPECT_EQ(app::FitRun(o).run().objects, kNx * kNy);
   EXPECT_EQ(leftovers(out), std::vector<std::string>{out});
+}
+
+TEST_F(FitRunTest, AStoppedRunKeepsItsPartialOutputsForResume) {
+  const std::string out = scratch.path("stopped.fits");
+  std::atomic<bool> stop{false};
+  app::FitRunOptions o = options(out, 1);
+  o.stop = &stop;
+  o.on_rows = [&](std::span<const ObjectRecord>) { stop.store(true); };  // after the first committed batch
+  const app::RunSummary s = app::FitRun(o).run();
+  EXPECT_TRUE(s.interrupted);
+  EXPECT_GT(s.objects, 0);
+  EXPECT_LT(s.objects, kNx * kNy);
+  EXPECT_TRUE(stampede::testing::Contains(s.BriefReport(), "interrupted: " + out + ".partial kept"));
+  EXPECT_EQ(leftovers(out), (std::vector<std::string>{out + ".partial", out + ".checkpoint"}));
+  // Resumed, the table equals an uninterrupted run's.
+  o.stop = nullptr;
+  o.on_rows = nullptr;
+  o.resume = true;
+  const app::RunSummary rest = app::FitRun(o).run();
+  EXPECT_FALSE(rest.interrupted);
+  EXPECT_EQ(rest.resumed, s.objects);
+  EXPECT_EQ(rest.resumed + rest.objects, kNx * kNy);
+  app::FitRunOptions whole = options(scratch.path("whole.fits"), 2);
+  app::FitRun(whole).run();
+  for (const char* name : {"e1", "e2", "radius", "likelihood", "status"}) {
+    const auto a = column(out, name), b = column(whole.output, name);
+    ASSERT_EQ(a.size(), b.size());
+    for (std::size_t i = 0; i < a.size(); ++i) EXPECT_TRUE(same_bits(a[i], b[i])) << name << " row " << i;
+  }
 }
 
 TEST_F(FitRunTest, TheOutputIsLockedForTheRunsLife) {

@@ -40,4 +40,11 @@ TEST(InputList, TwoInputsWritingOneOutputEmptyAndMissingListsAreErrors) {
                        "cannot read the input list"));
 }
 
+// Found by the Python argument fuzzer (through --config; the list reads alike): a file with no
+// newline made getline grow its line until memory ran out.
+TEST(InputList, AListWithoutLineEndsIsAnErrorNotAHang) {
+  EXPECT_TRUE(Contains(error_of<stampede::io::ConfigError>([] { stampede::app::read_input_list("/dev/zero", "o"); }),
+                       "/dev/zero:1: a line longer than 16777216 bytes: not a list of input paths"));
+}
+
 }  // namespace

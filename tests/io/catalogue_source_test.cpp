@@ -12,6 +12,7 @@
 
 #include "io/catalogue_source.hpp"
 #include "io/fits_file.hpp"
+#include "io/text_lines.hpp"
 #include "support/scratch_dir.hpp"
 
 namespace {
@@ -52,6 +53,26 @@ TEST(CatalogueSource, AnyPositionGivesAFlaggedRecordWithoutOverflow) {
   EXPECT_EQ(inside.id, std::numeric_limits<std::int64_t>::max());
   EXPECT_EQ(inside.flags & kFlagEdge, 0u);
   EXPECT_EQ(batch.weight(static_cast<int>(far.size()))[40], 1.0);
+}
+
+// Found by the Python argument fuzzer: a "text catalogue" with no newline (/dev/zero, or a binary
+// file named by mistake) made getline grow its line until memory ran out: now an error at 16 MiB.
+TEST(CatalogueSource, ATextCatalogueWithoutLineEndsIsAnErrorNotAHang) {
+  stampede::testing::ScratchDir scratch("stampede_catalogue_source_");
+  {
+    io::FitsFile image = io::FitsFile::create(scratch.path("image.fits"), true);
+    image.write_image(30, 20, std::vector<double>(600, 1.0));
+  }
+  std::ofstream(scratch.path("long.txt")) << "1 2 3 " << std::string(io::kMaxTextLine, '7') << "\n";
+  for (const std::string& cat : {std::string("/dev/zero"), scratch.path("long.txt")}) {
+    try {
+      io::CatalogueStampSource source(scratch.path("image.fits"), "", cat, 9, io::CatalogueColumns{});
+      ADD_FAILURE() << cat << " was read as a catalogue";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(cat + ":1: a line longer than 16777216 bytes: not a text catalogue"),
+                std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace

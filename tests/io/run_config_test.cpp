@@ -418,6 +418,25 @@ TEST(RunConfigValidate, FixedOnlyParameterCannotBeFree) {
   EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }), "parameter 'radius_ratio' cannot be free"));
 }
 
+// Found by the Python argument fuzzer: Options.from_ini('/dev/zero') (and --config /dev/zero) took
+// 29 s and gigabytes before failing, getline growing one line without end.
+TEST(RunConfigIni, AFileWithoutLineEndsIsAnErrorNotAHang) {
+  RunConfig c;
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { load_ini(c, "/dev/zero"); }),
+                       "/dev/zero:1: a line longer than 16777216 bytes: not a configuration file"));
+}
+
+TEST(RunConfigValidate, APsfImageWithAnotherPsfInputIsRefused) {
+  // The image was silently unused: a PSF given two ways is an error naming both.
+  for (const char* kind : {"airy", "moffat"}) {
+    RunConfig c;
+    set_option(c, "psf_input", kind);
+    set_option(c, "psf_image", "psf.fits");
+    EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }),
+                         std::string("psf_image = 'psf.fits' with psf_input = ") + kind + ": the image would not be used"));
+  }
+}
+
 TEST(RunConfigValidate, ImagePsfNeedsAnImage) {
   RunConfig c;
   set_option(c, "psf_input", "image");

@@ -154,3 +154,47 @@ def test_threads_outside_the_rule_are_refused_up_front(stamps, tmp_path, threads
 def test_a_huge_stamp_size_is_a_range_error():
     with pytest.raises(ValueError, match="stamp_size"):
         stampede.Fitter(stamp_size=10**6)
+
+
+def test_argument_errors_name_the_argument_and_never_print_the_array(stamps):
+    for call, error, text in [
+        (lambda: stampede.fit_stamps(stamps, thread=2), TypeError,
+         r"fit_stamps\(\) got an unexpected keyword argument 'thread' \(it takes stamps, weights, psf, "),
+        (lambda: stampede.fit_stamps(stamps, None, None, 1, True, None, 0, 0, 0, 9), TypeError,
+         r"fit_stamps\(\) takes at most 9 positional arguments \(10 given\)"),
+        (lambda: stampede.fit_stamps(stamps, grid_nx="2"), TypeError, r"fit_stamps\(\): grid_nx must be an int"),
+        (lambda: stampede.fit_stamps(stamps, first_id=1.5), TypeError, r"first_id must be an int, not float 1.5"),
+        (lambda: stampede.fit_stamps(stamps, psf_pixel_integrated=1), TypeError, "must be True or False, not int 1"),
+        (lambda: stampede.fit_stamps(), TypeError, r"fit_stamps\(\) missing required argument 'stamps'"),
+        (lambda: stampede.Fitter(stamp_size="39"), TypeError, r"Fitter\(\): stamp_size must be an int, not str"),
+        (lambda: stampede.Fitter().fit(stamps[0], weigth=None), TypeError, "unexpected keyword argument 'weigth'"),
+        (lambda: stampede.fit_stamp(stamps[0], options={"psf_fwhm": stamps[0]}), TypeError,
+         r"option 'psf_fwhm' must be a number, bool or str, not numpy.ndarray float64 \(39, 39\)"),
+        (lambda: stampede.simulate_great08(grid=2.5), TypeError, r"simulate_great08\(\): grid must be an int"),
+        (lambda: stampede.simulate_great08(0, 2), TypeError, "takes at most 1 positional argument"),
+        (lambda: stampede.read_results(3), TypeError, r"read_results\(\): path must be a str or a path"),
+        (lambda: stampede.merge_shards("a.fits", "o.fits"), TypeError, "shards must be a list of paths, not str"),
+        (lambda: stampede.shear_metrics([dict(g1_true=0, g2_true=0, g1="x", g2=0, err1=1, err2=1)] * 2), TypeError,
+         r"shear_metrics\(\): sets\[0\]: g1 must be a number, not str 'x'"),
+        (lambda: stampede.Options()[3], TypeError, "option names are strings, not int 3"),
+    ]:
+        with pytest.raises(error, match=text) as raised:
+            call()
+        assert len(str(raised.value)) < 400 and "array(" not in str(raised.value), str(raised.value)
+
+
+def test_the_psf_or_the_noise_given_two_ways_is_refused(stamps):
+    psf = stampede.simulate_great08(grid=1)["psf_image"]
+    w = np.ones_like(stamps)
+    with pytest.raises(stampede.ConfigError, match=r"psf \(an image\) and option 'psf_input' = airy both give the PSF"):
+        stampede.fit_stamps(stamps, psf=psf, options={"psf_input": "airy"})
+    with pytest.raises(stampede.ConfigError, match=r"Fitter\(\): psf \(an image\) and option 'psf_input'"):
+        stampede.Fitter({"psf_input": "moffat"}, psf=psf)
+    with pytest.raises(stampede.ConfigError, match="option 'noise_sigma' = 1 and fit_stamps\\(\\): weights both give"):
+        stampede.fit_stamps(stamps, weights=w, options={"noise_sigma": 1})
+    with pytest.raises(stampede.ConfigError, match="option 'noise_sigma' = 2 and Fitter.fit\\(\\): weight both"):
+        stampede.Fitter({"noise_sigma": 2}).fit(stamps[0], weight=w[0])
+    with pytest.raises(stampede.ConfigError, match="psf_image = 'p.fits' with psf_input = airy: the image would not"):
+        stampede.Options(psf_input="airy", psf_image="p.fits")
+    # One way each is fine: the image PSF with the default psf_input, weights with noise_sigma 0.
+    assert len(stampede.fit_stamps(stamps, psf=psf, weights=w, options=OPTS)) == 4

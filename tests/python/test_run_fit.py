@@ -1,6 +1,8 @@
 """run_fit: the `stampede fit` run from Python, its summary, warnings and errors."""
 
 import os
+import signal
+import threading
 import warnings
 
 import numpy as np
@@ -37,12 +39,63 @@ def test_a_recorded_psf_other_than_the_runs_is_a_warning(tmp_path):
     assert any("records a PSF other than the run's" in str(x.message) for x in w)
 
 
-def test_an_exception_in_the_progress_callback_is_raised_after_the_run(tmp_path):
+def interrupted_then_resumed(tmp_path, stop):
+    """A run stopped by `stop` (the progress callback, or None and a signal), then resumed: the
+    exception, the rows committed before it, and the resumed table."""
+    out = str(tmp_path / "f.fits")
+    opts = {"renderer": "exact", "batch_size": 4, **MINI_PSF}
+    with pytest.raises(BaseException) as raised:
+        stampede.run_fit(SET0, output=out, options=opts, threads=1, progress=stop)
+    assert not os.path.exists(out) and os.path.exists(out + ".partial") and os.path.exists(out + ".checkpoint")
+    with open(out + ".checkpoint") as f:
+        committed = f.read()
+    resumed = stampede.run_fit(SET0, output=out, options=opts, threads=2, resume=True)
+    whole = str(tmp_path / "whole.fits")
+    stampede.run_fit(SET0, output=whole, options=opts, threads=2)
+    assert columns_equal_bitwise(stampede.read_results(out), stampede.read_results(whole)) == []
+    return raised.value, resumed, committed
+
+
+def test_an_exception_in_the_progress_callback_stops_the_run_resumably(tmp_path):
     def boom(done, total, seconds):
         raise KeyError("from the callback")
 
-    with pytest.raises(KeyError, match="from the callback"):
-        stampede.run_fit(SET0, output=str(tmp_path / "f.fits"), options={"renderer": "exact"}, progress=boom)
+    error, resumed, _ = interrupted_then_resumed(tmp_path, boom)
+    assert isinstance(error, KeyError) and "from the callback" in str(error)
+    assert 0 < resumed["resumed"] < 100 and resumed["resumed"] + resumed["objects"] == 400
+
+
+def test_ctrl_c_stops_the_run_as_the_clis_sigint_does(tmp_path):
+    # SIGINT from another thread while the run holds the calling thread, as a terminal's Ctrl-C.
+    timer = threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        error, resumed, _ = interrupted_then_resumed(tmp_path, None)
+    finally:
+        timer.cancel()
+    assert isinstance(error, KeyboardInterrupt)
+    assert resumed["resumed"] < 400 and resumed["resumed"] + resumed["objects"] == 400
+
+
+def test_argument_errors_come_before_any_work(tmp_path):
+    out = tmp_path / "f.fits"
+    for kwargs, error, text in [
+        ({"progress": 5}, TypeError, r"run_fit\(\): progress must be callable .*int 5"),
+        ({"threads": "2"}, TypeError, r"run_fit\(\): threads must be an int, not str '2'"),
+        ({"threads": 10**6}, stampede.ConfigError, "threads"),
+        ({"shard": ("a", 3)}, TypeError, r"run_fit\(\): shard: i must be an int, not str 'a'"),
+        ({"shard": (1,)}, TypeError, r"run_fit\(\): shard must be a pair \(i, N\) of ints, not tuple \(1,\)"),
+        ({"shard": "1/3"}, TypeError, r"shard must be a pair \(i, N\) of ints, not str '1/3'"),
+        ({"shard": (3, 3)}, ValueError, r"shard = \(3, 3\): must have 0 <= i < N"),
+        ({"resume": "no"}, TypeError, r"resume must be True or False, not str 'no'"),
+        ({"catalog": 7}, TypeError, r"catalog must be a str or a path \(os.PathLike\), not int 7"),
+        ({"treads": 2}, TypeError, r"unexpected keyword argument 'treads' \(it takes input, output, "),
+    ]:
+        with pytest.raises(error, match=text):
+            stampede.run_fit(SET0, output=out, **kwargs)
+        assert not os.path.exists(str(out) + ".partial") and not out.exists()
+    assert stampede.run_fit(SET0, output=out, options={"renderer": "exact", **MINI_PSF}, threads=np.int64(2),
+                            shard=[np.int32(0), 4])["objects"] == 100  # numpy ints and pathlib paths are fine
 
 
 def test_bad_options_and_paths(tmp_path):
@@ -75,8 +128,21 @@ def test_a_meds_tile_gives_the_commands_survey_rows(tmp_path):
     for name in ("id", "number", "ra", "dec", "n_epochs", "masked_frac", "psf_size", "is_bulge"):
         assert name in rows.dtype.names
     assert (rows["n_epochs"] == 4).all() and (rows["is_bulge"] == -1).all()
+    assert np.isnan(rows["other_likelihood"]).all()  # bd: no losing model
     cli = str(tmp_path / "cli.fits")
     run_cli("fit", "--meds", tile, "-o", cli, "--quiet")
     assert columns_equal_bitwise(rows, stampede.read_results(cli)) == []
     with pytest.raises(stampede.Error, match="takes no INPUT"):
         stampede.run_fit(os.path.join(MINI, "nf", "set_0.fits"), meds=tile, output=str(tmp_path / "x.fits"))
+
+
+def test_bord_rows_hold_the_losing_models_likelihood(tmp_path):
+    # Issue 31: the docs promised the loser's likelihood and no column held it.
+    tile = os.path.join(DATA, "meds-sample", "meds.fits")
+    out = str(tmp_path / "bord.fits")
+    stampede.run_fit(meds=tile, output=out, options={"meds_model": "bord"}, shard=(0, 6), threads=2)
+    rows = stampede.read_results(out)
+    assert len(rows) == 4 and set(rows["is_bulge"]) <= {0, 1}
+    assert np.isfinite(rows["other_likelihood"]).all()
+    assert (rows["likelihood"] >= rows["other_likelihood"]).all()
+    assert (rows["likelihood"] != rows["other_likelihood"]).any()

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
 #include <thread>
 #include <vector>
@@ -47,8 +48,10 @@ class CalibrateCommand : public ::testing::Test {
     args.insert(args.end(), extra.begin(), extra.end());
     return run(args);
   }
-  // A fit-like catalogue with the columns apply reads (and one it must carry along).
-  void write_catalogue(const std::string& file) {
+  // A fit-like catalogue with the columns apply reads (and one it must carry along), and the header
+  // keys of the fit method (renderer "" = none recorded).
+  void write_catalogue(const std::string& file, const std::string& renderer = "exact",
+                       const std::string& surrogate = "true") {
     std::vector<double> id, e1, e2, snr, pe1, pe2, radius, bf, df, status, flags, extra;
     for (int i = 0; i < 40; ++i) {
       id.push_back(i);
@@ -70,6 +73,10 @@ class CalibrateCommand : public ::testing::Test {
                               {"snr", false, snr},      {"psf_e1", false, pe1},    {"psf_e2", false, pe2},
                               {"radius", false, radius}, {"bulge_flux", false, bf}, {"disc_flux", false, df},
                               {"status", true, status}, {"flags", true, flags},    {"extra", false, extra}});
+    if (renderer.empty()) return;
+    f.write_key("RENDERER", renderer, "");
+    f.write_key("EXACT_SURROGATE", surrogate, "");
+    f.write_key("PROJECT_AMPLITUDES", std::string("true"), "");
   }
   stampede::testing::ScratchDir scratch{std::string("stampede_calibrate_") +
                                           ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_"};
@@ -149,6 +156,43 @@ TEST_F(CalibrateCommand, BuildWritesTheGridAndApplyCorrectsByTheModel) {
   a = run({"apply", path("science.fits"), "--calibration", path("cal.fits"), "--per-object", "-o", path("obj.fits")});
   EXPECT_EQ(a.exit_code, 1);
   EXPECT_NE(a.err.find("--overwrite"), std::string::npos) << a.err;
+}
+
+// Issue 29: a calibration holds for the estimator that built it. The table records the renderer
+// (renderer = auto as it resolved) and the solver options; apply refuses another, naming both.
+TEST_F(CalibrateCommand, ATableIsAppliedOnlyWithTheRendererAndSolverThatBuiltIt) {
+  ASSERT_EQ(build(path("cal.fits")).exit_code, 0);
+  std::map<std::string, std::string> config;
+  for (const auto& [k, v] : io::read_calibration_table(path("cal.fits")).config) config[k] = v;
+  EXPECT_EQ(config["renderer"], "exact");  // auto, resolved for the Moffat PSF
+  EXPECT_EQ(config["exact_surrogate"], "true");
+  auto apply = [&](const std::string& science, const std::string& calibration) {
+    return run({"apply", science, "--calibration", calibration, "--per-object", "-o", path("out.fits"), "--overwrite"});
+  };
+  write_catalogue(path("same.fits"));
+  RunResult r = apply(path("same.fits"), path("cal.fits"));
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  write_catalogue(path("upsampled.fits"), "upsampled");
+  r = apply(path("upsampled.fits"), path("cal.fits"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("cal.fits was built with renderer = exact, " + path("upsampled.fits") +
+                       " fitted with renderer = upsampled: a calibration holds only for the renderer and solver"),
+            std::string::npos) << r.err;
+  write_catalogue(path("no_surrogate.fits"), "exact", "false");
+  r = apply(path("no_surrogate.fits"), path("cal.fits"));
+  EXPECT_NE(r.err.find("built with exact_surrogate = true, " + path("no_surrogate.fits") +
+                       " fitted with exact_surrogate = false"), std::string::npos) << r.err;
+  write_catalogue(path("unrecorded.fits"), "");
+  r = apply(path("unrecorded.fits"), path("cal.fits"));
+  EXPECT_NE(r.err.find("unrecorded.fits does not record the renderer that fitted it"), std::string::npos) << r.err;
+  {  // a table from before tables recorded their renderer
+    CalibrationTable t = io::read_calibration_table(path("cal.fits"));
+    std::erase_if(t.config, [](const auto& kv) { return kv.first == "renderer"; });
+    io::write_calibration_table(path("old.fits"), t, false);
+  }
+  r = apply(path("same.fits"), path("old.fits"));
+  EXPECT_NE(r.err.find("old.fits does not record the renderer it was built with (an older table); rebuild"),
+            std::string::npos) << r.err;
 }
 
 TEST_F(CalibrateCommand, KillNineThenResumeEqualsUninterruptedBuild) {

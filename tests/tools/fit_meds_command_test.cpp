@@ -35,7 +35,7 @@ const std::string kSample = std::string(STAMPEDE_DATA_DIR) + "/meds-sample";
 const std::vector<std::string> kSurveyColumns = {
     "id", "number", "ra", "dec", "x0", "y0", "e1", "e2", "radius", "bulge_A", "disc_A", "bulge_flux", "disc_flux",
     "flux", "e1_err", "e2_err", "snr", "chi2", "likelihood", "n_iter", "n_eval", "stop_reason", "status", "flags",
-    "psf_e1", "psf_e2", "psf_size", "n_epochs", "masked_frac", "is_bulge"};
+    "psf_e1", "psf_e2", "psf_size", "n_epochs", "masked_frac", "is_bulge", "other_likelihood"};
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
@@ -64,7 +64,7 @@ TEST_F(FitMeds, OneRowPerObjectInOrderForAnyThreadCount) {
   const auto id = column(path("t1.fits"), "id"), number = column(path("t1.fits"), "number"),
              ra_out = column(path("t1.fits"), "ra"), status = column(path("t1.fits"), "status"),
              n_epochs = column(path("t1.fits"), "n_epochs"), is_bulge = column(path("t1.fits"), "is_bulge"),
-             radius = column(path("t1.fits"), "radius");
+             radius = column(path("t1.fits"), "radius"), other = column(path("t1.fits"), "other_likelihood");
   ASSERT_EQ(id.size(), 24u);
   for (std::size_t i = 0; i < id.size(); ++i) {
     EXPECT_EQ(id[i], ids[i]);
@@ -73,6 +73,7 @@ TEST_F(FitMeds, OneRowPerObjectInOrderForAnyThreadCount) {
     EXPECT_EQ(status[i], 0);
     EXPECT_EQ(n_epochs[i], 4);   // the single epochs, not the coadd
     EXPECT_EQ(is_bulge[i], -1);  // bd
+    EXPECT_TRUE(std::isnan(other[i]));
     EXPECT_GT(radius[i], 0.05);  // arcsec: the tile's galaxies are 0.3-1 arcsec
     EXPECT_LT(radius[i], 3);
   }

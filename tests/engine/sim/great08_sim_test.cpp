@@ -309,6 +309,14 @@ TEST(Great08Sim, InvalidOptionsNameTheOption) {
   o.psf.kind = PsfKind::kAiry;
   o.psf.airy.obscuration = 0.3;
   EXPECT_THROW(Great08Simulator{o}, std::invalid_argument);
+  // Found by the Python argument fuzzer: psf_fwhm = 1e9 drew for hours (1e4: 22 s) instead of refusing.
+  o = Great08SimOptions{};
+  o.stamp_size = 8;
+  o.psf.moffat.fwhm = 1e9;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("the PSF's FWHM must be at most the stamp (8 pixels)"), std::string::npos) << why;
+  o.psf.moffat.fwhm = 8;
+  EXPECT_TRUE(o.IsValid(&why)) << why;
 }
 
 }  // namespace
