@@ -98,6 +98,20 @@ def main():
     if c1 and m1:
         print(f"- MPI driver overhead per object (1-rank job beyond the plain command): "
               f"{m1['ms_per_object'] - c1['ms_per_object']:+.3f} ms of {c1['ms_per_object']:.3f} ms")
+    def first(prefix):
+        return next((v for k, v in sorted(all_runs.items()) if k.startswith(prefix)), None)
+
+    for snr, label in (("20", "S/N 20"), ("0", "noise-free")):
+        d, x, u = (first(f"BM_Fit{v}/snr:{snr}") for v in ("Default", "ExactOnly", "Upsampled"))
+        if d and x and u:
+            ms = {k: b.get("ms_per_fit", seconds(b) * 1e3) for k, b in (("d", d), ("x", x), ("u", u))}
+            print(f"- fit, {label}: default {ms['d']:.3g} ms, all exact {ms['x']:.3g} ms ({ms['x'] / ms['d']:.2f}x the "
+                  f"default's), upsampled {ms['u']:.3g} ms ({ms['u'] / ms['d']:.2f}x)")
+    s1, s2 = first("BM_StampedeFitS20/threads:1"), first("BM_StampedeFitS20/threads:2")
+    if s1 and s2:
+        print(f"- `stampede fit`, 10,000 S/N 20 stamps, whole process: {s1['items_per_second']:.0f} objects/s on 1 "
+              f"thread, {s2['items_per_second']:.0f} on 2 ({s2['items_per_second'] / s1['items_per_second']:.2f}x; "
+              f"targets >= 2,500 objects/s and >= 1.9x)")
     one = all_runs.get("BM_OneEpoch/real_time")
     four = all_runs.get("BM_FourEpochs/real_time")
     if one and four:

@@ -340,25 +340,24 @@ def main():
                 os.remove(work + "/status")
             r = subprocess.run([sys.executable, __file__, "--seed", str(a.seed), "--worker", str(case), str(count), "0",
                                 "--work", work, "--case-timeout", str(a.case_timeout)], capture_output=True, text=True)
-            for line in r.stdout.splitlines():
-                if line.startswith("{"):
-                    findings.append(json.loads(line))
+            new = [json.loads(line) for line in r.stdout.splitlines() if line.startswith("{")]
             status = open(work + "/status").read().strip() if os.path.exists(work + "/status") else "?"
             if status != "done":  # the worker died at case `status`: a crash or a hang
                 at = int(status) if status.isdigit() else case
                 kind = f"signal {-r.returncode}" if r.returncode < 0 else f"exit {r.returncode}"
-                findings.append({"case": at, "finding": f"worker died ({kind})", "traceback": r.stderr[-3000:]})
+                new.append({"case": at, "finding": f"worker died ({kind})", "traceback": r.stderr[-3000:]})
                 case = at + 1
             else:
                 case += count
+            for f in new:  # reported as found, so that a run stopped early loses none
+                print(f"case {f['case']}: {f['finding']}", file=sys.stderr, flush=True)
+            findings += new
+            if a.findings and new:
+                os.makedirs(a.findings, exist_ok=True)
+                with open(os.path.join(a.findings, f"python_arguments_seed{a.seed}.json"), "w") as out:
+                    json.dump(findings, out, indent=1)
             print(f"cases {case}, findings {len(findings)}, worker CPU {cpu_used():.0f} s, "
                   f"wall {time.time() - started:.0f} s", file=sys.stderr, flush=True)
-        for f in findings:
-            print(f"case {f['case']}: {f['finding']}")
-        if a.findings and findings:
-            os.makedirs(a.findings, exist_ok=True)
-            with open(os.path.join(a.findings, f"python_arguments_seed{a.seed}.json"), "w") as out:
-                json.dump(findings, out, indent=1)
         print(f"{case} cases, {len(findings)} findings, worker CPU {cpu_used():.0f} s")
         return 1 if findings else 0
 

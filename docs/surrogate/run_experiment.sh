@@ -17,4 +17,4 @@ done
 # The all-exact fit's own path dependence: the same fit with the LM's initial damping doubled.
 "$stampede" fit "$work/sim/set_0.fits" -o "$work/fit_mu.fits" --text "$work/fit_mu.txt" --overwrite --quiet \
   --threads 2 --set noise_sigma=1 --set exact_surrogate=false --set levmar_LM_INIT_MU=0.002
-/usr/bin/python3 "$here/summarize.py" "$work" | tee "$here/results.md"
+{ /usr/bin/python3 "$here/summarize.py" "$work"; echo; /usr/bin/python3 "$here/by_ellipticity.py" "$work"; } | tee "$here/results.md"

@@ -1,0 +1,57 @@
+// End to end (issue 29, must-show 3): `stampede fit` as a user runs it, the whole process per
+// iteration (start-up, reading, fitting, writing the table), over 10,000 GREAT08-like stamps at
+// S/N 20 (`stampede sim great08 --grid 100 --snr 20 --seed 2020`, the surrogate experiment's set,
+// simulated once into STAMPEDE_BENCH_DIR, default $TMPDIR/stampede_bench_fit_command, and reused):
+//   BM_StampedeFitS20/threads:N   objects/s of the default fit on N threads (items = objects)
+// The speed-up is threads:2 / threads:1 from one run (bench/run interleaves the repetitions).
+#include <benchmark/benchmark.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kObjects = 10000;
+
+std::string quoted(const std::string& s) { return "'" + s + "'"; }
+
+// The stamps, simulated on first use; "" (with the error set on `state`) if that failed.
+std::string grid(benchmark::State& state) {
+  const char* env = std::getenv("STAMPEDE_BENCH_DIR");
+  const fs::path dir = env ? fs::path(env) : fs::temp_directory_path() / "stampede_bench_fit_command";
+  const fs::path set = dir / "sim" / "set_0.fits";
+  if (!fs::exists(set)) {
+    const std::string cmd = quoted(STAMPEDE_BINARY) + " sim great08 --out " + quoted((dir / "sim").string()) +
+                            " --sets 1 --grid 100 --snr 20 --seed 2020 --overwrite --threads 0 > /dev/null";
+    if (std::system(cmd.c_str()) != 0 || !fs::exists(set)) {
+      state.SkipWithError("could not simulate the stamps");
+      return "";
+    }
+  }
+  return set.string();
+}
+
+void BM_StampedeFitS20(benchmark::State& state) {
+  const std::string in = grid(state);
+  if (in.empty()) return;
+  const std::string out = (fs::path(in).parent_path() / ("fit_" + std::to_string(state.range(0)) + ".fits")).string();
+  const std::string cmd = quoted(STAMPEDE_BINARY) + " fit " + quoted(in) + " -o " + quoted(out) +
+                          " --overwrite --quiet --set noise_sigma=1 --threads " + std::to_string(state.range(0));
+  for (auto _ : state) {
+    const int status = std::system(cmd.c_str());
+    if (status == -1 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+      state.SkipWithError("stampede fit failed");
+      return;
+    }
+  }
+  state.SetItemsProcessed(state.iterations() * kObjects);
+}
+BENCHMARK(BM_StampedeFitS20)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(1);
+
+}  // namespace
+
+BENCHMARK_MAIN();
