@@ -26,6 +26,7 @@ import os
 import pathlib
 import random
 import resource
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -284,7 +285,11 @@ def make_files(work):
                     "--set", "upsampling=1", "--threads", "1", "--quiet"], check=True, capture_output=True)
     os.makedirs(work + "/out", exist_ok=True)
     sim = stampede.simulate_great08(grid=2, stamp_size=8)
-    tile = os.path.join(os.environ.get("STAMPEDE_DATA_DIR", "../shared/data"), "meds-sample", "meds.fits")
+    # A copy of the sample tile (with its PSFEx models): a case may name any of its files as an
+    # output with overwrite=True, which replaces it, as asked. The fuzzer never hands out shared data.
+    shutil.copytree(os.path.join(os.environ.get("STAMPEDE_DATA_DIR", "../shared/data"), "meds-sample"),
+                    work + "/meds-sample", ignore=shutil.ignore_patterns("src", "truth.fits"))
+    tile = work + "/meds-sample/meds.fits"
     return {"grid": grid, "fit": fit, "dir": work + "/out", "tile": tile, "stamps": sim["stamps"],
             "psf": sim["psf_image"]}
 

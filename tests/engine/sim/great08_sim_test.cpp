@@ -317,6 +317,10 @@ TEST(Great08Sim, InvalidOptionsNameTheOption) {
   EXPECT_NE(why.find("the PSF's FWHM must be at most the stamp (8 pixels)"), std::string::npos) << why;
   o.psf.moffat.fwhm = 8;
   EXPECT_TRUE(o.IsValid(&why)) << why;
+  // And (the same fuzzer) FWHM 1.1 with Rgp/Rp 2.85 took 59 s for one 8-pixel stamp.
+  o.psf.moffat.fwhm = 1.1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("--psf-fwhm 1.1: the simulator draws PSFs of FWHM >= 1.5 pixels"), std::string::npos) << why;
 }
 
 }  // namespace
