@@ -19,6 +19,12 @@ bool same_file(const std::string& a, const std::string& b) {
 }
 
 void refuse_to_replace(const std::string& path, bool overwrite) {
+  // Outputs are written beside and renamed over: --overwrite on `-o /dev/null` (run as root) would
+  // replace the device node itself. Only regular files are replaced.
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode))
+    throw FileError(q(path) + " is not a regular file (a device, FIFO or socket): the run writes a new file and renames "
+                    "it into place, which would replace it; name a file to write");
   if (!overwrite && file_exists(path)) throw FileError(q(path) + " exists (use --overwrite to replace it)");
 }
 

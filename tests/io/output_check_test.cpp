@@ -2,6 +2,7 @@
 // resolved by the caller), a companion (partial, checkpoint) that is an input, two outputs that
 // are one file, and an existing output without overwrite are refused with messages naming them.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -63,6 +64,16 @@ TEST_F(OutputCheckTest, AnInputUnderAnyNameIsRefused) {
 TEST_F(OutputCheckTest, TwoOutputsThatAreOneFileAreRefused) {
   EXPECT_TRUE(Contains(refusal({{"-o", path("o.fits"), {}}, {"--text", path("o.fits"), {}}}),
                        "--text '" + path("o.fits") + "' is the same file as -o '" + path("o.fits") + "'"));
+}
+
+// Found while fuzzing the Python arguments: `-o /dev/null --overwrite` (as root) renamed the table
+// over the device node. A device, FIFO or socket is never replaced, overwrite or not.
+TEST_F(OutputCheckTest, ADeviceOrFifoIsNeverReplaced) {
+  ASSERT_EQ(::mkfifo(path("fifo").c_str(), 0600), 0);
+  const std::string expect = std::string("'").append(path("fifo")).append("' is not a regular file (a device, FIFO or socket)");
+  for (bool overwrite : {false, true}) EXPECT_TRUE(Contains(refusal({{"-o", path("fifo"), {}}}, overwrite), expect));
+  EXPECT_TRUE(Contains(refusal({{"--text", "/dev/null", {}}}, true), "'/dev/null' is not a regular file"));
+  EXPECT_THROW(stampede::io::refuse_to_replace("/dev/null", true), FileError);
 }
 
 TEST_F(OutputCheckTest, AnExistingOutputNeedsOverwrite) {
