@@ -92,8 +92,9 @@ def array(rng, np, ndim=None, side=None):
         base = {"zeros": np.zeros(shape), "ones": np.ones(shape), "noise": np.random.default_rng(rng.randrange(99))
                 .normal(size=shape), "nan": np.full(shape, np.nan), "inf": np.full(shape, np.inf),
                 "huge": np.full(shape, 1e308), "neg": -np.ones(shape)}[values]
+        base = np.asarray(base)  # a 0-d draw is a numpy scalar, not an array (harness finding H1)
         try:
-            a = base.astype(dtype)
+            a = np.asarray(base.astype(dtype))
         except (TypeError, ValueError):
             a = base
     layout = rng.choice(["c", "c", "f", "strided", "readonly"])
@@ -240,7 +241,9 @@ def one_case(case, seed, files):
         if names.index(param) >= len(args):
             kwargs.setdefault(param, v)
 
-    echoed[0] = max([len(v) for v in list(args) + list(kwargs.values()) if isinstance(v, str)] + [0])
+    texts = list(args) + list(kwargs.values())
+    texts += [v for d in texts if isinstance(d, dict) for v in d.values()]  # option values, e.g. paths
+    echoed[0] = max([len(v) for v in texts if isinstance(v, str)] + [0])
     target = {"Fitter": stampede.Fitter, "Options": stampede.Options,
               "Options.from_ini": stampede.Options.from_ini}.get(name) or getattr(stampede, name)
     result = target(*args, **kwargs)

@@ -656,7 +656,7 @@ void validate(const RunConfig& config) {
   }
   // A PSF given two ways is refused, not resolved silently in favour of one.
   if (config.psf_kind != PsfKind::kImage && !config.psf_image.empty())
-    fail(config, "psf_image = '" + config.psf_image + "' with psf_input = " + psf_input_value(config) +
+    fail(config, "psf_image = " + quoted_value(config.psf_image, kQuotedPathMaxBytes) + " with psf_input = " + psf_input_value(config) +
                      ": the image would not be used; set psf_input = image to fit with it, or leave psf_image out");
   if (config.metacal.enabled) {
     if (!config.metacal.IsValid(&why)) fail(config, why);

@@ -12,6 +12,7 @@
 
 #include "app/array_fit.hpp"
 #include "app/fit_run.hpp"
+#include "engine/common/quoted_value.hpp"
 #include "arguments.hpp"
 #include "numpy_arrays.hpp"
 #include "options.hpp"
@@ -83,8 +84,8 @@ void check_psf_given_once(const io::RunConfig& cfg, const std::string& where) {
     throw io::ConfigError(where + " (an image) and option 'psf_input' = " + io::get_option(cfg, "psf_input") +
                           " both give the PSF; give one (leave psf_input out, or psf=None)");
   if (!cfg.psf_image.empty())
-    throw io::ConfigError(where + " (an image) and option 'psf_image' = '" + cfg.psf_image +
-                          "' both give the PSF; give one");
+    throw io::ConfigError(where + " (an image) and option 'psf_image' = " +
+                          quoted_value(cfg.psf_image, kQuotedPathMaxBytes) + " both give the PSF; give one");
 }
 
 void check_noise_given_once(const io::RunConfig& cfg, const std::string& where) {
