@@ -42,6 +42,13 @@ std::string canonical_option(const std::string& key, const std::string& text) {
   }
 }
 
+// A run option as a fit table's header records it (the key in upper case), or nullopt.
+std::optional<std::string> header_option(io::FitsFile& table, const std::string& key) {
+  std::string upper = key;
+  for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return table.read_key_string(upper);
+}
+
 // ---- build ----------------------------------------------------------------------------------------
 
 void print_build_help() {
@@ -191,9 +198,7 @@ void check_fit_method(const CalibrationTable& table, const std::string& calibrat
     return std::nullopt;
   };
   auto science_value = [&](const std::string& key) -> std::optional<std::string> {
-    std::string upper = key;
-    for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    const auto v = science_file.read_key_string(upper);
+    const auto v = header_option(science_file, key);
     return v ? std::optional<std::string>(canonical_option(key, *v)) : std::nullopt;
   };
   const std::string rebuild = "; rebuild the calibration with the science run's options (stampede calibrate build)";
@@ -258,9 +263,7 @@ int run_apply(int argc, char** argv) {
   int differing = 0;
   for (const auto& [key, value] : table.config) {
     if (kMayDiffer.count(key) || key.starts_with("catalog_")) continue;
-    std::string upper = key;
-    for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    const auto v = in.file().read_key_string(upper);
+    const auto v = header_option(in.file(), key);
     if (v && canonical_option(key, *v) != canonical_option(key, value)) {
       ++differing;
       if (!quiet)

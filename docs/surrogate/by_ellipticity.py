@@ -6,14 +6,7 @@ import sys
 
 import numpy as np
 
-
-def table(path):
-    with open(path) as f:
-        header = next(line for line in f if line.startswith("#") and " e1 " in f" {line[1:]} ")
-    names = header[1:].split()
-    data = np.loadtxt(path, comments="#")
-    return {n: data[:, k] for k, n in enumerate(names)}
-
+from fit_table import table
 
 work = sys.argv[1]
 fast, exact = table(f"{work}/fit_true.txt"), table(f"{work}/fit_false.txt")
