@@ -1,6 +1,7 @@
 // Joint fits over cutouts; see multi_epoch_fitter.hpp.
 #include "engine/fit/multi_epoch_fitter.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -82,13 +83,16 @@ class MultiEpochFitter::Problem final : public LeastSquaresProblem {
   }
 
   double signal() const { return signal_; }  // sum w m^2 at the last normal_equations
+  // Draw with each cutout renderer's surrogate where it has one (the surrogate stage).
+  void use_surrogates(bool on) { surrogates_ = on; }
 
  private:
   // The renderer for e's size, set to its PSF and frame, with scratch sized for it.
   ExactRenderer& select(const EpochData& e) {
     ExactRenderer& r = f_.renderer_for(e.box_size);
     r.set_psf(e.psf);
-    r.set_frame(e.frame);
+    r.set_frame(e.frame);  // the surrogate follows the renderer's PSF and frame
+    ExactRenderer* coarse = surrogates_ ? r.exact_surrogate() : nullptr;
     const std::size_t n = static_cast<std::size_t>(e.box_size) * e.box_size;
     if (model_.size() < n) {  // grows to the largest box once, then never again
       model_.resize(n);
@@ -96,7 +100,7 @@ class MultiEpochFitter::Problem final : public LeastSquaresProblem {
     }
     model_span_ = std::span<double>(model_.data(), n);
     for (std::size_t k = 0; k < jacobian_.size(); ++k) columns_[k] = jacobian_[k].data();
-    return r;
+    return coarse ? *coarse : r;
   }
 
   MultiEpochFitter& f_;
@@ -106,6 +110,7 @@ class MultiEpochFitter::Problem final : public LeastSquaresProblem {
   int pixels_ = 0;
   double negligible_chi2_ = 0;
   double signal_ = NAN;
+  bool surrogates_ = false;
   std::vector<double> model_;
   std::span<double> model_span_;
   std::array<std::vector<double>, kNumParams> jacobian_;
@@ -210,7 +215,29 @@ FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, const ParamVe
   }
   LmVector x0(nf);
   for (int k = 0; k < nf; ++k) x0[k] = start[index(free[static_cast<std::size_t>(k)])];
-  const LmSummary sum = levenberg_marquardt(*problem_, x0, options_.lm);
+  LmOptions lm = options_.lm;
+  // As the single-stamp fit: first on the cutouts' surrogates (where their PSFs have one) to the
+  // looser rule, then exactly from there until the exact model's own rules hold.
+  bool coarse = false;
+  for (const EpochData& e : epochs) {
+    ExactRenderer& er = renderer_for(e.box_size);
+    er.set_psf(e.psf);
+    coarse = coarse || er.exact_surrogate() != nullptr;
+  }
+  if (coarse) {
+    LmOptions first = options_.lm;
+    first.eps4 = std::max(options_.lm.eps4, options_.surrogate_eps4);
+    problem_->use_surrogates(true);
+    const LmSummary s = levenberg_marquardt(*problem_, x0, first);
+    problem_->use_surrogates(false);
+    r.surrogate_iterations = s.iterations;
+    r.surrogate_evaluations = s.evaluations;
+    if (s.reason != StopReason::kInvalidStart && s.x.allFinite()) {
+      x0 = s.x;
+      lm.stop_at_jacobian = true;
+    }
+  }
+  const LmSummary sum = levenberg_marquardt(*problem_, x0, lm);
   r.stop_reason = sum.reason;
   r.stop_value = sum.stop_value;
   r.stop_threshold = sum.stop_threshold;
@@ -221,13 +248,16 @@ FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, const ParamVe
     r.status = FitStatus::kModelFailure;
     return r;
   }
+  // J^T W J and the S/N at the optimum: the solver's last normal equations when they were there.
   double chi2 = sum.chi2;
-  LmMatrix alpha;
+  LmMatrix alpha = sum.alpha;
   LmVector beta;
-  ++r.evaluations;  // J^T W J and the S/N at the optimum
-  if (!problem_->normal_equations(sum.x, &chi2, &alpha, &beta)) {
-    r.status = FitStatus::kSolverFailure;
-    return r;
+  if (!sum.alpha_at_x) {
+    ++r.evaluations;
+    if (!problem_->normal_equations(sum.x, &chi2, &alpha, &beta)) {
+      r.status = FitStatus::kSolverFailure;
+      return r;
+    }
   }
   const ParamVector p = problem_->full(sum.x);
   std::uint32_t flags = 0;

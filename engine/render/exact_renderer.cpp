@@ -92,22 +92,25 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
     std::memset(b.data(), 0, 2 * sizeof(double) * spectrum_size_);
   }
   grid_ = AlignedBuffer(sizeof(double) * static_cast<std::size_t>(stamp_size_) * n_);
-  // FFTW's own interleaved half-spectrum layout: its c2r plans for it run 1.3-3.5x faster than a
-  // split-complex guru plan over the kernels' padded rows (measured at N = 64-128), so each
-  // spectrum is interleaved into `complex_` before its inverse.
+  // FFTW's interleaved complex values: its c2r plans for them run 1.3-3.5x faster than a
+  // split-complex guru plan over the kernels' padded rows, so each spectrum is interleaved before
+  // its inverse, and transposed on the way: the columns' transforms then read contiguous
+  // columns (a strided column plan copies them through buffers; docs/performance.md).
   const int half = n_ / 2 + 1;
   complex_ = AlignedBuffer(sizeof(fftw_complex) * static_cast<std::size_t>(n_) * half);
+  columns_ = AlignedBuffer(sizeof(fftw_complex) * static_cast<std::size_t>(n_) * half);
   // FFTW_ESTIMATE: plans (hence rounding) independent of timing, so fits are bitwise repeatable.
-  // The inverse is pruned to the stamp: the c2c transforms of the half-spectrum's columns (in
-  // place), then c2r transforms of only the stamp_size rows the stamp is cut from (a 2-D plan
-  // would transform all n).
+  // The inverse is pruned to the stamp: the c2c transforms of the half-spectrum's columns, then
+  // c2r transforms of only the stamp_size rows the stamp is cut from (a 2-D plan would transform
+  // all n).
   const unsigned flags = FFTW_ESTIMATE | FFTW_DESTROY_INPUT;
   {
     std::lock_guard<std::mutex> lock(fftw_planner_mutex());
     auto* c = static_cast<fftw_complex*>(complex_.data());
-    column_plan_ = fftw_plan_many_dft(1, &n_, half, c, nullptr, half, 1, c, nullptr, half, 1, FFTW_BACKWARD, flags);
-    row_plan_ = fftw_plan_many_dft_c2r(1, &n_, stamp_size_, c, nullptr, 1, half, static_cast<double*>(grid_.data()),
-                                   nullptr, 1, n_, flags);
+    auto* t = static_cast<fftw_complex*>(columns_.data());
+    column_plan_ = fftw_plan_many_dft(1, &n_, half, c, nullptr, 1, n_, t, nullptr, 1, n_, FFTW_BACKWARD, flags);
+    row_plan_ = fftw_plan_many_dft_c2r(1, &n_, stamp_size_, t, nullptr, n_, 1, static_cast<double*>(grid_.data()),
+                                       nullptr, 1, n_, flags);
   }
   if (!column_plan_ || !row_plan_) throw std::runtime_error("FFTW could not plan the exact renderer's inverse transform");
   for (auto& s : component_stamps_) s.assign(static_cast<std::size_t>(stamp_size_) * stamp_size_, 0.0);
@@ -314,10 +317,10 @@ void ExactRenderer::inverse(int k, double* stamp) {
   for (int jy = 0; jy < n_; ++jy) {
     const double* r = re + static_cast<std::size_t>(jy) * row_stride_;
     const double* i = im + static_cast<std::size_t>(jy) * row_stride_;
-    double* o = c + 2 * static_cast<std::size_t>(jy) * half;
+    double* o = c + 2 * static_cast<std::size_t>(jy);
     for (int jx = 0; jx < half; ++jx) {
-      o[2 * jx] = r[jx];
-      o[2 * jx + 1] = i[jx];
+      o[2 * static_cast<std::size_t>(jx) * n_] = r[jx];
+      o[2 * static_cast<std::size_t>(jx) * n_ + 1] = i[jx];
     }
   }
   fftw_execute(static_cast<fftw_plan>(column_plan_));

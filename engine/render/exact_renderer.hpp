@@ -82,7 +82,9 @@ class ExactRenderer final : public Renderer {
   void component_fluxes(const ParamVector& p, double* bulge, double* disc) const override;
   // This renderer on the surrogate's period and tolerance, when the options ask for one and the
   // current PSF was prepared with one.
-  Renderer* surrogate() override { return surrogate_ && psf_ && psf_->surrogate() ? surrogate_.get() : nullptr; }
+  Renderer* surrogate() override { return exact_surrogate(); }
+  // The same, as what it is (a multi-epoch fit draws each cutout with its box's renderer or this).
+  ExactRenderer* exact_surrogate() { return surrogate_ && psf_ && psf_->surrogate() ? surrogate_.get() : nullptr; }
 
   // The frame the model's parameters live in (model/pixel_frame.hpp): x0, y0 become (u0, v0) and
   // the shape is (u, v)'s, and d/dx0, d/dy0 become d/du0, d/dv0. The identity (the default) is the
@@ -128,15 +130,17 @@ class ExactRenderer final : public Renderer {
   double bulge_index_ = 0;
   const kernels::KSpaceKernels* kernels_;
   const kernels::WrapKernels* wrap_kernels_;
-  void* column_plan_ = nullptr;  // fftw_plan: the columns' c2c inverse, in place in complex_
-  void* row_plan_ = nullptr;     // fftw_plan: the stamp rows' c2r from complex_ into grid_
+  void* column_plan_ = nullptr;  // fftw_plan: the columns' c2c inverse, complex_ into columns_
+  void* row_plan_ = nullptr;     // fftw_plan: the stamp rows' c2r from columns_ into grid_
   int row_stride_ = 0;
   double* spectrum_re(int k) const { return static_cast<double*>(spectra_[k].data()); }
   double* spectrum_im(int k) const { return spectrum_re(k) + spectrum_size_; }
   std::size_t spectrum_size_ = 0;  // n * row_stride
   // The kernels' output, split complex (real, then imaginary), rows of row_stride_.
   std::array<AlignedBuffer, kernels::kNumKSpaceImages> spectra_;
-  AlignedBuffer complex_;  // one interleaved N x (N/2 + 1) half-spectrum, reused per inverse
+  // One interleaved half-spectrum, transposed ((N/2 + 1) columns of N), and its columns' inverse;
+  // reused per inverse.
+  AlignedBuffer complex_, columns_;
   AlignedBuffer grid_;     // the inverse's stamp_size rows of N, reused per inverse
   // Per render: the bins' phases (row_stride columns, n rows) and the aliases' (KSpaceModel).
   std::vector<double> bin_x_re_, bin_x_im_, bin_y_re_, bin_y_im_, alias_re_, alias_im_;
