@@ -353,6 +353,26 @@ std::vector<Entry> make_registry() {
                  return std::string();
                },
                HeaderValueType::kInteger});
+  r.push_back({"metacal_model",
+               "metacal: the model of its five fits (the row's e is the noshear fit's): bd (the run's bulge + disc "
+               "model), exp (the disc alone) or gauss (a Sersic n = 0.5 alone, as DES Y3); exp and gauss replace "
+               "the amplitude and bulge_index settings",
+               mcal,
+               [](const RunConfig& c) {
+                 switch (c.metacal.model) {
+                   case MetacalModel::kExponential: return std::string("exp");
+                   case MetacalModel::kGaussian: return std::string("gauss");
+                   default: return std::string("bd");
+                 }
+               },
+               [](RunConfig& c, const std::string& v) {
+                 const std::string l = lower(v);
+                 if (l == "bd") c.metacal.model = MetacalModel::kBulgeDisc;
+                 else if (l == "exp") c.metacal.model = MetacalModel::kExponential;
+                 else if (l == "gauss") c.metacal.model = MetacalModel::kGaussian;
+                 else return std::string("expected bd, exp or gauss");
+                 return std::string();
+               }});
 
   const char* model = "Model reparameterisation (paper appendix A)";
   r.push_back(double_entry(model, "ellipticity_mirror", "|e| about which the ellipticity is mirrored, in (0, 1)",

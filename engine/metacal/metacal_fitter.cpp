@@ -22,6 +22,25 @@ void add_rotated_back(std::span<const double> in, std::span<double> out, int s) 
     for (int x = 0; x < s; ++x) out[static_cast<std::size_t>(y) * s + x] += in[static_cast<std::size_t>(x) * s + (s - 1 - y)];
 }
 
+// The fit options of the chosen metacal model: one component, the other's amplitude held at 0.
+FitterOptions with_model(FitterOptions o, MetacalModel model) {
+  auto only = [&](Param keep, Param zero) {
+    o.params[zero].free = false;
+    o.params[zero].start = 0;
+    o.params[keep].free = true;
+  };
+  switch (model) {
+    case MetacalModel::kBulgeDisc: break;
+    case MetacalModel::kExponential: only(Param::kDiscA, Param::kBulgeA); break;
+    case MetacalModel::kGaussian:
+      only(Param::kBulgeA, Param::kDiscA);
+      o.params[Param::kBulgeIndex].free = false;
+      o.params[Param::kBulgeIndex].start = 0.5;
+      break;
+  }
+  return o;
+}
+
 constexpr std::uint64_t kFixnoisePurpose = 0x6669786e6f697365ull;  // "fixnoise"
 
 }  // namespace
@@ -40,7 +59,7 @@ bool MetacalOptions::IsValid(std::string* why) const {
 
 MetacalFitter::MetacalFitter(const FitterOptions& fit_options, const MetacalOptions& options, int stamp_size,
                              FftPlanCache& plans, FftPlanning planning)
-    : fit_options_(fit_options),
+    : fit_options_(with_model(fit_options, options.model)),
       options_(options),
       s_(stamp_size),
       imager_(stamp_size, MetacalImager::padded_size(stamp_size), planning) {

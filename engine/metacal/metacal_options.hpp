@@ -6,6 +6,11 @@
 
 namespace stampede {
 
+// The model metacal's five fits use. Metacal calibrates whatever model it fits, so this need not be
+// the physical bulge + disc: kExponential is the disc alone, kGaussian a Sérsic n = 0.5 alone
+// (DES Y3 fits a Gaussian), each replacing the amplitude and index settings of the run's model.
+enum class MetacalModel { kBulgeDisc, kExponential, kGaussian };
+
 struct MetacalOptions {
   bool enabled = false;
   double step = 0.01;  // the applied shear delta
@@ -17,6 +22,7 @@ struct MetacalOptions {
   // images' correlated noise is isotropic (Sheldon & Huff 2017's "fixnoise").
   bool fixnoise = true;
   std::uint64_t seed = 20170101;  // keys the fixnoise fields with each object's id
+  MetacalModel model = MetacalModel::kBulgeDisc;
   bool IsValid(std::string* why) const;
 };
 
