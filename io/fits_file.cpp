@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <string_view>
 #include <system_error>
@@ -64,6 +65,18 @@ bool is_numeric_column_type(int type) {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
+// Whether a failed open (CFITSIO `status`) is of a file that is not FITS at all, which CFITSIO's
+// text ("1st key not SIMPLE or XTENSION") does not say to a reader who gave the wrong file: a
+// plain file on disk whose first card is not SIMPLE (gzip files are left to CFITSIO's text).
+bool not_fits(int status, const std::string& path) {
+  if (status != NO_SIMPLE && status != UNKNOWN_REC) return false;
+  std::ifstream in(root_name(path), std::ios::binary);
+  char head[9] = {};
+  if (!in.read(head, sizeof head)) return false;
+  const std::string_view start(head, sizeof head);
+  return start != "SIMPLE  =" && !start.starts_with("\x1f\x8b");
+}
+
 }  // namespace
 
 std::string fits_root_name(const std::string& path) { return root_name(path); }
@@ -80,7 +93,8 @@ FitsFile FitsFile::open_read(const std::string& path) {
   fits_open_file(&f, path.c_str(), READONLY, &status);
   if (status != 0) {
     // CFITSIO frees the half-opened file itself on failure.
-    throw FitsError("cannot open FITS file '" + path + "': " + cfitsio_status_text(status));
+    throw FitsError("cannot open FITS file '" + path + "': " + (not_fits(status, path) ? "not a FITS file: " : "") +
+                    cfitsio_status_text(status));
   }
   return FitsFile(f, path, /*auto_image=*/true);
 }
@@ -227,6 +241,21 @@ int FitsFile::hdu_index() {
   return hdunum - 1;
 }
 
+FitsFile::HduKind FitsFile::hdu_kind() {
+  fitsfile* f = as_fits(handle());
+  int type = 0, naxis = 0, status = 0;
+  fits_get_hdu_type(f, &type, &status);
+  if (status != 0) fail_status(status, "cannot read HDU type");
+  if (type != IMAGE_HDU) return HduKind::kTable;
+  fits_get_img_dim(f, &naxis, &status);
+  if (status != 0) fail_status(status, "cannot read NAXIS");
+  if (naxis <= 0) return HduKind::kEmpty;
+  std::vector<LONGLONG> dims(static_cast<std::size_t>(naxis));
+  fits_get_img_sizell(f, naxis, dims.data(), &status);
+  if (status != 0) fail_status(status, "cannot read image size");
+  return std::ranges::all_of(dims, [](LONGLONG d) { return d > 0; }) ? HduKind::kImage : HduKind::kEmpty;
+}
+
 // --- header keywords ------------------------------------------------------------------------------
 
 // The keyword's value field as written (strings keep their quotes; "" = no value), or nullopt if
@@ -329,6 +358,117 @@ std::optional<std::string> FitsFile::read_key_string(const std::string& key) {
   // FITS: trailing blanks in a string value are not significant.
   out.erase(out.find_last_not_of(' ') + 1);
   return out;
+}
+
+namespace {
+
+std::string trim_right(std::string s) {
+  s.erase(s.find_last_not_of(' ') + 1);
+  return s;
+}
+
+// A quoted FITS string value ('it''s  ') unquoted, '' read as ', trailing blanks dropped.
+std::string unquote(std::string_view raw) {
+  std::string out;
+  const std::size_t begin = raw.find('\'');
+  for (std::size_t i = begin == std::string_view::npos ? raw.size() : begin + 1; i < raw.size(); ++i) {
+    if (raw[i] == '\'') {
+      if (i + 1 < raw.size() && raw[i + 1] == '\'') {
+        out += '\'';
+        ++i;
+        continue;
+      }
+      break;
+    }
+    out += raw[i];
+  }
+  return trim_right(std::move(out));
+}
+
+}  // namespace
+
+std::vector<FitsFile::HeaderCard> FitsFile::header_cards() {
+  fitsfile* f = as_fits(handle());
+  int nkeys = 0, more = 0, status = 0;
+  fits_get_hdrspace(f, &nkeys, &more, &status);
+  if (status != 0) fail_status(status, "cannot read the header");
+  std::vector<HeaderCard> cards;
+  bool continued = false;  // the last card is a string ending in '&': a CONTINUE card may follow
+  for (int k = 1; k <= nkeys; ++k) {
+    char record[FLEN_CARD] = {};
+    fits_read_record(f, k, record, &status);
+    if (status != 0) fail_status(status, "cannot read header card " + std::to_string(k));
+    const std::string_view card(record);
+    if (continued && card.starts_with("CONTINUE")) {
+      // "CONTINUE  'more&' / comment". CFITSIO parses no value on a CONTINUE card, so this one is
+      // parsed under a neutral name, as an ordinary card with its value in column 11.
+      std::string as_key = "CONTINUX= " + std::string(card.substr(std::min<std::size_t>(10, card.size())));
+      char value[FLEN_VALUE] = {}, comment[FLEN_COMMENT] = {};
+      fits_parse_value(as_key.data(), value, comment, &status);
+      if (status != 0) fail_status(status, "cannot parse header card " + std::to_string(k) + " (CONTINUE)");
+      HeaderCard& last = cards.back();
+      last.value.pop_back();  // the '&'
+      last.value += unquote(value);
+      if (comment[0] != '\0') {
+        if (!last.comment.empty()) last.comment += ' ';
+        last.comment += comment;
+      }
+      continued = last.value.ends_with('&');
+      continue;
+    }
+    continued = false;
+    HeaderCard out;
+    char name[FLEN_KEYWORD] = {};
+    int length = 0;
+    fits_get_keyname(record, name, &length, &status);  // a HIERARCH card's long name
+    if (status != 0) fail_status(status, "cannot parse the keyword of header card " + std::to_string(k));
+    out.key = trim_right(name);
+    // A value indicator is "= " in columns 9-10, or for a HIERARCH card an '=' anywhere.
+    const bool hierarch = card.starts_with("HIERARCH ");
+    const bool has_value = out.key != "COMMENT" && out.key != "HISTORY" && !out.key.empty() &&
+                           (hierarch ? card.find('=') != std::string_view::npos
+                                     : card.size() > 8 && card[8] == '=' && (card.size() == 9 || card[9] == ' '));
+    if (!has_value) {
+      out.value = trim_right(std::string(card.substr(std::min<std::size_t>(8, card.size()))));
+      cards.push_back(std::move(out));
+      continue;
+    }
+    char value[FLEN_VALUE] = {}, comment[FLEN_COMMENT] = {};
+    fits_parse_value(record, value, comment, &status);
+    if (status != 0) fail_status(status, "cannot parse header card " + std::to_string(k) + " ('" + out.key + "')");
+    out.comment = trim_right(comment);
+    out.comment.erase(0, out.comment.find_first_not_of(' '));
+    const std::string raw = value;
+    switch (raw.empty() ? '\0' : value_type(raw)) {
+      case '\0':
+        out.type = raw.empty() ? HeaderCard::Type::kUndefined : HeaderCard::Type::kString;
+        out.value = raw;  // a value CFITSIO cannot classify: as written
+        break;
+      case 'C':
+        out.type = HeaderCard::Type::kString;
+        out.value = unquote(raw);
+        continued = out.value.ends_with('&');
+        break;
+      case 'L':
+        out.type = HeaderCard::Type::kLogical;
+        out.value = raw;
+        break;
+      case 'I':
+        out.type = HeaderCard::Type::kInteger;
+        out.value = raw;
+        break;
+      case 'F':
+        out.type = HeaderCard::Type::kReal;
+        out.value = raw;
+        std::ranges::replace_if(out.value, [](char c) { return c == 'D' || c == 'd'; }, 'E');
+        break;
+      default:  // 'X', complex
+        out.type = HeaderCard::Type::kString;
+        out.value = raw;
+    }
+    cards.push_back(std::move(out));
+  }
+  return cards;
 }
 
 double FitsFile::key_double(const std::string& key) {
@@ -625,14 +765,14 @@ long long FitsFile::table_rows() {
   return static_cast<long long>(rows);
 }
 
-// 1-based column number of the first column whose TTYPE equals `name` ignoring case. Compared
-// here rather than with fits_get_colnum, which treats '*', '?' and '#' as wildcards.
-std::optional<int> FitsFile::find_column(const std::string& name) {
+std::vector<std::string> FitsFile::column_names() {
+  require_table();
   fitsfile* f = as_fits(handle());
   int ncols = 0;
   int status = 0;
   fits_get_num_cols(f, &ncols, &status);
   if (status != 0) fail_status(status, "cannot read the number of table columns");
+  std::vector<std::string> names;
   for (int col = 1; col <= ncols; ++col) {
     const std::string key = "TTYPE" + std::to_string(col);
     char ttype[FLEN_VALUE] = {};
@@ -640,12 +780,32 @@ std::optional<int> FitsFile::find_column(const std::string& name) {
     if (status == KEY_NO_EXIST) {  // an unnamed column
       fits_clear_errmsg();
       status = 0;
-      continue;
     }
     if (status != 0) fail_status(status, "cannot read " + key);
-    if (iequals(ttype, name)) return col;
+    names.emplace_back(ttype);
+  }
+  return names;
+}
+
+// 1-based column number of the first column whose TTYPE equals `name` ignoring case. Compared
+// here rather than with fits_get_colnum, which treats '*', '?' and '#' as wildcards.
+std::optional<int> FitsFile::find_column(const std::string& name) {
+  const std::vector<std::string> names = column_names();
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (!names[i].empty() && iequals(names[i], name)) return static_cast<int>(i) + 1;
   }
   return std::nullopt;
+}
+
+bool FitsFile::is_integer_column(const std::string& name) {
+  void* nulval = nullptr;
+  long long repeat = 0;
+  const int col = numeric_column(name, &nulval, &repeat);
+  int type = 0, status = 0;
+  LONGLONG n = 0, width = 0;
+  fits_get_eqcoltypell(as_fits(handle()), col, &type, &n, &width, &status);  // after TSCAL/TZERO
+  if (status != 0) fail_status(status, "cannot read the type of column '" + name + "'");
+  return type != TFLOAT && type != TDOUBLE;  // numeric_column refused every non-numeric type
 }
 
 bool FitsFile::has_column(const std::string& name) {
@@ -702,6 +862,52 @@ void FitsFile::read_column_rows(const std::string& name, long long first_row, st
 
 void FitsFile::read_column_rows(const std::string& name, long long first_row, std::span<long long> out) {
   read_rows(name, first_row, out, false);
+}
+
+void FitsFile::read_columns_rows(long long first_row, std::span<const ColumnOutput> columns) {
+  struct Column {
+    int number;
+    bool integer;
+    void* nulval;  // non-null: an integer column read as double, TNULL -> NaN
+    void* data;
+  };
+  std::vector<Column> plan;
+  const std::size_t n = columns.empty() ? 0 : std::visit([](auto s) { return s.size(); }, columns.front().out);
+  for (const ColumnOutput& c : columns) {
+    void* nulval = nullptr;
+    const int number = numeric_column(c.name, &nulval);
+    const bool integer = std::holds_alternative<std::span<long long>>(c.out);
+    if (integer && nulval == nullptr) fail("column '" + c.name + "' is not an integer column");
+    const std::size_t size = std::visit([](auto s) { return s.size(); }, c.out);
+    if (size != n)
+      fail("read_columns_rows: the output of column '" + c.name + "' holds " + std::to_string(size) + " values, that of '" +
+           columns.front().name + "' " + std::to_string(n));
+    require_rows(c.name, first_row, size, 1);
+    plan.push_back({number, integer, nulval, std::visit([](auto s) { return static_cast<void*>(s.data()); }, c.out)});
+  }
+  if (n == 0) return;
+  fitsfile* f = as_fits(handle());
+  long block = 0;
+  int status = 0;
+  fits_get_rowsize(f, &block, &status);  // the rows CFITSIO's buffers hold
+  if (status != 0) fail_status(status, "cannot read the table's row size");
+  const std::size_t rows_per_block = static_cast<std::size_t>(std::max(block, 1L));
+  double nan = kNaN;
+  for (std::size_t r = 0; r < n; r += rows_per_block) {
+    const auto k = static_cast<LONGLONG>(std::min(rows_per_block, n - r));
+    const LONGLONG row = first_row + 1 + static_cast<LONGLONG>(r);
+    for (std::size_t i = 0; i < plan.size(); ++i) {
+      const Column& c = plan[i];
+      int anynul = 0;
+      if (c.integer) {
+        fits_read_col(f, TLONGLONG, c.number, row, 1, k, nullptr, static_cast<long long*>(c.data) + r, &anynul, &status);
+      } else {
+        fits_read_col(f, TDOUBLE, c.number, row, 1, k, c.nulval ? &nan : nullptr, static_cast<double*>(c.data) + r,
+                      &anynul, &status);
+      }
+      if (status != 0) fail_status(status, "cannot read column '" + columns[i].name + "'");
+    }
+  }
 }
 
 long long FitsFile::column_repeat(const std::string& name) {

@@ -14,6 +14,7 @@
 #include <span>
 #include <string>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "io/fits_error.hpp"
@@ -50,6 +51,11 @@ class FitsFile {
   // Moves to the HDU named `extname` and returns true, or stays and returns false when none is.
   bool move_to_if_present(const std::string& extname);
   int hdu_index();                           // 0-based current HDU
+  // What the current HDU holds (no automatic move to the first image, unlike the image
+  // functions): kEmpty is an image HDU without pixels (NAXIS = 0 or an axis of length 0), such as
+  // a header-only primary; kTable a binary or ASCII table.
+  enum class HduKind { kImage, kEmpty, kTable };
+  HduKind hdu_kind();
   // "FILE[HDU n 'EXTNAME']" ("FILE[HDU n]" when there is no EXTNAME); FILE is the path without
   // CFITSIO's bracketed extended syntax. Never throws.
   std::string describe();
@@ -64,6 +70,23 @@ class FitsFile {
   double key_double(const std::string& key);
   long long key_long(const std::string& key);
   std::string key_string(const std::string& key);
+  // One card of the current header, for a reader that wants all of them (a report of a run's
+  // options) rather than the keywords it knows.
+  struct HeaderCard {
+    // kCommentary: COMMENT, HISTORY, a blank keyword or any card without a value indicator.
+    // kUndefined: "KEY =" with no value. Complex values are kString, as written.
+    enum class Type { kCommentary, kUndefined, kString, kLogical, kInteger, kReal };
+    std::string key;      // as in the file; a HIERARCH card's by its long name
+    Type type = Type::kCommentary;
+    // kString: unquoted, CONTINUE cards joined (LONGSTRN), trailing blanks dropped; kLogical "T"
+    // or "F"; kInteger and kReal as written (a real's D exponent as E, so strtod reads it);
+    // kCommentary: the text from column 9, trailing blanks dropped.
+    std::string value;
+    std::string comment;  // after the '/', trimmed ("" for commentary cards)
+  };
+  // Every card of the current HDU in order, END excluded, a long string's CONTINUE cards folded
+  // into the card they continue. A repeated keyword is listed each time.
+  std::vector<HeaderCard> header_cards();
   // Adds the keyword or replaces its value and comment. Doubles are written with 17 significant
   // digits so they read back bitwise; long strings use the CONTINUE convention.
   void write_key(const std::string& key, double value, const std::string& comment);
@@ -114,6 +137,12 @@ class FitsFile {
   long long table_rows();
   // Column names match case-insensitively and literally (no CFITSIO wildcards).
   bool has_column(const std::string& name);
+  // Every column's TTYPEn in column order ("" for a column without one).
+  std::vector<std::string> column_names();
+  // Whether a numeric column's values (after TSCAL/TZERO) are integers, i.e. whether to read it
+  // into long long rather than double; scalar and vector columns alike. Throws as read_column
+  // does for an absent or non-numeric column (strings, logicals, bits, complex).
+  bool is_integer_column(const std::string& name);
   // A whole scalar numeric column converted to double (TNULL values become NaN). Throws
   // "PATH[HDU n 'TRUTH']: no column 'NAME'" if absent, or if the column is not scalar numeric.
   std::vector<double> read_column(const std::string& name);
@@ -124,6 +153,16 @@ class FitsFile {
   // beyond 2^53 included; TNULL is not applied). Throws "... column 'NAME' is not an integer
   // column" for a floating-point column.
   void read_column_rows(const std::string& name, long long first_row, std::span<long long> out);
+  // Several scalar numeric columns over the same rows [first_row, first_row + n), n the size of
+  // every output, each into a double or a long long span (converted as the single-column forms
+  // above). Faster than one call per column on a wide table: the rows are read in blocks that fit
+  // CFITSIO's buffers, every column of a block before the next, so each row comes from the file
+  // once rather than once per column (15 of 27 columns of 10^7 rows: 3-4 s rather than 12 s).
+  struct ColumnOutput {
+    std::string name;
+    std::variant<std::span<double>, std::span<long long>> out;
+  };
+  void read_columns_rows(long long first_row, std::span<const ColumnOutput> columns);
   // Vector numeric columns ('5K', '1681E'): values per row, and rows [first_row, first_row +
   // out.size() / repeat) into `out`, row after row (out.size() must be a multiple of repeat).
   // Scalar columns have repeat 1. Integer columns read as doubles are exact up to 2^53.

@@ -149,4 +149,19 @@ std::vector<std::string> Arguments::texts(const char* name) const {
   return out;
 }
 
+std::vector<std::string> Arguments::names(const char* name) const {
+  const py::object v = object(name);
+  if (!py::isinstance<py::list>(v) && !py::isinstance<py::tuple>(v))
+    throw py::type_error(where(name) + " must be a list of str, not " + describe(v));
+  std::vector<std::string> out;
+  std::size_t k = 0;
+  for (py::handle item : v) {
+    const std::string at = where(name) + "[" + std::to_string(k++) + "]";
+    if (!py::isinstance<py::str>(item)) throw py::type_error(at + " must be a str, not " + describe(item));
+    out.push_back(item.cast<std::string>());
+    if (out.back().find('\0') != std::string::npos) throw py::value_error(at + " holds a NUL byte: " + describe(item));
+  }
+  return out;
+}
+
 }  // namespace stampede::python

@@ -49,6 +49,8 @@ class Arguments {
   bool flag(const char* name, bool fallback) const;
   // A list or tuple of str / os.PathLike.
   std::vector<std::string> texts(const char* name) const;
+  // A list or tuple of str (column names, keys; a bare str is refused, not read as its letters).
+  std::vector<std::string> names(const char* name) const;
 
   // "function(): name" for a message about the argument; for the parts of one argument (a
   // function named "run_fit(): shard"), "run_fit(): shard: i".

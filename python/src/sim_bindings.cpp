@@ -10,7 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "engine/analysis/metacal_shear.hpp"
 #include "engine/analysis/shear_metrics.hpp"
+#include "engine/pipeline/object_record.hpp"
 #include "engine/sim/great08_sim.hpp"
 #include "arguments.hpp"
 #include "numpy_arrays.hpp"
@@ -201,6 +203,50 @@ Returns {'image': 2-D array, 'stamps': (grid^2, S, S) in grid order, 'truth': st
         return set_shear_dict(s);
       },
       "set_shear(e1, e2, usable, pair, g1_true, g2_true, bootstrap=200, seed=1)\n\nOne set's shear estimate (ring pairs averaged first; bootstrap errors), as `stampede metrics` per set.");
+
+  m.def(
+      "metacal_set_shear",
+      [](py::args args, py::kwargs kwargs) {
+        const Arguments in("metacal_set_shear", args, kwargs,
+                           {{"e1", true}, {"e2", true}, {"r11", true}, {"r12", true}, {"r21", true}, {"r22", true},
+                            {"selected", true}, {"pair", true}, {"g1_true", true}, {"g2_true", true}, {"step"},
+                            {"bootstrap"}, {"seed"}});
+        const double g1_true = in.real("g1_true", 0), g2_true = in.real("g2_true", 0), step = in.real("step", 0.01);
+        const int bootstrap = static_cast<int>(in.integer_in("bootstrap", 200, 1, 1000000));
+        const auto seed = static_cast<std::uint64_t>(in.integer_in("seed", 1, 0, LLONG_MAX));
+        if (!(step > 0)) throw py::value_error("metacal_set_shear(): step must be positive");
+        const DoubleArray e1 = as_float64(in.object("e1"), {1}, "e1"), e2 = as_float64(in.object("e2"), {1}, "e2");
+        const DoubleArray r11 = as_float64(in.object("r11"), {1}, "r11"), r12 = as_float64(in.object("r12"), {1}, "r12");
+        const DoubleArray r21 = as_float64(in.object("r21"), {1}, "r21"), r22 = as_float64(in.object("r22"), {1}, "r22");
+        const auto sel = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>::ensure(in.object("selected"));
+        const auto p = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(in.object("pair"));
+        if (!sel || !p) {
+          PyErr_Clear();
+          throw py::type_error("metacal_set_shear(): selected and pair must be integer arrays");
+        }
+        const auto n = e1.size();
+        for (const DoubleArray* a : {&e2, &r11, &r12, &r21, &r22})
+          if (a->size() != n) throw py::value_error("e1, e2, r11, r12, r21, r22, selected and pair must have one value per object");
+        if (sel.size() != n || p.size() != n)
+          throw py::value_error("e1, e2, r11, r12, r21, r22, selected and pair must have one value per object");
+        const std::size_t count = static_cast<std::size_t>(n);
+        const MetacalRows rows{values(e1), values(e2), {values(r11), values(r12), values(r21), values(r22)},
+                               {sel.data(), count}, {p.data(), count}, step};
+        const MetacalSetShear m = estimate_metacal_set_shear(rows, g1_true, g2_true, bootstrap, seed);
+        py::dict d = set_shear_dict(m.shear);
+        d["R"] = py::make_tuple(m.r[0], m.r[1], m.r[2], m.r[3]);
+        d["R_S"] = py::make_tuple(m.r_sel[0], m.r_sel[1], m.r_sel[2], m.r_sel[3]);
+        d["g1_raw"] = m.g1_raw;
+        d["g2_raw"] = m.g2_raw;
+        return d;
+      },
+      "metacal_set_shear(e1, e2, r11, r12, r21, r22, selected, pair, g1_true, g2_true, step=0.01, bootstrap=200, seed=1)\n\n"
+      "One set's metacalibrated shear, as `stampede metrics --metacal` per set: g = (<R> + R_S)^-1 <e>, ring pairs\n"
+      "averaged first, bootstrap errors. selected: per object, bit 0 passes the selection on the noshear\n"
+      "quantities, bits 1-4 on the 1p 1m 2p 2m images' (0x1f for every usable object without cuts; 0 excludes).\n"
+      "Returns set_shear()'s dict with 'R' and 'R_S' (R11 R12 R21 R22), 'g1_raw', 'g2_raw'.");
+  // The flags that exclude a row from every shear estimate (`stampede metrics`' rule).
+  m.attr("shear_excluding_flags") = static_cast<unsigned long long>(kShearExcludingFlags);
 
   m.def(
       "shear_metrics",

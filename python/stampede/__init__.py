@@ -24,18 +24,23 @@ from ._stampede import (  # noqa: F401
     fit_stamp,
     fit_stamps,
     fit_status_names,
+    fits_hdus,
+    fits_header,
     merge_shards,
+    metacal_set_shear,
     option_help,
     read_image,
     read_results,
+    read_table,
     run_fit,
     set_shear,
+    shear_excluding_flags,
     shear_metrics,
     simulate_great08,
 )
 
 __all__ = [
     "CatalogError", "ConfigError", "Error", "FileError", "FitsError", "Fitter", "Options",
-    "fit_stamp", "fit_stamps", "fit_status_names", "merge_shards", "option_help", "read_image", "read_results", "run_fit", "set_shear", "shear_metrics",
+    "fit_stamp", "fit_stamps", "fit_status_names", "fits_hdus", "fits_header", "merge_shards", "metacal_set_shear", "option_help", "read_image", "read_results", "read_table", "run_fit", "set_shear", "shear_excluding_flags", "shear_metrics",
     "simulate_great08",
 ]

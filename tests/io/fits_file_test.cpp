@@ -3,6 +3,7 @@
 // is a FitsError naming the file, HDU and keyword or column.
 #include "io/fits_file.hpp"
 
+#include <fitsio.h>
 #include <gtest/gtest.h>
 
 #include "support/error_assertions.hpp"
@@ -385,6 +386,170 @@ TEST_F(FitsFileTmp, MoveTransfersOwnership) {
   EXPECT_THROW(c.table_rows(), FitsError);
 }
 
+// --- listing: header cards, HDU kinds, column names and types ---------------------------------------
+
+TEST_F(FitsFileTmp, HeaderCardsInOrderWithTypesHierarchAndContinue) {
+  const std::string path = tmp("cards.fits");
+  const std::string long_value = "it's " + std::string(150, 'v') + "&end";  // a '&' inside the value too
+  {
+    FitsFile f = FitsFile::create(path, false);
+    f.write_empty_image();
+    f.write_key("NOBJ", 400, "objects");
+    f.write_key("GAIN", 0.25, "e/ADU");
+    f.write_key("INPUT", long_value, "needs CONTINUE cards");
+    f.write_key("TAIL", std::string("a&"), "ends in '&', nothing continues it");
+    f.close();
+  }
+  {  // cards FitsFile does not write: raw, through CFITSIO
+    fitsfile* raw = nullptr;
+    int status = 0;
+    fits_open_file(&raw, path.c_str(), READWRITE, &status);
+    for (const char* card : {"HIERARCH metacal_step = 0.01 / sheared images' step", "FLAG    =                    T",
+                             "SMALL   =               1.5D-3", "UNDEF   =", "COMMENT flags bit 0 (1): edge",
+                             "HISTORY made by a test", "        a blank keyword"}) {
+      fits_write_record(raw, card, &status);
+    }
+    fits_close_file(raw, &status);
+    ASSERT_EQ(status, 0);
+  }
+  FitsFile f = FitsFile::open_read(path);
+  const std::vector<FitsFile::HeaderCard> cards = f.header_cards();
+  using Type = FitsFile::HeaderCard::Type;
+  auto find = [&](const std::string& key) {
+    const auto it = std::ranges::find(cards, key, &FitsFile::HeaderCard::key);
+    return it == cards.end() ? FitsFile::HeaderCard{"(absent)", Type::kCommentary, "", ""} : *it;
+  };
+  ASSERT_FALSE(cards.empty());
+  EXPECT_EQ(cards.front().key, "SIMPLE");
+  EXPECT_EQ(cards.front().type, Type::kLogical);
+  EXPECT_EQ(cards.front().value, "T");
+  EXPECT_EQ(find("NOBJ").type, Type::kInteger);
+  EXPECT_EQ(find("NOBJ").value, "400");
+  EXPECT_EQ(find("NOBJ").comment, "objects");
+  EXPECT_EQ(find("GAIN").type, Type::kReal);
+  EXPECT_EQ(std::stod(find("GAIN").value), 0.25);
+  EXPECT_EQ(find("INPUT").type, Type::kString);
+  EXPECT_EQ(find("INPUT").value, long_value);  // CONTINUE cards joined, the quote unescaped
+  EXPECT_EQ(find("TAIL").value, "a&");
+  EXPECT_EQ(find("METACAL_STEP").type, Type::kReal);  // HIERARCH: the long name (CFITSIO upper-cases it)
+  EXPECT_EQ(find("METACAL_STEP").value, "0.01");
+  EXPECT_EQ(find("METACAL_STEP").comment, "sheared images' step");
+  EXPECT_EQ(find("FLAG").type, Type::kLogical);
+  EXPECT_EQ(find("SMALL").value, "1.5E-3");  // D exponent as E
+  EXPECT_EQ(std::stod(find("SMALL").value), 1.5e-3);
+  EXPECT_EQ(find("UNDEF").type, Type::kUndefined);
+  const auto comment = std::ranges::find(cards, std::string("flags bit 0 (1): edge"), &FitsFile::HeaderCard::value);
+  ASSERT_NE(comment, cards.end());
+  EXPECT_EQ(comment->key, "COMMENT");
+  EXPECT_EQ(comment->type, Type::kCommentary);
+  EXPECT_EQ(find("HISTORY").value, "made by a test");
+  EXPECT_EQ(find("").value, "a blank keyword");
+  EXPECT_EQ(std::ranges::count(cards, std::string("CONTINUE"), &FitsFile::HeaderCard::key), 0);
+  // In card order: the keys written first come first.
+  std::vector<std::string> keys;
+  for (const auto& c : cards) keys.push_back(c.key);
+  const auto at = [&](const std::string& k) { return std::ranges::find(keys, k) - keys.begin(); };
+  EXPECT_LT(at("NOBJ"), at("GAIN"));
+  EXPECT_LT(at("TAIL"), at("METACAL_STEP"));
+  EXPECT_LT(comment - cards.begin(), at("HISTORY"));
+}
+
+TEST_F(FitsFileTmp, HduKindsColumnNamesAndIntegerColumns) {
+  const std::string path = tmp("kinds.fits");
+  {
+    FitsFile f = FitsFile::create(path, false);
+    f.write_empty_image();
+    f.write_table("TRUTH", {{"index", true, {0, 1, 2}}, {"e1", false, {0.1, -0.25, 0.5}}});
+    f.write_image(3, 2, std::vector<double>(6, 1.0), "IMG");
+    f.close();
+  }
+  {  // an unsigned (TZERO) integer, a scaled one, a vector, a logical and a string column
+    fitsfile* raw = nullptr;
+    int status = 0;
+    fits_open_file(&raw, path.c_str(), READWRITE, &status);
+    char n0[] = "flags", n1[] = "scaled", n2[] = "vec", n3[] = "ok", n4[] = "label";
+    char f0[] = "1V", f1[] = "1J", f2[] = "3K", f3[] = "1L", f4[] = "8A";
+    char* names[] = {n0, n1, n2, n3, n4};
+    char* forms[] = {f0, f1, f2, f3, f4};
+    fits_create_tbl(raw, BINARY_TBL, 2, 5, names, forms, nullptr, "MIXED", &status);
+    fits_write_key_dbl(raw, "TSCAL2", 0.5, -3, "", &status);
+    fits_close_file(raw, &status);
+    ASSERT_EQ(status, 0);
+  }
+  FitsFile f = FitsFile::open_read(path);
+  ASSERT_EQ(f.hdu_count(), 4);
+  EXPECT_EQ(f.hdu_kind(), FitsFile::HduKind::kEmpty);
+  f.move_to("TRUTH");
+  EXPECT_EQ(f.hdu_kind(), FitsFile::HduKind::kTable);
+  EXPECT_EQ(f.column_names(), (std::vector<std::string>{"index", "e1"}));
+  EXPECT_TRUE(f.is_integer_column("index"));
+  EXPECT_FALSE(f.is_integer_column("E1"));  // names match case-insensitively
+  f.move_to("IMG");
+  EXPECT_EQ(f.hdu_kind(), FitsFile::HduKind::kImage);
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { f.column_names(); }), "kinds.fits[HDU 2 'IMG']: not a table"));
+  f.move_to("MIXED");
+  EXPECT_EQ(f.column_names(), (std::vector<std::string>{"flags", "scaled", "vec", "ok", "label"}));
+  EXPECT_TRUE(f.is_integer_column("flags"));    // uint32: integers after TZERO
+  EXPECT_FALSE(f.is_integer_column("scaled"));  // TSCAL 0.5: reals
+  EXPECT_TRUE(f.is_integer_column("vec"));
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { f.is_integer_column("ok"); }),
+                       "kinds.fits[HDU 3 'MIXED']: column 'ok' is not numeric"));
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { f.is_integer_column("label"); }), "column 'label' is not numeric"));
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { f.is_integer_column("nope"); }), "[HDU 3 'MIXED']: no column 'nope'"));
+}
+
+TEST_F(FitsFileTmp, ReadColumnsRowsEqualsOneColumnAtATime) {
+  const std::string path = tmp("wide.fits");
+  constexpr std::size_t kRows = 20000;  // several of CFITSIO's row blocks
+  std::vector<double> id(kRows), e1(kRows), snr(kRows);
+  for (std::size_t i = 0; i < kRows; ++i) {
+    id[i] = static_cast<double>(i) * 3.0 - 7.0;
+    e1[i] = std::sin(static_cast<double>(i));
+    snr[i] = i % 97 == 0 ? std::nan("") : 1.0 / (1.0 + static_cast<double>(i));
+  }
+  {
+    FitsFile f = FitsFile::create(path, false);
+    f.write_empty_image();
+    f.write_table("RESULTS", {{"id", true, id}, {"e1", false, e1}, {"snr", false, snr}});
+    f.close();
+  }
+  FitsFile f = FitsFile::open_read(path);
+  f.move_to("RESULTS");
+  constexpr long long kFirst = 3;
+  constexpr std::size_t kCount = kRows - 5;
+  std::vector<long long> ids(kCount), want_ids(kCount);
+  std::vector<double> e1s(kCount), snrs(kCount), ids_real(kCount), want_e1(kCount), want_snr(kCount);
+  const std::vector<FitsFile::ColumnOutput> outputs = {
+      {"id", std::span<long long>(ids)}, {"E1", std::span<double>(e1s)}, {"snr", std::span<double>(snrs)},
+      {"id", std::span<double>(ids_real)}};
+  f.read_columns_rows(kFirst, outputs);
+  f.read_column_rows("id", kFirst, std::span<long long>(want_ids));
+  f.read_column_rows("e1", kFirst, std::span<double>(want_e1));
+  f.read_column_rows("snr", kFirst, std::span<double>(want_snr));
+  EXPECT_EQ(ids, want_ids);
+  EXPECT_EQ(ids.front(), 2);
+  EXPECT_TRUE(bitwise_equal(e1s, want_e1));
+  EXPECT_TRUE(bitwise_equal(snrs, want_snr));  // NaNs included
+  EXPECT_EQ(ids_real.back(), static_cast<double>(want_ids.back()));
+  f.read_columns_rows(0, {});  // nothing asked, nothing read
+
+  std::vector<double> short_out(10);
+  std::vector<long long> as_integer(kCount);
+  std::string msg = error_of<FitsError>(
+      [&] { f.read_columns_rows(0, std::vector<FitsFile::ColumnOutput>{{"e1", std::span<double>(e1s)},
+                                                                       {"snr", std::span<double>(short_out)}}); });
+  EXPECT_TRUE(Contains(msg, "wide.fits[HDU 1 'RESULTS']: read_columns_rows: the output of column 'snr' holds 10"));
+  msg = error_of<FitsError>(
+      [&] { f.read_columns_rows(0, std::vector<FitsFile::ColumnOutput>{{"e1", std::span<long long>(as_integer)}}); });
+  EXPECT_TRUE(Contains(msg, "column 'e1' is not an integer column"));
+  msg = error_of<FitsError>(
+      [&] { f.read_columns_rows(0, std::vector<FitsFile::ColumnOutput>{{"e3", std::span<double>(e1s)}}); });
+  EXPECT_TRUE(Contains(msg, "[HDU 1 'RESULTS']: no column 'e3'"));
+  msg = error_of<FitsError>(
+      [&] { f.read_columns_rows(10, std::vector<FitsFile::ColumnOutput>{{"e1", std::span<double>(e1s)}}); });
+  EXPECT_TRUE(Contains(msg, "the table has 20000 rows"));
+}
+
 // --- errors ----------------------------------------------------------------------------------------
 
 TEST_F(FitsFileTmp, NonExistentFile) {
@@ -400,7 +565,7 @@ TEST_F(FitsFileTmp, CorruptFile) {
     for (int i = 0; i < 1000; ++i) out << "this is not a FITS file \x01\x02\xff";
   }
   const std::string msg = error_of<FitsError>([&] { FitsFile::open_read(path); });
-  EXPECT_TRUE(Contains(msg, "cannot open FITS file '" + path + "'"));
+  EXPECT_TRUE(Contains(msg, "cannot open FITS file '" + path + "': not a FITS file"));
 
   const std::string empty = tmp("empty.fits");
   std::ofstream{empty};

@@ -1,0 +1,201 @@
+"""The report's inputs, checked before anything is written: `stampede fit` result tables, the truth
+files of simulated sets, and a `save_images` file. Every refusal is a ReportError naming the file
+(and HDU or column)."""
+
+import glob
+import os
+
+from stampede import FitsError
+
+from .fits_file import FitsFile
+
+# Columns every result table has (io/result_columns.hpp); a table without them is not one.
+REQUIRED_COLUMNS = ("id", "e1", "e2", "radius", "snr", "chi2", "n_iter", "status", "flags")
+# The fit options whose *_FREE key says whether the parameter was fitted (io/run_config).
+PARAMETERS = ("X0", "Y0", "E1", "E2", "RADIUS", "BULGE_A", "DISC_A", "RADIUS_RATIO", "BULGE_INDEX", "DISC_INDEX",
+              "DELTA_E", "DELTA_THETA")
+# Header keys that identify the run and its inputs rather than configure it.
+IDENTITY_KEYS = ("INPUT", "INDIGEST", "INSETID", "CATALOG", "CATDIGST", "WEIGHT", "WGTDIGST", "MEDS", "MEDSDIGS",
+                 "RUNFP", "SHARD", "SHARDTOT", "VERSION")
+
+
+class ReportError(Exception):
+    """A user error: bad input or output, with a message naming the file."""
+
+
+def simulation_identity(header):
+    """The simulated set a truth file describes, as `stampede fit` records its input's (INSETID):
+    'SEED=s SETIDX=k NOISESD=n' from the keys present (io/simulation_identity.cpp)."""
+    return " ".join(f"{k}={int(header[k])}" for k in ("SEED", "SETIDX", "NOISESD") if k in header)
+
+
+class ResultTable:
+    """One `stampede fit` table: its RESULTS header and columns, what kind of input it fitted."""
+
+    def __init__(self, path):
+        self.path = str(path)
+        try:
+            fits = FitsFile(self.path)
+            self.table = fits.table("RESULTS")
+        except FitsError as e:
+            raise ReportError(str(e)) from None
+        if self.table is None:
+            names = ", ".join(h["name"] or f"HDU {h['index']}" for h in fits.hdus)
+            raise ReportError(f"{self.path}: not a `stampede fit` result table (no RESULTS HDU; it has {names})")
+        self.header = self.table.header
+        missing = [c for c in REQUIRED_COLUMNS if not self.table.has(c)]
+        if missing:
+            raise ReportError(f"{self.table.where}: no column {', '.join(repr(c) for c in missing)}: not a "
+                              "`stampede fit` result table")
+        if self.table.rows == 0:
+            raise ReportError(f"{self.table.where}: the table has no rows: nothing to report")
+        self.rows = self.table.rows
+        self.survey = self.table.has("ra") and self.table.has("dec")
+        self.metacal = self.table.has("R11")
+        # The sheared images' step (metacal_step, 0.01 by default), which R is measured over.
+        step = self.header.get("metacal_step", self.header.get("METACAL_STEP", 0.01)) if self.metacal else 0.01
+        self.metacal_step = float(step)
+        self.positions = "survey" if self.survey else "catalogue" if self.table.has("x_image") else "grid"
+        self.set_identity = str(self.header.get("INSETID", ""))
+
+    def has(self, column):
+        return self.table.has(column)
+
+    def chunks(self, columns, chunk_rows):
+        try:
+            yield from self.table.chunks([c for c in columns if self.table.has(c)], chunk_rows)
+        except FitsError as e:
+            raise ReportError(str(e)) from None
+
+    def read(self, columns):
+        try:
+            return self.table.read([c for c in columns if self.table.has(c)])
+        except FitsError as e:
+            raise ReportError(str(e)) from None
+
+    def status_names(self):
+        return {int(k[6:]): str(v) for k, v in self.header.values.items() if k.startswith("STATUS") and k[6:].isdigit()}
+
+    def flag_meanings(self):
+        """{bit: meaning} from the table's COMMENT cards 'flags bit B (V): meaning'."""
+        out = {}
+        for line in self.header.comments:
+            if line.startswith("flags bit ") and "): " in line:
+                bit = line[len("flags bit "):].split(" ", 1)[0]
+                if bit.isdigit():
+                    out[int(bit)] = line.split("): ", 1)[1]
+        return out
+
+    def options(self):
+        """The run's configuration: the header keys from RENDERER (the first option) on, less the
+        identity keys, in card order."""
+        keys = self.header.order
+        start = keys.index("RENDERER") if "RENDERER" in keys else len(keys)
+        return [(k, self.header[k]) for k in keys[start:] if k not in IDENTITY_KEYS]
+
+    def identity(self):
+        return [(k, self.header[k]) for k in IDENTITY_KEYS if k in self.header]
+
+    def free_parameters(self):
+        return sum(1 for p in PARAMETERS if str(self.header.get(f"{p}_FREE", "false")).lower() == "true")
+
+    def pixels_per_object(self):
+        """Pixels in one stamp (grid and catalogue input: STAMP_SIZE^2); None for survey tables,
+        whose pixel count per object depends on its epochs and is not recorded."""
+        size = self.header.get("STAMP_SIZE")
+        return None if self.survey or not isinstance(size, int) else size * size
+
+
+class Truth:
+    """A simulated set's truth (GREAT08-mini layout): SHEAR1 SHEAR2 in the primary header and a
+    TRUTH table with index and pair."""
+
+    def __init__(self, path):
+        self.path = str(path)
+        try:
+            fits = FitsFile(self.path)
+            primary = fits.header(0)
+            self.table = fits.table("TRUTH")
+        except FitsError as e:
+            raise ReportError(f"truth {e}") from None
+        if "SHEAR1" not in primary or "SHEAR2" not in primary:
+            raise ReportError(f"{self.path}[HDU 0]: no SHEAR1/SHEAR2 keys: not the truth file of a simulated set")
+        self.g1, self.g2 = float(primary["SHEAR1"]), float(primary["SHEAR2"])
+        self.identity = simulation_identity(primary)
+        if self.table is None or not self.table.has("index"):
+            raise ReportError(f"{self.path}: no TRUTH table with an 'index' column: not the truth file of a simulated set")
+
+    def read(self, columns):
+        try:
+            return self.table.read([c for c in columns if self.table.has(c)])
+        except FitsError as e:
+            raise ReportError(f"truth {e}") from None
+
+
+def match_truth(tables, truth_arg):
+    """Each table's Truth, from --truth: a file (one table) or a directory of truth files, matched
+    to each table by the set it fitted (INSETID), else by the input's name (set_K -> truth_K).
+    A truth of another set than the table's is refused, as `stampede metrics` refuses it."""
+    if os.path.isdir(truth_arg):
+        candidates = sorted(glob.glob(os.path.join(truth_arg, "*truth*.fits")))
+        if not candidates:
+            raise ReportError(f"--truth {truth_arg}: the directory holds no truth files (*truth*.fits)")
+        truths = [Truth(p) for p in candidates]
+        by_identity = {t.identity: t for t in truths if t.identity}
+        by_name = {os.path.basename(t.path).replace("truth", "set", 1): t for t in truths}
+        out = []
+        for table in tables:
+            truth = by_identity.get(table.set_identity) if table.set_identity else None
+            if truth is None and not table.set_identity:
+                truth = by_name.get(os.path.basename(str(table.header.get("INPUT", ""))))
+            if truth is None:
+                what = f"a fit of set '{table.set_identity}' (INSETID)" if table.set_identity else \
+                    f"a fit of '{table.header.get('INPUT', '?')}'"
+                raise ReportError(f"{table.path} is {what}, but no truth file in {truth_arg} is of that set: "
+                                  "give the truth of the run that made the table")
+            out.append(truth)
+    else:
+        if len(tables) != 1:
+            raise ReportError(f"--truth {truth_arg} is one file but {len(tables)} tables were given: give the "
+                              "directory of the simulation's truth files")
+        out = [Truth(truth_arg)]
+    for table, truth in zip(tables, out):
+        if table.set_identity and truth.identity and table.set_identity != truth.identity:
+            raise ReportError(f"{table.path} is a fit of set '{table.set_identity}' (INSETID), but {truth.path} is the "
+                              f"truth of set '{truth.identity}': give each fit its own set's truth")
+        if truth.table.rows != table.rows:
+            raise ReportError(f"{table.path} has {table.rows} rows, {truth.table.where} has {truth.table.rows}: "
+                              "not the truth of this fit")
+    return out
+
+
+class SavedImages:
+    """A `save_images` file (HDUs DATA_id MODEL_id RESID_id) and the table it belongs to: the one
+    whose output it sits beside (OUT.fits -> OUT.images.fits)."""
+
+    def __init__(self, path, tables):
+        self.path = str(path)
+        try:
+            self.fits = FitsFile(self.path)
+        except FitsError as e:
+            raise ReportError(str(e)) from None
+        self.hdus = {h["name"]: h for h in self.fits.hdus}
+        self.ids = sorted(int(n[5:]) for n in self.hdus if n.startswith("DATA_") and n[5:].lstrip("-").isdigit()
+                          and f"MODEL_{n[5:]}" in self.hdus and f"RESID_{n[5:]}" in self.hdus)
+        if not self.ids:
+            raise ReportError(f"{self.path}: no DATA_id/MODEL_id/RESID_id HDUs: not a `save_images` file")
+        self.table = None
+        for table in tables:
+            base = table.path[:-5] if table.path.endswith(".fits") else table.path
+            beside = base + ".images.fits"
+            if os.path.exists(beside) and os.path.samefile(beside, self.path):
+                self.table = table
+        if self.table is None:
+            raise ReportError(f"{self.path}: not the save_images file of any table given (a fit OUT.fits writes "
+                              "OUT.images.fits beside it)")
+
+    def images(self, object_id):
+        try:
+            return [self.fits.image(self.hdus[f"{kind}_{object_id}"]) for kind in ("DATA", "MODEL", "RESID")]
+        except FitsError as e:
+            raise ReportError(str(e)) from None

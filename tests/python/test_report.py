@@ -1,0 +1,147 @@
+"""`python3 -m stampede.report`: the page and its figures from a small simulation with truth, its
+m and c against `stampede metrics`' output, and the refusals of bad inputs."""
+
+import glob
+import html
+import os
+import re
+import subprocess
+import sys
+
+import pytest
+
+from conftest import run_cli
+
+matplotlib_image = pytest.importorskip("matplotlib.image", reason="python3-matplotlib is not installed")
+
+SETS = 3
+FIGURES = {"status.png", "distributions.png", "psf_leakage.png", "e_vs_truth.png", "bias_bins.png", "residuals.png"}
+
+
+def report(*args):
+    return subprocess.run([sys.executable, "-m", "stampede.report", *map(str, args)], capture_output=True, text=True)
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    """Three small simulated sets fitted by `stampede fit` (set 0 saving some images) and the
+    `stampede metrics` output for them."""
+    d = tmp_path_factory.mktemp("report")
+    sim = d / "sim"
+    run_cli("sim", "great08", "--out", str(sim), "--sets", str(SETS), "--grid", "8", "--stamp", "32", "--snr", "20",
+            "--galaxy", "disc", "--threads", "2")
+    fits = []
+    for k in range(SETS):
+        out = d / f"fit_{k}.fits"
+        extra = ["--set", "save_images=0,1,2,3,4,5,6,7,8,9"] if k == 0 else []
+        run_cli("fit", str(sim / f"set_{k}.fits"), "-o", str(out), "--threads", "2", "--quiet", *extra)
+        fits.append(out)
+    metrics_args = [a for k in range(SETS) for a in ("--fit", str(fits[k]), "--truth", str(sim / f"truth_{k}.fits"))]
+    metrics = run_cli("metrics", *metrics_args).stdout
+    return {"dir": d, "sim": sim, "fits": fits, "metrics": metrics}
+
+
+def test_report_has_every_figure_and_the_metrics_numbers(run):
+    out = run["dir"] / "page"
+    r = report(*run["fits"], "--truth", run["sim"], "--images", run["dir"] / "fit_0.images.fits", "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == str(out / "report.html")
+    page = (out / "report.html").read_text(encoding="utf-8")
+    shown = set(re.findall(r'<img src="([^"]+)"', page))
+    assert shown == FIGURES and set(os.listdir(out)) == FIGURES | {"report.html"}
+    for name in shown:  # every figure decodes as an image of a sensible size
+        pixels = matplotlib_image.imread(str(out / name))
+        assert pixels.ndim == 3 and pixels.shape[0] > 150 and pixels.shape[1] > 300, name
+        assert pixels.std() > 0, name  # not blank
+    assert "http://" not in page and "https://" not in page and "<script" not in page  # self-contained
+    # The numbers `stampede metrics` prints, line for line: per set, m and c, the PSF frame, Q.
+    text = html.unescape(page)
+    lines = [l for l in run["metrics"].splitlines() if l.strip()]
+    assert sum(l.startswith(("m1 = ", "m2 = ")) for l in lines) == 2 and len(lines) == SETS + 5
+    for line in lines:
+        assert line in text, line
+    # The residual mosaic shows the saved objects with the largest chi2 first.
+    table = page[page.index("worst χ²"):]
+    chi2 = [float(x) for x in re.findall(r"<tr><td class=\"text\">\d+</td><td class=\"\">([^<]+)</td>", table)]
+    assert len(chi2) == 8 and chi2 == sorted(chi2, reverse=True)
+
+
+def test_an_existing_report_is_replaced_only_with_overwrite(run):
+    out = run["dir"] / "again"
+    assert report(run["fits"][0], "-o", out).returncode == 0
+    r = report(run["fits"][0], "-o", out)
+    assert r.returncode == 1 and "--overwrite" in r.stderr and str(out) in r.stderr
+    r = report(run["fits"][1], "-o", out, "--overwrite")
+    assert r.returncode == 0, r.stderr
+    assert "fit_1.fits" in (out / "report.html").read_text(encoding="utf-8")
+
+
+def empty_table(source, path):
+    """`source` with NAXIS2 = 0 and no rows: a valid FITS result table without objects."""
+    data = bytearray(source.read_bytes())
+    at = data.index(b"NAXIS2  =", data.index(b"XTENSION"))
+    data[at:at + 30] = b"NAXIS2  = %20d" % 0
+    end = data.index(b"END" + b" " * 77, at)
+    header_end = (end // 2880 + 1) * 2880
+    path.write_bytes(bytes(data[:header_end]))
+    return path
+
+
+def refused(run, name, args, *expected):
+    """The report is refused with an error naming the expected files and no report is left."""
+    out = run["dir"] / f"refused_{name}"
+    r = report(*args, "-o", out)
+    assert r.returncode == 1, r.stdout + r.stderr
+    assert "Traceback" not in r.stderr and r.stderr.startswith("stampede.report: ")
+    for text in expected:
+        assert str(text) in r.stderr, (text, r.stderr)
+    assert not out.exists()
+    assert not glob.glob(str(run["dir"] / ".report-*"))
+    return r.stderr
+
+
+def test_bad_inputs_are_refused_by_name_and_write_nothing(run, tmp_path):
+    truth0 = run["sim"] / "truth_0.fits"
+    # Not a result table: a truth table, and a file that is not FITS.
+    refused(run, "truth_as_table", [truth0], truth0, "not a `stampede fit` result table", "no RESULTS HDU")
+    text = tmp_path / "notes.fits"
+    text.write_text("not a FITS file\n" * 200)
+    refused(run, "text", [text], text, "not a FITS file")
+    # The truth of another set of the same run, and the truth of another run altogether.
+    err = refused(run, "other_set", [run["fits"][0], "--truth", run["sim"] / "truth_1.fits"], run["fits"][0],
+                  run["sim"] / "truth_1.fits")
+    assert "SETIDX=0" in err and "SETIDX=1" in err
+    other = tmp_path / "other"
+    run_cli("sim", "great08", "--out", str(other), "--sets", "1", "--grid", "2", "--stamp", "32", "--seed", "99",
+            "--galaxy", "disc")
+    err = refused(run, "other_run", [*run["fits"], "--truth", other], run["fits"][0], other)
+    assert "no truth file" in err
+    # An empty table.
+    empty = empty_table(run["fits"][1], tmp_path / "empty.fits")
+    refused(run, "empty", [run["fits"][0], empty], empty, "no rows")
+    # save_images output of no table given.
+    refused(run, "images", [run["fits"][1], "--images", run["dir"] / "fit_0.images.fits"], "fit_0.images.fits",
+            "not the save_images file of any table")
+
+
+def test_metacal_tables_give_the_metacal_numbers_of_metrics(run):
+    """With metacal columns the page adds R11/R22 and the calibrated per-set shears, m and c, equal
+    to `stampede metrics --metacal`'s printed lines (no cuts)."""
+    fits = []
+    for k in range(2):
+        out = run["dir"] / f"metacal_{k}.fits"
+        run_cli("fit", str(run["sim"] / f"set_{k}.fits"), "-o", str(out), "--set", "metacal=true", "--threads", "2",
+                "--quiet")
+        fits.append(out)
+    args = [a for k in range(2) for a in ("--fit", str(fits[k]), "--truth", str(run["sim"] / f"truth_{k}.fits"))]
+    printed = run_cli("metrics", "--metacal", *args).stdout
+    out = run["dir"] / "metacal_page"
+    r = report(*fits, "--truth", run["sim"], "-o", out)
+    assert r.returncode == 0, r.stderr
+    text = html.unescape((out / "report.html").read_text(encoding="utf-8"))
+    assert "metacal_R.png" in text and matplotlib_image.imread(str(out / "metacal_R.png")).shape[0] > 150
+    section = text[text.index("Metacalibration"):]
+    lines = [l for l in printed.splitlines() if l.strip() and "<R> =" not in l]
+    assert len(lines) == 2 + 5
+    for line in lines:
+        assert line in section, line
