@@ -125,12 +125,14 @@ const SimStamps& sim_stamps(int snr) {
   return cache.emplace(snr, std::move(s)).first->second;
 }
 
-void run_sim_fits(benchmark::State& state, RendererKind kind, bool surrogate) {
+// from_optimum: each fit started at its own all-exact optimum, what any better start (or any
+// surrogate stage, however cheap) could at best leave of a fit's cost.
+void run_sim_fits(benchmark::State& state, RendererKind kind, bool surrogate, bool from_optimum = false,
+                  bool stop_at_jacobian = false) {
   const SimStamps& s = sim_stamps(static_cast<int>(state.range(0)));
   FitterOptions options;
   options.renderer = kind;
   options.render.stamp_size = s.size;
-  options.render.exact.surrogate = surrogate;
   options.noise_sigma = s.sigma;
   FftPlanCache plans(FftPlanning::kEstimate);
   std::string err;
@@ -139,13 +141,23 @@ void run_sim_fits(benchmark::State& state, RendererKind kind, bool surrogate) {
     state.SkipWithError(err.c_str());
     return;
   }
-  Fitter fitter(options, psf, plans);
   const std::size_t npix = static_cast<std::size_t>(s.size) * s.size;
+  auto stamp = [&](int i) { return std::span<const double>(s.pixels).subspan(i * npix, npix); };
+  std::vector<ParamVector> optima;
+  if (from_optimum) {
+    FitterOptions exact = options;
+    exact.render.exact.surrogate = false;
+    Fitter reference(exact, psf, plans);
+    for (int i = 0; i < s.count; ++i) optima.push_back(reference.fit(stamp(i)).params);
+  }
+  options.render.exact.surrogate = surrogate;
+  options.lm.stop_at_jacobian = stop_at_jacobian;
+  Fitter fitter(options, psf, plans);
   double evaluations = 0, iterations = 0, coarse_evaluations = 0, coarse_iterations = 0;
   long long fits = 0;
   for (auto _ : state) {
     for (int i = 0; i < s.count; ++i) {
-      const FitResult r = fitter.fit(std::span<const double>(s.pixels).subspan(i * npix, npix));
+      const FitResult r = from_optimum ? fitter.fit_from(stamp(i), {}, optima[i]) : fitter.fit(stamp(i));
       evaluations += r.evaluations;
       iterations += r.iterations;
       coarse_evaluations += r.surrogate_evaluations;
@@ -161,58 +173,12 @@ void run_sim_fits(benchmark::State& state, RendererKind kind, bool surrogate) {
   state.counters["ms_per_fit"] = benchmark::Counter(fits * 1e-3, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
-// The same stamps, each fit started at its own all-exact optimum: what any better start (or any
-// surrogate stage, however cheap) could at best leave of a fit's cost.
-void run_sim_fits_from_optimum(benchmark::State& state, bool surrogate, bool stop_at_jacobian = false) {
-  const SimStamps& s = sim_stamps(static_cast<int>(state.range(0)));
-  FitterOptions options;
-  options.renderer = RendererKind::kExact;
-  options.render.stamp_size = s.size;
-  options.noise_sigma = s.sigma;
-  FftPlanCache plans(FftPlanning::kEstimate);
-  std::string err;
-  auto psf = make_renderer(options.renderer, options.render, options.model, plans)
-                 ->prepare_psf(Great08SimOptions::default_psf(), &err);
-  if (!psf) {
-    state.SkipWithError(err.c_str());
-    return;
-  }
-  const std::size_t npix = static_cast<std::size_t>(s.size) * s.size;
-  std::vector<ParamVector> optima;
-  {
-    FitterOptions exact = options;
-    exact.render.exact.surrogate = false;
-    Fitter reference(exact, psf, plans);
-    for (int i = 0; i < s.count; ++i)
-      optima.push_back(reference.fit(std::span<const double>(s.pixels).subspan(i * npix, npix)).params);
-  }
-  options.render.exact.surrogate = surrogate;
-  options.lm.stop_at_jacobian = stop_at_jacobian;
-  Fitter fitter(options, psf, plans);
-  double evaluations = 0, iterations = 0, coarse_evaluations = 0;
-  long long fits = 0;
-  for (auto _ : state) {
-    for (int i = 0; i < s.count; ++i) {
-      const FitResult r = fitter.fit_from(std::span<const double>(s.pixels).subspan(i * npix, npix), {}, optima[i]);
-      evaluations += r.evaluations;
-      iterations += r.iterations;
-      coarse_evaluations += r.surrogate_evaluations;
-      ++fits;
-    }
-  }
-  state.SetItemsProcessed(fits);
-  state.counters["evals_per_fit"] = evaluations / fits;
-  state.counters["iters_per_fit"] = iterations / fits;
-  state.counters["surrogate_evals_per_fit"] = coarse_evaluations / fits;
-  state.counters["ms_per_fit"] = benchmark::Counter(fits * 1e-3, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
-}
-
 void BM_FitDefault(benchmark::State& state) { run_sim_fits(state, RendererKind::kExact, true); }
-void BM_FitFromOptimum(benchmark::State& state) { run_sim_fits_from_optimum(state, false); }
-void BM_FitDefaultFromOptimum(benchmark::State& state) { run_sim_fits_from_optimum(state, true); }
+void BM_FitFromOptimum(benchmark::State& state) { run_sim_fits(state, RendererKind::kExact, false, true); }
+void BM_FitDefaultFromOptimum(benchmark::State& state) { run_sim_fits(state, RendererKind::kExact, true, true); }
 // All exact from the optimum, ending at the first Jacobian whose Gauss-Newton step predicts less
 // than eps4 (the exact stage's rule): one Jacobian render and the errors, the fit's floor.
-void BM_FitFromOptimumAtJacobian(benchmark::State& state) { run_sim_fits_from_optimum(state, false, true); }
+void BM_FitFromOptimumAtJacobian(benchmark::State& state) { run_sim_fits(state, RendererKind::kExact, false, true, true); }
 void BM_FitExactOnly(benchmark::State& state) { run_sim_fits(state, RendererKind::kExact, false); }
 void BM_FitUpsampled(benchmark::State& state) { run_sim_fits(state, RendererKind::kUpsampled, false); }
 BENCHMARK(BM_FitDefault)->ArgName("snr")->Arg(20)->Arg(0)->Unit(benchmark::kMillisecond)->UseRealTime();
