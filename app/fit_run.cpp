@@ -264,7 +264,6 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
   if (a.distribute)
     throw io::ConfigError("--meds with stampede-mpi: a tile's objects are not spread over ranks yet; run `stampede fit "
                           "--meds` per tile (stampede-mpi --input-list is for grids), or a job array with --shard I/N");
-  if (cfg.metacal.enabled) throw io::ConfigError("option 'metacal' = true: not available with --meds yet");
   if (!cfg.save_images.empty()) throw io::ConfigError("option 'save_images': not available with --meds");
   if (cfg.psf_from_catalogue) throw io::ConfigError("option 'psf_input' = 'moffat_catalog': not available with --meds");
   if (cfg.fitter.renderer == RendererKind::kUpsampled) {
@@ -287,6 +286,7 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
   MedsFitOptions meds_options;
   static_cast<io::MedsOptions&>(meds_options) = cfg.meds;
   meds_options.fitter = cfg.fitter;
+  meds_options.metacal = cfg.metacal;
   if (cfg.meds.psf == io::MedsPsfSource::kOptions) {
     FftPlanCache plans(FftPlanning::kEstimate);
     meds_options.psf_model = app::build_shared_psf(cfg, plans).model;
@@ -322,6 +322,7 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
   if (!a.output.empty()) {
     io::CatalogWriterOptions wo = base_writer_options(a, cfg);
     wo.positions = io::PositionColumns::kSurvey;
+    wo.metacal = cfg.metacal.enabled;
     wo.header.emplace_back("MEDS", a.meds);
     // The PSFEx models are part of the run: a model replaced between kill and resume is refused. A
     // missing one is a flagged row, not an error, and is fingerprinted as missing.

@@ -36,6 +36,8 @@ void fill_survey_record(const MedsObjectResult& r, ObjectRecord* out) {
   out->survey.psf_size = r.psf_size;
   out->survey.is_bulge = r.bulge_or_disc ? (r.is_bulge ? 1 : 0) : -1;
   out->survey.other_likelihood = r.bulge_or_disc ? r.other_likelihood : NAN;
+  out->metacal = r.metacal;
+  out->survey.gamma_fwhm = r.gamma_fwhm;
 }
 
 }  // namespace stampede::app

@@ -58,8 +58,12 @@ MedsObjectFitter::MedsObjectFitter(io::MedsFile& meds, const MedsFitOptions& opt
     : meds_(meds),
       options_(options),
       fitter_(options.model == MedsModel::kBulgeOrDisc ? single_component(options.fitter, Param::kBulgeA) : options.fitter) {
+  if (options.model == MedsModel::kBulgeOrDisc && options.metacal.enabled)
+    throw std::invalid_argument("option 'meds_model' = 'bord' with metacal = true: metacal fits metacal_model (bd, exp "
+                                "or gauss)");
   if (options.model == MedsModel::kBulgeOrDisc)
     bulge_fitter_ = std::make_unique<MultiEpochFitter>(single_component(options.fitter, Param::kDiscA));
+  if (options.metacal.enabled) metacal_ = std::make_unique<MultiEpochMetacalFitter>(options.fitter, options.metacal);
   source_ = options.psf;
   if (source_ == io::MedsPsfSource::kAuto)
     source_ = meds.has_psf_cutouts() ? io::MedsPsfSource::kCutouts : io::MedsPsfSource::kPsfex;
@@ -172,6 +176,7 @@ MedsObjectResult MedsObjectFitter::fit(long long row) {
   const std::size_t npix = static_cast<std::size_t>(box) * box;
   std::vector<EpochData>& epochs = epochs_;
   epochs.clear();
+  epoch_psfs_.clear();
   long long pixels_total = 0, pixels_unmasked = 0;
   double psf_e1 = 0, psf_e2 = 0, psf_size = 0;
   const int first = options_.fit_coadd ? 0 : 1, last = options_.fit_coadd ? 1 : static_cast<int>(o.cutouts.size());
@@ -235,6 +240,7 @@ MedsObjectResult MedsObjectFitter::fit(long long row) {
     epochs.push_back({pixels, weight, box, PixelFrame::from_meds(c.dudrow, c.dudcol, c.dvdrow, c.dvdcol, c.cutout_row, c.cutout_col),
                       prepared, scale});
     last_psfs_.push_back(image);
+    if (metacal_) epoch_psfs_.push_back(image ? PsfModel::Image(image) : options_.psf_model);
     const double xx = prepared->xx(), xy = prepared->xy(), yy = prepared->yy();
     psf_e1 += (xx - yy) / (xx + yy), psf_e2 += 2 * xy / (xx + yy), psf_size += std::sqrt(0.5 * (xx + yy));
   }
@@ -249,6 +255,18 @@ MedsObjectResult MedsObjectFitter::fit(long long row) {
   out.psf_e1 = psf_e1 / out.n_epochs, out.psf_e2 = psf_e2 / out.n_epochs, out.psf_size = psf_size / out.n_epochs;
   if (1.0 - out.masked_fraction < options_.min_unmasked_fraction) {
     out.flags |= kFlagTooMasked;
+    return out;
+  }
+  if (metacal_) {
+    metacal_epochs_.clear();
+    for (std::size_t k = 0; k < epochs.size(); ++k) {
+      const EpochData& e = epochs[k];
+      metacal_epochs_.push_back({e.pixels, e.weight, e.box_size, e.frame, &epoch_psfs_[k], e.flux_scale});
+    }
+    metacal_->fit(metacal_epochs_, o.id, kFlagMetacalFailure, &out.fit, &out.metacal, &out.flags, &out.problem);
+    out.gamma_fwhm = metacal_->gamma_fwhm();
+    if (metacal_->epochs_used() > 0) out.n_epochs = metacal_->epochs_used();
+    out.flags |= out.fit.flags;
     return out;
   }
   out.fit = fitter_.fit(epochs, 0);

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "engine/fit/multi_epoch_fitter.hpp"
+#include "engine/metacal/multi_epoch_metacal_fitter.hpp"
 #include "engine/model/psfex_model.hpp"
 #include "engine/pipeline/object_record.hpp"
 #include "io/meds_file.hpp"
@@ -26,6 +27,7 @@ using MedsModel = io::MedsModel;
 struct MedsFitOptions : io::MedsOptions {
   FitterOptions fitter;  // renderer must be exact; stamp_size is each cutout's; amplitudes free for bd
   PsfModel psf_model;    // psf = kOptions: the PSF of every cutout, in its pixels
+  MetacalOptions metacal;  // enabled: each object's five metacal fits (MultiEpochMetacalFitter)
 };
 
 struct MedsObjectResult {
@@ -40,6 +42,8 @@ struct MedsObjectResult {
   bool bulge_or_disc = false;       // the model was bord
   bool is_bulge = false;            // bord: the pure bulge won
   double other_likelihood = NAN;    // bord: the losing model's
+  MetacalRecord metacal;            // metacal runs: R and the sheared fits (fit is the noshear one)
+  double gamma_fwhm = NAN;          // metacal runs: the reconvolution PSF's FWHM on the sky, arcsec
 };
 
 class MedsObjectFitter {
@@ -69,6 +73,7 @@ class MedsObjectFitter {
   MedsFitOptions options_;
   MultiEpochFitter fitter_;  // bd; bord: the pure disc
   std::unique_ptr<MultiEpochFitter> bulge_fitter_;  // bord: the pure bulge
+  std::unique_ptr<MultiEpochMetacalFitter> metacal_;  // metacal runs
   std::vector<std::optional<PsfexModel>> models_;
   std::vector<std::string> model_errors_;
   // Per cutout of the current object: pixels, weights, and scratch for seg and bmask.
@@ -78,6 +83,8 @@ class MedsObjectFitter {
   std::map<int, std::shared_ptr<const PreparedPsf>> options_psf_;  // source kOptions, per box size
   std::vector<std::shared_ptr<const PsfImage>> last_psfs_;
   std::vector<EpochData> epochs_;  // the current object's, reused
+  std::vector<PsfModel> epoch_psfs_;              // metacal: the current object's PSFs, unprepared
+  std::vector<MetacalEpoch> metacal_epochs_;
 };
 
 // Uberseg: in a box_size^2 seg cutout, zero the weight of every pixel whose nearest labelled seg

@@ -5,6 +5,10 @@
 // renderer, single thread, each fit from the first cutout's moments.
 //   BM_OneEpoch    the first cutout alone
 //   BM_FourEpochs  all four jointly
+//   BM_MetacalOneEpoch, BM_MetacalFourEpochs   metacal (metacal_model bd, fixnoise): the five
+//                  image sets and their joint fits, Gamma chosen per object (issue 30)
+//   BM_SkyReconvolution  the Gamma rule alone for four cutouts (its filters built), Moffat PSFs
+//   BM_SkyReconvolutionImagePsf  the same with each PSF given as its image (as from PSFEx)
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -12,6 +16,7 @@
 #include <vector>
 
 #include "engine/fit/multi_epoch_fitter.hpp"
+#include "engine/metacal/multi_epoch_metacal_fitter.hpp"
 #include "engine/sim/sim_renderer.hpp"
 
 namespace {
@@ -22,7 +27,7 @@ constexpr int kBox = 48, kGalaxies = 8, kEpochs = 4;
 
 struct Cutout {
   PixelFrame frame;
-  PsfModel psf;
+  PsfModel psf, psf_image;  // psf_image: psf as its 25 x 25 pixel-integrated samples
   std::vector<double> pixels, weight;
 };
 
@@ -61,6 +66,12 @@ const std::vector<Cutout>& cutouts() {
         c.pixels.resize(img.size());
         for (std::size_t i = 0; i < img.size(); ++i) c.pixels[i] = flux * img[i] + noise(rng);
         c.weight.assign(img.size(), 1.0);
+        auto image = std::make_shared<PsfImage>();
+        image->nx = image->ny = 25;
+        image->pixels.resize(25 * 25);
+        image->pixel_integrated = true;
+        SimRenderer(c.psf, SimRenderer::Options{}).render_psf(25, 1.0, 12.0, 12.0, true, image->pixels, ws);
+        c.psf_image = PsfModel::Image(image);
         out.push_back(std::move(c));
       }
     }
@@ -90,10 +101,56 @@ void fit_epochs(benchmark::State& state, int epochs) {
   state.counters["ms_per_object"] = benchmark::Counter(n * 1e-3, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
+void metacal_epochs(benchmark::State& state, int epochs) {
+  MetacalOptions mo;
+  mo.enabled = true;
+  MultiEpochMetacalFitter fitter(options(), mo);
+  std::vector<MetacalEpoch> data;
+  for (const Cutout& c : cutouts()) data.push_back({c.pixels, c.weight, kBox, c.frame, &c.psf, 1.0});
+  long long n = 0, failed = 0;
+  for (auto _ : state)
+    for (int g = 0; g < kGalaxies; ++g, ++n) {
+      FitResult noshear;
+      MetacalRecord record;
+      std::uint32_t flags = 0;
+      std::string problem;
+      fitter.fit(std::span<const MetacalEpoch>(data).subspan(g * kEpochs, epochs), g, 1, &noshear, &record, &flags, &problem);
+      failed += flags != 0;
+    }
+  state.counters["failed"] = static_cast<double>(failed) / static_cast<double>(n);
+  state.counters["ms_per_object"] = benchmark::Counter(n * 1e-3, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
+void sky_reconvolution_of(benchmark::State& state, bool image) {
+  std::vector<MetacalEpochPsf> psfs;
+  for (const Cutout& c : cutouts()) psfs.push_back({image ? &c.psf_image : &c.psf, c.frame, 96});
+  MetacalOptions mo;
+  long long n = 0;
+  double fwhm = 0;
+  for (auto _ : state)
+    for (int g = 0; g < kGalaxies; ++g, ++n) {
+      SkyReconvolution out;
+      std::string error;
+      if (!sky_reconvolution(std::span<const MetacalEpochPsf>(psfs).subspan(g * kEpochs, kEpochs), mo, &out, &error))
+        return state.SkipWithError(error.c_str());
+      fwhm += out.fwhm;
+    }
+  state.counters["gamma_fwhm"] = fwhm / static_cast<double>(n);
+  state.counters["ms_per_object"] = benchmark::Counter(n * 1e-3, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
 void BM_OneEpoch(benchmark::State& state) { fit_epochs(state, 1); }
+void BM_MetacalOneEpoch(benchmark::State& state) { metacal_epochs(state, 1); }
+void BM_MetacalFourEpochs(benchmark::State& state) { metacal_epochs(state, kEpochs); }
+void BM_SkyReconvolution(benchmark::State& state) { sky_reconvolution_of(state, false); }
+void BM_SkyReconvolutionImagePsf(benchmark::State& state) { sky_reconvolution_of(state, true); }
 void BM_FourEpochs(benchmark::State& state) { fit_epochs(state, kEpochs); }
 BENCHMARK(BM_OneEpoch)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_FourEpochs)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_MetacalOneEpoch)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_MetacalFourEpochs)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_SkyReconvolution)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_SkyReconvolutionImagePsf)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 

@@ -3,6 +3,7 @@
 
 #include <array>
 #include <cstddef>
+#include <string_view>
 
 namespace stampede::io {
 namespace {
@@ -148,6 +149,8 @@ constexpr ResultColumn kColumns[] = {
             [](W r, std::int64_t v) { r.survey.is_bulge = static_cast<std::int32_t>(v); }),
     real(F::kOtherLikelihood, "other_likelihood", "", "bord: the losing model's log-likelihood; bd: NaN",
          [](R r) { return r.survey.other_likelihood; }, [](W r, double v) { r.survey.other_likelihood = v; }),
+    real(F::kGammaFwhm, "gamma_fwhm", "arcsec", "metacal reconvolution PSF FWHM, round on the sky",
+         [](R r) { return r.survey.gamma_fwhm; }, [](W r, double v) { r.survey.gamma_fwhm = v; }),
 };
 
 constexpr bool indexed_by_field() {
@@ -189,8 +192,10 @@ constexpr auto kCatalogueMetacalTable = table<kMetacalTableColumns>(PositionColu
 // A survey table: id number ra dec, the fit columns in sky units with psf_size for psf_fwhm, then
 // n_epochs masked_frac is_bulge other_likelihood.
 constexpr std::size_t kSurveyTableColumns = 4 + kFirstMetacalField - kFirstFitField + 4;
-constexpr std::array<ResultColumn, kSurveyTableColumns> survey_table() {
-  std::array<ResultColumn, kSurveyTableColumns> out{};
+constexpr std::size_t kSurveyMetacalTableColumns = kSurveyTableColumns + kNumMetacalFields + 1;
+template <std::size_t N>
+constexpr std::array<ResultColumn, N> survey_table() {
+  std::array<ResultColumn, N> out{};
   std::size_t n = 0;
   for (F f : {F::kId, F::kNumber, F::kRa, F::kDec}) out[n++] = kColumns[static_cast<int>(f)];
   out[0].description = "the MEDS object's id (object_data)";
@@ -214,9 +219,17 @@ constexpr std::array<ResultColumn, kSurveyTableColumns> survey_table() {
     out[n++] = c;
   }
   for (F f : {F::kNEpochs, F::kMaskedFraction, F::kIsBulge, F::kOtherLikelihood}) out[n++] = kColumns[static_cast<int>(f)];
+  if (N == kSurveyTableColumns) return out;
+  for (int f = kFirstMetacalField; f < kFirstMetacalField + kNumMetacalFields; ++f) {
+    ResultColumn c = kColumns[f];
+    if (std::string_view(c.name).starts_with("radius_")) c.unit = "arcsec";
+    out[n++] = c;
+  }
+  out[n++] = kColumns[static_cast<int>(F::kGammaFwhm)];
   return out;
 }
-constexpr auto kSurveyTable = survey_table();
+constexpr auto kSurveyTable = survey_table<kSurveyTableColumns>();
+constexpr auto kSurveyMetacalTable = survey_table<kSurveyMetacalTableColumns>();
 
 }  // namespace
 
@@ -230,7 +243,8 @@ const char* position_name(PositionColumns positions) {
 }
 
 std::span<const ResultColumn> result_columns(PositionColumns positions, bool metacal) {
-  if (positions == PositionColumns::kSurvey) return kSurveyTable;
+  if (positions == PositionColumns::kSurvey)
+    return metacal ? std::span<const ResultColumn>(kSurveyMetacalTable) : std::span<const ResultColumn>(kSurveyTable);
   if (metacal)
     return positions == PositionColumns::kGrid ? std::span<const ResultColumn>(kGridMetacalTable)
                                                : std::span<const ResultColumn>(kCatalogueMetacalTable);

@@ -19,7 +19,8 @@
 //   survey (MEDS) input: positions id number (K) ra dec (D, degrees); the fit columns in sky
 //               units (x0 y0 the (u, v) offset and radius in arcsec, e in (u, v), fluxes at
 //               magzp_ref), psf_fwhm replaced by psf_size, then n_epochs (J) masked_frac (D)
-//               is_bulge (J) other_likelihood (D)
+//               is_bulge (J) other_likelihood (D); a metacal run's adds the metacal columns (radius_T
+//               in arcsec, e_T in (u, v)) and gamma_fwhm (D, arcsec: the object's reconvolution PSF)
 // NaN means "not computed" in every D column, as in FitResult.
 #pragma once
 
@@ -54,8 +55,10 @@ enum class ResultField : int {
   kE1_2p, kE2_2p, kSnr_2p, kRadius_2p, kE1_2m, kE2_2m, kSnr_2m, kRadius_2m,
   // survey tables only (PositionColumns::kSurvey)
   kNumber, kRa, kDec, kPsfSize, kNEpochs, kMaskedFraction, kIsBulge, kOtherLikelihood,
+  // survey metacal tables only
+  kGammaFwhm,
 };
-inline constexpr int kNumResultFields = static_cast<int>(ResultField::kOtherLikelihood) + 1;
+inline constexpr int kNumResultFields = static_cast<int>(ResultField::kGammaFwhm) + 1;
 inline constexpr int kNumMetacalFields = static_cast<int>(ResultField::kRadius_2m) - static_cast<int>(ResultField::kR11) + 1;
 
 // On-disk type: FITS TFORM 1K, 1J, 1V (unsigned, stored as J with TZERO = 2^31) and 1D.
@@ -78,7 +81,7 @@ struct ResultColumn {
 
 // The columns of a table with these positions, in table order; a metacal run's table adds the
 // metacal columns (R11 R12 R21 R22, then e1_1p e2_1p snr_1p radius_1p ... radius_2m) at the end.
-// Survey tables have no metacal form (metacal is refused for them).
+// A survey metacal table ends with gamma_fwhm after them.
 std::span<const ResultColumn> result_columns(PositionColumns positions, bool metacal = false);
 // The column of `field`. Grid and catalogue tables share every column they both have; only the
 // description of `id` differs (result_columns() has each table's).

@@ -2,8 +2,13 @@
 #include "engine/metacal/metacal_filters.hpp"
 
 #include <cmath>
+#include <deque>
 #include <numbers>
 #include <sstream>
+
+#include "kernels/ellipse.hpp"
+#include "kernels/fourier_profiles.hpp"
+#include "kernels/psf_profile.hpp"
 
 namespace stampede {
 namespace {
@@ -15,27 +20,80 @@ std::complex<double> with_pixel(const PsfModel& p, double kx, double ky) {
   return p.k_value(kx, ky) * (sinc_half(kx) * sinc_half(ky));
 }
 
+// A^-1 of the sky's shear g in the frame's pixels: J^-1 A^-1 J (a galaxy G(J x) sheared on the sky
+// is G(A^-1 J x) = G(J (J^-1 A^-1 J) x)). The identity frame keeps A^-1 exactly.
+std::array<double, 4> pixel_inverse_shear(const std::array<double, 2>& g, const PixelFrame& frame) {
+  const auto b = inverse_shear_matrix(g[0], g[1]);
+  if (frame.unit_jacobian()) return b;
+  double ji[2][2];
+  frame.inverse(ji);
+  const double j[2][2] = {{frame.dudx, frame.dudy}, {frame.dvdx, frame.dvdy}};
+  const double bm[2][2] = {{b[0], b[1]}, {b[2], b[3]}};
+  double bj[2][2], out[2][2];
+  for (int r = 0; r < 2; ++r)
+    for (int c = 0; c < 2; ++c) bj[r][c] = bm[r][0] * j[0][c] + bm[r][1] * j[1][c];
+  for (int r = 0; r < 2; ++r)
+    for (int c = 0; c < 2; ++c) out[r][c] = ji[r][0] * bj[0][c] + ji[r][1] * bj[1][c];
+  return {out[0][0], out[0][1], out[1][0], out[1][1]};
+}
+
+// Gamma's transform (of 1 at k = 0) below which its filter's gain is clipped, not checked.
+constexpr double kNegligibleGamma = 1e-4;
+
+// A Moffat's transform (times the pixel's) as PsfModel::k_value gives it, its radial function
+// tabulated (kernels::LogTable, ~1e-12 relative): the filters evaluate ~5 M^2 / 2 transforms per
+// build, which the Bessel function K made the bulk of a metacal fit's cost.
+class MoffatTransform {
+ public:
+  explicit MoffatTransform(const kernels::MoffatProfile& m)
+      : alpha_(kernels::moffat_alpha(m.fwhm, m.beta)), q_(kernels::ellipse_quadratic(m.e1, m.e2, 1.0)) {
+    const double t = m.truncation > 0 ? m.truncation / alpha_ : 0.0;
+    table_ = &table(m.beta, t);
+  }
+  std::complex<double> operator()(double kx, double ky) const {
+    const double k = std::sqrt(q_.yy * kx * kx - 2.0 * q_.xy * kx * ky + q_.xx * ky * ky);
+    return (*table_)(k * alpha_) * (sinc_half(kx) * sinc_half(ky));
+  }
+
+ private:
+  // The table of x -> moffat_fourier(beta, t, x): a function of beta and t alone, kept per thread
+  // for the last few (a run's Gammas share one beta; its values do not depend on who made it).
+  static const kernels::LogTable& table(double beta, double t) {
+    struct Entry {
+      double beta, t;
+      kernels::LogTable table;
+    };
+    thread_local std::deque<Entry> cache;  // push_back and pop_front keep the other entries in place
+    for (const Entry& e : cache)
+      if (e.beta == beta && e.t == t) return e.table;
+    if (cache.size() >= 8) cache.pop_front();
+    cache.push_back({beta, t, kernels::LogTable([&](double x) { return kernels::moffat_fourier(beta, t, x); },
+                                                kernels::LogGrid::covering(1e-3, 400, 100))});
+    return cache.back().table;
+  }
+  double alpha_;
+  kernels::EllipseQuadratic q_;
+  const kernels::LogTable* table_;
+};
+
 }  // namespace
 
-std::shared_ptr<const MetacalFilters> MetacalFilters::build(const PsfModel& psf, const PsfModel& reconvolution,
-                                                            double step, int period, std::string* error,
-                                                            double max_gain) {
+std::shared_ptr<const MetacalFilters::Observed> MetacalFilters::observe(const PsfModel& psf, int period,
+                                                                        std::string* error) {
   auto fail = [&](const std::string& why) {
     if (error) *error = why;
-    return std::shared_ptr<const MetacalFilters>();
+    return std::shared_ptr<const Observed>();
   };
   if (period < 4 || period % 2 != 0) return fail("metacal: the padded grid must be even and >= 4");
-  if (!(step > 0 && step < 0.5)) return fail("metacal: the shear step must be in (0, 0.5)");
-  std::shared_ptr<MetacalFilters> f(new MetacalFilters());
-  f->period_ = period;
-  f->step_ = step;
-  f->reconvolution_ = reconvolution;
+  auto out = std::make_shared<Observed>();
+  out->period = period;
   const int m = period, h = m / 2 + 1;
-  const double dk = 2 * std::numbers::pi / m, norm = 1.0 / (static_cast<double>(m) * m);
+  const double dk = 2 * std::numbers::pi / m;
   // The observed PSF x pixel at (2 pi c / M, 2 pi r / M) for c in [0, M/2], r in [-M/2, M/2] (both
   // Nyquist signs: the filters average over them); negative c by Hermitian symmetry. An image PSF
   // in one separable transform, an analytic one point by point.
-  std::vector<std::complex<double>> observed(static_cast<std::size_t>(m + 1) * h);
+  std::vector<std::complex<double>>& observed = out->values;
+  observed.resize(static_cast<std::size_t>(m + 1) * h);
   if (psf.kind == PsfKind::kImage) {
     if (!psf.image) return fail("metacal: the PSF image is missing");
     std::vector<double> fx(h), fy(m + 1);
@@ -45,6 +103,10 @@ std::shared_ptr<const MetacalFilters> MetacalFilters::build(const PsfModel& psf,
     if (!psf.image->transform(fx, fy, 0.5 * psf.image->oversampling, observed, &why)) return fail("metacal: " + why);
     for (int r = 0; r <= m; ++r)
       for (int c = 0; c < h; ++c) observed[static_cast<std::size_t>(r) * h + c] *= sinc_half(dk * c) * sinc_half(dk * (r - m / 2));
+  } else if (psf.kind == PsfKind::kMoffat) {
+    const MoffatTransform transform(psf.moffat);
+    for (int r = 0; r <= m; ++r)
+      for (int c = 0; c < h; ++c) observed[static_cast<std::size_t>(r) * h + c] = transform(dk * c, dk * (r - m / 2));
   } else {
     for (int r = 0; r <= m; ++r)
       for (int c = 0; c < h; ++c) observed[static_cast<std::size_t>(r) * h + c] = with_pixel(psf, dk * c, dk * (r - m / 2));
@@ -52,14 +114,45 @@ std::shared_ptr<const MetacalFilters> MetacalFilters::build(const PsfModel& psf,
   for (const std::complex<double>& v : observed)
     if (!std::isfinite(v.real()) || !std::isfinite(v.imag()) || std::abs(v) == 0)
       return fail("metacal: the PSF's transform is not finite and non-zero on the grid");
+  return out;
+}
+
+std::shared_ptr<const MetacalFilters> MetacalFilters::build(const PsfModel& psf, const PsfModel& reconvolution,
+                                                            double step, int period, std::string* error,
+                                                            double max_gain, const PixelFrame& frame) {
+  const auto observed = observe(psf, period, error);
+  if (!observed) return nullptr;
+  return build(*observed, reconvolution, step, error, max_gain, frame);
+}
+
+std::shared_ptr<const MetacalFilters> MetacalFilters::build(const Observed& observed_psf, const PsfModel& reconvolution,
+                                                            double step, std::string* error, double max_gain,
+                                                            const PixelFrame& frame) {
+  auto fail = [&](const std::string& why) {
+    if (error) *error = why;
+    return std::shared_ptr<const MetacalFilters>();
+  };
+  const int period = observed_psf.period;
+  if (!(step > 0 && step < 0.5)) return fail("metacal: the shear step must be in (0, 0.5)");
+  if (reconvolution.kind != PsfKind::kMoffat) return fail("metacal: the reconvolution PSF must be a Moffat");
+  std::shared_ptr<MetacalFilters> f(new MetacalFilters());
+  f->period_ = period;
+  f->step_ = step;
+  f->reconvolution_ = reconvolution;
+  const int m = period, h = m / 2 + 1;
+  const double dk = 2 * std::numbers::pi / m, norm = 1.0 / (static_cast<double>(m) * m);
+  const std::vector<std::complex<double>>& observed = observed_psf.values;
+  const MoffatTransform gamma_transform(reconvolution.moffat);
   auto observed_at = [&](int c, int r) {  // c in [-M/2, M/2], r in [-M/2, M/2]
     if (c < 0) return std::conj(observed[static_cast<std::size_t>(-r + m / 2) * h - c]);
     return observed[static_cast<std::size_t>(r + m / 2) * h + c];
   };
   for (MetacalType t : kMetacalTypes) {
     const auto g = metacal_shear(t, step);
-    const auto b = inverse_shear_matrix(g[0], g[1]);  // symmetric: A^-T = A^-1
-    auto gamma = [&](double kx, double ky) { return with_pixel(reconvolution, b[0] * kx + b[1] * ky, b[2] * kx + b[3] * ky); };
+    const auto b = pixel_inverse_shear(g, frame);
+    f->inverse_[static_cast<int>(t)] = b;
+    // A^-T k (for the identity frame b is symmetric and this is A^-1 k).
+    auto gamma = [&](double kx, double ky) { return gamma_transform(b[0] * kx + b[2] * ky, b[1] * kx + b[3] * ky); };
     auto& out = f->filters_[static_cast<int>(t)];
     out.resize(static_cast<std::size_t>(m) * h);
     for (int r = 0; r < m; ++r) {
@@ -81,6 +174,13 @@ std::shared_ptr<const MetacalFilters> MetacalFilters::build(const PsfModel& psf,
           if (nyquist_row && nyquist_col) add(-c, -rs);
           ratio /= static_cast<double>(n);
         }
+        // Where Gamma itself has fallen below kNegligibleGamma the PSF's transform is at its own floor
+        // (an image PSF's truncation, aliasing and float32 rounding), and the ratio of two
+        // negligible numbers says nothing of the widths: the gain is clipped there instead of
+        // refusing Gamma, which would otherwise have to fall below that floor everywhere.
+        const double gain = std::abs(ratio);
+        if (std::isfinite(gain) && gain > max_gain && std::abs(gamma(kx, ky)) < kNegligibleGamma)
+          ratio *= max_gain / gain;
         if (!std::isfinite(ratio.real()) || !std::isfinite(ratio.imag()) || std::abs(ratio) > max_gain) {
           std::ostringstream msg;
           msg << "metacal: the reconvolution PSF is not wider than the PSF (filter " << std::abs(ratio) << " at k = ("

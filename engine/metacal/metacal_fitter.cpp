@@ -9,21 +9,8 @@
 #include "engine/metacal/reconvolution_psf.hpp"
 
 namespace stampede {
-namespace {
 
-// 90 degrees counter-clockwise about the stamp's centre: in(x, y) lands at (S-1-y, x).
-void rotate(std::span<const double> in, std::span<double> out, int s) {
-  for (int y = 0; y < s; ++y)
-    for (int x = 0; x < s; ++x) out[static_cast<std::size_t>(x) * s + (s - 1 - y)] = in[static_cast<std::size_t>(y) * s + x];
-}
-// The inverse of rotate(), added to `out`.
-void add_rotated_back(std::span<const double> in, std::span<double> out, int s) {
-  for (int y = 0; y < s; ++y)
-    for (int x = 0; x < s; ++x) out[static_cast<std::size_t>(y) * s + x] += in[static_cast<std::size_t>(x) * s + (s - 1 - y)];
-}
-
-// The fit options of the chosen metacal model: one component, the other's amplitude held at 0.
-FitterOptions with_model(FitterOptions o, MetacalModel model) {
+FitterOptions metacal_fit_options(FitterOptions o, MetacalModel model) {
   auto only = [&](Param keep, Param zero) {
     o.params[zero].free = false;
     o.params[zero].start = 0;
@@ -41,10 +28,6 @@ FitterOptions with_model(FitterOptions o, MetacalModel model) {
   return o;
 }
 
-constexpr std::uint64_t kFixnoisePurpose = 0x6669786e6f697365ull;  // "fixnoise"
-
-}  // namespace
-
 bool MetacalOptions::IsValid(std::string* why) const {
   if (!(step > 0 && step <= 0.1)) {
     if (why) *why = "metacal_step = " + number_text(step) + ": must be in (0, 0.1]";
@@ -59,16 +42,13 @@ bool MetacalOptions::IsValid(std::string* why) const {
 
 MetacalFitter::MetacalFitter(const FitterOptions& fit_options, const MetacalOptions& options, int stamp_size,
                              FftPlanCache& plans, FftPlanning planning)
-    : fit_options_(with_model(fit_options, options.model)),
+    : fit_options_(metacal_fit_options(fit_options, options.model)),
       options_(options),
       s_(stamp_size),
-      imager_(stamp_size, MetacalImager::padded_size(stamp_size), planning) {
+      images_set_(stamp_size, planning) {
   fitter_ = std::make_unique<Fitter>(fit_options_, nullptr, plans);
   const std::size_t npix = static_cast<std::size_t>(s_) * s_;
   images_.resize(kNumMetacalTypes * npix);
-  noise_images_.resize(kNumMetacalTypes * npix);
-  noise_.resize(npix);
-  rotated_.resize(npix);
   weight_.resize(npix);
 }
 
@@ -78,7 +58,7 @@ bool MetacalFitter::set_psf(const PsfModel& psf, std::string* error) {
   psf_ = psf;
   filters_.reset();
   fitter_->set_psf(nullptr);
-  filters_ = reconvolution_filters(psf, options_, imager_.period(), error);
+  filters_ = reconvolution_filters(psf, options_, images_set_.period(), error);
   if (!filters_) return false;
   gamma_ = filters_->reconvolution();
   auto prepared = fitter_->renderer().prepare_psf(gamma_, error);
@@ -92,44 +72,9 @@ bool MetacalFitter::set_psf(const PsfModel& psf, std::string* error) {
 
 bool MetacalFitter::make_images(std::span<const double> pixels, std::span<const double> weight, WeightKind kind,
                                 std::int64_t object_id, double* image_variance) {
-  const std::size_t npix = static_cast<std::size_t>(s_) * s_;
-  // The data's per-pixel noise: the weight map's, or noise_sigma's. A masked pixel has none to
-  // deconvolve: it is zeroed in the data (and the caller flags the row).
-  const double sigma = fit_options_.noise_sigma;
-  double variance_sum = 0;
-  bool masked = false;
-  for (std::size_t i = 0; i < npix; ++i) {
-    double var = sigma * sigma;
-    if (!weight.empty() && weight[i] == 0) {
-      masked = true;
-      var = 0;
-    } else if (!weight.empty() && kind == WeightKind::kInverseVariance) {
-      var = 1.0 / weight[i];
-    }
-    if (!std::isfinite(var)) var = 0;
-    noise_[i] = std::sqrt(var);
-    variance_sum += var;
-  }
-  std::copy(pixels.begin(), pixels.end(), rotated_.begin());
-  if (masked)
-    for (std::size_t i = 0; i < npix; ++i)
-      if (weight[i] == 0) rotated_[i] = 0;
-  const double centre = 0.5 * (s_ - 1);
-  imager_.make_images(rotated_, *filters_, centre, centre, images_);
-  const double mean_variance = variance_sum / static_cast<double>(npix);
-  const bool fixnoise = options_.fixnoise && mean_variance > 0;
-  if (fixnoise) {
-    RandomStream rng({options_.seed, static_cast<std::uint64_t>(object_id), kFixnoisePurpose});
-    for (std::size_t i = 0; i < npix; ++i) noise_[i] *= rng.normal();
-    rotate(noise_, rotated_, s_);
-    imager_.make_images(rotated_, *filters_, centre, centre, noise_images_);
-    for (int t = 0; t < kNumMetacalTypes; ++t)
-      add_rotated_back(std::span<const double>(noise_images_).subspan(t * npix, npix),
-                       std::span<double>(images_).subspan(t * npix, npix), s_);
-  }
-  // The images' noise: the data's through the noshear filter, twice that with fixnoise.
-  *image_variance = mean_variance * filters_->noise_gain() * (fixnoise ? 2.0 : 1.0);
-  return !masked;
+  return images_set_.make(pixels, weight, kind, fit_options_.noise_sigma, *filters_, options_,
+                          RandomStream({options_.seed, static_cast<std::uint64_t>(object_id), kFixnoisePurpose}), images_,
+                          image_variance);
 }
 
 void MetacalFitter::fit(std::span<const double> pixels, std::span<const double> weight, WeightKind kind,

@@ -11,11 +11,15 @@
 #include <vector>
 
 #include "engine/fit/fitter.hpp"
-#include "engine/metacal/metacal_imager.hpp"
+#include "engine/metacal/metacal_image_set.hpp"
 #include "engine/metacal/metacal_options.hpp"
 #include "engine/metacal/metacal_record.hpp"
 
 namespace stampede {
+
+// The fit options of metacal's model: bd keeps them; exp and gauss fit one component, the other's
+// amplitude held at 0 (gauss: a Sersic n = 0.5 bulge).
+FitterOptions metacal_fit_options(FitterOptions o, MetacalModel model);
 
 class MetacalFitter {
  public:
@@ -49,12 +53,12 @@ class MetacalFitter {
   FitterOptions fit_options_;
   MetacalOptions options_;
   int s_;
-  MetacalImager imager_;
+  MetacalImageSet images_set_;
   std::unique_ptr<Fitter> fitter_;  // its PSF is gamma_
   std::shared_ptr<const MetacalFilters> filters_;
   PsfModel psf_, gamma_;
   bool have_psf_ = false;
-  std::vector<double> images_, noise_, rotated_, noise_images_, weight_;
+  std::vector<double> images_, weight_;
 };
 
 }  // namespace stampede

@@ -64,8 +64,9 @@ MetacalImager::MetacalImager(int stamp_size, int period, FftPlanning planning)
     throw std::runtime_error("MetacalImager: FFTW could not plan a " + std::to_string(m_) + "-point grid");
   // Planning with FFTW_MEASURE overwrites the arrays.
   std::fill(pad, pad + static_cast<std::size_t>(m_) * m_, 0.0);
-  weights_.reserve(static_cast<std::size_t>(2 * h_count_) * s_);
+  weights_.reserve(static_cast<std::size_t>(2 * h_count_) * m_);
   positions_.resize(s_);
+  positions_full_.resize(m_);
   scratch_.resize(static_cast<std::size_t>(m_) * s_);
   scratch_t_.resize(static_cast<std::size_t>(m_) * s_);
 }
@@ -90,15 +91,16 @@ void MetacalImager::make_images(std::span<const double> stamp, const MetacalFilt
   for (MetacalType t : kMetacalTypes) {
     double* img = out.data() + static_cast<int>(t) * npix;
     filtered(filters.filter(t));
-    const auto g = metacal_shear(t, filters.step());
-    const auto b = inverse_shear_matrix(g[0], g[1]);
+    const std::array<double, 4>& b = filters.inverse_shear(t);
     if (t == MetacalType::kNoshear) {
       for (int y = 0; y < s_; ++y)
         std::copy_n(h + static_cast<std::size_t>(offset_ + y) * m_ + offset_, s_, img + static_cast<std::size_t>(y) * s_);
-    } else if (b[1] == 0.0) {
+    } else if (b[1] == 0.0 && b[2] == 0.0) {
       scaled(b[0], b[3], cx, cy, img);
-    } else {
+    } else if (b[1] == b[2] && b[0] == b[3]) {
       sheared(b[0], b[1], cx, cy, img);
+    } else {
+      general(b, cx, cy, img);
     }
   }
 }
@@ -192,6 +194,56 @@ void MetacalImager::sheared(double a, double b, double cx, double cy, double* ou
   shift_rows(grid, [&](int r) { return s * centred(r, cy); });          // R(x, y) = F2(x + s y, y)
   for (int y = 0; y < s_; ++y)
     std::copy_n(grid + static_cast<std::size_t>(offset_ + y) * m_ + offset_, s_, out + static_cast<std::size_t>(y) * s_);
+}
+
+template <class Shift>
+void MetacalImager::ramp_rows(int n, Shift shift) {
+  auto* rows = static_cast<std::complex<double>*>(rows_spectrum_.data());
+  for (int r = 0; r < n; ++r) {
+    std::complex<double>* row = rows + static_cast<std::size_t>(r) * h_count_;
+    const std::complex<double> step = std::polar(1.0, 2 * std::numbers::pi * shift(r) / m_);
+    std::complex<double> phase(1.0, 0.0);
+    for (int q = 0; q < h_count_; ++q) {
+      row[q] *= phase;
+      phase *= step;
+    }
+  }
+}
+
+void MetacalImager::general(const std::array<double, 4>& b, double cx, double cy, double* out) {
+  // B = L D X with L = [[1, 0], [l, 1]], D = diag(d1, d2), X = [[1, u / d1], [0, 1]]:
+  // H(c + B (x - c)) = F(c + D X (x - c)) with F(x, y) = H(x, y + l (x - cx)), i.e.
+  //   G(x, y) = F(x, cy + d2 (y - cy))                     (every column: shift, then stretch)
+  //   out(x, y) = G(cx + d1 (x - cx) + u (y - cy), y)      (the stamp's rows: shift, then stretch)
+  const double d1 = b[0], u = b[1], l = b[2] / b[0], d2 = b[3] - l * b[1];
+  auto* rows = static_cast<double*>(rows_spectrum_.data());
+  auto* grid = static_cast<double*>(grid_.data());
+  auto* transposed = static_cast<double*>(transposed_.data());
+  const int two_h = 2 * h_count_;
+  auto centred = [&](int i, double c) {  // periodic coordinate about c, in [-M/2, M/2)
+    double d = i - c;
+    if (d >= 0.5 * m_) d -= m_;
+    if (d < -0.5 * m_) d += m_;
+    return d;
+  };
+  // Columns (as rows of the transpose): column x read at y + l (x - cx), at the stretched rows.
+  transpose(static_cast<const double*>(h_.data()), transposed, m_, m_);
+  fftw_execute_dft_r2c(static_cast<fftw_plan>(rows_forward_), transposed, reinterpret_cast<fftw_complex*>(rows));
+  ramp_rows(m_, [&](int x) { return l * centred(x, cx); });
+  for (int j = 0; j < m_; ++j) positions_full_[j] = cy + d2 * centred(j, cy);
+  dft_weights(positions_full_, &weights_);
+  Eigen::Map<RowMatrix>(grid, m_, m_).noalias() =
+      Eigen::Map<const RowMatrix>(rows, m_, two_h) * Eigen::Map<const RowMatrix>(weights_.data(), two_h, m_);
+  transpose(grid, transposed, m_, m_);  // G, rows y
+  // The stamp's rows: row y read at x + u (y - cy), at the stretched columns.
+  fftw_execute_dft_r2c(static_cast<fftw_plan>(rows_forward_), transposed, reinterpret_cast<fftw_complex*>(rows));
+  const std::size_t first = static_cast<std::size_t>(offset_) * h_count_ * 2;
+  std::copy_n(rows + first, static_cast<std::size_t>(s_) * two_h, rows);  // the stamp's rows first
+  ramp_rows(s_, [&](int i) { return u * centred(offset_ + i, cy); });
+  for (int j = 0; j < s_; ++j) positions_[j] = cx + d1 * centred(offset_ + j, cx);
+  dft_weights(positions_, &weights_);
+  Eigen::Map<RowMatrix>(out, s_, s_).noalias() =
+      Eigen::Map<const RowMatrix>(rows, s_, two_h) * Eigen::Map<const RowMatrix>(weights_.data(), two_h, s_);
 }
 
 }  // namespace stampede

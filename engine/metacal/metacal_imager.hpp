@@ -8,9 +8,14 @@
 //   2p, 2m (A^-1 = X(s) Y(c) X(s), three one-axis shears): each a phase ramp on a row's or
 //     column's 1D transform, exact for each pass; the passes' intermediate images are not band
 //     limited, which costs only where H_T's spectrum reaches the Nyquist edge.
+//   any other A^-1 (the sky's shear seen through a cutout's WCS Jacobian, MetacalFilters):
+//     A^-1 = L D X (L a column shear, D diagonal, X a row shear, all within the step of 1), in two
+//     passes: every column shifted and stretched (a phase ramp, then a dense DFT at the stretched
+//     rows), then the stamp's rows shifted and stretched likewise.
 // Allocates at construction only.
 #pragma once
 
+#include <array>
 #include <complex>
 #include <span>
 #include <vector>
@@ -51,6 +56,12 @@ class MetacalImager {
   void scaled(double b0, double b1, double cx, double cy, double* out);
   // The 2p/2m images: H at c + [[a, b], [b, a]] (x - c).
   void sheared(double a, double b, double cx, double cy, double* out);
+  // H at c + B (x - c) for any B of unit determinant.
+  void general(const std::array<double, 4>& b, double cx, double cy, double* out);
+  // rows_spectrum_'s first n rows (M/2 + 1 coefficients each) times exp(2 pi i q t(r) / M): each
+  // row's function then reads at x + t(r).
+  template <class Shift>
+  void ramp_rows(int n, Shift shift);
   // Interpolation weights (2 (M/2 + 1) x n, row-major): rows 2q, 2q + 1 hold w_q cos and -w_q sin
   // of 2 pi q p_j / M for the positions p_j (padded-grid coordinates), so Re(F . e) is one product.
   void dft_weights(std::span<const double> positions, std::vector<double>* w) const;
@@ -62,7 +73,7 @@ class MetacalImager {
   void* backward_2d_ = nullptr;
   void* rows_forward_ = nullptr;   // M rows of M, r2c
   void* rows_backward_ = nullptr;  // M rows of M, c2r
-  std::vector<double> weights_, positions_, scratch_, scratch_t_;
+  std::vector<double> weights_, positions_, positions_full_, scratch_, scratch_t_;
 };
 
 }  // namespace stampede

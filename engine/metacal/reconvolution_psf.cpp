@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "engine/common/number_text.hpp"
+#include "kernels/ellipse.hpp"
 #include "kernels/moments.hpp"
 
 namespace stampede {
@@ -15,6 +16,49 @@ PsfModel round_moffat(double beta, double fwhm) {
   m.beta = beta;
   m.fwhm = fwhm;
   return PsfModel::Moffat(m);
+}
+
+// An image PSF's Gamma search starts at this fraction of its Gaussian-equivalent FWHM: a Moffat's
+// moments overstate its core (beta 3: 2.3 x its FWHM), so the narrowest Gamma lies well below.
+constexpr double kImageStart = 0.5;
+
+// The largest singular value of J: how far a unit step in the pixels reaches on the sky at most.
+double largest_stretch(const PixelFrame& f) {
+  const double a = f.dudx * f.dudx + f.dvdx * f.dvdx, b = f.dudx * f.dudy + f.dvdx * f.dvdy,
+               c = f.dudy * f.dudy + f.dvdy * f.dvdy;
+  return std::sqrt(0.5 * (a + c) + std::sqrt(0.25 * (a - c) * (a - c) + b * b));
+}
+
+// The Gaussian-equivalent FWHM 2.3548 sqrt(lambda_max) of an image PSF's adaptive-moment
+// covariance, in data pixels, or on the sky through `frame` (J C J^T).
+bool image_major_fwhm(const PsfImage& im, const PixelFrame& frame, double* major, std::string* error) {
+  if (im.nx != im.ny) {
+    *error = "metacal needs a square PSF image, not " + std::to_string(im.nx) + " x " + std::to_string(im.ny);
+    return false;
+  }
+  const std::vector<double> ones(im.pixels.size(), 1.0);
+  const kernels::ImageMoments mom = kernels::adaptive_moments(im.pixels, ones, im.nx);
+  if (!mom.valid) {
+    *error = "metacal: the PSF image has no adaptive moments (no positive flux, or no shape)";
+    return false;
+  }
+  const double o2 = static_cast<double>(im.oversampling) * im.oversampling;
+  double xx = mom.xx / o2, xy = mom.xy / o2, yy = mom.yy / o2;
+  if (!frame.unit_jacobian()) {
+    const double j[2][2] = {{frame.dudx, frame.dudy}, {frame.dvdx, frame.dvdy}}, c[2][2] = {{xx, xy}, {xy, yy}};
+    double s[2][2];
+    for (int r = 0; r < 2; ++r)
+      for (int q = 0; q < 2; ++q) {
+        s[r][q] = 0;
+        for (int a = 0; a < 2; ++a)
+          for (int b = 0; b < 2; ++b) s[r][q] += j[r][a] * c[a][b] * j[q][b];
+      }
+    xx = s[0][0], xy = s[0][1], yy = s[1][1];
+  }
+  const double tr = xx + yy, det = xx * yy - xy * xy;
+  const double lambda = 0.5 * tr + std::sqrt(std::max(0.0, 0.25 * tr * tr - det));
+  *major = 2.3548 * std::sqrt(lambda);
+  return true;
 }
 
 }  // namespace
@@ -29,33 +73,24 @@ std::shared_ptr<const MetacalFilters> reconvolution_filters(const PsfModel& psf,
                                  error);
   }
   if (psf.kind == PsfKind::kImage && psf.image) {
-    const PsfImage& im = *psf.image;
-    if (im.nx != im.ny) {
-      if (error) *error = "metacal needs a square PSF image, not " + std::to_string(im.nx) + " x " + std::to_string(im.ny);
+    double major = 0;
+    std::string why;
+    if (!image_major_fwhm(*psf.image, PixelFrame(), &major, &why)) {
+      if (error) *error = why;
       return nullptr;
     }
-    const std::vector<double> ones(im.pixels.size(), 1.0);
-    const kernels::ImageMoments mom = kernels::adaptive_moments(im.pixels, ones, im.nx);
-    if (!mom.valid) {
-      if (error) *error = "metacal: the PSF image has no adaptive moments (no positive flux, or no shape)";
-      return nullptr;
-    }
-    // The larger eigenvalue of the covariance, in data pixels^2.
-    const double o2 = static_cast<double>(im.oversampling) * im.oversampling;
-    const double tr = (mom.xx + mom.yy) / o2, det = (mom.xx * mom.yy - mom.xy * mom.xy) / (o2 * o2);
-    const double lambda = 0.5 * tr + std::sqrt(std::max(0.0, 0.25 * tr * tr - det));
     // The Gaussian-equivalent FWHM of the major axis overstates a Moffat core's: start below it
     // and widen until every filter is bounded, which finds the narrowest Gamma that serves.
-    const double major = 2.3548 * std::sqrt(lambda);
-    std::string why;
     if (options.psf_dilation > 0) {
       auto f = MetacalFilters::build(psf, round_moffat(3.0, major * options.psf_dilation), options.step, period, &why);
       if (!f && error) *error = why;
       return f;
     }
-    double fwhm = 0.7 * major;
+    const auto observed = MetacalFilters::observe(psf, period, error);
+    if (!observed) return nullptr;
+    double fwhm = kImageStart * major;
     for (int attempt = 0; attempt < 40; ++attempt, fwhm *= 1.03) {
-      auto f = MetacalFilters::build(psf, round_moffat(3.0, fwhm), options.step, period, &why);
+      auto f = MetacalFilters::build(*observed, round_moffat(3.0, fwhm), options.step, &why);
       if (f) return f;
     }
     if (error) *error = why + " (round Moffats up to FWHM " + number_text(fwhm / 1.03) + " px tried)";
@@ -65,6 +100,83 @@ std::shared_ptr<const MetacalFilters> reconvolution_filters(const PsfModel& psf,
     *error = std::string("metacal needs a Moffat or image PSF (psf_input = moffat, moffat_catalog or image); this PSF "
                          "is '") + psf_kind_name(psf.kind) + "'";
   return nullptr;
+}
+
+PsfModel round_on_sky(double beta, double fwhm, const PixelFrame& frame) {
+  if (frame.unit_jacobian()) return round_moffat(beta, fwhm);
+  // f(|J x|^2 / a^2) = f(x^T Q' x / (a^2 / d)) with Q = J^T J = d Q', det Q' = 1, d = |det J|.
+  const kernels::EllipseQuadratic q{frame.dudx * frame.dudx + frame.dvdx * frame.dvdx,
+                                    frame.dudx * frame.dudy + frame.dvdx * frame.dvdy,
+                                    frame.dudy * frame.dudy + frame.dvdy * frame.dvdy};
+  double e1 = 0, e2 = 0, r = 0;
+  kernels::ellipse_parameters(q, &e1, &e2, &r);
+  PsfModel p = round_moffat(beta, fwhm / std::sqrt(std::abs(frame.determinant())));
+  p.moffat.e1 = e1, p.moffat.e2 = e2;
+  return p;
+}
+
+bool sky_reconvolution(std::span<const MetacalEpochPsf> epochs, const MetacalOptions& options, SkyReconvolution* out,
+                       std::string* error) {
+  out->filters.assign(epochs.size(), nullptr);
+  if (epochs.empty()) {
+    if (error) *error = "metacal: no cutout";
+    return false;
+  }
+  auto fail = [&](std::size_t k, const std::string& why) {
+    if (error) *error = "cutout " + std::to_string(k) + ": " + why;
+    return false;
+  };
+  // Each cutout's first Gamma by the single-stamp rule, as its widest extent on the sky; the
+  // largest of them starts the search (with that cutout's beta).
+  std::vector<std::shared_ptr<const MetacalFilters::Observed>> observed(epochs.size());
+  double start = 0, beta = 3;
+  bool ladder = false;
+  for (std::size_t k = 0; k < epochs.size(); ++k) {
+    const MetacalEpochPsf& e = epochs[k];
+    const PsfModel& psf = *e.psf;
+    std::string why;
+    double first = 0, b = 3;
+    if (psf.kind == PsfKind::kMoffat) {
+      const double ell = std::hypot(psf.moffat.e1, psf.moffat.e2);
+      const double dilation =
+          options.psf_dilation > 0 ? options.psf_dilation : (1 + 2 * options.step) * std::sqrt((1 + ell) / (1 - ell));
+      first = psf.moffat.fwhm * dilation * (e.frame.unit_jacobian() ? 1.0 : largest_stretch(e.frame));
+      b = psf.moffat.beta;
+    } else if (psf.kind == PsfKind::kImage && psf.image) {
+      double major = 0;
+      if (!image_major_fwhm(*psf.image, e.frame, &major, &why)) return fail(k, why);
+      first = options.psf_dilation > 0 ? major * options.psf_dilation : kImageStart * major;
+      ladder = ladder || options.psf_dilation == 0;
+    } else {
+      return fail(k, std::string("metacal needs a Moffat or image PSF; this PSF is '") + psf_kind_name(psf.kind) + "'");
+    }
+    observed[k] = MetacalFilters::observe(psf, e.period, &why);
+    if (!observed[k]) return fail(k, why);
+    if (first > start) start = first, beta = b;
+  }
+  // An analytic PSF's rule is wide enough by construction: the search widens only when the
+  // cutouts' frames or PSFs disagree. Image PSFs search from below, as the single-stamp rule.
+  std::string why;
+  double fwhm = start;
+  const int attempts = options.psf_dilation > 0 && !ladder ? 1 : 40;
+  for (int attempt = 0; attempt < attempts; ++attempt, fwhm *= 1.03) {
+    bool all = true;
+    for (std::size_t k = 0; k < epochs.size() && all; ++k) {
+      const MetacalEpochPsf& e = epochs[k];
+      out->filters[k] =
+          MetacalFilters::build(*observed[k], round_on_sky(beta, fwhm, e.frame), options.step, &why, 1.01, e.frame);
+      if (!out->filters[k]) {
+        why = "cutout " + std::to_string(k) + ": " + why;
+        all = false;
+      }
+    }
+    if (all) {
+      out->fwhm = fwhm, out->beta = beta;
+      return true;
+    }
+  }
+  if (error) *error = why + " (round Moffats on the sky up to FWHM " + number_text(fwhm / 1.03) + " tried)";
+  return false;
 }
 
 }  // namespace stampede

@@ -4,10 +4,13 @@
 #pragma once
 
 #include <memory>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "engine/metacal/metacal_filters.hpp"
 #include "engine/metacal/metacal_options.hpp"
+#include "engine/model/pixel_frame.hpp"
 #include "engine/model/psf_model.hpp"
 
 namespace stampede {
@@ -21,5 +24,36 @@ namespace stampede {
 // no Gamma serves; filters->reconvolution() is the Gamma chosen.
 std::shared_ptr<const MetacalFilters> reconvolution_filters(const PsfModel& psf, const MetacalOptions& options,
                                                             int period, std::string* error);
+
+}  // namespace stampede
+
+namespace stampede {
+
+// A round Moffat on the sky (FWHM in the frame's sky units) as the profile it is in the frame's
+// pixels: FWHM / sqrt|det J|, its ellipse J^T J's. The identity frame gives the round Moffat.
+PsfModel round_on_sky(double beta, double fwhm, const PixelFrame& frame);
+
+// One cutout's PSF (in its pixels), its frame and its metacal grid's period.
+struct MetacalEpochPsf {
+  const PsfModel* psf = nullptr;
+  PixelFrame frame;
+  int period = 0;
+};
+
+// The one Gamma of a multi-epoch object: round on the sky, the filters of every cutout.
+struct SkyReconvolution {
+  double fwhm = 0, beta = 3;  // on the sky, in the frames' units (arcsec)
+  std::vector<std::shared_ptr<const MetacalFilters>> filters;  // per cutout: Gamma in its pixels
+};
+
+// The rule: each cutout's start by the single-stamp rule above, carried to the sky: a Moffat PSF's
+// FWHM x dilation x s_k (s_k the largest singular value of J_k: the widest a round pixel Gamma is
+// on the sky), of its beta; an image PSF's 0.7 (or metacal_psf_dilation) x the Gaussian-equivalent
+// FWHM of its covariance on the sky's major axis (J C J^T), beta 3. Gamma starts at the largest
+// start, and is widened by 3 % (up to 40 times) until every cutout's filters are bounded. One
+// cutout with a unit Jacobian gets the single-stamp Gamma exactly. False, with *error naming the
+// cutout (0-based in `epochs`), when none serves.
+bool sky_reconvolution(std::span<const MetacalEpochPsf> epochs, const MetacalOptions& options, SkyReconvolution* out,
+                       std::string* error);
 
 }  // namespace stampede

@@ -17,6 +17,7 @@ struct SurveyRecord {
   double psf_size = NAN;           // mean over the fitted cutouts of sqrt((Ixx + Iyy) / 2), pixels
   std::int32_t is_bulge = -1;      // bord: 1 the pure bulge won, 0 the pure disc; bd: -1
   double other_likelihood = NAN;   // bord: the losing model's log-likelihood; bd: NaN
+  double gamma_fwhm = NAN;         // metacal runs: the reconvolution PSF's FWHM on the sky, arcsec
 };
 
 }  // namespace stampede

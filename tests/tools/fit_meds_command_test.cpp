@@ -79,6 +79,40 @@ TEST_F(FitMeds, OneRowPerObjectInOrderForAnyThreadCount) {
   }
 }
 
+// Metacal on a tile (issue 30): the metacal columns and gamma_fwhm for every object, the same
+// table for any thread count, and shards that merge into it.
+TEST_F(FitMeds, MetacalRowsAreTheSameForAnyThreadCountAndMergeFromShards) {
+  const std::string tile = kSample + "/meds.fits";
+  const std::vector<std::string> opts = {"--set", "metacal=true", "--set", "batch_size=3", "--quiet"};
+  ASSERT_EQ(run(std::vector<std::string>{"--meds", tile, "-o", path("t2.fits"), "--threads", "2"} + opts).exit_code, 0);
+  for (const char* shard : {"0/2", "1/2"}) {
+    const RunResult r = run(std::vector<std::string>{"--meds", tile, "-o", path(std::string("s") + shard[0] + ".fits"),
+                                                     "--threads", "1", "--shard", shard} + opts);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+  }
+  const RunResult merged =
+      finish(spawn({"-o", path("merged.fits"), path("s1.fits"), path("s0.fits"), "--quiet"}, path("merge.txt"), "merge"),
+             path("merge.txt"));
+  ASSERT_EQ(merged.exit_code, 0) << merged.err;
+  std::vector<std::string> columns = kSurveyColumns;
+  for (const char* c : {"R11", "R12", "R21", "R22", "e1_1p", "e2_1p", "snr_1p", "radius_1p", "e1_1m", "e2_1m", "snr_1m",
+                        "radius_1m", "e1_2p", "e2_2p", "snr_2p", "radius_2p", "e1_2m", "e2_2m", "snr_2m", "radius_2m",
+                        "gamma_fwhm"})
+    columns.push_back(c);
+  expect_tables_equal(path("t2.fits"), path("merged.fits"), columns);
+  const auto r11 = column(path("t2.fits"), "R11"), r22 = column(path("t2.fits"), "R22"),
+             gamma = column(path("t2.fits"), "gamma_fwhm"), psf = column(path("t2.fits"), "psf_size");
+  ASSERT_EQ(r11.size(), 24u);
+  int finite = 0;
+  for (std::size_t i = 0; i < r11.size(); ++i) {
+    finite += std::isfinite(r11[i]) && std::isfinite(r22[i]);
+    // arcsec, against the PSF's Gaussian-equivalent FWHM (which overstates a Moffat's): of its scale.
+    EXPECT_GT(gamma[i], 0.5 * 0.263 * 2.3548 * psf[i]) << i;
+    EXPECT_LT(gamma[i], 2.0 * 0.263 * 2.3548 * psf[i]) << i;
+  }
+  EXPECT_EQ(finite, 24);
+}
+
 TEST_F(FitMeds, KillNineThenResumeEqualsUninterruptedRun) {
   const std::vector<std::string> opts = {"--set", "batch_size=1", "--threads", "1", "--quiet"};
   const std::string tile = kSample + "/meds.fits";

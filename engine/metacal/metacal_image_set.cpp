@@ -1,0 +1,71 @@
+// One stamp's five metacal images with fixnoise; see metacal_image_set.hpp.
+#include "engine/metacal/metacal_image_set.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace stampede {
+namespace {
+
+// 90 degrees counter-clockwise about the stamp's centre: in(x, y) lands at (S-1-y, x).
+void rotate(std::span<const double> in, std::span<double> out, int s) {
+  for (int y = 0; y < s; ++y)
+    for (int x = 0; x < s; ++x) out[static_cast<std::size_t>(x) * s + (s - 1 - y)] = in[static_cast<std::size_t>(y) * s + x];
+}
+// The inverse of rotate(), added to `out`.
+void add_rotated_back(std::span<const double> in, std::span<double> out, int s) {
+  for (int y = 0; y < s; ++y)
+    for (int x = 0; x < s; ++x) out[static_cast<std::size_t>(y) * s + x] += in[static_cast<std::size_t>(x) * s + (s - 1 - y)];
+}
+
+}  // namespace
+
+MetacalImageSet::MetacalImageSet(int stamp_size, FftPlanning planning)
+    : s_(stamp_size), imager_(stamp_size, MetacalImager::padded_size(stamp_size), planning) {
+  const std::size_t npix = static_cast<std::size_t>(s_) * s_;
+  noise_.resize(npix);
+  rotated_.resize(npix);
+  noise_images_.resize(kNumMetacalTypes * npix);
+}
+
+bool MetacalImageSet::make(std::span<const double> pixels, std::span<const double> weight, WeightKind kind,
+                           double noise_sigma, const MetacalFilters& filters, const MetacalOptions& options,
+                           RandomStream noise, std::span<double> out, double* image_variance) {
+  const std::size_t npix = static_cast<std::size_t>(s_) * s_;
+  if (pixels.size() != npix || (!weight.empty() && weight.size() != npix) || out.size() != kNumMetacalTypes * npix)
+    throw std::invalid_argument("MetacalImageSet::make: sizes do not match the stamp");
+  double variance_sum = 0;
+  bool masked = false;
+  for (std::size_t i = 0; i < npix; ++i) {
+    double var = noise_sigma * noise_sigma;
+    if (!weight.empty() && weight[i] == 0) {
+      masked = true;
+      var = 0;
+    } else if (!weight.empty() && kind == WeightKind::kInverseVariance) {
+      var = 1.0 / weight[i];
+    }
+    if (!std::isfinite(var)) var = 0;
+    noise_[i] = std::sqrt(var);
+    variance_sum += var;
+  }
+  std::copy(pixels.begin(), pixels.end(), rotated_.begin());
+  if (masked)
+    for (std::size_t i = 0; i < npix; ++i)
+      if (weight[i] == 0) rotated_[i] = 0;
+  const double centre = 0.5 * (s_ - 1);
+  imager_.make_images(rotated_, filters, centre, centre, out);
+  const double mean_variance = variance_sum / static_cast<double>(npix);
+  const bool fixnoise = options.fixnoise && mean_variance > 0;
+  if (fixnoise) {
+    for (std::size_t i = 0; i < npix; ++i) noise_[i] *= noise.normal();
+    rotate(noise_, rotated_, s_);
+    imager_.make_images(rotated_, filters, centre, centre, noise_images_);
+    for (int t = 0; t < kNumMetacalTypes; ++t)
+      add_rotated_back(std::span<const double>(noise_images_).subspan(t * npix, npix), out.subspan(t * npix, npix), s_);
+  }
+  *image_variance = mean_variance * filters.noise_gain() * (fixnoise ? 2.0 : 1.0);
+  return !masked;
+}
+
+}  // namespace stampede

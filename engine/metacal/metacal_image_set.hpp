@@ -1,0 +1,45 @@
+// One stamp's (or cutout's) five metacal images with fixnoise: the data through MetacalImager, and,
+// with fixnoise, a noise field of the data's per-pixel variance rotated by 90 degrees, taken
+// through the same operations and rotated back, so that the images' correlated noise is
+// isotropic (Sheldon & Huff 2017). Shared by the single-stamp and the multi-epoch metacal fits.
+// Allocates at construction only.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "engine/common/random_stream.hpp"
+#include "engine/fit/fitter.hpp"
+#include "engine/metacal/metacal_imager.hpp"
+#include "engine/metacal/metacal_options.hpp"
+
+namespace stampede {
+
+// Keys an object's fixnoise stream: {seed, object id, kFixnoisePurpose} (then the cutout, from
+// the second on).
+inline constexpr std::uint64_t kFixnoisePurpose = 0x6669786e6f697365ull;  // "fixnoise"
+
+class MetacalImageSet {
+ public:
+  MetacalImageSet(int stamp_size, FftPlanning planning);
+
+  int stamp_size() const { return s_; }
+  int period() const { return imager_.period(); }
+
+  // The five images (kMetacalTypes order, stamp_size^2 each) into `out`. The data's noise per
+  // pixel: the weight map's (kInverseVariance), else noise_sigma. A masked pixel (weight 0) has
+  // none to deconvolve: it is zeroed and make() returns false. *image_variance: the images'
+  // per-pixel noise variance (the data's through the noshear filter, twice that with fixnoise; 0
+  // for noise-free data). `noise` draws the fixnoise field (used only with options.fixnoise).
+  bool make(std::span<const double> pixels, std::span<const double> weight, WeightKind kind, double noise_sigma,
+            const MetacalFilters& filters, const MetacalOptions& options, RandomStream noise, std::span<double> out,
+            double* image_variance);
+
+ private:
+  int s_;
+  MetacalImager imager_;
+  std::vector<double> noise_, rotated_, noise_images_;
+};
+
+}  // namespace stampede

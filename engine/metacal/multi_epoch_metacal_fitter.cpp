@@ -1,0 +1,127 @@
+// Multi-epoch metacalibration; see multi_epoch_metacal_fitter.hpp.
+#include "engine/metacal/multi_epoch_metacal_fitter.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "engine/metacal/metacal_fitter.hpp"
+
+namespace stampede {
+
+MultiEpochMetacalFitter::MultiEpochMetacalFitter(const FitterOptions& fit_options, const MetacalOptions& options)
+    : fit_options_(metacal_fit_options(fit_options, options.model)), options_(options), fitter_(fit_options_) {}
+
+MultiEpochMetacalFitter::~MultiEpochMetacalFitter() = default;
+
+MetacalImageSet& MultiEpochMetacalFitter::set_for(int box_size) {
+  auto it = sets_.find(box_size);
+  if (it == sets_.end()) it = sets_.emplace(box_size, std::make_unique<MetacalImageSet>(box_size, FftPlanning::kEstimate)).first;
+  return *it->second;
+}
+
+void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int64_t object_id, std::uint32_t failure_flag,
+                                  FitResult* noshear, MetacalRecord* record, std::uint32_t* flags, std::string* problem) {
+  *record = MetacalRecord();
+  *noshear = FitResult();
+  gamma_fwhm_ = NAN;
+  epochs_used_ = 0;
+  auto fail = [&](FitStatus status, const std::string& why) {
+    noshear->status = status;
+    *flags |= failure_flag;
+    if (problem->empty()) *problem = why;
+  };
+  // The cutouts without masked pixels; all of them (masked pixels zeroed) when none is clean.
+  used_.clear();
+  bool any_data = false;
+  for (const MetacalEpoch& e : epochs) {
+    const bool clean = std::all_of(e.weight.begin(), e.weight.end(), [](double w) { return w > 0; });
+    const bool data = std::any_of(e.weight.begin(), e.weight.end(), [](double w) { return w > 0; });
+    any_data = any_data || data;
+    if (clean) used_.push_back(&e);
+  }
+  if (!any_data) return fail(FitStatus::kNoData, "metacal: every pixel of every cutout is masked");
+  const bool masked = used_.empty();
+  if (masked) {
+    for (const MetacalEpoch& e : epochs)
+      if (std::any_of(e.weight.begin(), e.weight.end(), [](double w) { return w > 0; })) used_.push_back(&e);
+    *flags |= failure_flag;
+    if (problem->empty()) *problem = "metacal: every cutout has masked pixels (used zeroed; R not usable)";
+  }
+  // What the fitter refuses on the data is refused here too: a flat cutout set would give fixnoise
+  // a galaxy of noise to fit.
+  bool flat = true;
+  for (const MetacalEpoch* e : used_) {
+    double first = NAN;
+    for (std::size_t i = 0; i < e->pixels.size() && flat; ++i) {
+      if (e->weight[i] == 0) continue;
+      if (std::isnan(first)) first = e->pixels[i];
+      flat = e->pixels[i] == first;
+    }
+  }
+  if (flat) return fail(FitStatus::kNoData, "metacal: the cutouts are flat");
+
+  const std::size_t n = used_.size();
+  psfs_.resize(n);
+  for (std::size_t k = 0; k < n; ++k) psfs_[k] = {used_[k]->psf, used_[k]->frame, set_for(used_[k]->box_size).period()};
+  std::string why;
+  if (!sky_reconvolution(psfs_, options_, &gamma_, &why)) return fail(FitStatus::kPsfFailure, "metacal: " + why);
+  gamma_fwhm_ = gamma_.fwhm;
+  epochs_used_ = static_cast<int>(n);
+
+  if (images_.size() < n) images_.resize(n), weights_.resize(n);
+  prepared_.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const MetacalEpoch& e = *used_[k];
+    const std::size_t npix = static_cast<std::size_t>(e.box_size) * e.box_size;
+    images_[k].resize(kNumMetacalTypes * npix);
+    weights_[k].resize(npix);
+    // The first cutout's fixnoise stream is the single-stamp one (so that one cutout gives its row).
+    const RandomStream noise = k == 0 ? RandomStream({options_.seed, static_cast<std::uint64_t>(object_id), kFixnoisePurpose})
+                                      : RandomStream({options_.seed, static_cast<std::uint64_t>(object_id), kFixnoisePurpose, k});
+    double variance = 0;
+    set_for(e.box_size).make(e.pixels, e.weight, WeightKind::kInverseVariance, 0.0, *gamma_.filters[k], options_, noise,
+                             images_[k], &variance);
+    // The images' noise is uniform: their weight is 1 / variance (unit for noise-free data).
+    const double w = variance > 0 ? 1.0 / variance : 1.0;
+    for (std::size_t i = 0; i < npix; ++i) weights_[k][i] = e.weight[i] > 0 ? w : 0.0;
+    prepared_[k] = fitter_.renderer_for(e.box_size).prepare_psf(gamma_.filters[k]->reconvolution(), &why);
+    if (!prepared_[k]) return fail(FitStatus::kPsfFailure, "metacal: Gamma: " + why);
+  }
+  auto fit_type = [&](MetacalType t) {
+    fit_epochs_.clear();
+    for (std::size_t k = 0; k < n; ++k) {
+      const MetacalEpoch& e = *used_[k];
+      const std::size_t npix = static_cast<std::size_t>(e.box_size) * e.box_size;
+      fit_epochs_.push_back({std::span<const double>(images_[k]).subspan(static_cast<int>(t) * npix, npix), weights_[k],
+                             e.box_size, e.frame, prepared_[k], e.flux_scale});
+    }
+    // Each image set is fitted exactly as the noshear one, from its own moments (MetacalFitter).
+    return fitter_.fit(fit_epochs_, 0);
+  };
+  *noshear = fit_type(MetacalType::kNoshear);
+  std::array<double, kNumMetacalTypes> e1{}, e2{};
+  std::string unusable;  // the first image set whose fit is not ok
+  if (noshear->status != FitStatus::kOk) unusable = std::string("noshear: ") + ToString(noshear->status);
+  for (int t = 1; t < kNumMetacalTypes; ++t) {
+    const FitResult r = fit_type(static_cast<MetacalType>(t));
+    if (r.status != FitStatus::kOk && unusable.empty())
+      unusable = std::string(metacal_type_name(static_cast<MetacalType>(t))) + ": " + ToString(r.status);
+    e1[t] = r.params[index(Param::kE1)];
+    e2[t] = r.params[index(Param::kE2)];
+    record->e1[t - 1] = e1[t];
+    record->e2[t - 1] = e2[t];
+    record->snr[t - 1] = r.snr;
+    record->radius[t - 1] = r.params[index(Param::kRadius)];
+  }
+  if (!unusable.empty()) {
+    *flags |= failure_flag;
+    if (problem->empty()) *problem = "metacal: the fit of the " + unusable + " image set (R not usable)";
+  }
+  const double two_step = 2 * options_.step;
+  record->r11 = (e1[1] - e1[2]) / two_step;
+  record->r21 = (e2[1] - e2[2]) / two_step;
+  record->r12 = (e1[3] - e1[4]) / two_step;
+  record->r22 = (e2[3] - e2[4]) / two_step;
+}
+
+}  // namespace stampede
