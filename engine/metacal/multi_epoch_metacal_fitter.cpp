@@ -101,11 +101,11 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
   *noshear = fit_type(MetacalType::kNoshear);
   std::array<double, kNumMetacalTypes> e1{}, e2{};
   std::string unusable;  // the first image set whose fit is not ok
-  if (noshear->status != FitStatus::kOk) unusable = std::string("noshear: ") + ToString(noshear->status);
+  if (noshear->status != FitStatus::kOk) unusable = std::string("noshear image set's fit is ") + ToString(noshear->status);
   for (int t = 1; t < kNumMetacalTypes; ++t) {
     const FitResult r = fit_type(static_cast<MetacalType>(t));
     if (r.status != FitStatus::kOk && unusable.empty())
-      unusable = std::string(metacal_type_name(static_cast<MetacalType>(t))) + ": " + ToString(r.status);
+      unusable = std::string(metacal_type_name(static_cast<MetacalType>(t))) + " image set's fit is " + ToString(r.status);
     e1[t] = r.params[index(Param::kE1)];
     e2[t] = r.params[index(Param::kE2)];
     record->e1[t - 1] = e1[t];
@@ -115,7 +115,7 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
   }
   if (!unusable.empty()) {
     *flags |= failure_flag;
-    if (problem->empty()) *problem = "metacal: the fit of the " + unusable + " image set (R not usable)";
+    if (problem->empty()) *problem = "metacal: the " + unusable + " (R not usable)";
   }
   const double two_step = 2 * options_.step;
   record->r11 = (e1[1] - e1[2]) / two_step;
