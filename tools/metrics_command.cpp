@@ -45,7 +45,7 @@ void print_help() {
       "                      the selection response of the cuts below made on each sheared image's\n"
       "                      quantities (Sheldon & Huff 2017); flag 262144 (metacal failure) excludes\n"
       "  --cut-snr X         keep objects with snr >= X (metacal: on every image's own snr)\n"
-      "  --cut-radius R      keep objects with radius >= R pixels (likewise)\n"
+      "  --cut-radius R      keep objects with radius >= R (likewise; pixels, arcsec for MEDS tables)\n"
       "  --shear-pairs       the sets come in pairs from `sim great08 --shear-pairs` (each +g set's\n"
       "                      --fit/--truth followed by its -g partner's): also m from half the pair\n"
       "                      differences and c from half the sums, where the galaxies and noise the\n"

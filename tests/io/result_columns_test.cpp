@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <string_view>
+
 #include <bit>
 #include <cstdint>
 #include <cstring>
@@ -65,6 +67,23 @@ TEST(ResultColumns, GridAndCatalogueTablesShareTheFitColumns) {
   }
   EXPECT_EQ(catalog_columns(PositionColumns::kGrid).size(), grid.size());
   EXPECT_EQ(catalog_columns(PositionColumns::kCatalogue)[2], "y_image");
+}
+
+// A survey metacal table is the survey table, then the metacal columns (the sheared fits' radii in
+// arcsec, as the survey's radius), then gamma_fwhm; the survey table alone has none of them.
+TEST(ResultColumns, SurveyMetacalTablesAddTheMetacalColumnsAndGamma) {
+  const auto survey = result_columns(PositionColumns::kSurvey);
+  const auto metacal = result_columns(PositionColumns::kSurvey, true);
+  ASSERT_EQ(metacal.size(), survey.size() + kNumMetacalFields + 1);
+  for (std::size_t i = 0; i < survey.size(); ++i) EXPECT_EQ(metacal[i].field, survey[i].field);
+  for (int k = 0; k < kNumMetacalFields; ++k) {
+    const ResultColumn& c = metacal[survey.size() + k];
+    EXPECT_EQ(c.field, static_cast<ResultField>(static_cast<int>(ResultField::kR11) + k));
+    EXPECT_STREQ(c.unit, std::string_view(c.name).starts_with("radius_") ? "arcsec" : "") << c.name;
+  }
+  EXPECT_EQ(metacal.back().field, ResultField::kGammaFwhm);
+  EXPECT_STREQ(metacal.back().unit, "arcsec");
+  for (const ResultColumn& c : survey) EXPECT_NE(c.field, ResultField::kR11);
 }
 
 }  // namespace
