@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <filesystem>
 #include <memory>
 #include <mutex>
@@ -122,7 +123,8 @@ std::vector<io::RunOutput> outputs_of(const FitRunOptions& a, const io::RunConfi
 std::vector<io::RunInput> inputs_of(const FitRunOptions& a, const io::RunConfig& cfg,
                                    const std::vector<std::string>& psfex_files) {
   if (!a.meds.empty()) {
-    std::vector<io::RunInput> in = {{"--meds", io::fits_root_name(a.meds)}};
+    std::vector<io::RunInput> in;
+    for (const std::string& m : a.meds) in.push_back({"--meds", io::fits_root_name(m)});
     for (const std::string& p : psfex_files) in.push_back({"PSFEx model", p});
     return in;
   }
@@ -259,7 +261,26 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
   };
   io::RunConfig cfg = a.config;
   if (!a.input.empty() || !a.catalog.empty() || !a.weight.empty())
-    throw io::ConfigError("--meds '" + a.meds + "' takes no INPUT, --catalog or --weight: the tile holds the cutouts and weights");
+    throw io::ConfigError("--meds '" + a.meds[0] + "' takes no INPUT, --catalog or --weight: the tile holds the cutouts and weights");
+  // The bands: as given, b0, b1, ... for several tiles without names, none for one tile.
+  std::vector<std::string> bands = a.bands;
+  if (bands.empty() && a.meds.size() > 1)
+    for (std::size_t b = 0; b < a.meds.size(); ++b) bands.push_back("b" + std::to_string(b));
+  if (!bands.empty() && bands.size() != a.meds.size())
+    throw io::ConfigError("--bands names " + std::to_string(bands.size()) + " bands for " + std::to_string(a.meds.size()) +
+                          " --meds tiles: one band per tile, in the order of the tiles");
+  if (a.meds.size() > static_cast<std::size_t>(kMaxBands))
+    throw io::ConfigError(std::to_string(a.meds.size()) + " --meds tiles: a multi-band fit takes at most " +
+                          std::to_string(kMaxBands) + " bands");
+  try {
+    const io::ResultSchema names(io::PositionColumns::kSurvey, false, bands);  // the names as column suffixes
+  } catch (const std::invalid_argument& e) {
+    throw io::ConfigError(std::string("--bands: ") + e.what());
+  }
+  for (std::size_t t = 1; t < a.meds.size(); ++t)
+    for (std::size_t u = 0; u < t; ++u)
+      if (a.meds[t] == a.meds[u]) throw io::ConfigError("--meds '" + a.meds[t] + "' is given twice: one tile per band");
+
   // The MPI driver's workers fit the pixels they are sent; a survey batch carries row numbers only.
   if (a.distribute)
     throw io::ConfigError("--meds with stampede-mpi: a tile's objects are not spread over ranks yet; run `stampede fit "
@@ -296,11 +317,17 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
   long long input_objects = 0;
   std::vector<std::string> psfex_files;
   {
-    io::MedsFile tile = io::MedsFile::open(a.meds);
-    input_objects = tile.size();
+    std::deque<io::MedsFile> tiles;
+    std::vector<io::MedsFile*> handles;
+    for (const std::string& m : a.meds) handles.push_back(&tiles.emplace_back(io::MedsFile::open(m)));
+    input_objects = tiles.front().size();
+    check_band_tiles(handles);
     try {
-      const MedsObjectFitter check(tile, meds_options);  // the options the tile cannot serve
-      psfex_files = check.psfex_files();
+      for (io::MedsFile& tile : tiles) {
+        const MedsObjectFitter check(tile, meds_options);  // the options the tile cannot serve
+        for (const std::string& p : check.psfex_files())
+          if (std::find(psfex_files.begin(), psfex_files.end(), p) == psfex_files.end()) psfex_files.push_back(p);
+      }
     } catch (const std::invalid_argument& e) {
       throw io::ConfigError(e.what());
     }
@@ -315,7 +342,8 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
   StampSource& source = shard ? static_cast<StampSource&>(*shard) : whole;
 
   RunSummary summary;
-  summary.input = a.meds;
+  summary.input = a.meds[0];
+  for (std::size_t t = 1; t < a.meds.size(); ++t) summary.input += "," + a.meds[t];
   summary.output = a.output;
   summary.text_output = a.text_output;
   std::unique_ptr<io::CatalogWriter> writer;
@@ -323,10 +351,17 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
     io::CatalogWriterOptions wo = base_writer_options(a, cfg);
     wo.positions = io::PositionColumns::kSurvey;
     wo.metacal = cfg.metacal.enabled;
-    wo.header.emplace_back("MEDS", a.meds);
+    wo.bands = bands;
+    // A multi-band run's further tiles as MEDS1.., their digests as MEDSDIG1.. (merge compares them).
+    std::vector<FingerprintFile> files;
+    for (std::size_t t = 0; t < a.meds.size(); ++t) {
+      const std::string k = t == 0 ? "" : std::to_string(t);
+      wo.header.emplace_back("MEDS" + k, a.meds[t]);
+      files.push_back({"meds", a.meds[t], t == 0 ? "MEDSDIGS" : "MEDSDIG" + k});
+    }
+    const std::size_t n_tiles = files.size();
     // The PSFEx models are part of the run: a model replaced between kill and resume is refused. A
     // missing one is a flagged row, not an error, and is fingerprinted as missing.
-    std::vector<FingerprintFile> files = {{"meds", a.meds, "MEDSDIGS"}};
     std::string missing;
     for (const std::string& p : psfex_files) {
       if (std::filesystem::is_regular_file(p)) files.push_back({"psfex", p});
@@ -338,7 +373,7 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
     add_identity_keys(files, digests, &wo);
     if (!psfex_files.empty()) {  // one key for all the models: merge compares it
       RunFingerprint psfex;
-      for (std::size_t k = 1; k < files.size(); ++k) psfex.line(digests[k]);
+      for (std::size_t k = n_tiles; k < files.size(); ++k) psfex.line(digests[k]);
       wo.header.emplace_back("PSFEXDIG", psfex.text(missing).hex());
     }
     if (output_is_this_complete_run(a, wo)) {
@@ -374,9 +409,9 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
     po.batch_size = cfg.batch_size;
     po.stamp_size = 0;  // the fit stage reads each object's cutouts itself
     const std::function<std::unique_ptr<BatchFitter>()> make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
-      return std::make_unique<MedsBatchFitter>(a.meds, meds_options, [&problems](long long row, const std::string& p) {
-        problems.report(row, p);
-      });
+      auto report = [&problems](long long row, const std::string& p) { problems.report(row, p); };
+      if (bands.empty()) return std::make_unique<MedsBatchFitter>(a.meds[0], meds_options, report);
+      return std::make_unique<MedsBatchFitter>(a.meds, bands, meds_options, report);
     };
     summary.setup_seconds = since(start);
     po.stop = a.stop;

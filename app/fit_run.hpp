@@ -66,9 +66,13 @@ using FitDistributor =
 
 struct FitRunOptions {
   std::string input;        // a grid of stamps, or with `catalog` the image to cut them from
-  // A MEDS tile (`--meds`), instead of `input`: each object fitted jointly on its cutouts
-  // (app/meds_object_fit; options meds_*), one survey row per object (io/result_columns).
-  std::string meds;
+  // MEDS tiles (`--meds`), instead of `input`: each object fitted jointly on its cutouts
+  // (app/meds_object_fit; options meds_*), one survey row per object (io/result_columns). Several
+  // tiles are one per band of the same objects, fitted jointly (app/multi_band_object_fit).
+  std::vector<std::string> meds;
+  // The bands of `meds`, in its order (`--bands g,r,i`); empty: none for one tile, b0, b1, ... for
+  // several. Given, the table has each band's columns (flux_<band>, ...), one band included.
+  std::vector<std::string> bands;
   std::string catalog;      // FITS table or text 'id x y' of objects in `input`; "" = grid input
   std::string weight;       // inverse-variance image of input's shape; "" = config's noise_sigma
   std::string output;       // FITS table; "" = none: rows only go to on_rows (no resume, no save_images)

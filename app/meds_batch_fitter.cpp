@@ -7,7 +7,21 @@ namespace stampede::app {
 
 MedsBatchFitter::MedsBatchFitter(const std::string& path, const MedsFitOptions& options,
                                  std::function<void(long long, const std::string&)> on_problem)
-    : meds_(io::MedsFile::open(path)), fitter_(meds_, options), on_problem_(std::move(on_problem)) {}
+    : on_problem_(std::move(on_problem)) {
+  tiles_.push_back(io::MedsFile::open(path));
+  fitter_ = std::make_unique<MedsObjectFitter>(tiles_.front(), options);
+}
+
+MedsBatchFitter::MedsBatchFitter(const std::vector<std::string>& paths, const std::vector<std::string>& bands,
+                                 const MedsFitOptions& options,
+                                 std::function<void(long long, const std::string&)> on_problem)
+    : on_problem_(std::move(on_problem)) {
+  std::vector<io::MedsFile*> tiles;
+  for (const std::string& p : paths) tiles.push_back(&tiles_.emplace_back(io::MedsFile::open(p)));
+  band_fitter_ = std::make_unique<MultiBandObjectFitter>(tiles, bands, options);
+}
+
+MedsBatchFitter::~MedsBatchFitter() = default;
 
 void MedsBatchFitter::fit(StampBatch& batch) {
   using Clock = std::chrono::steady_clock;
@@ -15,7 +29,7 @@ void MedsBatchFitter::fit(StampBatch& batch) {
     ObjectRecord& record = batch.records[static_cast<std::size_t>(k)];
     const long long row = record.id;
     const Clock::time_point start = Clock::now();
-    const MedsObjectResult result = fitter_.fit(row);
+    const MedsObjectResult result = fitter_ ? fitter_->fit(row) : band_fitter_->fit(row);
     fill_survey_record(result, &record);
     record.time_us = std::chrono::duration<double, std::micro>(Clock::now() - start).count();
     if (on_problem_ && !result.problem.empty()) on_problem_(row, result.problem);
@@ -38,6 +52,7 @@ void fill_survey_record(const MedsObjectResult& r, ObjectRecord* out) {
   out->survey.other_likelihood = r.bulge_or_disc ? r.other_likelihood : NAN;
   out->metacal = r.metacal;
   out->survey.gamma_fwhm = r.gamma_fwhm;
+  for (std::size_t b = 0; b < r.bands.size() && b < out->survey.bands.size(); ++b) out->survey.bands[b] = r.bands[b];
 }
 
 }  // namespace stampede::app

@@ -5,10 +5,14 @@
 // row's fit depends on that object alone, so any thread count gives the same table.
 #pragma once
 
+#include <deque>
 #include <functional>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "app/meds_object_fit.hpp"
+#include "app/multi_band_object_fit.hpp"
 #include "engine/pipeline/pipeline.hpp"
 
 namespace stampede::app {
@@ -19,15 +23,23 @@ class MedsBatchFitter final : public BatchFitter {
   // object's first problem text with its row, from the fitting thread.
   MedsBatchFitter(const std::string& path, const MedsFitOptions& options,
                   std::function<void(long long row, const std::string& problem)> on_problem = {});
+  // A multi-band run: one tile per band, in the order of `bands` (MultiBandObjectFitter); every
+  // row carries its band columns, one band included.
+  MedsBatchFitter(const std::vector<std::string>& paths, const std::vector<std::string>& bands,
+                  const MedsFitOptions& options,
+                  std::function<void(long long row, const std::string& problem)> on_problem = {});
+  ~MedsBatchFitter() override;
   void fit(StampBatch& batch) override;
 
  private:
-  io::MedsFile meds_;
-  MedsObjectFitter fitter_;
+  std::deque<io::MedsFile> tiles_;  // a deque: the fitters hold references into it
+  std::unique_ptr<MedsObjectFitter> fitter_;            // one tile, no bands
+  std::unique_ptr<MultiBandObjectFitter> band_fitter_;  // bands
   std::function<void(long long, const std::string&)> on_problem_;
 };
 
-// The output row of one object's result (survey columns; e, radius and fluxes in sky units).
+// The output row of one object's result (survey columns; e, radius and fluxes in sky units; a
+// multi-band result's bands in record.survey.bands).
 void fill_survey_record(const MedsObjectResult& result, ObjectRecord* record);
 
 }  // namespace stampede::app

@@ -45,14 +45,13 @@ namespace {
 // derivative: beyond this a corrupt box size would cost gigabytes; DES and LSST boxes are <= 256.
 constexpr long long kMaxFitBoxSize = 1024;
 
-// The options with one amplitude fixed at 0 (bord's pure bulge or pure disc).
+}  // namespace
+
 FitterOptions single_component(FitterOptions o, Param zero) {
   o.params[zero].free = false;
   o.params[zero].start = 0;
   return o;
 }
-
-}  // namespace
 
 MedsObjectFitter::MedsObjectFitter(io::MedsFile& meds, const MedsFitOptions& options)
     : meds_(meds),
@@ -152,10 +151,12 @@ std::shared_ptr<const PreparedPsf> MedsObjectFitter::cutout_psf(const io::MedsOb
   return fitter_.renderer_for(box).prepare_psf(PsfModel::Image(image), why);
 }
 
-MedsObjectResult MedsObjectFitter::fit(long long row) {
-  MedsObjectResult out;
+bool MedsObjectFitter::collect(long long row, MedsObjectResult* result) {
+  MedsObjectResult& out = *result;
   out.bulge_or_disc = options_.model == MedsModel::kBulgeOrDisc;
   last_psfs_.clear();
+  epochs_.clear();
+  epoch_psfs_.clear();
   const io::MedsObject o = meds_.object(row);
   out.id = o.id, out.number = o.number, out.ra = o.ra, out.dec = o.dec;
   auto note = [&](const std::string& why) {
@@ -164,19 +165,17 @@ MedsObjectResult MedsObjectFitter::fit(long long row) {
   if (!o.problem.empty()) {
     note(o.problem);
     out.flags |= kFlagNoUsableEpoch;
-    return out;
+    return false;
   }
   if (o.box_size > kMaxFitBoxSize) {
     note(meds_.path() + ": object " + std::to_string(row) + ": column 'box_size' = " + std::to_string(o.box_size) +
          " is larger than a galaxy fit takes (" + std::to_string(kMaxFitBoxSize) + ")");
     out.flags |= kFlagNoUsableEpoch;
-    return out;
+    return false;
   }
   const int box = static_cast<int>(o.box_size);
   const std::size_t npix = static_cast<std::size_t>(box) * box;
   std::vector<EpochData>& epochs = epochs_;
-  epochs.clear();
-  epoch_psfs_.clear();
   long long pixels_total = 0, pixels_unmasked = 0;
   double psf_e1 = 0, psf_e2 = 0, psf_size = 0;
   const int first = options_.fit_coadd ? 0 : 1, last = options_.fit_coadd ? 1 : static_cast<int>(o.cutouts.size());
@@ -249,21 +248,29 @@ MedsObjectResult MedsObjectFitter::fit(long long row) {
   if (epochs.empty()) {
     out.flags |= kFlagNoUsableEpoch;
     if (out.flags & kFlagPsfFailure) out.fit.status = FitStatus::kPsfFailure;
-    return out;
+    return false;
   }
   if (pixels_unmasked < pixels_total) out.flags |= kFlagMaskedPixels;
   out.psf_e1 = psf_e1 / out.n_epochs, out.psf_e2 = psf_e2 / out.n_epochs, out.psf_size = psf_size / out.n_epochs;
+  out.pixels_total = pixels_total, out.pixels_unmasked = pixels_unmasked;
   if (1.0 - out.masked_fraction < options_.min_unmasked_fraction) {
     out.flags |= kFlagTooMasked;
-    return out;
+    return false;
   }
+  return true;
+}
+
+MedsObjectResult MedsObjectFitter::fit(long long row) {
+  MedsObjectResult out;
+  if (!collect(row, &out)) return out;
+  const std::vector<EpochData>& epochs = epochs_;
   if (metacal_) {
     metacal_epochs_.clear();
     for (std::size_t k = 0; k < epochs.size(); ++k) {
       const EpochData& e = epochs[k];
       metacal_epochs_.push_back({e.pixels, e.weight, e.box_size, e.frame, &epoch_psfs_[k], e.flux_scale});
     }
-    metacal_->fit(metacal_epochs_, o.id, kFlagMetacalFailure, &out.fit, &out.metacal, &out.flags, &out.problem);
+    metacal_->fit(metacal_epochs_, out.id, kFlagMetacalFailure, &out.fit, &out.metacal, &out.flags, &out.problem);
     out.gamma_fwhm = metacal_->gamma_fwhm();
     if (metacal_->epochs_used() > 0) out.n_epochs = metacal_->epochs_used();
     out.flags |= out.fit.flags;

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/fit/multi_band_result.hpp"
 #include "engine/fit/multi_epoch_fitter.hpp"
 #include "engine/metacal/multi_epoch_metacal_fitter.hpp"
 #include "engine/model/psfex_model.hpp"
@@ -44,6 +45,8 @@ struct MedsObjectResult {
   double other_likelihood = NAN;    // bord: the losing model's
   MetacalRecord metacal;            // metacal runs: R and the sheared fits (fit is the noshear one)
   double gamma_fwhm = NAN;          // metacal runs: the reconvolution PSF's FWHM on the sky, arcsec
+  long long pixels_total = 0, pixels_unmasked = 0;  // of the usable cutouts (masked_fraction's terms)
+  std::vector<BandFit> bands;       // multi-band runs: per band (MultiBandObjectFitter)
 };
 
 class MedsObjectFitter {
@@ -53,6 +56,15 @@ class MedsObjectFitter {
   MedsObjectFitter(io::MedsFile& meds, const MedsFitOptions& options);
   ~MedsObjectFitter();
   MedsObjectResult fit(long long row);
+  // Reads object `row`'s usable cutouts into epochs(), each one's PSF prepared for its box by a
+  // renderer of the options (any fitter of them may fit them); *out gets the object's identity,
+  // flags, problem, n_epochs, masked fraction and PSF means. False when nothing is to be fitted
+  // (out's flags say why).
+  bool collect(long long row, MedsObjectResult* out);
+  const std::vector<EpochData>& epochs() const { return epochs_; }
+  // Metacal runs: the PSF of each of epochs(), unprepared.
+  const std::vector<PsfModel>& epoch_psfs() const { return epoch_psfs_; }
+  const io::MedsFile& meds() const { return meds_; }
   // What the last fit used for cutout k of its epochs (for tests: the PSF from its PSFEx model or
   // the tile's psf cutout; null for the options' analytic PSF).
   const std::vector<std::shared_ptr<const PsfImage>>& last_psfs() const { return last_psfs_; }
@@ -86,6 +98,9 @@ class MedsObjectFitter {
   std::vector<PsfModel> epoch_psfs_;              // metacal: the current object's PSFs, unprepared
   std::vector<MetacalEpoch> metacal_epochs_;
 };
+
+// The options with one amplitude fixed at 0 (bord's pure bulge or pure disc).
+FitterOptions single_component(FitterOptions o, Param zero);
 
 // Uberseg: in a box_size^2 seg cutout, zero the weight of every pixel whose nearest labelled seg
 // pixel (Euclidean, pixel centres) belongs to another object than `number`; ties keep the pixel.

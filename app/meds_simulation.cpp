@@ -126,6 +126,10 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
     truth.write_key("NOISEFRE", options.noise_free ? 1LL : 0LL, "1: noise-free");
     truth.write_key("SNR", options.snr, "each object's S/N over its epochs");
     truth.write_key("MAGZP", options.magzp, "zero point of the flux column");
+    if (options.bands > 1) {
+      truth.write_key("BAND", static_cast<long long>(options.band), "this tile's band, 0-based");
+      truth.write_key("NBANDS", static_cast<long long>(options.bands), "bands of the same galaxies");
+    }
     truth.write_table("TRUTH", std::vector<io::FitsFile::OutputColumn>(std::begin(cols), std::end(cols)));
   }
   fs::rename(partial, truth_path);

@@ -24,9 +24,13 @@ constexpr long long kChunkRows = 4096;
 
 // The header keys fit records its input files' contents under (size and digest); the keys that
 // name those files as typed are compared only for tables without them (written before they were).
-constexpr const char* kIdentityKeys[] = {"INDIGEST", "CATDIGST", "WGTDIGST", "PSFDIGST", "MEDSDIGS", "PSFEXDIG"};
+// A multi-band run's further tiles are MEDS1.. with MEDSDIG1.. (fit_run).
+constexpr const char* kIdentityKeys[] = {"INDIGEST", "CATDIGST", "WGTDIGST", "PSFDIGST", "MEDSDIGS", "MEDSDIG1",
+                                         "MEDSDIG2", "MEDSDIG3", "MEDSDIG4", "MEDSDIG5", "MEDSDIG6", "MEDSDIG7",
+                                         "PSFEXDIG"};
 bool names_a_file(const std::string& key) {
-  for (const char* k : {"INPUT", "CATALOG", "WEIGHTS", "MEDS", "psf_image"})
+  for (const char* k : {"INPUT", "CATALOG", "WEIGHTS", "MEDS", "MEDS1", "MEDS2", "MEDS3", "MEDS4", "MEDS5", "MEDS6",
+                        "MEDS7", "psf_image"})
     if (key == k) return true;
   return false;
 }
@@ -37,7 +41,9 @@ std::vector<std::string> run_keys() {
   std::vector<std::string> keys;
   for (const io::OptionInfo& o : io::run_config_options()) keys.push_back(o.name);
   keys.emplace_back("metacal_gamma_fwhm");  // a metacal run's reconvolution PSF
-  for (const char* k : {"INPUT", "CATALOG", "WEIGHTS", "MEDS", io::kInputSetKey}) keys.emplace_back(k);
+  for (const char* k : {"INPUT", "CATALOG", "WEIGHTS", "MEDS", "MEDS1", "MEDS2", "MEDS3", "MEDS4", "MEDS5", "MEDS6",
+                        "MEDS7", io::kInputSetKey})
+    keys.emplace_back(k);
   for (const char* k : kIdentityKeys) keys.emplace_back(k);
   return keys;
 }
@@ -49,6 +55,7 @@ struct Shard {
   long long rows = 0;
   io::PositionColumns positions = io::PositionColumns::kGrid;
   bool metacal = false;
+  std::vector<std::string> bands;  // a multi-band run's
   std::vector<std::pair<std::string, std::string>> header;  // run_keys() present, with their values
 };
 
@@ -68,6 +75,7 @@ Shard read_shard(const std::string& path) {
   s.count = parsed->second;
   s.positions = r.positions();
   s.metacal = r.metacal();
+  s.bands = r.bands();
   s.total = f.key_long(kShardTotalKey);
   for (const std::string& k : run_keys())
     if (auto v = f.read_key_string(k)) s.header.emplace_back(k, *v);
@@ -134,6 +142,7 @@ ShardMergeSummary merge_shards(const ShardMergeOptions& o) {
   wo.path = o.output;
   wo.positions = shards[*by_index[0]].positions;
   wo.metacal = shards[*by_index[0]].metacal;
+  wo.bands = shards[*by_index[0]].bands;
   wo.header = shards.front().header;  // the run's keys, as a single process writes them
   for (const io::OptionInfo& info : io::run_config_options())
     if (info.type != io::HeaderValueType::kText) wo.header_types[info.name] = info.type;
@@ -146,7 +155,7 @@ ShardMergeSummary merge_shards(const ShardMergeOptions& o) {
   try {
     for (const auto& slot : by_index) {
       io::CatalogReader r = io::CatalogReader::open(shards[*slot].path);
-      if (shards[*slot].positions != wo.positions || shards[*slot].metacal != wo.metacal)
+      if (shards[*slot].positions != wo.positions || shards[*slot].metacal != wo.metacal || shards[*slot].bands != wo.bands)
         throw io::CatalogError("merge: " + shards[*slot].path + " has other columns than the first shard");
       for (long long first = 0; first < r.rows(); first += kChunkRows) {
         const auto rows = r.records(first, std::min(kChunkRows, r.rows() - first));

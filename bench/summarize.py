@@ -116,6 +116,10 @@ def main():
     four = all_runs.get("BM_FourEpochs/real_time")
     if one and four:
         print(f"- multi-epoch: four cutouts {seconds(four) / seconds(one):.2f}x one (target <= 4.5)")
+    band1 = all_runs.get("BM_OneBandFourEpochs/real_time")
+    band3 = all_runs.get("BM_ThreeBandsFourEpochs/real_time")
+    if band1 and band3:
+        print(f"- multi-band: three bands of four cutouts {seconds(band3) / seconds(band1):.2f}x one band's (target <= 3)")
     one_fit = all_runs.get("BM_OneFit/real_time")
     mcal = all_runs.get("BM_Metacal/real_time")
     if one_fit and mcal:

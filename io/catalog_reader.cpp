@@ -1,6 +1,7 @@
 // Reading result tables by the column schema; see catalog_reader.hpp.
 #include "io/catalog_reader.hpp"
 
+#include <optional>
 #include <cstdint>
 #include <stdexcept>
 #include <utility>
@@ -48,10 +49,31 @@ void CatalogReader::column_rows(const std::string& name, long long first_row,
   f_.read_column_rows(name, first_row, out);
 }
 
+std::vector<std::string> CatalogReader::bands() {
+  std::vector<std::string> out;
+  const std::optional<std::string> value = f_.read_key_string(kBandsKey);
+  if (!value || value->empty()) return out;
+  std::size_t begin = 0;
+  while (true) {
+    const std::size_t comma = value->find(',', begin);
+    out.push_back(value->substr(begin, comma == std::string::npos ? std::string::npos : comma - begin));
+    if (comma == std::string::npos) break;
+    begin = comma + 1;
+  }
+  try {
+    const ResultSchema check(positions(), metacal(), out);
+  } catch (const std::invalid_argument& e) {
+    throw FitsError(describe() + ": key " + kBandsKey + " = '" + *value + "': " + e.what());
+  }
+  return out;
+}
+
 std::vector<ObjectRecord> CatalogReader::records(long long first_row, long long count) {
   if (count < 0) throw std::invalid_argument("CatalogReader::records: negative count");
-  const std::span<const ResultColumn> columns = result_columns(positions(), metacal());
-  for (const ResultColumn& c : columns) require(c.field);
+  const ResultSchema schema(positions(), metacal(), bands());
+  const std::span<const ResultColumn> columns = schema.columns();
+  for (const ResultColumn& c : columns)
+    if (!f_.has_column(c.name)) throw FitsError(describe() + ": no column '" + c.name + "'");
   std::vector<ObjectRecord> out(static_cast<std::size_t>(count));
   std::vector<double> reals(out.size());
   std::vector<long long> integers(out.size());

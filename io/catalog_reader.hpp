@@ -34,6 +34,8 @@ class CatalogReader {
   // Whether the table has the metacal columns (a metacal run's).
   bool metacal();
   PositionColumns positions();
+  // A multi-band table's bands (header key BANDS), in column order; empty for one band.
+  std::vector<std::string> bands();
 
   // A schema column as doubles (integer columns exact up to 2^53; TNULL values read as NaN).
   std::vector<double> column(ResultField field);

@@ -216,6 +216,7 @@ bool compressed_name(const std::string& path) {
 
 struct CatalogWriter::State {
   CatalogWriterOptions options;
+  ResultSchema schema;
   std::span<const ResultColumn> columns;
   std::string fits_partial, text_partial, checkpoint, checkpoint_tmp;
   std::string text_header;
@@ -237,7 +238,8 @@ struct CatalogWriter::State {
 
   explicit State(const CatalogWriterOptions& o)
       : options(o),
-        columns(result_columns(o.positions, o.metacal)),
+        schema(o.positions, o.metacal, o.bands),
+        columns(schema.columns()),
         fits_partial(o.path + ".partial"),
         text_partial(o.text_path.empty() ? "" : o.text_path + ".partial"),
         checkpoint(o.path + ".checkpoint"),
@@ -310,6 +312,11 @@ struct CatalogWriter::State {
                          &status);
     }
     fits_write_comment(fits, "NaN in a D column: not computed", &status);
+    if (!options.bands.empty()) {
+      std::string bands;
+      for (const std::string& b : options.bands) bands += (bands.empty() ? "" : ",") + b;
+      fits_write_key_str(fits, kBandsKey, bands.c_str(), "the bands of the _<band> columns, in order", &status);
+    }
     for (int s = 0; s < kNumStatuses; ++s) {
       const auto fs = static_cast<FitStatus>(s);
       const std::string key = "STATUS" + std::to_string(s);

@@ -47,6 +47,9 @@ struct CatalogWriterOptions {
   std::string text_path;    // optional text catalogue with the same columns; "" = none
   PositionColumns positions = PositionColumns::kGrid;
   bool metacal = false;     // the metacal columns too (result_columns); the run's fingerprint covers it
+  // Multi-band survey runs: each band's columns after the others (ResultSchema), the names in the
+  // header key BANDS (comma-separated), which CatalogReader::bands() reads back.
+  std::vector<std::string> bands;
   // Written as string-valued header keys of the table HDU in this order (a repeated key keeps its
   // last value); keys longer than 8 characters or outside [A-Z0-9_-] use the HIERARCH convention,
   // long values CONTINUE cards. Keys are stored upper-case (FITS lookups ignore case). Structural

@@ -192,6 +192,11 @@ std::string MedsFile::describe_object(const MedsObject& o) {
   return file_.describe() + ": object " + std::to_string(o.row) + " (id " + std::to_string(o.id) + ")";
 }
 
+void MedsFile::read_ids(long long first, std::span<long long> out) {
+  file_.move_to(object_hdu_);
+  file_.read_column_rows("id", first, out);
+}
+
 MedsObject MedsFile::object(long long row) {
   file_.move_to(object_hdu_);
   if (row < 0 || row >= n_objects_)

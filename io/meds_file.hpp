@@ -82,6 +82,8 @@ class MedsFile {
   bool has_psf_cutouts() const { return psf_problem_.empty(); }
   const std::string& psf_cutouts_problem() const { return psf_problem_; }
 
+  // The ids of object_data rows [first, first + out.size()).
+  void read_ids(long long first, std::span<long long> out);
   // Row `row` of object_data (0 <= row < size()); sets `problem` for an object that cannot be fitted.
   MedsObject object(long long row);
   // The box_size^2 pixels (row-major, rows slow) of cutout `icut` of `object` from one array;

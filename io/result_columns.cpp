@@ -1,9 +1,12 @@
 // The result column table; see result_columns.hpp.
 #include "io/result_columns.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
+#include <stdexcept>
 #include <string_view>
+#include <utility>
 
 namespace stampede::io {
 namespace {
@@ -32,6 +35,28 @@ constexpr ResultColumn param(ResultField field, const char* name, const char* un
 
 using F = ResultField;
 using T = ColumnType;
+
+// Band B's columns (survey.bands[B]), named by pattern; ResultSchema names them per band.
+template <int B>
+constexpr std::array<ResultColumn, kNumBandFields> band_columns() {
+  return {integer(F::kBandNEpochs, "n_epochs_BAND", T::kInt32, "cutouts fitted",
+                  [](R r) -> std::int64_t { return r.survey.bands[B].n_epochs; },
+                  [](W r, std::int64_t v) { r.survey.bands[B].n_epochs = static_cast<int>(v); }),
+          real(F::kBandFlux, "flux_BAND", "", "total flux at the zero point magzp_ref",
+               [](R r) { return r.survey.bands[B].flux; }, [](W r, double v) { r.survey.bands[B].flux = v; }),
+          real(F::kBandBulgeFlux, "bulge_flux_BAND", "", "bulge flux at the zero point magzp_ref",
+               [](R r) { return r.survey.bands[B].bulge_flux; }, [](W r, double v) { r.survey.bands[B].bulge_flux = v; }),
+          real(F::kBandDiscFlux, "disc_flux_BAND", "", "disc flux at the zero point magzp_ref",
+               [](R r) { return r.survey.bands[B].disc_flux; }, [](W r, double v) { r.survey.bands[B].disc_flux = v; }),
+          real(F::kBandSnr, "snr_BAND", "", "S/N sqrt(sum w m^2) over its cutouts",
+               [](R r) { return r.survey.bands[B].snr; }, [](W r, double v) { r.survey.bands[B].snr = v; })};
+}
+
+template <std::size_t... B>
+constexpr std::array<std::array<ResultColumn, kNumBandFields>, sizeof...(B)> all_band_columns(std::index_sequence<B...>) {
+  return {band_columns<static_cast<int>(B)>()...};
+}
+constexpr auto kBandColumns = all_band_columns(std::make_index_sequence<kMaxBands>{});
 
 // Indexed by ResultField (checked below).
 constexpr ResultColumn kColumns[] = {
@@ -151,6 +176,7 @@ constexpr ResultColumn kColumns[] = {
          [](R r) { return r.survey.other_likelihood; }, [](W r, double v) { r.survey.other_likelihood = v; }),
     real(F::kGammaFwhm, "gamma_fwhm", "arcsec", "metacal reconvolution PSF FWHM, round on the sky",
          [](R r) { return r.survey.gamma_fwhm; }, [](W r, double v) { r.survey.gamma_fwhm = v; }),
+    band_columns<0>()[0], band_columns<0>()[1], band_columns<0>()[2], band_columns<0>()[3], band_columns<0>()[4],
 };
 
 constexpr bool indexed_by_field() {
@@ -255,6 +281,40 @@ std::span<const ResultColumn> result_columns(PositionColumns positions, bool met
 const ResultColumn& result_column(ResultField field) { return kColumns[static_cast<int>(field)]; }
 
 const char* column_name(ResultField field) { return result_column(field).name; }
+
+bool is_band_name(const std::string& band, std::string* why) {
+  const bool chars = std::all_of(band.begin(), band.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
+  });
+  if (band.empty() || band.size() > 16 || !chars) {
+    *why = "band name '" + band + "' is not 1..16 letters, digits or '_' (it ends column names: flux_<band>)";
+    return false;
+  }
+  return true;
+}
+
+ResultSchema::ResultSchema(PositionColumns positions, bool metacal, const std::vector<std::string>& bands) : bands_(bands) {
+  const std::span<const ResultColumn> base = result_columns(positions, metacal);
+  columns_.assign(base.begin(), base.end());
+  if (bands.size() > static_cast<std::size_t>(kMaxBands))
+    throw std::invalid_argument(std::to_string(bands.size()) + " bands: at most " + std::to_string(kMaxBands));
+  for (std::size_t b = 0; b < bands.size(); ++b) {
+    std::string why;
+    if (!is_band_name(bands[b], &why)) throw std::invalid_argument(why);
+    if (std::find(bands.begin(), bands.begin() + static_cast<std::ptrdiff_t>(b), bands[b]) != bands.begin() + static_cast<std::ptrdiff_t>(b))
+      throw std::invalid_argument("band '" + bands[b] + "' is given twice");
+    for (ResultColumn c : kBandColumns[b]) {
+      std::string name(c.name);
+      name.replace(name.size() - 4, 4, bands[b]);
+      text_.push_back(std::make_unique<std::string>(std::move(name)));
+      c.name = text_.back()->c_str();
+      std::string description = "band " + bands[b] + ": " + c.description;  // <= 68 characters: a name <= 16
+      text_.push_back(std::make_unique<std::string>(std::move(description)));
+      c.description = text_.back()->c_str();
+      columns_.push_back(c);
+    }
+  }
+}
 
 std::vector<std::string> catalog_columns(PositionColumns positions, bool metacal) {
   std::vector<std::string> names;

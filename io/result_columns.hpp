@@ -25,6 +25,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -57,8 +58,12 @@ enum class ResultField : int {
   kNumber, kRa, kDec, kPsfSize, kNEpochs, kMaskedFraction, kIsBulge, kOtherLikelihood,
   // survey metacal tables only
   kGammaFwhm,
+  // multi-band survey tables only, once per band (ResultSchema): names end in _<band>; the entries
+  // of result_column() are band 0's
+  kBandNEpochs, kBandFlux, kBandBulgeFlux, kBandDiscFlux, kBandSnr,
 };
-inline constexpr int kNumResultFields = static_cast<int>(ResultField::kGammaFwhm) + 1;
+inline constexpr int kNumResultFields = static_cast<int>(ResultField::kBandSnr) + 1;
+inline constexpr int kNumBandFields = static_cast<int>(ResultField::kBandSnr) - static_cast<int>(ResultField::kBandNEpochs) + 1;
 inline constexpr int kNumMetacalFields = static_cast<int>(ResultField::kRadius_2m) - static_cast<int>(ResultField::kR11) + 1;
 
 // On-disk type: FITS TFORM 1K, 1J, 1V (unsigned, stored as J with TZERO = 2^31) and 1D.
@@ -91,5 +96,31 @@ const char* column_name(ResultField field);
 
 // Column names in table order, for documentation and tests.
 std::vector<std::string> catalog_columns(PositionColumns positions, bool metacal = false);
+
+// The header key of a multi-band table that lists its bands, comma-separated (CatalogWriter).
+inline constexpr const char* kBandsKey = "BANDS";
+
+// A band's name as a column suffix: 1..16 of [A-Za-z0-9_]. False with *why naming the rule.
+bool is_band_name(const std::string& band, std::string* why);
+
+// A table's columns with those of its bands: result_columns(positions, metacal), then for each band
+// b (multi-band survey tables) n_epochs_<b> flux_<b> bulge_flux_<b> disc_flux_<b> snr_<b>, read from
+// and written to record.survey.bands[k] for the k-th band. Owns the band columns' names, so it
+// is neither copied nor moved.
+class ResultSchema {
+ public:
+  // Throws std::invalid_argument for more than kMaxBands bands, a name is_band_name refuses or a
+  // repeated one, naming it.
+  ResultSchema(PositionColumns positions, bool metacal, const std::vector<std::string>& bands = {});
+  ResultSchema(const ResultSchema&) = delete;
+  ResultSchema& operator=(const ResultSchema&) = delete;
+  std::span<const ResultColumn> columns() const { return columns_; }
+  const std::vector<std::string>& bands() const { return bands_; }
+
+ private:
+  std::vector<std::string> bands_;
+  std::vector<std::unique_ptr<std::string>> text_;  // band columns' names and descriptions
+  std::vector<ResultColumn> columns_;
+};
 
 }  // namespace stampede::io

@@ -23,6 +23,7 @@ constexpr const char* kUsage =
     "                    [--threads N] [--catalog CAT] [--weight W.fits] [--text OUT.txt]\n"
     "                    [--shard I/N] [--resume] [--overwrite] [--quiet]\n"
     "       stampede fit --meds TILE.fits[.fz] -o OUT.fits [options]\n"
+    "       stampede fit --meds G.fits --meds R.fits ... [--bands g,r,...] -o OUT.fits [options]\n"
     "       stampede fit --input-list LIST -o DIR [options]\n";
 
 void print_help() {
@@ -54,6 +55,13 @@ void print_help() {
       "                masked_frac, psf_size, is_bulge, other_likelihood (bord's loser), flags\n"
       "                (no usable epoch 524288, too masked 1048576, PSF failure 131072, bad zero\n"
       "                point 2097152). renderer = exact is implied\n"
+      "  --meds ... --bands B1,B2,...  one tile per band of the same objects (ids in the same\n"
+      "                order, else refused), in the order of --bands (default b0, b1, ...; at most 8):\n"
+      "                one shape fitted to every band's cutouts, a bulge and a disc amplitude per\n"
+      "                band; adds n_epochs_B flux_B bulge_flux_B disc_flux_B snr_B per band (flux,\n"
+      "                bulge_flux, disc_flux: summed over bands; snr: all bands). A band whose\n"
+      "                cutouts are all unusable is left out (n_epochs_B = 0). One tile with --bands\n"
+      "                gives its single-tile rows plus its band's columns\n"
       "  --input-list L  fit every grid named in L (one path per line, # comments), each to\n"
       "                DIR/<name>_fit.fits, -o naming the directory (created if missing); with\n"
       "                --resume, complete outputs are skipped and interrupted ones resumed\n"
@@ -105,7 +113,17 @@ int parse_fit_arguments(int argc, char** argv, FitCommandLine* command, bool mes
       r.shard = shard->first;
       r.shards = shard->second;
     } else if (s == "--meds") {
-      r.meds = value();
+      r.meds.push_back(value());
+    } else if (s == "--bands") {
+      const std::string v = value();
+      r.bands.clear();
+      std::size_t begin = 0;
+      while (true) {
+        const std::size_t comma = v.find(',', begin);
+        r.bands.push_back(v.substr(begin, comma == std::string::npos ? std::string::npos : comma - begin));
+        if (comma == std::string::npos) break;
+        begin = comma + 1;
+      }
     } else if (s == "--input-list") {
       command->input_list = value();
     } else if (s == "--resume") {
@@ -131,11 +149,12 @@ int parse_fit_arguments(int argc, char** argv, FitCommandLine* command, bool mes
   }
   if (!r.meds.empty()) {
     if (!r.input.empty())
-      throw std::invalid_argument("--meds " + tools::quoted_value(r.meds) + " and INPUT " + tools::quoted_value(r.input) +
+      throw std::invalid_argument("--meds " + tools::quoted_value(r.meds[0]) + " and INPUT " + tools::quoted_value(r.input) +
                                   ": give one");
     if (!command->input_list.empty() || !r.catalog.empty() || !r.weight.empty())
       throw std::invalid_argument("--meds takes no --input-list, --catalog or --weight (the tile holds the cutouts and weights)");
   }
+  if (!r.bands.empty() && r.meds.empty()) throw std::invalid_argument("--bands names the bands of --meds tiles: give them");
   if ((r.input.empty() && r.meds.empty() && command->input_list.empty()) || r.output.empty()) {
     if (messages) std::fputs(kUsage, stderr);
     return 2;

@@ -3,12 +3,15 @@
 
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "app/meds_simulation.hpp"
+#include "io/result_columns.hpp"
 #include "tools/arguments.hpp"
 
 namespace {
@@ -54,6 +57,13 @@ void print_help() {
       "  --bad-columns F        probability per cutout of a hot column, flagged in bmask (%g)\n"
       "  --neighbours F         probability per ring pair of a neighbour 2.2-3 arcsec away, with a\n"
       "                         seg map (%g)\n"
+      "  --bands B1,B2,...      one tile per band of the same galaxies (up to 8; names as column\n"
+      "                         suffixes): DIR/B/meds.fits, DIR/B/truth.fits (the band's flux and\n"
+      "                         bulge_frac) and DIR/B/psfex; each band has its own images (PSF FWHM\n"
+      "                         scaled from 1 to 0.9 over the bands, zero points 0.25 mag apart),\n"
+      "                         epochs, WCSs and noise, the bulge fraction scaled from 0.5x to 1.5x,\n"
+      "                         and --snr in each band. Fit them with `stampede fit --meds\n"
+      "                         DIR/B1/meds.fits --meds DIR/B2/meds.fits ... --bands B1,B2,...`\n"
       "  --seed N               random seed (%llu)\n"
       "  --threads N            worker threads (default: all cores)\n"
       "  --overwrite            replace an existing tile and truth\n",
@@ -76,6 +86,7 @@ int run_sim_meds_command(int argc, char** argv) {
   std::string out;
   int threads = 0;
   bool overwrite = false;
+  std::vector<std::string> bands;
   for (int i = 2; i < argc; ++i) {
     const std::string s = argv[i];
     auto value = [&] { return tools::option_value(argc, argv, &i); };
@@ -123,6 +134,23 @@ int run_sim_meds_command(int argc, char** argv) {
       o.bad_column_fraction = number();
     } else if (s == "--neighbours") {
       o.neighbour_fraction = number();
+    } else if (s == "--bands") {
+      const std::string v = value();
+      bands.clear();
+      for (std::size_t begin = 0;;) {
+        const std::size_t comma = v.find(',', begin);
+        bands.push_back(v.substr(begin, comma == std::string::npos ? std::string::npos : comma - begin));
+        if (comma == std::string::npos) break;
+        begin = comma + 1;
+      }
+      std::string why;
+      for (const std::string& b : bands)
+        if (!io::is_band_name(b, &why)) throw std::invalid_argument("--bands " + tools::quoted_value(v) + ": " + why);
+      if (bands.size() > 8) throw std::invalid_argument("--bands " + tools::quoted_value(v) + ": at most 8 bands");
+      for (std::size_t b = 1; b < bands.size(); ++b)
+        if (std::find(bands.begin(), bands.begin() + static_cast<std::ptrdiff_t>(b), bands[b]) !=
+            bands.begin() + static_cast<std::ptrdiff_t>(b))
+          throw std::invalid_argument("--bands " + tools::quoted_value(v) + ": band '" + bands[b] + "' is given twice");
     } else if (s == "--seed") {
       o.seed = static_cast<std::uint64_t>(tools::integer_in(argc, argv, &i, 0, (1LL << 62)));
     } else if (s == "--threads") {
@@ -138,10 +166,23 @@ int run_sim_meds_command(int argc, char** argv) {
   if (!o.IsValid(&why)) throw std::invalid_argument(why);
   std::unique_ptr<tbb::global_control> limit;
   if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
-  app::write_meds_simulation(o, out, overwrite, [](long long done, long long total) {
-    std::fprintf(stderr, "\rstampede sim meds: %lld/%lld objects", done, total);
-  });
-  std::fprintf(stderr, "\nstampede sim meds: wrote %s/meds.fits, %s/truth.fits and %d PSFEx models\n", out.c_str(),
-               out.c_str(), o.images);
+  if (bands.empty()) {
+    app::write_meds_simulation(o, out, overwrite, [](long long done, long long total) {
+      std::fprintf(stderr, "\rstampede sim meds: %lld/%lld objects", done, total);
+    });
+    std::fprintf(stderr, "\nstampede sim meds: wrote %s/meds.fits, %s/truth.fits and %d PSFEx models\n", out.c_str(),
+                 out.c_str(), o.images);
+    return 0;
+  }
+  o.bands = static_cast<int>(bands.size());
+  for (std::size_t b = 0; b < bands.size(); ++b) {
+    o.band = static_cast<int>(b);
+    const std::string dir = out + "/" + bands[b];
+    app::write_meds_simulation(o, dir, overwrite, [&](long long done, long long total) {
+      std::fprintf(stderr, "\rstampede sim meds: band %s: %lld/%lld objects", bands[b].c_str(), done, total);
+    });
+    std::fprintf(stderr, "\nstampede sim meds: wrote %s/meds.fits, %s/truth.fits and %d PSFEx models\n", dir.c_str(),
+                 dir.c_str(), o.images);
+  }
   return 0;
 }

@@ -30,6 +30,7 @@ struct EpochData {
   PixelFrame frame;
   std::shared_ptr<const PreparedPsf> psf;
   double flux_scale = 1;  // data = flux_scale x model (a zero point's factor)
+  int band = 0;           // multi-band fits (multi_band_fitter): the band whose amplitudes it sees
 };
 
 class MultiEpochFitter {

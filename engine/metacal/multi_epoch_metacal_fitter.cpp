@@ -20,9 +20,11 @@ MetacalImageSet& MultiEpochMetacalFitter::set_for(int box_size) {
 }
 
 void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int64_t object_id, std::uint32_t failure_flag,
-                                  FitResult* noshear, MetacalRecord* record, std::uint32_t* flags, std::string* problem) {
+                                  FitResult* noshear, MetacalRecord* record, std::uint32_t* flags, std::string* problem,
+                                  int n_bands, std::vector<BandFit>* bands) {
   *record = MetacalRecord();
   *noshear = FitResult();
+  if (bands) bands->assign(static_cast<std::size_t>(std::max(n_bands, 0)), BandFit{});
   gamma_fwhm_ = NAN;
   epochs_used_ = 0;
   auto fail = [&](FitStatus status, const std::string& why) {
@@ -93,17 +95,19 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
       const MetacalEpoch& e = *used_[k];
       const std::size_t npix = static_cast<std::size_t>(e.box_size) * e.box_size;
       fit_epochs_.push_back({std::span<const double>(images_[k]).subspan(static_cast<int>(t) * npix, npix), weights_[k],
-                             e.box_size, e.frame, prepared_[k], e.flux_scale});
+                             e.box_size, e.frame, prepared_[k], e.flux_scale, e.band});
     }
     // Each image set is fitted exactly as the noshear one, from its own moments (MetacalFitter).
-    return fitter_.fit(fit_epochs_, 0);
+    return fitter_.fit(fit_epochs_, n_bands, 0);
   };
-  *noshear = fit_type(MetacalType::kNoshear);
+  MultiBandFitResult noshear_bands = fit_type(MetacalType::kNoshear);
+  *noshear = noshear_bands.fit;
+  if (bands) *bands = std::move(noshear_bands.bands);
   std::array<double, kNumMetacalTypes> e1{}, e2{};
   std::string unusable;  // the first image set whose fit is not ok
   if (noshear->status != FitStatus::kOk) unusable = std::string("noshear image set's fit is ") + ToString(noshear->status);
   for (int t = 1; t < kNumMetacalTypes; ++t) {
-    const FitResult r = fit_type(static_cast<MetacalType>(t));
+    const FitResult r = fit_type(static_cast<MetacalType>(t)).fit;
     if (r.status != FitStatus::kOk && unusable.empty())
       unusable = std::string(metacal_type_name(static_cast<MetacalType>(t))) + " image set's fit is " + ToString(r.status);
     e1[t] = r.params[index(Param::kE1)];

@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/fit/multi_epoch_fitter.hpp"
+#include "engine/fit/multi_band_fitter.hpp"
 #include "engine/metacal/metacal_image_set.hpp"
 #include "engine/metacal/metacal_options.hpp"
 #include "engine/metacal/metacal_record.hpp"
@@ -33,6 +33,7 @@ struct MetacalEpoch {
   PixelFrame frame;
   const PsfModel* psf = nullptr;  // the cutout's PSF in its pixels
   double flux_scale = 1;          // data = flux_scale x model
+  int band = 0;                   // multi-band objects: the cutout's band (MultiBandFitter)
 };
 
 class MultiEpochMetacalFitter {
@@ -43,9 +44,12 @@ class MultiEpochMetacalFitter {
 
   // *noshear: the noshear fit (sky units); *record: R and the sheared fits; *flags gains
   // failure_flag when R is unusable (a fit not ok, masked pixels in every cutout, no Gamma);
-  // *problem (when empty) the first reason. object_id keys the fixnoise fields.
+  // *problem (when empty) the first reason. object_id keys the fixnoise fields. Epochs of
+  // `n_bands` bands (their `band` in 0..n_bands-1): *bands (when not null) gets the noshear fit's
+  // per-band part.
   void fit(std::span<const MetacalEpoch> epochs, std::int64_t object_id, std::uint32_t failure_flag, FitResult* noshear,
-           MetacalRecord* record, std::uint32_t* flags, std::string* problem);
+           MetacalRecord* record, std::uint32_t* flags, std::string* problem, int n_bands = 1,
+           std::vector<BandFit>* bands = nullptr);
 
   // The last object's: Gamma's FWHM on the sky (NaN when none served), cutouts used.
   double gamma_fwhm() const { return gamma_fwhm_; }
@@ -57,7 +61,7 @@ class MultiEpochMetacalFitter {
   MetacalImageSet& set_for(int box_size);
   FitterOptions fit_options_;
   MetacalOptions options_;
-  MultiEpochFitter fitter_;
+  MultiBandFitter fitter_;  // one band: MultiEpochFitter's fits
   std::map<int, std::unique_ptr<MetacalImageSet>> sets_;
   std::vector<std::vector<double>> images_, weights_;
   std::vector<const MetacalEpoch*> used_;

@@ -4,8 +4,11 @@
 // reference zero point.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstdint>
+
+#include "engine/fit/multi_band_result.hpp"
 
 namespace stampede {
 
@@ -18,6 +21,9 @@ struct SurveyRecord {
   std::int32_t is_bulge = -1;      // bord: 1 the pure bulge won, 0 the pure disc; bd: -1
   double other_likelihood = NAN;   // bord: the losing model's log-likelihood; bd: NaN
   double gamma_fwhm = NAN;         // metacal runs: the reconvolution PSF's FWHM on the sky, arcsec
+  // Multi-band runs: each band's cutouts, fluxes and S/N (in the order of the run's bands; the fit
+  // is then the common shape, its fluxes summed over bands).
+  std::array<BandFit, kMaxBands> bands{};
 };
 
 }  // namespace stampede

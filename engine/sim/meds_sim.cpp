@@ -27,6 +27,16 @@ std::string text(double v) {
   return b;
 }
 
+// A band's own stream of (purpose, index): band 0's is the one-band tile's, so that tile is
+// unchanged; other bands key theirs by the band too.
+RandomStream band_stream(const MedsSimOptions& o, std::uint64_t purpose, std::uint64_t index) {
+  if (o.band == 0) return RandomStream({o.seed, purpose, index});
+  return RandomStream({o.seed, purpose, index, static_cast<std::uint64_t>(o.band)});
+}
+
+// Band b's PSF FWHM relative to the first band's: 1 down to 0.9 for the last.
+double psf_scale(const MedsSimOptions& o) { return o.bands > 1 ? 1.0 - 0.1 * o.band / (o.bands - 1) : 1.0; }
+
 }  // namespace
 
 bool MedsSimOptions::IsValid(std::string* why) const {
@@ -56,6 +66,8 @@ bool MedsSimOptions::IsValid(std::string* why) const {
   if (!(magzp_jitter >= 0 && magzp_jitter < 3)) return fail("--magzp-jitter " + text(magzp_jitter) + ": must be in [0, 3)");
   if (!(bad_column_fraction >= 0 && bad_column_fraction <= 1)) return fail("--bad-columns " + text(bad_column_fraction) + ": must be in [0, 1]");
   if (!(neighbour_fraction >= 0 && neighbour_fraction <= 1)) return fail("--neighbours " + text(neighbour_fraction) + ": must be in [0, 1]");
+  if (bands < 1 || bands > 8 || band < 0 || band >= bands)
+    return fail("--bands: band " + std::to_string(band) + " of " + std::to_string(bands) + " (1..8 bands)");
   return true;
 }
 
@@ -66,13 +78,14 @@ MedsSimulator::MedsSimulator(const MedsSimOptions& options) : options_(options) 
   SimRenderer::Options so;
   so.sersic_indices = {1.0};  // only the PSF is drawn here: no Sersic table to build
   for (int i = 0; i < options.images; ++i) {
-    RandomStream rng({options.seed, kImagePurpose, static_cast<std::uint64_t>(i)});
+    RandomStream rng = band_stream(options, kImagePurpose, static_cast<std::uint64_t>(i));
     MedsSimImage im;
-    im.psf_fwhm = rng.uniform(options.psf_fwhm_min, options.psf_fwhm_max) / options.pixel_scale;
+    im.psf_fwhm = rng.uniform(options.psf_fwhm_min, options.psf_fwhm_max) * psf_scale(options) / options.pixel_scale;
     im.psf_e1 = rng.uniform(-options.psf_e_max, options.psf_e_max);
     im.psf_e2 = rng.uniform(-options.psf_e_max, options.psf_e_max);
     // float32, as image_info holds it, so that the fit's flux scale is the one drawn with.
-    im.magzp = static_cast<float>(options.magzp + rng.uniform(-options.magzp_jitter, options.magzp_jitter));
+    im.magzp = static_cast<float>(options.magzp + 0.25 * options.band +
+                                  rng.uniform(-options.magzp_jitter, options.magzp_jitter));
     PsfModel psf;
     psf.kind = PsfKind::kMoffat;
     psf.moffat = {options.psf_beta, im.psf_fwhm, im.psf_e1, im.psf_e2, 0.0};
@@ -103,7 +116,7 @@ std::unique_ptr<MedsSimulator::Workspace> MedsSimulator::make_workspace() const 
 
 std::vector<MedsSimCutout> MedsSimulator::epochs(long long index) const {
   const MedsSimOptions& o = options_;
-  RandomStream ep({o.seed, kEpochs, static_cast<std::uint64_t>(index / 2)});
+  RandomStream ep = band_stream(o, kEpochs, static_cast<std::uint64_t>(index / 2));
   std::vector<int> pick(static_cast<std::size_t>(o.images));
   std::iota(pick.begin(), pick.end(), 0);
   const int box = o.box_size;
@@ -142,6 +155,7 @@ MedsSimObject MedsSimulator::simulate(long long object_index, Workspace& ws) con
   RandomStream g({o.seed, kGalaxy, pair});
   out.hlr = g.uniform(o.hlr_min, o.hlr_max);
   out.bulge_frac = g.uniform(0, o.bulge_fraction_max);
+  if (o.bands > 1) out.bulge_frac = std::min(1.0, out.bulge_frac * (0.5 + static_cast<double>(o.band) / (o.bands - 1)));
   do {
     out.e1_int = o.e_sigma * g.normal();
     out.e2_int = o.e_sigma * g.normal();
@@ -211,10 +225,14 @@ MedsSimObject MedsSimulator::simulate(long long object_index, Workspace& ws) con
       c.pixels[i] = gal + nbr;
     }
     if (!o.noise_free) {
-      RandomStream noise({o.seed, kNoise, object, static_cast<std::uint64_t>(k)});
+      RandomStream noise = o.band == 0 ? RandomStream({o.seed, kNoise, object, static_cast<std::uint64_t>(k)})
+                                       : RandomStream({o.seed, kNoise, object, static_cast<std::uint64_t>(k),
+                                                       static_cast<std::uint64_t>(o.band)});
       for (double& v : c.pixels) v += o.noise_sigma * noise.normal();
     }
-    RandomStream bad({o.seed, kBadColumn, object, static_cast<std::uint64_t>(k)});
+    RandomStream bad = o.band == 0 ? RandomStream({o.seed, kBadColumn, object, static_cast<std::uint64_t>(k)})
+                                   : RandomStream({o.seed, kBadColumn, object, static_cast<std::uint64_t>(k),
+                                                   static_cast<std::uint64_t>(o.band)});
     if (bad.uniform() < o.bad_column_fraction) {
       c.bad_column = static_cast<int>(bad.uniform() * box);
       for (int y = 0; y < box; ++y) {

@@ -49,6 +49,12 @@ struct MedsSimOptions {
   double bad_column_fraction = 0;        // probability per cutout of one bad column
   double neighbour_fraction = 0;         // probability per ring pair of a neighbour in every epoch
   std::uint64_t seed = 11;
+  // Multi-band tiles (`sim meds --bands`): band `band` of `bands` sees the same galaxies (shape,
+  // size, position, neighbours) through its own images (PSFs narrower by up to 10 % towards the
+  // last band, zero points 0.25 mag apart), epochs, WCSs and noise, with the bulge fraction
+  // scaled from 0.5x (first band) to 1.5x (last band) and the flux set for --snr in each band.
+  // Band 0 of 1 is the one-band tile, bit for bit.
+  int band = 0, bands = 1;
   // Message names the option as on the command line (--objects, ...), its value and the rule.
   bool IsValid(std::string* why) const;
 };

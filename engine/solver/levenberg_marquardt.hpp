@@ -21,9 +21,10 @@
 
 namespace stampede {
 
-// The solver knows nothing of the galaxy model: it sizes its fixed storage for up to 12 free
-// parameters (the model has 12; engine/fit asserts that they fit).
-inline constexpr int kMaxFree = 12;
+// The solver knows nothing of the galaxy model: it sizes its fixed storage for up to 24 free
+// parameters (the model has 12; a multi-band fit has the shape plus two amplitudes per band, up to
+// eight bands; engine/fit asserts that they fit).
+inline constexpr int kMaxFree = 24;
 using LmVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxFree, 1>;
 using LmMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxFree, kMaxFree>;
 

@@ -130,17 +130,19 @@ void bind_io(py::module_& m) {
         std::vector<ObjectRecord> rows;
         io::PositionColumns positions;
         bool metacal = false;
+        std::vector<std::string> bands;
         {
           py::gil_scoped_release release;
           io::CatalogReader r = io::CatalogReader::open(path);
           positions = r.positions();
           metacal = r.metacal();
+          bands = r.bands();
           rows = r.records(0, r.rows());
         }
-        return result_array(rows, positions, metacal);
+        return result_array(rows, positions, metacal, bands);
       },
       "read_results(path)\n\nThe RESULTS table of a `stampede fit` output as a structured array of its schema columns (the dtype "
-      "fit_stamps returns for grid input).");
+      "fit_stamps returns for grid input; a multi-band table's per-band columns included).");
   m.def(
       "fits_hdus",
       [](py::args args, py::kwargs kwargs) {

@@ -38,9 +38,10 @@ DoubleArray as_float64(py::handle obj, std::initializer_list<int> ndims, const c
   return out;
 }
 
-py::dtype result_dtype(io::PositionColumns positions, bool metacal) {
+py::dtype result_dtype(io::PositionColumns positions, bool metacal, const std::vector<std::string>& bands) {
   py::list fields;
-  for (const io::ResultColumn& c : io::result_columns(positions, metacal)) {
+  const io::ResultSchema schema(positions, metacal, bands);
+  for (const io::ResultColumn& c : schema.columns()) {
     const char* format = "<f8";
     switch (c.type) {
       case io::ColumnType::kInt64: format = "<i8"; break;
@@ -53,11 +54,13 @@ py::dtype result_dtype(io::PositionColumns positions, bool metacal) {
   return py::dtype::from_args(fields);
 }
 
-py::array result_array(const std::vector<ObjectRecord>& rows, io::PositionColumns positions, bool metacal) {
-  const py::dtype dt = result_dtype(positions, metacal);
+py::array result_array(const std::vector<ObjectRecord>& rows, io::PositionColumns positions, bool metacal,
+                       const std::vector<std::string>& bands) {
+  const py::dtype dt = result_dtype(positions, metacal, bands);
   py::array out(dt, std::vector<py::ssize_t>{static_cast<py::ssize_t>(rows.size())});
   const py::dict fields = dt.attr("fields");
-  const auto cols = io::result_columns(positions, metacal);
+  const io::ResultSchema schema(positions, metacal, bands);
+  const auto cols = schema.columns();
   std::vector<py::ssize_t> offsets;
   for (const io::ResultColumn& c : cols) offsets.push_back(fields[c.name].cast<py::tuple>()[1].cast<py::ssize_t>());
   char* base = static_cast<char*>(out.mutable_data());

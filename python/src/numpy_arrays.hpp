@@ -29,10 +29,12 @@ inline std::span<const double> values(const DoubleArray& a) {
 
 // The numpy dtype of a result table with `positions` (field names as TTYPEn; int64, int32, uint32
 // and float64 as TFORM K, J, V and D).
-pybind11::dtype result_dtype(io::PositionColumns positions, bool metacal = false);
-// Rows as a structured array of result_dtype(positions).
+// A multi-band table's `bands` add their columns (io::ResultSchema).
+pybind11::dtype result_dtype(io::PositionColumns positions, bool metacal = false,
+                             const std::vector<std::string>& bands = {});
+// Rows as a structured array of result_dtype(positions, metacal, bands).
 pybind11::array result_array(const std::vector<ObjectRecord>& rows, io::PositionColumns positions,
-                             bool metacal = false);
+                             bool metacal = false, const std::vector<std::string>& bands = {});
 // One row as a dict {column: Python int or float}.
 pybind11::dict result_dict(const ObjectRecord& row, io::PositionColumns positions, bool metacal = false);
 

@@ -130,10 +130,18 @@ void bind_run(py::module_& m) {
       [](py::args args, py::kwargs kwargs) {
         const Arguments in("run_fit", args, kwargs,
                            {{"input"}, {"output"}, {"catalog"}, {"weight"}, {"text_output"}, {"options"}, {"threads"},
-                            {"resume"}, {"overwrite"}, {"progress"}, {"shard"}, {"meds"}});
+                            {"resume"}, {"overwrite"}, {"progress"}, {"shard"}, {"meds"}, {"bands"}});
         app::FitRunOptions a;
         a.input = in.text("input");
-        a.meds = in.text("meds");
+        // One tile (a path), or one per band (a list, in the order of `bands`).
+        const py::object meds = in.object("meds");
+        if (py::isinstance<py::list>(meds) || py::isinstance<py::tuple>(meds))
+          a.meds = in.texts("meds");
+        else if (!meds.is_none())
+          a.meds = {in.text("meds")};
+        if (!in.object("bands").is_none()) a.bands = in.names("bands");
+        if (!a.bands.empty() && a.meds.empty())
+          throw py::value_error(in.where("bands") + " names the bands of the meds tiles: give meds");
         a.output = in.text("output");
         a.catalog = in.text("catalog");
         a.weight = in.text("weight");
@@ -164,11 +172,13 @@ void bind_run(py::module_& m) {
         return run_watched(std::move(a), progress);
       },
       R"doc(run_fit(input="", output="", catalog="", weight="", text_output="", options=None, threads=0,
-        resume=False, overwrite=False, progress=None, shard=None, meds="")
+        resume=False, overwrite=False, progress=None, shard=None, meds="", bands=None)
 
 Runs `stampede fit` over files: `input` a grid of stamps (or, with `catalog`, the image to cut
 them from), or `meds` a MEDS tile instead (each object fitted on its cutouts, as `stampede fit
---meds`; options meds_*), `output` the FITS table ("" = none), `weight` an inverse-variance image.
+--meds`; options meds_*) or a list of tiles, one per band of the same objects, fitted jointly
+(`bands` their names, default b0, b1, ...; as `stampede fit --meds ... --bands`), `output` the FITS
+table ("" = none), `weight` an inverse-variance image.
 Paths are str or os.PathLike. `options` as for Options; `threads` 0: all cores, else 1..4096.
 `progress(done, total, seconds)` is called about once a second. Warnings (e.g. an input that
 records another PSF) arrive as UserWarning. `shard=(i, N)` fits shard i of N, as `stampede fit

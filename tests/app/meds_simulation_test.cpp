@@ -39,7 +39,7 @@ std::vector<double> truth(const std::string& dir, const std::string& name) {
 
 void fit_tile(const std::string& tile, const std::string& out, const std::vector<std::string>& sets = {}) {
   FitRunOptions o;
-  o.meds = tile;
+  o.meds = {tile};
   o.output = out;
   o.overwrite = true;
   for (const std::string& s : sets) io::apply_set(o.config, s);

@@ -136,6 +136,28 @@ def test_a_meds_tile_gives_the_commands_survey_rows(tmp_path):
         stampede.run_fit(os.path.join(MINI, "nf", "set_0.fits"), meds=tile, output=str(tmp_path / "x.fits"))
 
 
+def test_meds_tiles_of_several_bands_are_fitted_jointly(tmp_path):
+    sim = str(tmp_path / "sim")
+    run_cli("sim", "meds", "--out", sim, "--bands", "g,r", "--objects", "6", "--epochs", "2", "--snr", "30")
+    tiles = [os.path.join(sim, b, "meds.fits") for b in ("g", "r")]
+    out = str(tmp_path / "bands.fits")
+    s = stampede.run_fit(meds=tiles, bands=["g", "r"], output=out, threads=2)
+    assert s["objects"] == 6
+    rows = stampede.read_results(out)
+    for name in ("n_epochs_g", "flux_g", "bulge_flux_r", "disc_flux_r", "snr_r"):
+        assert name in rows.dtype.names
+    assert (rows["n_epochs_g"] == 2).all() and (rows["n_epochs"] == 4).all()
+    assert np.allclose(rows["flux"], rows["flux_g"] + rows["flux_r"], rtol=1e-12)
+    assert np.allclose(rows["snr"] ** 2, rows["snr_g"] ** 2 + rows["snr_r"] ** 2, rtol=1e-9)
+    cli = str(tmp_path / "cli.fits")
+    run_cli("fit", "--meds", tiles[0], "--meds", tiles[1], "--bands", "g,r", "-o", cli, "--quiet")
+    assert columns_equal_bitwise(rows, stampede.read_results(cli)) == []
+    with pytest.raises(stampede.ConfigError, match="names 1 bands for 2 --meds tiles"):
+        stampede.run_fit(meds=tiles, bands=["g"], output=str(tmp_path / "x.fits"))
+    with pytest.raises(TypeError, match="bands"):
+        stampede.run_fit(meds=tiles, bands="gr", output=str(tmp_path / "x.fits"))
+
+
 def test_bord_rows_hold_the_losing_models_likelihood(tmp_path):
     # Issue 31: the docs promised the loser's likelihood and no column held it.
     tile = os.path.join(DATA, "meds-sample", "meds.fits")

@@ -11,75 +11,20 @@
 #include <random>
 #include <vector>
 
-#include "engine/sim/sim_renderer.hpp"
-#include "support/sky_to_pixel.hpp"
+#include "support/sky_epochs.hpp"
 
 namespace stampede {
 namespace {
 
-constexpr int kBox = 48;
+using testing::draw;
+using testing::random_frame;
+using testing::sky_params;
+using testing::SkyGalaxy;
+using Epoch = testing::SkyEpoch;
+constexpr int kBox = testing::kEpochBox;
 
-FitterOptions options() {
-  FitterOptions o;
-  o.renderer = RendererKind::kExact;
-  return o;
-}
-
-PsfModel moffat(double fwhm, double e1, double e2) {
-  PsfModel p;
-  p.kind = PsfKind::kMoffat;
-  p.moffat = {3.0, fwhm, e1, e2, 0.0};
-  return p;
-}
-
-struct SkyGalaxy {
-  double e1, e2, radius, u0, v0, bulge_flux, disc_flux;
-};
-
-struct Epoch {
-  PixelFrame frame;
-  PsfModel psf;
-  std::vector<double> pixels, weight;
-};
-
-// A DES-like frame: 0.263"/px within +-3 %, any rotation, a WCS shear within +-0.02, the object
-// within a pixel of the box centre.
-PixelFrame random_frame(std::mt19937& rng) {
-  std::uniform_real_distribution<double> u(-1, 1);
-  const double angle = M_PI * u(rng), scale = 0.263 * (1 + 0.03 * u(rng)), g1 = 0.02 * u(rng), g2 = 0.02 * u(rng);
-  const double c = std::cos(angle), s = std::sin(angle);
-  // J = scale R(angle) [[1 + g1, g2], [g2, 1 - g1]]
-  PixelFrame f;
-  f.dudx = scale * (c * (1 + g1) - s * g2), f.dudy = scale * (c * g2 - s * (1 - g1));
-  f.dvdx = scale * (s * (1 + g1) + c * g2), f.dvdy = scale * (s * g2 + c * (1 - g1));
-  f.x_ref = 23.5 + 0.5 * u(rng), f.y_ref = 23.5 + 0.5 * u(rng);
-  return f;
-}
-
-// The galaxy in the epoch's pixels, drawn by the simulator (exact pixel integrals through the PSF).
-std::vector<double> draw(const SkyGalaxy& g, const PixelFrame& f, const PsfModel& psf) {
-  const testing::PixelEllipse e = testing::sky_to_pixel(g.e1, g.e2, g.radius, g.u0, g.v0, f);
-  SimRenderer sim(psf, SimRenderer::Options{});
-  const SimComponent parts[2] = {{4.0, g.bulge_flux, e.radius, e.e1, e.e2, e.x, e.y},
-                                 {1.0, g.disc_flux, e.radius, e.e1, e.e2, e.x, e.y}};
-  std::vector<double> out(kBox * kBox);
-  SimWorkspace ws;
-  sim.render(parts, kBox, out, ws);
-  return out;
-}
-
-// Sky parameters of g for the fitter (amplitudes from the fluxes through the renderer's own
-// flux per amplitude).
-ParamVector sky_params(const SkyGalaxy& g, ExactRenderer& r) {
-  ParamVector p = ParameterSet::default_values();
-  p[index(Param::kX0)] = g.u0, p[index(Param::kY0)] = g.v0;
-  p[index(Param::kE1)] = g.e1, p[index(Param::kE2)] = g.e2, p[index(Param::kRadius)] = g.radius;
-  p[index(Param::kBulgeA)] = 1, p[index(Param::kDiscA)] = 1;
-  double fb = 0, fd = 0;
-  r.component_fluxes(p, &fb, &fd);
-  p[index(Param::kBulgeA)] = g.bulge_flux / fb, p[index(Param::kDiscA)] = g.disc_flux / fd;
-  return p;
-}
+FitterOptions options() { return testing::exact_fit_options(); }
+PsfModel moffat(double fwhm, double e1, double e2) { return testing::moffat_psf(fwhm, e1, e2); }
 
 ParamVector perturbed(ParamVector p) {
   p[index(Param::kE1)] += 0.04, p[index(Param::kE2)] -= 0.03, p[index(Param::kRadius)] *= 1.1;
@@ -89,14 +34,7 @@ ParamVector perturbed(ParamVector p) {
 }
 
 std::vector<EpochData> epoch_data(MultiEpochFitter& fitter, std::vector<Epoch>& epochs) {
-  std::vector<EpochData> data;
-  for (Epoch& e : epochs) {
-    std::string error;
-    auto psf = fitter.renderer_for(kBox).prepare_psf(e.psf, &error);
-    if (!psf) throw std::runtime_error(error);
-    data.push_back({e.pixels, e.weight, kBox, e.frame, psf, 1.0});
-  }
-  return data;
+  return testing::epoch_data(fitter.renderer_for(kBox), epochs);
 }
 
 // Must-show 1's core: four noise-free epochs, random rotations, scales, WCS shears and PSFs.

@@ -1,0 +1,304 @@
+// Joint fits over bands; see multi_band_fitter.hpp.
+#include "engine/fit/multi_band_fitter.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace stampede {
+namespace {
+
+bool is_amplitude(Param p) { return p == Param::kBulgeA || p == Param::kDiscA; }
+
+}  // namespace
+
+class MultiBandFitter::Problem final : public LeastSquaresProblem {
+ public:
+  explicit Problem(MultiBandFitter& f) : f_(f) {}
+
+  // The fit's cutouts, the full parameter vector of fixed values, the single-band free list and
+  // the slot of each band in the solver's vector (-1: not fitted).
+  void reset(std::span<const EpochData> epochs, const ParamVector& base, std::span<const Param> free,
+             std::span<const int> slot_of_band, int slots) {
+    epochs_ = epochs;
+    base_ = base;
+    free_ = free;
+    slot_of_band_.assign(slot_of_band.begin(), slot_of_band.end());
+    slots_ = slots;
+    n_shape_ = n_amp_ = 0;
+    for (std::size_t a = 0; a < free.size(); ++a) {
+      if (is_amplitude(free[a]))
+        local_[a] = {false, n_amp_++};
+      else
+        local_[a] = {true, n_shape_++};
+    }
+    pixels_ = 0;
+    double sum = 0;
+    for (const EpochData& e : epochs)
+      for (std::size_t i = 0; i < e.weight.size(); ++i) {
+        pixels_ += e.weight[i] > 0;
+        sum += e.weight[i] * e.pixels[i] * e.pixels[i];
+      }
+    negligible_chi2_ = 1e-14 * sum;  // as MultiEpochFitter's
+  }
+  int size() const { return n_shape_ + slots_ * n_amp_; }
+  int num_pixels() const override { return pixels_; }
+  double negligible_chi2() const override { return negligible_chi2_; }
+
+  // The solver's index of single-band free parameter a in the band at `slot`.
+  int global(std::size_t a, int slot) const {
+    return local_[a].shape ? local_[a].k : n_shape_ + slot * n_amp_ + local_[a].k;
+  }
+  // Band slot s's full parameter vector at x.
+  ParamVector full(const LmVector& x, int slot) const {
+    ParamVector p = base_;
+    for (std::size_t a = 0; a < free_.size(); ++a) p[index(free_[a])] = x[global(a, slot)];
+    return p;
+  }
+  // x from a shape start and per-slot amplitude starts.
+  LmVector vector_of(const ParamVector& shape, std::span<const ParamVector> amplitudes) const {
+    LmVector x(size());
+    for (std::size_t a = 0; a < free_.size(); ++a)
+      for (int s = 0; s < slots_; ++s)
+        x[global(a, s)] = (local_[a].shape ? shape : amplitudes[static_cast<std::size_t>(s)])[index(free_[a])];
+    return x;
+  }
+
+  bool chi2(const LmVector& x, double* chi2) override {
+    double sum = 0;
+    for (const EpochData& e : epochs_) {
+      const ParamVector p = full(x, slot_of_band_[static_cast<std::size_t>(e.band)]);
+      ExactRenderer& r = select(e);
+      if (r.render(p, model_span_) != RenderStatus::kOk) return false;
+      for (std::size_t i = 0; i < e.pixels.size(); ++i) {
+        const double d = e.pixels[i] - e.flux_scale * model_[i];
+        sum += e.weight[i] * d * d;
+      }
+    }
+    *chi2 = sum;
+    return std::isfinite(sum);
+  }
+
+  bool normal_equations(const LmVector& x, double* chi2, LmMatrix* alpha, LmVector* beta) override {
+    const int n = size();
+    const std::size_t nf = free_.size();
+    alpha->setZero(n, n);
+    beta->setZero(n);
+    double sum = 0;
+    signal_.fill(0.0);
+    std::array<int, kNumParams> g{};
+    for (const EpochData& e : epochs_) {
+      const int slot = slot_of_band_[static_cast<std::size_t>(e.band)];
+      const ParamVector p = full(x, slot);
+      for (std::size_t a = 0; a < nf; ++a) g[a] = global(a, slot);
+      ExactRenderer& r = select(e);
+      if (r.render_with_jacobian(p, free_, model_span_, std::span<double* const>(columns_.data(), nf)) != RenderStatus::kOk)
+        return false;
+      double signal = 0;
+      for (std::size_t i = 0; i < e.pixels.size(); ++i) {
+        const double w = e.weight[i];
+        if (w == 0) continue;
+        const double m = e.flux_scale * model_[i], d = e.pixels[i] - m;
+        sum += w * d * d;
+        signal += w * m * m;
+        for (std::size_t a = 0; a < nf; ++a) {
+          const double ja = e.flux_scale * jacobian_[a][i] * w;
+          (*beta)[g[a]] += ja * d;
+          for (std::size_t b = 0; b <= a; ++b)
+            (*alpha)(std::max(g[a], g[b]), std::min(g[a], g[b])) += ja * e.flux_scale * jacobian_[b][i];
+        }
+      }
+      signal_[static_cast<std::size_t>(slot)] += signal;
+    }
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < a; ++b) (*alpha)(b, a) = (*alpha)(a, b);
+    *chi2 = sum;
+    return std::isfinite(sum) && alpha->allFinite() && beta->allFinite();
+  }
+
+  // sum w m^2 of slot s's cutouts at the last normal_equations.
+  double signal(int slot) const { return signal_[static_cast<std::size_t>(slot)]; }
+  void use_surrogates(bool on) { surrogates_ = on; }
+
+ private:
+  struct Local {
+    bool shape = true;
+    int k = 0;  // index among the shape parameters, or among one band's amplitudes
+  };
+
+  ExactRenderer& select(const EpochData& e) {
+    ExactRenderer& r = f_.renderer_for(e.box_size);
+    r.set_psf(e.psf);
+    r.set_frame(e.frame);
+    ExactRenderer* coarse = surrogates_ ? r.exact_surrogate() : nullptr;
+    const std::size_t n = static_cast<std::size_t>(e.box_size) * e.box_size;
+    if (model_.size() < n) {  // grows to the largest box once
+      model_.resize(n);
+      for (auto& j : jacobian_) j.resize(n);
+    }
+    model_span_ = std::span<double>(model_.data(), n);
+    for (std::size_t k = 0; k < jacobian_.size(); ++k) columns_[k] = jacobian_[k].data();
+    return coarse ? *coarse : r;
+  }
+
+  MultiBandFitter& f_;
+  std::span<const EpochData> epochs_;
+  ParamVector base_{};
+  std::span<const Param> free_;
+  std::array<Local, kNumParams> local_{};
+  std::vector<int> slot_of_band_;
+  int slots_ = 0, n_shape_ = 0, n_amp_ = 0;
+  int pixels_ = 0;
+  double negligible_chi2_ = 0;
+  std::array<double, kMaxBands> signal_{};
+  bool surrogates_ = false;
+  std::vector<double> model_;
+  std::span<double> model_span_;
+  std::array<std::vector<double>, kNumParams> jacobian_;
+  std::array<double*, kNumParams> columns_{};
+};
+
+MultiBandFitter::MultiBandFitter(const FitterOptions& options)
+    : options_(options), single_(options), problem_(std::make_unique<Problem>(*this)) {}
+
+MultiBandFitter::~MultiBandFitter() = default;
+
+MultiBandFitResult MultiBandFitter::fit(std::span<const EpochData> epochs, int n_bands, std::size_t first) {
+  if (n_bands < 1 || n_bands > kMaxBands)
+    throw std::invalid_argument("MultiBandFitter::fit: " + std::to_string(n_bands) + " bands (1.." +
+                                std::to_string(kMaxBands) + ")");
+  if (first >= epochs.size()) throw std::invalid_argument("MultiBandFitter::fit: no epoch to start from");
+  MultiBandFitResult out;
+  out.bands.resize(static_cast<std::size_t>(n_bands));
+  std::vector<std::size_t> first_of_band(static_cast<std::size_t>(n_bands), epochs.size());
+  for (std::size_t k = 0; k < epochs.size(); ++k) {
+    const int b = epochs[k].band;
+    if (b < 0 || b >= n_bands)
+      throw std::invalid_argument("MultiBandFitter::fit: cutout " + std::to_string(k) + " has band " + std::to_string(b) +
+                                  " of " + std::to_string(n_bands));
+    ++out.bands[static_cast<std::size_t>(b)].n_epochs;
+    first_of_band[static_cast<std::size_t>(b)] = std::min(first_of_band[static_cast<std::size_t>(b)], k);
+  }
+  std::vector<int> slot_of_band(static_cast<std::size_t>(n_bands), -1), band_of_slot;
+  for (int b = 0; b < n_bands; ++b)
+    if (out.bands[static_cast<std::size_t>(b)].n_epochs > 0) {
+      slot_of_band[static_cast<std::size_t>(b)] = static_cast<int>(band_of_slot.size());
+      band_of_slot.push_back(b);
+    }
+  FitResult& r = out.fit;
+  if (band_of_slot.size() == 1) {
+    // One band: the multi-epoch fit itself (a one-band run's rows are then the single tile's).
+    r = single_.fit(epochs, first);
+    BandFit& band = out.bands[static_cast<std::size_t>(band_of_slot[0])];
+    band.bulge_a = r.params[index(Param::kBulgeA)], band.disc_a = r.params[index(Param::kDiscA)];
+    band.bulge_flux = r.bulge_flux, band.disc_flux = r.disc_flux, band.flux = r.flux, band.snr = r.snr;
+    if (n_bands > 1) r.params[index(Param::kBulgeA)] = r.params[index(Param::kDiscA)] = NAN;
+    return out;
+  }
+  for (const EpochData& e : epochs)
+    if (!e.psf) {
+      r.status = FitStatus::kPsfFailure;
+      return out;
+    }
+  std::array<Param, kNumParams> free_all{};
+  const int nf = options_.params.free_params(&free_all);
+  const std::span<const Param> free(free_all.data(), static_cast<std::size_t>(nf));
+  const int slots = static_cast<int>(band_of_slot.size());
+  std::uint32_t flags = 0;
+  const ParamVector start = single_.sky_start(epochs[first], &flags);
+  std::vector<ParamVector> amplitude_start(static_cast<std::size_t>(slots));
+  for (int s = 0; s < slots; ++s) {
+    const std::size_t k = first_of_band[static_cast<std::size_t>(band_of_slot[static_cast<std::size_t>(s)])];
+    amplitude_start[static_cast<std::size_t>(s)] = k == first ? start : single_.sky_start(epochs[k], &flags);
+  }
+  problem_->reset(epochs, start, free, slot_of_band, slots);
+  if (problem_->num_pixels() == 0) {
+    r.status = FitStatus::kNoData;
+    return out;
+  }
+  LmVector x0 = problem_->vector_of(start, amplitude_start);
+  LmOptions lm = options_.lm;
+  // As the multi-epoch fit: first on the cutouts' surrogates, then exactly from there.
+  bool coarse = false;
+  for (const EpochData& e : epochs) {
+    ExactRenderer& er = renderer_for(e.box_size);
+    er.set_psf(e.psf);
+    coarse = coarse || er.exact_surrogate() != nullptr;
+  }
+  if (coarse) {
+    LmOptions loose = options_.lm;
+    loose.eps4 = std::max(options_.lm.eps4, options_.surrogate_eps4);
+    problem_->use_surrogates(true);
+    const LmSummary s = levenberg_marquardt(*problem_, x0, loose);
+    problem_->use_surrogates(false);
+    r.surrogate_iterations = s.iterations;
+    r.surrogate_evaluations = s.evaluations;
+    if (s.reason != StopReason::kInvalidStart && s.x.allFinite()) {
+      x0 = s.x;
+      lm.stop_at_jacobian = true;
+    }
+  }
+  const LmSummary sum = levenberg_marquardt(*problem_, x0, lm);
+  r.stop_reason = sum.reason;
+  r.stop_value = sum.stop_value;
+  r.stop_threshold = sum.stop_threshold;
+  r.iterations = sum.iterations;
+  r.evaluations = sum.evaluations;
+  r.n_pixels = problem_->num_pixels();
+  if (sum.reason == StopReason::kInvalidStart) {
+    r.status = FitStatus::kModelFailure;
+    return out;
+  }
+  double chi2 = sum.chi2;
+  LmMatrix alpha = sum.alpha;
+  LmVector beta;
+  if (!sum.alpha_at_x) {
+    ++r.evaluations;
+    if (!problem_->normal_equations(sum.x, &chi2, &alpha, &beta)) {
+      r.status = FitStatus::kSolverFailure;
+      return out;
+    }
+  }
+  const int n = problem_->size();
+  Eigen::LDLT<LmMatrix> ldlt(alpha);
+  const LmMatrix cov = ldlt.solve(LmMatrix::Identity(n, n));
+  const bool cov_ok = ldlt.info() == Eigen::Success && cov.allFinite() && (cov.diagonal().array() > 0).all();
+  if (!cov_ok) flags |= kFlagNoErrors;
+  for (std::size_t a = 0; a < free.size(); ++a)
+    if (cov_ok && !is_amplitude(free[a])) {
+      const int g = problem_->global(a, 0);
+      r.errors[index(free[a])] = std::sqrt(cov(g, g));
+    }
+  const ParamVector p0 = problem_->full(sum.x, 0);
+  if (std::hypot(p0[index(Param::kE1)], p0[index(Param::kE2)]) > options_.model.ellipticity_mirror) flags |= kFlagMirrored;
+  ExactRenderer& any = renderer_for(epochs.front().box_size);
+  any.effective_params(p0, &r.params);
+  r.params[index(Param::kBulgeA)] = r.params[index(Param::kDiscA)] = NAN;
+  r.e1_err = r.errors[index(Param::kE1)];
+  r.e2_err = r.errors[index(Param::kE2)];
+  r.bulge_flux = r.disc_flux = 0;
+  double signal = 0;
+  for (int s = 0; s < slots; ++s) {
+    BandFit& band = out.bands[static_cast<std::size_t>(band_of_slot[static_cast<std::size_t>(s)])];
+    ParamVector effective{};
+    any.effective_params(problem_->full(sum.x, s), &effective);
+    band.bulge_a = effective[index(Param::kBulgeA)], band.disc_a = effective[index(Param::kDiscA)];
+    any.component_fluxes(problem_->full(sum.x, s), &band.bulge_flux, &band.disc_flux);
+    band.flux = band.bulge_flux + band.disc_flux;
+    band.snr = std::sqrt(problem_->signal(s));
+    r.bulge_flux += band.bulge_flux;
+    r.disc_flux += band.disc_flux;
+    signal += problem_->signal(s);
+  }
+  r.flux = r.bulge_flux + r.disc_flux;
+  r.chi2 = chi2;
+  r.likelihood = -0.5 * chi2;
+  r.snr = std::sqrt(signal);
+  r.status = status_of_stop(sum.reason, &flags);
+  r.flags = flags;
+  return out;
+}
+
+}  // namespace stampede
