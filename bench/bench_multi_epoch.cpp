@@ -109,13 +109,17 @@ void fit_bands(benchmark::State& state, int bands) {
     if (!data.back().psf) return state.SkipWithError(error.c_str());
   }
   long long n = 0;
-  double iterations = 0;
+  double iterations = 0, surrogate_iterations = 0, evaluations = 0;
   for (auto _ : state)
     for (int g = 0; g < kGalaxies; ++g, ++n) {
       const MultiBandFitResult r = fitter.fit(std::span<const EpochData>(data).subspan(g * kBands * kEpochs, bands * kEpochs), bands);
       iterations += r.fit.iterations;
+      surrogate_iterations += r.fit.surrogate_iterations;
+      evaluations += r.fit.evaluations + r.fit.surrogate_evaluations;
     }
   state.counters["iters_per_fit"] = iterations / static_cast<double>(n);
+  state.counters["surrogate_iters_per_fit"] = surrogate_iterations / static_cast<double>(n);
+  state.counters["evals_per_fit"] = evaluations / static_cast<double>(n);
   state.counters["ms_per_object"] = benchmark::Counter(n * 1e-3, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 

@@ -27,7 +27,8 @@ void print_help() {
   std::printf(
       "usage: stampede metrics --fit FIT.fits --truth TRUTH.fits [--fit ... --truth ...]\n"
       "                        [--json OUT.json] [--bootstrap N] [--seed S] [--e-columns E1,E2]\n"
-      "                        [--metacal] [--cut-snr X] [--cut-radius R] [--shear-pairs]\n"
+      "                        [--metacal] [--cut-snr X] [--cut-radius R] [--cut-size-ratio Q]\n"
+      "                        [--shear-pairs]\n"
       "\n"
       "Per set (a `stampede fit` table and the truth file of the same set, in the GREAT08-mini\n"
       "layout: SHEAR1 SHEAR2 in the primary header, a TRUTH table with `index` and `pair`):\n"
@@ -46,6 +47,9 @@ void print_help() {
       "                      quantities (Sheldon & Huff 2017); flag 262144 (metacal failure) excludes\n"
       "  --cut-snr X         keep objects with snr >= X (metacal: on every image's own snr)\n"
       "  --cut-radius R      keep objects with radius >= R (likewise; pixels, arcsec for MEDS tables)\n"
+      "  --cut-size-ratio Q  metacal: keep objects with radius >= Q x the FWHM of the reconvolution\n"
+      "                      PSF Gamma (every image's own radius; Gamma: the header key\n"
+      "                      metacal_gamma_fwhm, or a MEDS table's gamma_fwhm column per object)\n"
       "  --shear-pairs       the sets come in pairs from `sim great08 --shear-pairs` (each +g set's\n"
       "                      --fit/--truth followed by its -g partner's): also m from half the pair\n"
       "                      differences and c from half the sums, where the galaxies and noise the\n"
@@ -55,6 +59,7 @@ void print_help() {
 struct Cuts {
   bool metacal = false;
   double min_snr = -INFINITY, min_radius = -INFINITY;
+  double min_size_ratio = -INFINITY;  // metacal: radius / Gamma's FWHM
 };
 
 // A set's estimate, and what pairing it with its shear-pair partner needs.
@@ -116,6 +121,19 @@ SetData read_set(const std::string& fit_path, const std::string& truth_path, con
     const double step = fit.file().read_key_double("metacal_step").value_or(NAN);
     if (!(step > 0)) throw std::runtime_error(fit.describe() + ": no valid metacal_step key");
     const auto snr = fit.column(F::kSnr), radius = fit.column(F::kRadius);
+    // The size-ratio cut is a radius cut at Q x Gamma, the PSF of all five images: per object in a
+    // survey table, one for a grid's run.
+    std::vector<double> gamma;
+    if (std::isfinite(cuts.min_size_ratio)) {
+      if (fit.has(F::kGammaFwhm)) {
+        gamma = fit.column(F::kGammaFwhm);
+      } else {
+        const double g = fit.file().read_key_double("metacal_gamma_fwhm").value_or(NAN);
+        if (!(g > 0)) throw std::runtime_error(fit.describe() + ": --cut-size-ratio needs a metacal_gamma_fwhm key or gamma_fwhm column");
+        gamma.assign(id.size(), g);
+      }
+    }
+    auto sized = [&](std::size_t i, double r) { return gamma.empty() || r >= cuts.min_size_ratio * gamma[i]; };
     const auto r11 = fit.column(F::kR11), r12 = fit.column(F::kR12), r21 = fit.column(F::kR21), r22 = fit.column(F::kR22);
     const F sheared[4][2] = {{F::kSnr_1p, F::kRadius_1p}, {F::kSnr_1m, F::kRadius_1m}, {F::kSnr_2p, F::kRadius_2p},
                              {F::kSnr_2m, F::kRadius_2m}};
@@ -124,8 +142,9 @@ SetData read_set(const std::string& fit_path, const std::string& truth_path, con
     std::vector<std::uint8_t> selected(id.size());
     for (std::size_t i = 0; i < id.size(); ++i) {
       if (!usable[i]) continue;
-      std::uint8_t bits = passes(snr[i], radius[i]) ? 1 : 0;
-      for (int t = 0; t < 4; ++t) bits |= (passes(snr_t[t][i], radius_t[t][i]) ? 1 : 0) << (t + 1);
+      std::uint8_t bits = passes(snr[i], radius[i]) && sized(i, radius[i]) ? 1 : 0;
+      for (int t = 0; t < 4; ++t)
+        bits |= (passes(snr_t[t][i], radius_t[t][i]) && sized(i, radius_t[t][i]) ? 1 : 0) << (t + 1);
       selected[i] = bits;
     }
     const MetacalRows rows{e1, e2, {r11, r12, r21, r22}, selected, pair, step};
@@ -211,6 +230,8 @@ int run_metrics_command(int argc, char** argv) {
       cuts.min_snr = tools::number_value(argc, argv, &i);
     } else if (a == "--cut-radius") {
       cuts.min_radius = tools::number_value(argc, argv, &i);
+    } else if (a == "--cut-size-ratio") {
+      cuts.min_size_ratio = tools::number_value(argc, argv, &i);
     } else if (a == "--bootstrap") {
       bootstrap = static_cast<int>(tools::integer_in(argc, argv, &i, 0, 1000000));
     } else if (a == "--seed") {
@@ -219,6 +240,8 @@ int run_metrics_command(int argc, char** argv) {
       throw std::invalid_argument("unknown option " + tools::quoted_value(a) + " (see stampede metrics --help)");
     }
   }
+  if (std::isfinite(cuts.min_size_ratio) && !cuts.metacal)
+    throw std::invalid_argument("--cut-size-ratio is a metacal cut (the images' PSF is Gamma): add --metacal");
   if (fits.empty() || fits.size() != truths.size())
     throw std::invalid_argument("give one --truth for each --fit (got " + std::to_string(fits.size()) + " and " +
                                 std::to_string(truths.size()) + ")");

@@ -206,12 +206,20 @@ MultiBandFitResult MultiBandFitter::fit(std::span<const EpochData> epochs, int n
   const int nf = options_.params.free_params(&free_all);
   const std::span<const Param> free(free_all.data(), static_cast<std::size_t>(nf));
   const int slots = static_cast<int>(band_of_slot.size());
+  // The shape from every band's cutouts (MultiEpochFitter::joint_start), each band's amplitudes
+  // from its own cutouts' start at that radius (flux ~ A r^2).
   std::uint32_t flags = 0;
-  const ParamVector start = single_.sky_start(epochs[first], &flags);
+  const ParamVector start = single_.joint_start(epochs, first, &flags);
   std::vector<ParamVector> amplitude_start(static_cast<std::size_t>(slots));
+  std::vector<EpochData> band;
   for (int s = 0; s < slots; ++s) {
-    const std::size_t k = first_of_band[static_cast<std::size_t>(band_of_slot[static_cast<std::size_t>(s)])];
-    amplitude_start[static_cast<std::size_t>(s)] = k == first ? start : single_.sky_start(epochs[k], &flags);
+    band.clear();
+    for (const EpochData& e : epochs)
+      if (e.band == band_of_slot[static_cast<std::size_t>(s)]) band.push_back(e);
+    ParamVector& a = amplitude_start[static_cast<std::size_t>(s)];
+    a = single_.joint_start(band, 0, &flags);
+    const double ratio = a[index(Param::kRadius)] / start[index(Param::kRadius)];
+    a[index(Param::kBulgeA)] *= ratio * ratio, a[index(Param::kDiscA)] *= ratio * ratio;
   }
   problem_->reset(epochs, start, free, slot_of_band, slots);
   if (problem_->num_pixels() == 0) {

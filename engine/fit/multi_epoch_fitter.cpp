@@ -5,6 +5,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "kernels/moments.hpp"
+
 namespace stampede {
 
 class MultiEpochFitter::Problem final : public LeastSquaresProblem {
@@ -168,6 +170,71 @@ ParamVector MultiEpochFitter::sky_start(const EpochData& e, std::uint32_t* flags
   return sky;
 }
 
+ParamVector MultiEpochFitter::joint_start(std::span<const EpochData> epochs, std::size_t first, std::uint32_t* flags) {
+  ParamVector p = sky_start(epochs[first], flags);
+  if (epochs.size() < 2) return p;
+  double sw = 0, u = 0, v = 0, flux = 0, g[3] = {0, 0, 0}, t[3] = {0, 0, 0};
+  double first_flux = NAN;
+  for (std::size_t k = 0; k < epochs.size(); ++k) {
+    const EpochData& e = epochs[k];
+    if (!e.psf) continue;
+    const kernels::ImageMoments m = kernels::adaptive_moments(e.pixels, e.weight, e.box_size);
+    if (!m.valid || !(m.flux > 0)) continue;
+    if (k == first) first_flux = m.flux / e.flux_scale;
+    double wsum = 0;
+    int used = 0;
+    for (double w : e.weight)
+      if (w > 0) wsum += w, ++used;
+    const double we = m.flux * m.flux * wsum / std::max(used, 1);
+    // du = J dx: a pixel covariance M is J M J^T on the sky.
+    const double J[2][2] = {{e.frame.dudx, e.frame.dudy}, {e.frame.dvdx, e.frame.dvdy}};
+    auto sky = [&](double xx, double xy, double yy, double out[3]) {
+      const double M[2][2] = {{xx, xy}, {xy, yy}};
+      double S[2][2];
+      for (int i = 0; i < 2; ++i)
+        for (int j = 0; j < 2; ++j) S[i][j] = J[i][0] * (M[0][0] * J[j][0] + M[0][1] * J[j][1]) + J[i][1] * (M[1][0] * J[j][0] + M[1][1] * J[j][1]);
+      out[0] = S[0][0], out[1] = S[0][1], out[2] = S[1][1];
+    };
+    double ms[3], ps[3];
+    sky(m.xx, m.xy, m.yy, ms);
+    sky(e.psf->xx(), e.psf->xy(), e.psf->yy(), ps);
+    for (int i = 0; i < 3; ++i) g[i] += we * (ms[i] - ps[i]), t[i] += we * ms[i];
+    const double dx = m.x - e.frame.x_ref, dy = m.y - e.frame.y_ref;
+    u += we * (J[0][0] * dx + J[0][1] * dy);
+    v += we * (J[1][0] * dx + J[1][1] * dy);
+    flux += we * m.flux / e.flux_scale;
+    sw += we;
+  }
+  if (!(sw > 0) || !(first_flux > 0)) return p;
+  for (int i = 0; i < 3; ++i) g[i] /= sw, t[i] /= sw;
+  const double r0 = p[index(Param::kRadius)];
+  // As the single-stamp start: the PSF's moments removed when that leaves a positive-definite
+  // galaxy; otherwise the object is no larger than the PSF and starts round and small.
+  const bool resolved = g[0] > 0 && g[2] > 0 && g[0] * g[2] - g[1] * g[1] > 0.01 * (t[0] * t[2] - t[1] * t[1]);
+  double e1 = 0, e2 = 0, r = r0;
+  if (resolved) {
+    kernels::covariance_ellipticity(g[0], g[1], g[2], &e1, &e2);
+    r = 1.1774 * std::pow(g[0] * g[2] - g[1] * g[1], 0.25);
+  } else {
+    r = std::min(r0, 0.3 * std::sqrt(std::abs(epochs[first].frame.determinant())));
+  }
+  if (!(r > 0) || !std::isfinite(r)) return p;
+  const ParameterSet& ps = options_.params;
+  auto set = [&](Param q, double value) {
+    if (std::isnan(ps[q].start)) p[index(q)] = value;
+  };
+  set(Param::kX0, u / sw);
+  set(Param::kY0, v / sw);
+  set(Param::kE1, e1);
+  set(Param::kE2, e2);
+  set(Param::kRadius, r);
+  // Amplitudes: flux ~ A r^2 at a fixed profile.
+  const double scale = (flux / sw) / first_flux * (r0 * r0) / (r * r);
+  if (std::isnan(ps[Param::kBulgeA].start)) p[index(Param::kBulgeA)] *= scale;
+  if (std::isnan(ps[Param::kDiscA].start)) p[index(Param::kDiscA)] *= scale;
+  return p;
+}
+
 FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, std::size_t first) {
   if (first >= epochs.size()) throw std::invalid_argument("MultiEpochFitter::fit: no epoch to start from");
   if (!epochs[first].psf) {
@@ -188,7 +255,7 @@ FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, std::size_t f
     return r;
   }
   std::uint32_t flags = 0;
-  const ParamVector start = sky_start(epochs[first], &flags);
+  const ParamVector start = joint_start(epochs, first, &flags);
   FitResult r = fit(epochs, start);
   r.flags |= flags;
   return r;

@@ -45,13 +45,18 @@ class MultiEpochFitter {
   // Fits from `start` (sky units). Result: params, errors and fluxes in sky units; chi2 and S/N
   // summed over the cutouts; n_pixels the unmasked pixels of all of them.
   FitResult fit(std::span<const EpochData> epochs, const ParamVector& start);
-  // Fits from the single-stamp fit's moment start on epochs[first] (its own PSF), carried to the
-  // sky through its frame; *flags gains what that start reports (kFlagDefaultStart). One epoch
+  // Fits from joint_start(epochs, first); *flags gains what that start reports
+  // (kFlagDefaultStart). One epoch
   // whose frame is the pixel grid (J = 1, flux scale 1) is fitted by the single-stamp Fitter: its
   // row is then the grid path's, the centroid taken relative to the frame's reference.
   FitResult fit(std::span<const EpochData> epochs, std::size_t first = 0);
   // That start alone.
   ParamVector sky_start(const EpochData& epoch, std::uint32_t* flags);
+  // The start of a fit of several cutouts: every cutout's adaptive moments carried to the sky
+  // (J M J^T) less its PSF's, averaged with weights flux^2 x mean weight (S/N^2), for the centroid,
+  // e and radius, so the start has the S/N of all the cutouts, not of one; the amplitudes are
+  // sky_start(epochs[first])'s scaled to the mean flux at that radius. One cutout: sky_start.
+  ParamVector joint_start(std::span<const EpochData> epochs, std::size_t first, std::uint32_t* flags);
 
  private:
   class Problem;

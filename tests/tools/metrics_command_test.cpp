@@ -3,6 +3,8 @@
 // set whose rows are all excluded (it used to give NaN m and c beside a finite Q).
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -20,6 +22,13 @@ using stampede::testing::spawn;
 using stampede::testing::operator+;
 
 std::string data(const std::string& name) { return std::string(STAMPEDE_DATA_DIR) + "/galsim-great08-mini/nf/" + name; }
+
+std::string text_of(const std::string& file) {
+  std::ifstream in(file);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
 
 class MetricsCommand : public stampede::testing::FitCommandTest {
  protected:
@@ -78,6 +87,45 @@ TEST_F(MetricsCommand, ASetWhoseRowsAreAllExcludedIsRefused) {
                      "--truth", data("truth_1.fits")})
                 .exit_code,
             0);
+}
+
+// --cut-size-ratio Q is the radius cut at Q x Gamma, on every image's own radius, with its
+// selection response: the same report as --cut-radius Q x gamma; refused without --metacal.
+TEST_F(MetricsCommand, ASizeRatioCutIsTheRadiusCutAtThatMultipleOfGamma) {
+  constexpr double kGamma = 3.2;
+  std::vector<std::vector<double>> c(24);
+  const char* names[] = {"id", "e1", "e2", "status", "flags", "psf_e1", "psf_e2", "snr", "radius", "R11", "R12", "R21",
+                         "R22", "snr_1p", "radius_1p", "snr_1m", "radius_1m", "snr_2p", "radius_2p", "snr_2m",
+                         "radius_2m"};
+  for (int i = 0; i < 400; ++i) {
+    const double r = 0.6 + 0.01 * (i % 97);  // 0.6 .. 1.56 px: about half below 1.0 x Gamma / 3.2
+    const double values[] = {double(i), 0.01 * (i % 7) - 0.03, 0.02 - 0.005 * (i % 9), 0, 0, 0, 0.05, 20.0 + i % 11, r,
+                             0.9, 0.01, -0.01, 0.85, 20, r + 0.004 * (i % 3), 20, r - 0.003 * (i % 5), 20,
+                             r + 0.002 * (i % 4), 20, r - 0.001 * (i % 6)};
+    for (int k = 0; k < 21; ++k) c[k].push_back(values[k]);
+  }
+  FitsFile f = FitsFile::create(path("mcal.fits"), true);
+  f.write_empty_image();
+  std::vector<FitsFile::OutputColumn> cols;
+  for (int k = 0; k < 21; ++k) cols.push_back({names[k], k == 0 || k == 3 || k == 4, c[k]});
+  f.write_table("RESULTS", cols);
+  f.write_key("metacal_step", 0.01, "");
+  f.write_key("metacal_gamma_fwhm", kGamma, "");
+  f.close();
+  const std::vector<std::string> set = {"--metacal", "--fit", path("mcal.fits"), "--truth", data("truth_0.fits")};
+  // 0.30171875 x 3.2 = 0.9655 px, away from every radius (multiples of 0.001 px).
+  const RunResult ratio = metrics(set + std::vector<std::string>{"--cut-size-ratio", "0.30171875"});
+  ASSERT_EQ(ratio.exit_code, 0) << ratio.err;
+  const std::string by_ratio = text_of(path("report.txt"));
+  const RunResult radius = metrics(set + std::vector<std::string>{"--cut-radius", "0.9655"});
+  ASSERT_EQ(radius.exit_code, 0) << radius.err;
+  EXPECT_EQ(by_ratio, text_of(path("report.txt")));
+  const RunResult none = metrics(set);
+  EXPECT_NE(by_ratio, text_of(path("report.txt")));  // the cut does cut
+  EXPECT_TRUE(Contains(by_ratio, "R_S = [[")) << by_ratio;
+  const RunResult plain = metrics({"--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--cut-size-ratio", "0.3"});
+  EXPECT_EQ(plain.exit_code, 1);
+  EXPECT_TRUE(Contains(plain.err, "--cut-size-ratio is a metacal cut")) << plain.err;
 }
 
 }  // namespace
