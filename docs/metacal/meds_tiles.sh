@@ -8,7 +8,8 @@
 #
 # Environment: N=32 SNR=30 NOISE_FREE=0 (1: --noise-free and metacal_fixnoise = false, the
 # weight maps then describe a noise the pixels lack) SHEARS="0.02,-0.015 0.0,0.02"
-# THREADS=(all cores) STAMPEDE=build/tools/stampede PYTHON=python3 (with numpy; PYTHONPATH=build/python).
+# THREADS=(all cores) STAMPEDE=build/tools/stampede PYTHON=python3 (with numpy; PYTHONPATH=build/python)
+# SHARD= (e.g. 0/2: fit only that shard of each tile, the same objects in every set).
 set -euo pipefail
 out=${1:?usage: meds_tiles.sh OUTDIR}
 N=${N:-32}
@@ -20,6 +21,7 @@ threads=()
 [[ -n "${THREADS:-}" ]] && threads=(--threads "$THREADS")
 sim=(--objects "$N" --snr "$SNR")
 fit=(--set metacal=true)
+[[ -n "${SHARD:-}" ]] && fit+=(--shard "$SHARD")
 if [[ "${NOISE_FREE:-0}" == 1 ]]; then sim+=(--noise-free); fit+=(--set metacal_fixnoise=false); fi
 mkdir -p "$out"
 k=0

@@ -21,6 +21,7 @@
 #include "app/fit_run.hpp"
 #include "app/meds_simulation.hpp"
 #include "app/shard_merge.hpp"
+#include "io/fits_error.hpp"
 #include "io/fits_file.hpp"
 #include "io/run_config.hpp"
 #include "support/error_assertions.hpp"
@@ -249,7 +250,7 @@ TEST(MultiBandObjectFit, ThreadsShardsMergeAndResumeGiveTheSameTable) {
 }
 
 // Must-show 5: mismatched ids, another object count, a --bands list of the wrong length, a tile
-// given twice are refused before any fit, naming the tile or option; a
+// given twice and a truncated tile are refused before any fit, naming the tile or option; a
 // band whose PSFEx models are missing leaves flagged rows fitted from the other bands.
 TEST(MultiBandObjectFit, BadInputsAreRefusedOrFlagged) {
   testing::ScratchDir dir("stampede_multi_band_");
@@ -278,6 +279,12 @@ TEST(MultiBandObjectFit, BadInputsAreRefusedOrFlagged) {
   FitRunOptions twice = run_of(dir.path("t"), bands, out);
   twice.meds[1] = twice.meds[0];
   expect_refused([&] { FitRun(twice).run(); }, {"g/meds.fits", "given twice"});
+  // A band's tile cut short (a failed copy): refused at open, naming the tile, before any fit.
+  std::filesystem::copy(dir.path("t"), dir.path("cut"), std::filesystem::copy_options::recursive);
+  std::filesystem::resize_file(dir.path("cut/r/meds.fits"), std::filesystem::file_size(dir.path("cut/r/meds.fits")) * 3 / 5);
+  const std::string cut = testing::error_of<io::FitsError>([&] { FitRun(run_of(dir.path("cut"), bands, out)).run(); });
+  EXPECT_TRUE(testing::Contains(cut, "cut/r/meds.fits"));
+  EXPECT_TRUE(testing::Contains(cut, "truncated"));
   EXPECT_FALSE(std::filesystem::exists(out));
 
   // The r band's PSFEx models gone: every row says so, is fitted from g alone, and its r columns
