@@ -1,6 +1,8 @@
 // Joint fits over bands; see multi_band_fitter.hpp.
 #include "engine/fit/multi_band_fitter.hpp"
 
+#include "engine/fit/joint_fit_solve.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -14,7 +16,7 @@ bool is_amplitude(Param p) { return p == Param::kBulgeA || p == Param::kDiscA; }
 
 }  // namespace
 
-class MultiBandFitter::Problem final : public LeastSquaresProblem {
+class MultiBandFitter::Problem final : public JointProblem {
  public:
   explicit Problem(MultiBandFitter& f) : f_(f) {}
 
@@ -71,9 +73,10 @@ class MultiBandFitter::Problem final : public LeastSquaresProblem {
     for (const EpochData& e : epochs_) {
       const ParamVector p = full(x, slot_of_band_[static_cast<std::size_t>(e.band)]);
       ExactRenderer& r = select(e);
-      if (r.render(p, model_span_) != RenderStatus::kOk) return false;
+      const std::span<double> model = scratch_.model();
+      if (r.render(p, model) != RenderStatus::kOk) return false;
       for (std::size_t i = 0; i < e.pixels.size(); ++i) {
-        const double d = e.pixels[i] - e.flux_scale * model_[i];
+        const double d = e.pixels[i] - e.flux_scale * model[i];
         sum += e.weight[i] * d * d;
       }
     }
@@ -94,20 +97,20 @@ class MultiBandFitter::Problem final : public LeastSquaresProblem {
       const ParamVector p = full(x, slot);
       for (std::size_t a = 0; a < nf; ++a) g[a] = global(a, slot);
       ExactRenderer& r = select(e);
-      if (r.render_with_jacobian(p, free_, model_span_, std::span<double* const>(columns_.data(), nf)) != RenderStatus::kOk)
-        return false;
+      const std::span<double> model = scratch_.model();
+      if (r.render_with_jacobian(p, free_, model, scratch_.columns(nf)) != RenderStatus::kOk) return false;
       double signal = 0;
       for (std::size_t i = 0; i < e.pixels.size(); ++i) {
         const double w = e.weight[i];
         if (w == 0) continue;
-        const double m = e.flux_scale * model_[i], d = e.pixels[i] - m;
+        const double m = e.flux_scale * model[i], d = e.pixels[i] - m;
         sum += w * d * d;
         signal += w * m * m;
         for (std::size_t a = 0; a < nf; ++a) {
-          const double ja = e.flux_scale * jacobian_[a][i] * w;
+          const double ja = e.flux_scale * scratch_.derivative(a)[i] * w;
           (*beta)[g[a]] += ja * d;
           for (std::size_t b = 0; b <= a; ++b)
-            (*alpha)(std::max(g[a], g[b]), std::min(g[a], g[b])) += ja * e.flux_scale * jacobian_[b][i];
+            (*alpha)(std::max(g[a], g[b]), std::min(g[a], g[b])) += ja * e.flux_scale * scratch_.derivative(b)[i];
         }
       }
       signal_[static_cast<std::size_t>(slot)] += signal;
@@ -120,7 +123,7 @@ class MultiBandFitter::Problem final : public LeastSquaresProblem {
 
   // sum w m^2 of slot s's cutouts at the last normal_equations.
   double signal(int slot) const { return signal_[static_cast<std::size_t>(slot)]; }
-  void use_surrogates(bool on) { surrogates_ = on; }
+  void use_surrogates(bool on) override { surrogates_ = on; }
 
  private:
   struct Local {
@@ -128,20 +131,7 @@ class MultiBandFitter::Problem final : public LeastSquaresProblem {
     int k = 0;  // index among the shape parameters, or among one band's amplitudes
   };
 
-  ExactRenderer& select(const EpochData& e) {
-    ExactRenderer& r = f_.renderer_for(e.box_size);
-    r.set_psf(e.psf);
-    r.set_frame(e.frame);
-    ExactRenderer* coarse = surrogates_ ? r.exact_surrogate() : nullptr;
-    const std::size_t n = static_cast<std::size_t>(e.box_size) * e.box_size;
-    if (model_.size() < n) {  // grows to the largest box once
-      model_.resize(n);
-      for (auto& j : jacobian_) j.resize(n);
-    }
-    model_span_ = std::span<double>(model_.data(), n);
-    for (std::size_t k = 0; k < jacobian_.size(); ++k) columns_[k] = jacobian_[k].data();
-    return coarse ? *coarse : r;
-  }
+  ExactRenderer& select(const EpochData& e) { return scratch_.select(f_.renderer_for(e.box_size), e, surrogates_); }
 
   MultiBandFitter& f_;
   std::span<const EpochData> epochs_;
@@ -154,10 +144,7 @@ class MultiBandFitter::Problem final : public LeastSquaresProblem {
   double negligible_chi2_ = 0;
   std::array<double, kMaxBands> signal_{};
   bool surrogates_ = false;
-  std::vector<double> model_;
-  std::span<double> model_span_;
-  std::array<std::vector<double>, kNumParams> jacobian_;
-  std::array<double*, kNumParams> columns_{};
+  CutoutScratch scratch_;
 };
 
 MultiBandFitter::MultiBandFitter(const FitterOptions& options)
@@ -172,14 +159,12 @@ MultiBandFitResult MultiBandFitter::fit(std::span<const EpochData> epochs, int n
   if (first >= epochs.size()) throw std::invalid_argument("MultiBandFitter::fit: no epoch to start from");
   MultiBandFitResult out;
   out.bands.resize(static_cast<std::size_t>(n_bands));
-  std::vector<std::size_t> first_of_band(static_cast<std::size_t>(n_bands), epochs.size());
   for (std::size_t k = 0; k < epochs.size(); ++k) {
     const int b = epochs[k].band;
     if (b < 0 || b >= n_bands)
       throw std::invalid_argument("MultiBandFitter::fit: cutout " + std::to_string(k) + " has band " + std::to_string(b) +
                                   " of " + std::to_string(n_bands));
     ++out.bands[static_cast<std::size_t>(b)].n_epochs;
-    first_of_band[static_cast<std::size_t>(b)] = std::min(first_of_band[static_cast<std::size_t>(b)], k);
   }
   std::vector<int> slot_of_band(static_cast<std::size_t>(n_bands), -1), band_of_slot;
   for (int b = 0; b < n_bands; ++b)
@@ -197,11 +182,8 @@ MultiBandFitResult MultiBandFitter::fit(std::span<const EpochData> epochs, int n
     if (n_bands > 1) r.params[index(Param::kBulgeA)] = r.params[index(Param::kDiscA)] = NAN;
     return out;
   }
-  for (const EpochData& e : epochs)
-    if (!e.psf) {
-      r.status = FitStatus::kPsfFailure;
-      return out;
-    }
+  r.status = check_cutouts(epochs, "MultiBandFitter::fit");
+  if (r.status != FitStatus::kOk) return out;
   std::array<Param, kNumParams> free_all{};
   const int nf = options_.params.free_params(&free_all);
   const std::span<const Param> free(free_all.data(), static_cast<std::size_t>(nf));
@@ -226,53 +208,14 @@ MultiBandFitResult MultiBandFitter::fit(std::span<const EpochData> epochs, int n
     r.status = FitStatus::kNoData;
     return out;
   }
-  LmVector x0 = problem_->vector_of(start, amplitude_start);
-  LmOptions lm = options_.lm;
-  // As the multi-epoch fit: first on the cutouts' surrogates, then exactly from there.
-  bool coarse = false;
-  for (const EpochData& e : epochs) {
-    ExactRenderer& er = renderer_for(e.box_size);
-    er.set_psf(e.psf);
-    coarse = coarse || er.exact_surrogate() != nullptr;
-  }
-  if (coarse) {
-    LmOptions loose = options_.lm;
-    loose.eps4 = std::max(options_.lm.eps4, options_.surrogate_eps4);
-    problem_->use_surrogates(true);
-    const LmSummary s = levenberg_marquardt(*problem_, x0, loose);
-    problem_->use_surrogates(false);
-    r.surrogate_iterations = s.iterations;
-    r.surrogate_evaluations = s.evaluations;
-    if (s.reason != StopReason::kInvalidStart && s.x.allFinite()) {
-      x0 = s.x;
-      lm.stop_at_jacobian = true;
-    }
-  }
-  const LmSummary sum = levenberg_marquardt(*problem_, x0, lm);
-  r.stop_reason = sum.reason;
-  r.stop_value = sum.stop_value;
-  r.stop_threshold = sum.stop_threshold;
-  r.iterations = sum.iterations;
-  r.evaluations = sum.evaluations;
-  r.n_pixels = problem_->num_pixels();
-  if (sum.reason == StopReason::kInvalidStart) {
-    r.status = FitStatus::kModelFailure;
-    return out;
-  }
-  double chi2 = sum.chi2;
-  LmMatrix alpha = sum.alpha;
-  LmVector beta;
-  if (!sum.alpha_at_x) {
-    ++r.evaluations;
-    if (!problem_->normal_equations(sum.x, &chi2, &alpha, &beta)) {
-      r.status = FitStatus::kSolverFailure;
-      return out;
-    }
-  }
-  const int n = problem_->size();
-  Eigen::LDLT<LmMatrix> ldlt(alpha);
-  const LmMatrix cov = ldlt.solve(LmMatrix::Identity(n, n));
-  const bool cov_ok = ldlt.info() == Eigen::Success && cov.allFinite() && (cov.diagonal().array() > 0).all();
+  const LmVector x0 = problem_->vector_of(start, amplitude_start);
+  const bool coarse = any_surrogate(epochs, [this](int box) -> ExactRenderer& { return renderer_for(box); });
+  JointSolve solve;
+  if (!solve_joint(*problem_, x0, options_, coarse, &r, &solve)) return out;
+  const LmSummary& sum = solve.summary;
+  const double chi2 = solve.chi2;
+  const bool cov_ok = solve.cov_ok;
+  const LmMatrix& cov = solve.cov;
   if (!cov_ok) flags |= kFlagNoErrors;
   for (std::size_t a = 0; a < free.size(); ++a)
     if (cov_ok && !is_amplitude(free[a])) {

@@ -1,6 +1,8 @@
 // Joint fits over cutouts; see multi_epoch_fitter.hpp.
 #include "engine/fit/multi_epoch_fitter.hpp"
 
+#include "engine/fit/joint_fit_solve.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -9,7 +11,7 @@
 
 namespace stampede {
 
-class MultiEpochFitter::Problem final : public LeastSquaresProblem {
+class MultiEpochFitter::Problem final : public JointProblem {
  public:
   explicit Problem(MultiEpochFitter& f) : f_(f) {}
 
@@ -43,9 +45,10 @@ class MultiEpochFitter::Problem final : public LeastSquaresProblem {
     double sum = 0;
     for (const EpochData& e : epochs_) {
       ExactRenderer& r = select(e);
-      if (r.render(p, model_span_) != RenderStatus::kOk) return false;
+      const std::span<double> model = scratch_.model();
+      if (r.render(p, model) != RenderStatus::kOk) return false;
       for (std::size_t i = 0; i < e.pixels.size(); ++i) {
-        const double d = e.pixels[i] - e.flux_scale * model_[i];
+        const double d = e.pixels[i] - e.flux_scale * model[i];
         sum += e.weight[i] * d * d;
       }
     }
@@ -61,19 +64,18 @@ class MultiEpochFitter::Problem final : public LeastSquaresProblem {
     double sum = 0, signal = 0;
     for (const EpochData& e : epochs_) {
       ExactRenderer& r = select(e);
-      if (r.render_with_jacobian(p, free_, model_span_, std::span<double* const>(columns_.data(), free_.size())) !=
-          RenderStatus::kOk)
-        return false;
+      const std::span<double> model = scratch_.model();
+      if (r.render_with_jacobian(p, free_, model, scratch_.columns(free_.size())) != RenderStatus::kOk) return false;
       for (std::size_t i = 0; i < e.pixels.size(); ++i) {
         const double w = e.weight[i];
         if (w == 0) continue;
-        const double m = e.flux_scale * model_[i], d = e.pixels[i] - m;
+        const double m = e.flux_scale * model[i], d = e.pixels[i] - m;
         sum += w * d * d;
         signal += w * m * m;
         for (int a = 0; a < n; ++a) {
-          const double ja = e.flux_scale * jacobian_[static_cast<std::size_t>(a)][i] * w;
+          const double ja = e.flux_scale * scratch_.derivative(static_cast<std::size_t>(a))[i] * w;
           (*beta)[a] += ja * d;
-          for (int b = 0; b <= a; ++b) (*alpha)(a, b) += ja * e.flux_scale * jacobian_[static_cast<std::size_t>(b)][i];
+          for (int b = 0; b <= a; ++b) (*alpha)(a, b) += ja * e.flux_scale * scratch_.derivative(static_cast<std::size_t>(b))[i];
         }
       }
     }
@@ -86,24 +88,11 @@ class MultiEpochFitter::Problem final : public LeastSquaresProblem {
 
   double signal() const { return signal_; }  // sum w m^2 at the last normal_equations
   // Draw with each cutout renderer's surrogate where it has one (the surrogate stage).
-  void use_surrogates(bool on) { surrogates_ = on; }
+  void use_surrogates(bool on) override { surrogates_ = on; }
 
  private:
   // The renderer for e's size, set to its PSF and frame, with scratch sized for it.
-  ExactRenderer& select(const EpochData& e) {
-    ExactRenderer& r = f_.renderer_for(e.box_size);
-    r.set_psf(e.psf);
-    r.set_frame(e.frame);  // the surrogate follows the renderer's PSF and frame
-    ExactRenderer* coarse = surrogates_ ? r.exact_surrogate() : nullptr;
-    const std::size_t n = static_cast<std::size_t>(e.box_size) * e.box_size;
-    if (model_.size() < n) {  // grows to the largest box once, then never again
-      model_.resize(n);
-      for (auto& j : jacobian_) j.resize(n);
-    }
-    model_span_ = std::span<double>(model_.data(), n);
-    for (std::size_t k = 0; k < jacobian_.size(); ++k) columns_[k] = jacobian_[k].data();
-    return coarse ? *coarse : r;
-  }
+  ExactRenderer& select(const EpochData& e) { return scratch_.select(f_.renderer_for(e.box_size), e, surrogates_); }
 
   MultiEpochFitter& f_;
   std::span<const EpochData> epochs_;
@@ -113,10 +102,7 @@ class MultiEpochFitter::Problem final : public LeastSquaresProblem {
   double negligible_chi2_ = 0;
   double signal_ = NAN;
   bool surrogates_ = false;
-  std::vector<double> model_;
-  std::span<double> model_span_;
-  std::array<std::vector<double>, kNumParams> jacobian_;
-  std::array<double*, kNumParams> columns_{};
+  CutoutScratch scratch_;
 };
 
 MultiEpochFitter::MultiEpochFitter(const FitterOptions& options)
@@ -266,15 +252,8 @@ FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, const ParamVe
   std::array<Param, kNumParams> free_all{};
   const int nf = options_.params.free_params(&free_all);
   const std::span<const Param> free(free_all.data(), static_cast<std::size_t>(nf));
-  for (const EpochData& e : epochs) {
-    if (!e.psf) {
-      r.status = FitStatus::kPsfFailure;
-      return r;
-    }
-    const std::size_t n = static_cast<std::size_t>(e.box_size) * e.box_size;
-    if (e.box_size < 1 || e.pixels.size() != n || e.weight.size() != n)
-      throw std::invalid_argument("MultiEpochFitter::fit: a cutout's pixels or weights are not box_size^2");
-  }
+  r.status = check_cutouts(epochs, "MultiEpochFitter::fit");
+  if (r.status != FitStatus::kOk) return r;
   problem_->reset(epochs, start, free);
   if (problem_->num_pixels() == 0) {
     r.status = FitStatus::kNoData;
@@ -282,58 +261,16 @@ FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, const ParamVe
   }
   LmVector x0(nf);
   for (int k = 0; k < nf; ++k) x0[k] = start[index(free[static_cast<std::size_t>(k)])];
-  LmOptions lm = options_.lm;
-  // As the single-stamp fit: first on the cutouts' surrogates (where their PSFs have one) to the
-  // looser rule, then exactly from there until the exact model's own rules hold.
-  bool coarse = false;
-  for (const EpochData& e : epochs) {
-    ExactRenderer& er = renderer_for(e.box_size);
-    er.set_psf(e.psf);
-    coarse = coarse || er.exact_surrogate() != nullptr;
-  }
-  if (coarse) {
-    LmOptions first = options_.lm;
-    first.eps4 = std::max(options_.lm.eps4, options_.surrogate_eps4);
-    problem_->use_surrogates(true);
-    const LmSummary s = levenberg_marquardt(*problem_, x0, first);
-    problem_->use_surrogates(false);
-    r.surrogate_iterations = s.iterations;
-    r.surrogate_evaluations = s.evaluations;
-    if (s.reason != StopReason::kInvalidStart && s.x.allFinite()) {
-      x0 = s.x;
-      lm.stop_at_jacobian = true;
-    }
-  }
-  const LmSummary sum = levenberg_marquardt(*problem_, x0, lm);
-  r.stop_reason = sum.reason;
-  r.stop_value = sum.stop_value;
-  r.stop_threshold = sum.stop_threshold;
-  r.iterations = sum.iterations;
-  r.evaluations = sum.evaluations;
-  r.n_pixels = problem_->num_pixels();
-  if (sum.reason == StopReason::kInvalidStart) {
-    r.status = FitStatus::kModelFailure;
-    return r;
-  }
-  // J^T W J and the S/N at the optimum: the solver's last normal equations when they were there.
-  double chi2 = sum.chi2;
-  LmMatrix alpha = sum.alpha;
-  LmVector beta;
-  if (!sum.alpha_at_x) {
-    ++r.evaluations;
-    if (!problem_->normal_equations(sum.x, &chi2, &alpha, &beta)) {
-      r.status = FitStatus::kSolverFailure;
-      return r;
-    }
-  }
+  const bool coarse = any_surrogate(epochs, [this](int box) -> ExactRenderer& { return renderer_for(box); });
+  JointSolve solve;
+  if (!solve_joint(*problem_, x0, options_, coarse, &r, &solve)) return r;
+  const LmSummary& sum = solve.summary;
+  const double chi2 = solve.chi2;
   const ParamVector p = problem_->full(sum.x);
   std::uint32_t flags = 0;
-  Eigen::LDLT<LmMatrix> ldlt(alpha);
-  const LmMatrix cov = ldlt.solve(LmMatrix::Identity(nf, nf));
-  const bool cov_ok = ldlt.info() == Eigen::Success && cov.allFinite() && (cov.diagonal().array() > 0).all();
-  if (!cov_ok) flags |= kFlagNoErrors;
+  if (!solve.cov_ok) flags |= kFlagNoErrors;
   for (int k = 0; k < nf; ++k)
-    if (cov_ok) r.errors[index(free[static_cast<std::size_t>(k)])] = std::sqrt(cov(k, k));
+    if (solve.cov_ok) r.errors[index(free[static_cast<std::size_t>(k)])] = std::sqrt(solve.cov(k, k));
   if (std::hypot(p[index(Param::kE1)], p[index(Param::kE2)]) > options_.model.ellipticity_mirror) flags |= kFlagMirrored;
   ExactRenderer& any = renderer_for(epochs.front().box_size);
   any.effective_params(p, &r.params);

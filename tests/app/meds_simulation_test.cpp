@@ -22,6 +22,7 @@
 #include "io/meds_file.hpp"
 #include "io/psfex_file.hpp"
 #include "support/scratch_dir.hpp"
+#include "support/shear_regression.hpp"
 
 namespace stampede::app {
 namespace {
@@ -55,15 +56,7 @@ MedsSimOptions small(int objects, int epochs, bool noise_free) {
   return o;
 }
 
-// Least squares y = (1 + m) x + c.
-void regress(const std::vector<double>& x, const std::vector<double>& y, double* m, double* c) {
-  double sx = 0, sy = 0, sxx = 0, sxy = 0;
-  const double n = static_cast<double>(x.size());
-  for (std::size_t i = 0; i < x.size(); ++i) sx += x[i], sy += y[i], sxx += x[i] * x[i], sxy += x[i] * y[i];
-  const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-  *m = slope - 1;
-  *c = (sy - slope * sx) / n;
-}
+using testing::regress;
 
 TEST(MedsSimulation, NoiseFreeFourEpochShearsHaveNoBias) {
   testing::ScratchDir dir("stampede_meds_sim_");

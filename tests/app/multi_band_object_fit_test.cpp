@@ -27,6 +27,7 @@
 #include "support/error_assertions.hpp"
 #include "support/meds_edit.hpp"
 #include "support/scratch_dir.hpp"
+#include "support/shear_regression.hpp"
 
 namespace stampede::app {
 namespace {
@@ -61,15 +62,7 @@ void expect_refused(const std::function<void()>& body, const std::vector<std::st
   for (const std::string& p : parts) EXPECT_TRUE(testing::Contains(message, p));
 }
 
-// Least squares y = (1 + m) x + c.
-void regress(const std::vector<double>& x, const std::vector<double>& y, double* m, double* c) {
-  double sx = 0, sy = 0, sxx = 0, sxy = 0;
-  const double n = static_cast<double>(x.size());
-  for (std::size_t i = 0; i < x.size(); ++i) sx += x[i], sy += y[i], sxx += x[i] * x[i], sxy += x[i] * y[i];
-  const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-  *m = slope - 1;
-  *c = (sy - slope * sx) / n;
-}
+using testing::regress;
 
 // Must-show 1: noise-free, 3 bands x 4 epochs, random WCS, per-band PSFs and colours, four shears
 // of 8 objects: the common shape's m and c against the galaxies' sheared e, and every band's total

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "engine/sim/sim_renderer.hpp"
-#include "support/sky_to_pixel.hpp"
+#include "support/sky_epochs.hpp"
 
 namespace stampede {
 namespace {
@@ -39,17 +39,7 @@ struct Cutout {
   std::vector<double> pixels, weight;
 };
 
-// A DES-like frame: 0.263"/px within +-3 %, any rotation, a WCS shear within +-0.02.
-PixelFrame random_frame(std::mt19937& rng) {
-  std::uniform_real_distribution<double> u(-1, 1);
-  const double angle = M_PI * u(rng), scale = 0.263 * (1 + 0.03 * u(rng)), g1 = 0.02 * u(rng), g2 = 0.02 * u(rng);
-  const double c = std::cos(angle), s = std::sin(angle);
-  PixelFrame f;
-  f.dudx = scale * (c * (1 + g1) - s * g2), f.dudy = scale * (c * g2 - s * (1 - g1));
-  f.dvdx = scale * (s * (1 + g1) + c * g2), f.dvdy = scale * (s * g2 + c * (1 - g1));
-  f.x_ref = 23.5 + 0.5 * u(rng), f.y_ref = 23.5 + 0.5 * u(rng);
-  return f;
-}
+using testing::random_frame;
 
 // An exponential disc of (e1, e2) and half-light radius r (arcsec) at the frame's reference.
 std::vector<Cutout> cutouts(double e1, double e2, double r, std::uint32_t seed, int n = 4) {
