@@ -10,6 +10,7 @@
 //   BM_OneBandFourEpochs, BM_ThreeBandsFourEpochs   multi-band fits (issue 32): the same galaxies
 //                  in three bands of four cutouts each (other frames, PSFs and noise, bulge
 //                  fraction scaled 0.5x-1.5x over the bands), one band's or all three jointly
+//   ...Joint       the same with every amplitude in the solver (project_amplitudes = false)
 //   BM_SkyReconvolution  the Gamma rule alone for four cutouts (its filters built), Moffat PSFs
 //   BM_SkyReconvolutionImagePsf  the same with each PSF given as its image (as from PSFEx)
 #include <benchmark/benchmark.h>
@@ -36,9 +37,10 @@ struct Cutout {
   std::vector<double> pixels, weight;
 };
 
-FitterOptions options() {
+FitterOptions options(bool project = true) {
   FitterOptions o;
   o.renderer = RendererKind::kExact;
+  o.project_amplitudes = project;
   return o;
 }
 
@@ -98,8 +100,8 @@ const std::vector<Cutout>& band_cutouts() {
 }
 
 // The joint fit of each galaxy's first `bands` bands (4 cutouts each) through MultiBandFitter.
-void fit_bands(benchmark::State& state, int bands) {
-  MultiBandFitter fitter(options());
+void fit_bands(benchmark::State& state, int bands, bool project = true) {
+  MultiBandFitter fitter(options(project));
   std::vector<EpochData> data;
   for (std::size_t i = 0; i < band_cutouts().size(); ++i) {
     const Cutout& c = band_cutouts()[i];
@@ -123,8 +125,8 @@ void fit_bands(benchmark::State& state, int bands) {
   state.counters["ms_per_object"] = benchmark::Counter(n * 1e-3, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
-void fit_epochs(benchmark::State& state, int epochs) {
-  MultiEpochFitter fitter(options());
+void fit_epochs(benchmark::State& state, int epochs, bool project = true) {
+  MultiEpochFitter fitter(options(project));
   std::vector<EpochData> data;
   for (const Cutout& c : cutouts()) {
     std::string error;
@@ -190,10 +192,16 @@ void BM_SkyReconvolutionImagePsf(benchmark::State& state) { sky_reconvolution_of
 void BM_FourEpochs(benchmark::State& state) { fit_epochs(state, kEpochs); }
 void BM_OneBandFourEpochs(benchmark::State& state) { fit_bands(state, 1); }
 void BM_ThreeBandsFourEpochs(benchmark::State& state) { fit_bands(state, kBands); }
+void BM_FourEpochsJoint(benchmark::State& state) { fit_epochs(state, kEpochs, false); }
+void BM_OneBandFourEpochsJoint(benchmark::State& state) { fit_bands(state, 1, false); }
+void BM_ThreeBandsFourEpochsJoint(benchmark::State& state) { fit_bands(state, kBands, false); }
 BENCHMARK(BM_OneEpoch)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_FourEpochs)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_OneBandFourEpochs)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_ThreeBandsFourEpochs)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_FourEpochsJoint)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_OneBandFourEpochsJoint)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_ThreeBandsFourEpochsJoint)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_MetacalOneEpoch)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_MetacalFourEpochs)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_SkyReconvolution)->Unit(benchmark::kMillisecond)->UseRealTime();

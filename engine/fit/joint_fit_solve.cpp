@@ -69,11 +69,15 @@ bool solve_joint(JointProblem& problem, LmVector x0, const FitterOptions& option
       return false;
     }
   }
-  const int n = static_cast<int>(sum.x.size());
+  out->summary = sum;
+  if (!problem.expand(&out->summary.x, &alpha)) {
+    r->status = FitStatus::kSolverFailure;
+    return false;
+  }
+  const int n = static_cast<int>(out->summary.x.size());
   Eigen::LDLT<LmMatrix> ldlt(alpha);
   out->cov = ldlt.solve(LmMatrix::Identity(n, n));
   out->cov_ok = ldlt.info() == Eigen::Success && out->cov.allFinite() && (out->cov.diagonal().array() > 0).all();
-  out->summary = sum;
   return true;
 }
 

@@ -19,6 +19,10 @@ namespace stampede {
 class JointProblem : public LeastSquaresProblem {
  public:
   virtual void use_surrogates(bool on) = 0;
+  // After the solve: x (the solver's vector) as the fitter's vector of every free parameter, and
+  // alpha as J^T W J over all of them at x. A problem that solves some parameters linearly at each
+  // trial point (ProjectedJointProblem) has fewer than the fit; here both stay as they are.
+  virtual bool expand(LmVector* /*x*/, LmMatrix* /*alpha*/) { return true; }
 };
 
 // A cutout's model and derivative images, grown to the largest box once and then reused.
@@ -62,8 +66,10 @@ struct JointSolve {
   bool cov_ok = false;
 };
 
-// Solves from x0 (surrogates first when `coarse`), filling r's solver fields (stop reason, counts,
-// n_pixels). False when there is no fit: r->status is then kModelFailure or kSolverFailure.
+// Solves from x0 (the solver's vector; surrogates first when `coarse`), filling r's solver fields
+// (stop reason, counts, n_pixels). out->summary.x and out->cov are in the fitter's layout
+// (JointProblem::expand). False when there is no fit: r->status is then kModelFailure or
+// kSolverFailure.
 bool solve_joint(JointProblem& problem, LmVector x0, const FitterOptions& options, bool coarse, FitResult* r,
                  JointSolve* out);
 

@@ -2,6 +2,7 @@
 #include "engine/fit/multi_band_fitter.hpp"
 
 #include "engine/fit/joint_fit_solve.hpp"
+#include "engine/fit/projected_joint_problem.hpp"
 
 #include <algorithm>
 #include <array>
@@ -148,7 +149,11 @@ class MultiBandFitter::Problem final : public JointProblem {
 };
 
 MultiBandFitter::MultiBandFitter(const FitterOptions& options)
-    : options_(options), single_(options), problem_(std::make_unique<Problem>(*this)) {}
+    : options_(options),
+      single_(options),
+      problem_(std::make_unique<Problem>(*this)),
+      project_(ProjectedJointProblem::applies(options)),
+      projected_(std::make_unique<ProjectedJointProblem>([this](int box) -> ExactRenderer& { return renderer_for(box); })) {}
 
 MultiBandFitter::~MultiBandFitter() = default;
 
@@ -188,13 +193,14 @@ MultiBandFitResult MultiBandFitter::fit(std::span<const EpochData> epochs, int n
   const int nf = options_.params.free_params(&free_all);
   const std::span<const Param> free(free_all.data(), static_cast<std::size_t>(nf));
   const int slots = static_cast<int>(band_of_slot.size());
-  // The shape from every band's cutouts (MultiEpochFitter::joint_start), each band's amplitudes
-  // from its own cutouts' start at that radius (flux ~ A r^2).
+  // The shape from every band's cutouts (MultiEpochFitter::joint_start); a projected fit solves
+  // the amplitudes at every shape, a joint one starts each band's from its own cutouts' start at
+  // that radius (flux ~ A r^2).
   std::uint32_t flags = 0;
   const ParamVector start = single_.joint_start(epochs, first, &flags);
-  std::vector<ParamVector> amplitude_start(static_cast<std::size_t>(slots));
+  std::vector<ParamVector> amplitude_start(static_cast<std::size_t>(slots), start);
   std::vector<EpochData> band;
-  for (int s = 0; s < slots; ++s) {
+  for (int s = 0; s < slots && !project_; ++s) {
     band.clear();
     for (const EpochData& e : epochs)
       if (e.band == band_of_slot[static_cast<std::size_t>(s)]) band.push_back(e);
@@ -211,7 +217,15 @@ MultiBandFitResult MultiBandFitter::fit(std::span<const EpochData> epochs, int n
   const LmVector x0 = problem_->vector_of(start, amplitude_start);
   const bool coarse = any_surrogate(epochs, [this](int box) -> ExactRenderer& { return renderer_for(box); });
   JointSolve solve;
-  if (!solve_joint(*problem_, x0, options_, coarse, &r, &solve)) return out;
+  if (project_) {
+    slot_of_cutout_.clear();
+    for (const EpochData& e : epochs) slot_of_cutout_.push_back(slot_of_band[static_cast<std::size_t>(e.band)]);
+    projected_->reset(epochs, start, free, slot_of_cutout_, slots, [this](std::size_t a, int s) { return problem_->global(a, s); },
+                      problem_->size());
+    if (!solve_joint(*projected_, projected_->shape_of(x0), options_, coarse, &r, &solve)) return out;
+  } else if (!solve_joint(*problem_, x0, options_, coarse, &r, &solve)) {
+    return out;
+  }
   const LmSummary& sum = solve.summary;
   const double chi2 = solve.chi2;
   const bool cov_ok = solve.cov_ok;
@@ -238,10 +252,11 @@ MultiBandFitResult MultiBandFitter::fit(std::span<const EpochData> epochs, int n
     band.bulge_a = effective[index(Param::kBulgeA)], band.disc_a = effective[index(Param::kDiscA)];
     any.component_fluxes(problem_->full(sum.x, s), &band.bulge_flux, &band.disc_flux);
     band.flux = band.bulge_flux + band.disc_flux;
-    band.snr = std::sqrt(problem_->signal(s));
+    const double band_signal = project_ ? projected_->signal(s) : problem_->signal(s);
+    band.snr = std::sqrt(band_signal);
     r.bulge_flux += band.bulge_flux;
     r.disc_flux += band.disc_flux;
-    signal += problem_->signal(s);
+    signal += band_signal;
   }
   r.flux = r.bulge_flux + r.disc_flux;
   r.chi2 = chi2;

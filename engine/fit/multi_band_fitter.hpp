@@ -19,6 +19,8 @@
 
 namespace stampede {
 
+class ProjectedJointProblem;
+
 class MultiBandFitter {
  public:
   // options.renderer must be kExact (as MultiEpochFitter's).
@@ -39,6 +41,10 @@ class MultiBandFitter {
   FitterOptions options_;
   MultiEpochFitter single_;  // renderers, the moments start and the fit of an object seen in one band
   std::unique_ptr<Problem> problem_;
+  // The fit with each band's amplitudes solved linearly (options.project_amplitudes).
+  bool project_ = false;
+  std::unique_ptr<ProjectedJointProblem> projected_;
+  std::vector<int> slot_of_cutout_;
 };
 
 }  // namespace stampede

@@ -2,6 +2,7 @@
 #include "engine/fit/multi_epoch_fitter.hpp"
 
 #include "engine/fit/joint_fit_solve.hpp"
+#include "engine/fit/projected_joint_problem.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -106,7 +107,11 @@ class MultiEpochFitter::Problem final : public JointProblem {
 };
 
 MultiEpochFitter::MultiEpochFitter(const FitterOptions& options)
-    : options_(options), plans_(FftPlanning::kEstimate), problem_(std::make_unique<Problem>(*this)) {
+    : options_(options),
+      plans_(FftPlanning::kEstimate),
+      problem_(std::make_unique<Problem>(*this)),
+      project_(ProjectedJointProblem::applies(options)),
+      projected_(std::make_unique<ProjectedJointProblem>([this](int box) -> ExactRenderer& { return renderer_for(box); })) {
   if (options.renderer == RendererKind::kUpsampled)
     throw std::invalid_argument("MultiEpochFitter: cutouts with WCS Jacobians need renderer = exact");
 }
@@ -263,7 +268,13 @@ FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, const ParamVe
   for (int k = 0; k < nf; ++k) x0[k] = start[index(free[static_cast<std::size_t>(k)])];
   const bool coarse = any_surrogate(epochs, [this](int box) -> ExactRenderer& { return renderer_for(box); });
   JointSolve solve;
-  if (!solve_joint(*problem_, x0, options_, coarse, &r, &solve)) return r;
+  if (project_) {
+    slot_of_cutout_.assign(epochs.size(), 0);
+    projected_->reset(epochs, start, free, slot_of_cutout_, 1, [](std::size_t a, int) { return static_cast<int>(a); }, nf);
+    if (!solve_joint(*projected_, projected_->shape_of(x0), options_, coarse, &r, &solve)) return r;
+  } else if (!solve_joint(*problem_, x0, options_, coarse, &r, &solve)) {
+    return r;
+  }
   const LmSummary& sum = solve.summary;
   const double chi2 = solve.chi2;
   const ParamVector p = problem_->full(sum.x);
@@ -280,7 +291,7 @@ FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, const ParamVe
   r.flux = r.bulge_flux + r.disc_flux;
   r.chi2 = chi2;
   r.likelihood = -0.5 * chi2;
-  r.snr = std::sqrt(problem_->signal());
+  r.snr = std::sqrt(project_ ? projected_->signal(0) : problem_->signal());
   r.status = status_of_stop(sum.reason, &flags);
   r.flags = flags;
   return r;

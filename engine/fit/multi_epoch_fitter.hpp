@@ -21,6 +21,8 @@
 
 namespace stampede {
 
+class ProjectedJointProblem;
+
 // One cutout as the fit sees it. psf: prepared by renderer_for(box_size) (any renderer of the
 // fitter's options and that size).
 struct EpochData {
@@ -66,6 +68,10 @@ class MultiEpochFitter {
   std::map<int, std::unique_ptr<ExactRenderer>> renderers_;
   std::map<int, std::unique_ptr<Fitter>> starters_;  // per box size: moments for the start
   std::unique_ptr<Problem> problem_;
+  // The fit with the amplitudes solved linearly (options.project_amplitudes; ProjectedJointProblem).
+  bool project_ = false;
+  std::unique_ptr<ProjectedJointProblem> projected_;
+  std::vector<int> slot_of_cutout_;  // all 0: one band
 };
 
 }  // namespace stampede
