@@ -3,6 +3,8 @@
 // S/N 20 (`stampede sim great08 --grid 100 --snr 20 --seed 2020`, the surrogate experiment's set,
 // simulated once into STAMPEDE_BENCH_DIR, default $TMPDIR/stampede_bench_fit_command, and reused):
 //   BM_StampedeFitS20/threads:N   objects/s of the default fit on N threads (items = objects)
+//   BM_StampedeMetacalWmomS20     metacal = true, metacal_model = wmom on one thread (issue 30's
+//                                 <= 5 ms a row, the whole process)
 // The speed-up is threads:2 / threads:1 from one run (bench/run interleaves the repetitions).
 #include <benchmark/benchmark.h>
 #include <sys/wait.h>
@@ -35,12 +37,12 @@ std::string grid(benchmark::State& state) {
   return set.string();
 }
 
-void BM_StampedeFitS20(benchmark::State& state) {
+void run_fit(benchmark::State& state, const std::string& name, const std::string& options) {
   const std::string in = grid(state);
   if (in.empty()) return;
-  const std::string out = (fs::path(in).parent_path() / ("fit_" + std::to_string(state.range(0)) + ".fits")).string();
+  const std::string out = (fs::path(in).parent_path() / (name + "_" + std::to_string(state.range(0)) + ".fits")).string();
   const std::string cmd = quoted(STAMPEDE_BINARY) + " fit " + quoted(in) + " -o " + quoted(out) +
-                          " --overwrite --quiet --set noise_sigma=1 --threads " + std::to_string(state.range(0));
+                          " --overwrite --quiet --set noise_sigma=1 " + options + " --threads " + std::to_string(state.range(0));
   for (auto _ : state) {
     const int status = std::system(cmd.c_str());
     if (status == -1 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
@@ -50,7 +52,13 @@ void BM_StampedeFitS20(benchmark::State& state) {
   }
   state.SetItemsProcessed(state.iterations() * kObjects);
 }
+
+void BM_StampedeFitS20(benchmark::State& state) { run_fit(state, "fit", ""); }
+void BM_StampedeMetacalWmomS20(benchmark::State& state) {
+  run_fit(state, "metacal_wmom", "--set metacal=true --set metacal_model=wmom");
+}
 BENCHMARK(BM_StampedeFitS20)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(1);
+BENCHMARK(BM_StampedeMetacalWmomS20)->ArgName("threads")->Arg(1)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(1);
 
 }  // namespace
 

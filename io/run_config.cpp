@@ -356,12 +356,14 @@ std::vector<Entry> make_registry() {
   r.push_back({"metacal_model",
                "metacal: the model of its five fits (the row's e is the noshear fit's): bd (the run's bulge + disc "
                "model), exp (the disc alone) or gauss (a Sersic n = 0.5 alone, as DES Y3); exp and gauss replace "
-               "the amplitude and bulge_index settings",
+               "the amplitude and bulge_index settings; wmom fits nothing: the moments under a round Gaussian "
+               "weight of metacal_weight_fwhm (as DES Y6; stamps only)",
                mcal,
                [](const RunConfig& c) {
                  switch (c.metacal.model) {
                    case MetacalModel::kExponential: return std::string("exp");
                    case MetacalModel::kGaussian: return std::string("gauss");
+                   case MetacalModel::kWeightedMoments: return std::string("wmom");
                    default: return std::string("bd");
                  }
                },
@@ -370,9 +372,14 @@ std::vector<Entry> make_registry() {
                  if (l == "bd") c.metacal.model = MetacalModel::kBulgeDisc;
                  else if (l == "exp") c.metacal.model = MetacalModel::kExponential;
                  else if (l == "gauss") c.metacal.model = MetacalModel::kGaussian;
-                 else return std::string("expected bd, exp or gauss");
+                 else if (l == "wmom") c.metacal.model = MetacalModel::kWeightedMoments;
+                 else return std::string("expected bd, exp, gauss or wmom");
                  return std::string();
                }});
+  r.push_back(double_entry(mcal, "metacal_weight_fwhm",
+                           "metacal_model = wmom: FWHM in pixels of the moments' round Gaussian weight; 0 = 1.5 x the "
+                           "reconvolution PSF's",
+                           DoubleKind::kFinite, [](auto& c) -> auto& { return c.metacal.weight_fwhm; }));
 
   const char* model = "Model reparameterisation (paper appendix A)";
   r.push_back(double_entry(model, "ellipticity_mirror", "|e| about which the ellipticity is mirrored, in (0, 1)",

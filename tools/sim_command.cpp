@@ -4,6 +4,7 @@
 #include <tbb/info.h>
 #include <tbb/task_arena.h>
 
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -72,6 +73,7 @@ void print_help() {
       "  --centre-offset A         centre ~ stamp centre + U[-A, A) per axis (%g)\n"
       "shear and seed:\n"
       "  --shear-max G             each set's g1, g2 ~ U(-G, G) (%g)\n"
+      "  --shear G1,G2             every set's shear instead (the odd set of a shear pair: -G1,-G2)\n"
       "  --seed S                  master seed (%llu)\n",
       d.sets, d.grid, d.stamp_size, d.snr, d.noise_sigma, d.psf.moffat.beta, d.psf.moffat.fwhm, d.psf.moffat.e1,
       d.psf.moffat.e2, sim_galaxy_type_name(d.galaxy_type), d.size_ratio, d.bd_radius_ratio, d.bd_misalignment_deg,
@@ -82,6 +84,20 @@ std::string join_arguments(int argc, char** argv) {
   std::string s = "stampede";
   for (int i = 0; i < argc; ++i) s += std::string(" ") + argv[i];
   return s;
+}
+
+// The value of option argv[*i] as two numbers "A,B" (`form` names them in the error).
+std::array<double, 2> number_pair(int argc, char** argv, int* i, const char* form) {
+  const std::string a = argv[*i];
+  const std::string v = tools::option_value(argc, argv, i);
+  std::vector<double> pair;
+  try {
+    pair = tools::number_list(a, v);
+  } catch (const std::invalid_argument&) {
+    // reported below, in this option's own terms
+  }
+  if (pair.size() != 2) throw std::invalid_argument("option " + a + ": " + tools::quoted_value(v) + " is not " + form);
+  return {pair[0], pair[1]};
 }
 
 }  // namespace
@@ -135,14 +151,7 @@ int run_sim_command(int argc, char** argv) {
         throw std::invalid_argument("option --galaxy: " + tools::quoted_value(v) + " is not bd, b+d, bulge or disc");
     } else if (a == "--size") o.size_ratio = number_value(argc, argv, &i);
     else if (a == "--bulge-fraction") {
-      const std::string v = tools::option_value(argc, argv, &i);
-      std::vector<double> range;
-      try {
-        range = tools::number_list(a, v);
-      } catch (const std::invalid_argument&) {
-        // reported below, in this option's own terms
-      }
-      if (range.size() != 2) throw std::invalid_argument("option --bulge-fraction: " + tools::quoted_value(v) + " is not MIN,MAX");
+      const auto range = number_pair(argc, argv, &i, "MIN,MAX");
       o.bulge_fraction_min = range[0];
       o.bulge_fraction_max = range[1];
     } else if (a == "--bd-radius-ratio") o.bd_radius_ratio = number_value(argc, argv, &i);
@@ -152,6 +161,11 @@ int run_sim_command(int argc, char** argv) {
     else if (a == "--e-max") o.e_max = number_value(argc, argv, &i);
     else if (a == "--centre-offset") o.centre_offset = number_value(argc, argv, &i);
     else if (a == "--shear-max") o.shear_max = number_value(argc, argv, &i);
+    else if (a == "--shear") {
+      const auto g = number_pair(argc, argv, &i, "G1,G2");
+      o.fixed_shear = true;
+      o.shear1 = g[0], o.shear2 = g[1];
+    }
     else if (a == "--seed")
       o.seed = static_cast<std::uint64_t>(tools::integer_in(argc, argv, &i, 0, std::numeric_limits<long long>::max())); else throw std::invalid_argument("unknown option " + tools::quoted_value(a) + " (see stampede sim --help)");
   }

@@ -9,7 +9,11 @@ response R_S (Sheldon & Huff 2017) from the sheared images' radii joins <R>:
 R_S,ij = (<e_i>[radius_jp >= CUT] - <e_i>[radius_jm >= CUT]) / (2 step).
 
     python3 docs/metacal/meds_tiles.py OUTDIR SHEARS [CUT]   (SHEARS as meds_tiles.sh's, e.g. "0.02,-0.015 0.0,0.02")
+
+FIT (environment) names each set's table: fit.fits (meds_tiles.sh's), or e.g. joint_metacal.fits for
+docs/multiband/snr20.sh's metacal across bands.
 """
+import os
 import sys
 
 import numpy as np
@@ -51,7 +55,8 @@ def main():
     rng = np.random.default_rng(1)
     pairs = []
     for k, g in enumerate(shears):
-        p, m = table(f"{out}/set{k}p/fit.fits"), table(f"{out}/set{k}m/fit.fits")
+        name = os.environ.get("FIT", "fit.fits")
+        p, m = table(f"{out}/set{k}p/{name}"), table(f"{out}/set{k}m/{name}")
         ok = np.ones(len(p["e1"]), bool)
         for t in (p, m):
             ok &= (t["status"] == 0) & ((t["flags"].astype(np.int64) & EXCLUDING) == 0)

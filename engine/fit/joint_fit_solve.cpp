@@ -74,6 +74,7 @@ bool solve_joint(JointProblem& problem, LmVector x0, const FitterOptions& option
     r->status = FitStatus::kSolverFailure;
     return false;
   }
+  out->summary.alpha = alpha;  // in the layout of summary.x
   const int n = static_cast<int>(out->summary.x.size());
   Eigen::LDLT<LmMatrix> ldlt(alpha);
   out->cov = ldlt.solve(LmMatrix::Identity(n, n));

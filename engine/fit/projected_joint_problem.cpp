@@ -128,8 +128,8 @@ bool ProjectedJointProblem::normal_equations(const LmVector& x, double* chi2, Lm
     double c;
     if (!this->chi2(x, &c)) return false;
   }
+  jacobian_x_ = LmVector();  // set again below once this point's sums are complete
   jacobian_amplitudes_ = amplitudes_;
-  jacobian_x_ = x;
   const int nf = static_cast<int>(free_.size());
   // Each slot's unprojected sums over its cutouts, lower triangle (every free parameter, local).
   std::array<LmMatrix, kMaxBands> m;
@@ -200,7 +200,9 @@ bool ProjectedJointProblem::normal_equations(const LmVector& x, double* chi2, Lm
     }
   }
   *chi2 = sum;
-  return std::isfinite(sum) && alpha->allFinite() && beta->allFinite();
+  if (!(std::isfinite(sum) && alpha->allFinite() && beta->allFinite())) return false;
+  jacobian_x_ = x;
+  return true;
 }
 
 LmVector ProjectedJointProblem::shape_of(const LmVector& global) const {

@@ -46,7 +46,7 @@ class ProjectedJointProblem final : public JointProblem {
   bool chi2(const LmVector& x, double* chi2) override;
   bool normal_equations(const LmVector& x, double* chi2, LmMatrix* alpha, LmVector* beta) override;
   // The amplitudes found on the surrogates are not the exact model's.
-  void use_surrogates(bool on) override { surrogates_ = on, cached_ = false; }
+  void use_surrogates(bool on) override { surrogates_ = on, cached_ = false, jacobian_x_ = LmVector(); }
   bool expand(LmVector* x, LmMatrix* alpha) override;
 
   // The solver's vector of a vector in the fitter's layout (its shape parameters).

@@ -47,6 +47,8 @@ class MetacalFitter {
   // The five images of the last fit (kMetacalTypes order, stamp_size^2 each), fixnoise included.
   std::span<const double> images() const { return images_; }
   const PsfModel& reconvolution() const { return gamma_; }
+  // metacal_model = wmom: the weight's FWHM in pixels for the current PSF (NaN before set_psf).
+  double weight_fwhm() const;
   double noise_gain() const { return filters_ ? filters_->noise_gain() : NAN; }
 
  private:
@@ -58,7 +60,10 @@ class MetacalFitter {
   std::shared_ptr<const MetacalFilters> filters_;
   PsfModel psf_, gamma_;
   bool have_psf_ = false;
-  std::vector<double> images_, weight_;
+  // metacal_model = wmom: one image's weighted moments as a row (e, centroid, radius, S/N, errors;
+  // flux the weighted flux).
+  FitResult moments_result(std::span<const double> image, double variance);
+  std::vector<double> images_, weight_, scratch_;
 };
 
 }  // namespace stampede

@@ -9,7 +9,9 @@ namespace stampede {
 // The model metacal's five fits use. Metacal calibrates whatever model it fits, so this need not be
 // the physical bulge + disc: kExponential is the disc alone, kGaussian a Sérsic n = 0.5 alone
 // (DES Y3 fits a Gaussian), each replacing the amplitude and index settings of the run's model.
-enum class MetacalModel { kBulgeDisc, kExponential, kGaussian };
+// kWeightedMoments fits nothing: the moments under a fixed round Gaussian weight (DES Y6's wmom,
+// kernels/weighted_moments), of width weight_fwhm.
+enum class MetacalModel { kBulgeDisc, kExponential, kGaussian, kWeightedMoments };
 
 struct MetacalOptions {
   bool enabled = false;
@@ -23,6 +25,9 @@ struct MetacalOptions {
   bool fixnoise = true;
   std::uint64_t seed = 20170101;  // keys the fixnoise fields with each object's id
   MetacalModel model = MetacalModel::kBulgeDisc;
+  // kWeightedMoments: the weight's FWHM in pixels; 0 = kWeightOverGamma x the reconvolution PSF's.
+  double weight_fwhm = 0.0;
+  static constexpr double kWeightOverGamma = 1.5;
   bool IsValid(std::string* why) const;
 };
 

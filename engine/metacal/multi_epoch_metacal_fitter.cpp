@@ -3,13 +3,20 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "engine/metacal/metacal_fitter.hpp"
 
 namespace stampede {
 
 MultiEpochMetacalFitter::MultiEpochMetacalFitter(const FitterOptions& fit_options, const MetacalOptions& options)
-    : fit_options_(metacal_fit_options(fit_options, options.model)), options_(options), fitter_(fit_options_) {}
+    : fit_options_(metacal_fit_options(fit_options, options.model)), options_(options), fitter_(fit_options_) {
+  // Weighted moments are taken in one stamp's pixels; over cutouts with their own WCS they would
+  // need a combination on the sky that is not built.
+  if (options.model == MetacalModel::kWeightedMoments)
+    throw std::invalid_argument("option 'metacal_model' = 'wmom' is for stamps (grids, catalogues, arrays); metacal on "
+                                "MEDS tiles fits bd, exp or gauss");
+}
 
 MultiEpochMetacalFitter::~MultiEpochMetacalFitter() = default;
 

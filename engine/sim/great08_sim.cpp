@@ -93,6 +93,8 @@ bool Great08SimOptions::IsValid(std::string* why) const {
     m << "--e-max " << e_max << ": too small for --e-sigma " << e_sigma;
   else if (!(shear_max >= 0 && shear_max <= 0.2))
     m << "--shear-max " << shear_max << ": must be in [0, 0.2]";
+  else if (fixed_shear && !(std::abs(shear1) <= 0.2 && std::abs(shear2) <= 0.2))
+    m << "--shear " << shear1 << "," << shear2 << ": each component must be in [-0.2, 0.2]";
   else if (!(centre_offset >= 0 && centre_offset <= 0.25 * stamp_size))
     m << "--centre-offset " << centre_offset << ": must be in [0, stamp/4]";
   else if (!(bulge_fraction_min >= 0 && bulge_fraction_min <= bulge_fraction_max && bulge_fraction_max <= 1))
@@ -172,7 +174,7 @@ Great08Simulator::Great08Simulator(const Great08SimOptions& options) : options_(
     const double h = half_light_radius(bf);
     largest = std::max({largest, h, h * bulge_radius_ratio()});
   }
-  const double g = std::sqrt(2.0) * options.shear_max;
+  const double g = options.fixed_shear ? std::hypot(options.shear1, options.shear2) : std::sqrt(2.0) * options.shear_max;
   ro.max_e = std::min(0.98, (options.e_max + g) / (1 + options.e_max * g));
   ro.max_half_light_radius = 1.1 * largest;
   if (ro.max_half_light_radius > 100) throw std::invalid_argument("--size needs galaxies larger than 100 pixels");
@@ -189,6 +191,7 @@ SimSet Great08Simulator::simulate_set(int k) const {
   RandomStream shear_rng({o.seed, drawn, kShearStream});
   set.shear1 = shear_sign * shear_rng.uniform(-o.shear_max, o.shear_max);
   set.shear2 = shear_sign * shear_rng.uniform(-o.shear_max, o.shear_max);
+  if (o.fixed_shear) set.shear1 = shear_sign * o.shear1, set.shear2 = shear_sign * o.shear2;
   set.noise_seed = o.noise_free ? 0 : RandomStream({o.seed, drawn, kNoiseStream}).next() | 1;
   const int s = o.stamp_size;
   set.width = o.grid * s;

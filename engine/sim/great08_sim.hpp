@@ -51,6 +51,10 @@ struct Great08SimOptions {
   double e_sigma = 0.25;   // intrinsic e per component ~ N(0, e_sigma), redrawn until |e| < e_max
   double e_max = 0.9;
   double shear_max = 0.05;  // each set's g1, g2 ~ U(-shear_max, shear_max)
+  // When set, every set's shear instead (negated in the odd set of a shear pair): a fixed |g| gives
+  // m the leverage of the largest shear in every pair.
+  bool fixed_shear = false;
+  double shear1 = 0, shear2 = 0;
   double centre_offset = 0.5;  // galaxy centre ~ stamp centre + U[-centre_offset, centre_offset) per axis
   double bulge_fraction_min = 0.0, bulge_fraction_max = 1.0;  // bd and b+d: U[min, max] of the flux
   // b+d only: bulge / disc half-light radius; sigma (degrees) of the bulge's position angle about

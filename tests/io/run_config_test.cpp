@@ -138,14 +138,15 @@ TEST(RunConfigRegistry, ListsEveryKeyOnceWithItsDefaultAndHelp) {
         "catalog_x_column", "catalog_y_column", "catalog_psf_beta_column", "catalog_psf_fwhm_column",
         "catalog_psf_e1_column", "catalog_psf_e2_column", "meds_model", "meds_psf", "meds_fit_coadd", "meds_bmask_bits",
         "meds_uberseg", "meds_min_unmasked_fraction", "meds_magzp_ref", "meds_psf_dir", "save_images", "exact_surrogate",
-        "surrogate_period", "surrogate_psf_tolerance", "surrogate_wrap_rings", "surrogate_wrap_nodes", "surrogate_eps4", "metacal_model"})
+        "surrogate_period", "surrogate_psf_tolerance", "surrogate_wrap_rings", "surrogate_wrap_nodes", "surrogate_eps4", "metacal_model",
+        "metacal_weight_fwhm"})
     EXPECT_TRUE(names.contains(key)) << key;
   for (int k = 0; k < kNumParams; ++k) {
     const std::string n(param_name(static_cast<Param>(k)));
     for (const char* suffix : {"_start", "_min", "_max", "_free"})
       EXPECT_TRUE(names.contains(n + suffix)) << n + suffix;
   }
-  EXPECT_EQ(options.size(), 62u + 4u * kNumParams);
+  EXPECT_EQ(options.size(), 63u + 4u * kNumParams);
 }
 
 // The survey options: bmask bits in decimal or hex, the two models, and the bounds validate checks.
@@ -163,6 +164,22 @@ TEST(RunConfigRegistry, MedsOptionsParseAndValidate) {
   EXPECT_TRUE(Contains(error_of<ConfigError>([&] { set_option(c, "meds_model", "sersic"); }), "expected bd or bord"));
   set_option(c, "meds_min_unmasked_fraction", "1.5");
   EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }), "meds_min_unmasked_fraction = 1.5: must be in [0, 1]"));
+}
+
+// metacal_model's four values (wmom: the weighted moments, no fit) and the weight's width bounds.
+TEST(RunConfigRegistry, MetacalModelAndWeightParseAndValidate) {
+  RunConfig c;
+  set_option(c, "metacal", "true");
+  set_option(c, "metacal_model", "WMOM");
+  EXPECT_EQ(c.metacal.model, MetacalModel::kWeightedMoments);
+  EXPECT_EQ(get_option(c, "metacal_model"), "wmom");
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { set_option(c, "metacal_model", "moments"); }),
+                       "expected bd, exp, gauss or wmom"));
+  set_option(c, "metacal_weight_fwhm", "4.5");
+  EXPECT_NO_THROW(validate(c));
+  set_option(c, "metacal_weight_fwhm", "0.2");
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }),
+                       "metacal_weight_fwhm = 0.2: must be 0 (automatic) or in [0.5, 1000] pixels"));
 }
 
 // --- get / set -----------------------------------------------------------------------------------

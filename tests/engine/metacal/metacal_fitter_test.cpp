@@ -149,6 +149,10 @@ TEST_P(MetacalModels, NoiseFreeRingPairsCalibratedByTheirResponseRecoverTheShear
         ASSERT_EQ(noshear.params[index(Param::kDiscA)], 0.0);
         ASSERT_EQ(noshear.params[index(Param::kBulgeIndex)], 0.5);
       }
+      if (mo.model == MetacalModel::kWeightedMoments) {  // no fit: no amplitudes, no chi2
+        ASSERT_TRUE(std::isnan(noshear.params[index(Param::kBulgeA)]));
+        ASSERT_TRUE(std::isnan(noshear.chi2));
+      }
       e_sum[0] += noshear.params[index(Param::kE1)];
       e_sum[1] += noshear.params[index(Param::kE2)];
       r_sum[0] += rec.r11, r_sum[1] += rec.r12, r_sum[2] += rec.r21, r_sum[3] += rec.r22;
@@ -166,11 +170,13 @@ TEST_P(MetacalModels, NoiseFreeRingPairsCalibratedByTheirResponseRecoverTheShear
 }
 
 INSTANTIATE_TEST_SUITE_P(MetacalFitter, MetacalModels,
-                         ::testing::Values(MetacalModel::kBulgeDisc, MetacalModel::kExponential, MetacalModel::kGaussian),
+                         ::testing::Values(MetacalModel::kBulgeDisc, MetacalModel::kExponential, MetacalModel::kGaussian,
+                                           MetacalModel::kWeightedMoments),
                          [](const auto& info) {
                            switch (info.param) {
                              case MetacalModel::kExponential: return std::string("exp");
                              case MetacalModel::kGaussian: return std::string("gauss");
+                             case MetacalModel::kWeightedMoments: return std::string("wmom");
                              default: return std::string("bd");
                            }
                          });

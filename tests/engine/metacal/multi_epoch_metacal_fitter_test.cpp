@@ -138,3 +138,25 @@ TEST(MultiEpochMetacalFitter, APsfItCannotDeconvolveIsAFlaggedRowNamingTheCutout
 
 }  // namespace
 }  // namespace stampede
+
+namespace stampede {
+namespace {
+
+// Weighted moments are taken in one stamp's pixels: metacal over cutouts refuses them by name
+// rather than fitting another model silently.
+TEST(MultiEpochMetacalFitter, WeightedMomentsAreRefusedByName) {
+  FitterOptions o;
+  o.renderer = RendererKind::kExact;
+  MetacalOptions mo;
+  mo.enabled = true;
+  mo.model = MetacalModel::kWeightedMoments;
+  try {
+    MultiEpochMetacalFitter fitter(o, mo);
+    FAIL() << "accepted metacal_model = wmom";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'metacal_model' = 'wmom' is for stamps"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace stampede

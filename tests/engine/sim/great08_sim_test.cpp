@@ -275,6 +275,24 @@ TEST(Great08Sim, ShearPairsRepeatGalaxiesAndNoiseUnderTheOppositeShear) {
   EXPECT_GT(sheared, 1e-3);  // while the galaxies differ by the shear
 }
 
+// --shear G1,G2: every set's shear, the odd set of a shear pair's negated.
+TEST(Great08Sim, AFixedShearIsEverySetsShear) {
+  Great08SimOptions o = small_options();
+  o.shear_pairs = true;
+  o.fixed_shear = true;
+  o.shear1 = 0.02, o.shear2 = -0.015;
+  const SimSet plus = Great08Simulator(o).simulate_set(4), minus = Great08Simulator(o).simulate_set(5);
+  EXPECT_EQ(plus.shear1, 0.02);
+  EXPECT_EQ(plus.shear2, -0.015);
+  EXPECT_EQ(minus.shear1, -0.02);
+  EXPECT_EQ(minus.shear2, 0.015);
+  for (const auto& t : plus.truth) EXPECT_EQ(t.g1, 0.02);
+  o.shear1 = 0.25;
+  std::string why;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("--shear 0.25,-0.015: each component must be in [-0.2, 0.2]"), std::string::npos) << why;
+}
+
 // The b+d branch: a misaligned, offset bulge with its own radius, and the round-galaxy size kept.
 TEST(Great08Sim, BulgePlusDiscBranch) {
   Great08SimOptions o = small_options();
