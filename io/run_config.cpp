@@ -377,7 +377,7 @@ std::vector<Entry> make_registry() {
                  return std::string();
                }});
   r.push_back(double_entry(mcal, "metacal_weight_fwhm",
-                           "metacal_model = wmom: FWHM in pixels of the moments' round Gaussian weight; 0 = 1.5 x the "
+                           "metacal_model = wmom: FWHM in pixels of the moments' round Gaussian weight; 0 = 2.5 x the "
                            "reconvolution PSF's",
                            DoubleKind::kFinite, [](auto& c) -> auto& { return c.metacal.weight_fwhm; }));
 

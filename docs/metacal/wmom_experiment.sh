@@ -43,5 +43,4 @@ for snr in $SNRS; do
   done
   "$STAMPEDE" metrics --shear-pairs --metacal "${args[@]}" > "$dir/all.txt"
   "$STAMPEDE" metrics --shear-pairs --metacal --cut-snr 15 --cut-size-ratio 0.5 "${args[@]}" > "$dir/cut.txt"
-  "$STAMPEDE" metrics --shear-pairs "${args[@]}" > "$dir/uncalibrated.txt"
 done

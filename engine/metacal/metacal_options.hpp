@@ -27,7 +27,7 @@ struct MetacalOptions {
   MetacalModel model = MetacalModel::kBulgeDisc;
   // kWeightedMoments: the weight's FWHM in pixels; 0 = kWeightOverGamma x the reconvolution PSF's.
   double weight_fwhm = 0.0;
-  static constexpr double kWeightOverGamma = 1.5;
+  static constexpr double kWeightOverGamma = 2.5;  // docs/metacal.md, "Weighted moments"
   bool IsValid(std::string* why) const;
 };
 
