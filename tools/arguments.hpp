@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <stdexcept>
@@ -67,6 +68,19 @@ inline std::vector<double> number_list(const std::string& option, const std::str
     if (end == text.size()) return out;
     begin = end + 1;
   }
+}
+
+// Exactly two numbers "A,B"; anything else is refused naming the option, the text and `form`
+// (e.g. "MIN,MAX"), in these words also for a malformed list.
+inline std::array<double, 2> number_pair(const std::string& option, const std::string& text, const char* form) {
+  std::vector<double> v;
+  try {
+    v = number_list(option, text);
+  } catch (const std::invalid_argument&) {
+    // reported below, in this option's own terms
+  }
+  if (v.size() != 2) throw std::invalid_argument("option " + option + ": " + quoted_value(text) + " is not " + form);
+  return {v[0], v[1]};
 }
 
 }  // namespace stampede::tools

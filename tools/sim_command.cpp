@@ -4,7 +4,6 @@
 #include <tbb/info.h>
 #include <tbb/task_arena.h>
 
-#include <array>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -86,20 +85,6 @@ std::string join_arguments(int argc, char** argv) {
   return s;
 }
 
-// The value of option argv[*i] as two numbers "A,B" (`form` names them in the error).
-std::array<double, 2> number_pair(int argc, char** argv, int* i, const char* form) {
-  const std::string a = argv[*i];
-  const std::string v = tools::option_value(argc, argv, i);
-  std::vector<double> pair;
-  try {
-    pair = tools::number_list(a, v);
-  } catch (const std::invalid_argument&) {
-    // reported below, in this option's own terms
-  }
-  if (pair.size() != 2) throw std::invalid_argument("option " + a + ": " + tools::quoted_value(v) + " is not " + form);
-  return {pair[0], pair[1]};
-}
-
 }  // namespace
 
 int run_sim_command(int argc, char** argv) {
@@ -151,7 +136,7 @@ int run_sim_command(int argc, char** argv) {
         throw std::invalid_argument("option --galaxy: " + tools::quoted_value(v) + " is not bd, b+d, bulge or disc");
     } else if (a == "--size") o.size_ratio = number_value(argc, argv, &i);
     else if (a == "--bulge-fraction") {
-      const auto range = number_pair(argc, argv, &i, "MIN,MAX");
+      const auto range = tools::number_pair(a, tools::option_value(argc, argv, &i), "MIN,MAX");
       o.bulge_fraction_min = range[0];
       o.bulge_fraction_max = range[1];
     } else if (a == "--bd-radius-ratio") o.bd_radius_ratio = number_value(argc, argv, &i);
@@ -162,7 +147,7 @@ int run_sim_command(int argc, char** argv) {
     else if (a == "--centre-offset") o.centre_offset = number_value(argc, argv, &i);
     else if (a == "--shear-max") o.shear_max = number_value(argc, argv, &i);
     else if (a == "--shear") {
-      const auto g = number_pair(argc, argv, &i, "G1,G2");
+      const auto g = tools::number_pair(a, tools::option_value(argc, argv, &i), "G1,G2");
       o.fixed_shear = true;
       o.shear1 = g[0], o.shear2 = g[1];
     }

@@ -74,8 +74,7 @@ void print_help() {
 }
 
 std::pair<double, double> pair_of(const std::string& option, const std::string& text) {
-  const std::vector<double> v = tools::number_list(option, text);
-  if (v.size() != 2) throw std::invalid_argument(option + " " + tools::quoted_value(text) + ": expected two numbers A,B");
+  const std::array<double, 2> v = tools::number_pair(option, text, "two numbers A,B");
   return {v[0], v[1]};
 }
 

@@ -45,6 +45,17 @@ bool FitterOptions::IsValid(std::string* why) const {
   return true;
 }
 
+bool projects_amplitudes(const FitterOptions& options) {
+  const ParameterSet& ps = options.params;
+  auto free_unbounded = [&](Param q) {
+    const ParamSpec& spec = ps[q];
+    return spec.free && !(std::isfinite(spec.lower) || std::isfinite(spec.upper));
+  };
+  std::array<Param, kNumParams> free{};
+  return options.project_amplitudes && free_unbounded(Param::kBulgeA) && free_unbounded(Param::kDiscA) &&
+         ps.free_params(&free) > 2;
+}
+
 static_assert(kNumParams <= kMaxFree, "the solver's fixed storage must hold every model parameter");
 
 // The least-squares problem of one stamp in the free parameters.
@@ -259,23 +270,14 @@ Fitter::Fitter(const FitterOptions& options, std::shared_ptr<const PreparedPsf> 
   zeros_.assign(npix, 0.0);
   num_free_ = options_.params.free_params(&free_);
   // The amplitudes are solved linearly (ProjectedProblem) when both are free and unbounded.
-  {
-    int found = 0;
-    for (int k = 0; k < num_free_; ++k) {
-      const Param q = free_[k];
-      if (q == Param::kBulgeA || q == Param::kDiscA) {
-        const ParamSpec& spec = options_.params[q];
-        const bool unbounded = !(std::isfinite(spec.lower) || std::isfinite(spec.upper));
-        if (unbounded) {
-          amplitude_[q == Param::kBulgeA ? 0 : 1] = k;
-          ++found;
-        }
-      } else {
-        shape_[num_shape_++] = k;
-      }
-    }
-    project_ = options_.project_amplitudes && found == 2 && num_shape_ > 0;
+  for (int k = 0; k < num_free_; ++k) {
+    const Param q = free_[k];
+    if (q == Param::kBulgeA || q == Param::kDiscA)
+      amplitude_[q == Param::kBulgeA ? 0 : 1] = k;
+    else
+      shape_[num_shape_++] = k;
   }
+  project_ = projects_amplitudes(options_);
   for (int k = 0; k < kNumParams; ++k) {
     const ParamSpec& spec = options_.params.spec[k];
     lower_[k] = spec.lower;

@@ -43,6 +43,11 @@ struct FitterOptions {
   bool IsValid(std::string* why) const;
 };
 
+// Whether fits of these options solve the amplitudes linearly (project_amplitudes, both amplitudes
+// free and unbounded, and some other parameter free): the single-stamp fit and the joint fits over
+// cutouts and bands (engine/fit/projected_joint_problem) alike.
+bool projects_amplitudes(const FitterOptions& options);
+
 // What a stamp's weight array holds: inverse variances, or a mask (0 masks a pixel, any other
 // value leaves it at noise_sigma's weight, unweighted when noise_sigma = 0), e.g. the image edge
 // of a cutout with no weight map, so a masked stamp follows the same weighting rules as a whole one.

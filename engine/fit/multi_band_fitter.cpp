@@ -152,7 +152,7 @@ MultiBandFitter::MultiBandFitter(const FitterOptions& options)
     : options_(options),
       single_(options),
       problem_(std::make_unique<Problem>(*this)),
-      project_(ProjectedJointProblem::applies(options)),
+      project_(projects_amplitudes(options)),
       projected_(std::make_unique<ProjectedJointProblem>([this](int box) -> ExactRenderer& { return renderer_for(box); })) {}
 
 MultiBandFitter::~MultiBandFitter() = default;

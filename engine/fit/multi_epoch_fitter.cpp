@@ -110,7 +110,7 @@ MultiEpochFitter::MultiEpochFitter(const FitterOptions& options)
     : options_(options),
       plans_(FftPlanning::kEstimate),
       problem_(std::make_unique<Problem>(*this)),
-      project_(ProjectedJointProblem::applies(options)),
+      project_(projects_amplitudes(options)),
       projected_(std::make_unique<ProjectedJointProblem>([this](int box) -> ExactRenderer& { return renderer_for(box); })) {
   if (options.renderer == RendererKind::kUpsampled)
     throw std::invalid_argument("MultiEpochFitter: cutouts with WCS Jacobians need renderer = exact");

@@ -6,18 +6,6 @@
 
 namespace stampede {
 
-bool ProjectedJointProblem::applies(const FitterOptions& options) {
-  if (!options.project_amplitudes) return false;
-  const ParameterSet& ps = options.params;
-  auto free_unbounded = [&](Param q) {
-    const ParamSpec& spec = ps[q];
-    return spec.free && !(std::isfinite(spec.lower) || std::isfinite(spec.upper));
-  };
-  if (!free_unbounded(Param::kBulgeA) || !free_unbounded(Param::kDiscA)) return false;
-  std::array<Param, kNumParams> free{};
-  return ps.free_params(&free) > 2;
-}
-
 void ProjectedJointProblem::reset(std::span<const EpochData> epochs, const ParamVector& base, std::span<const Param> free,
                                   std::span<const int> slot_of_cutout, int slots,
                                   const std::function<int(std::size_t, int)>& global, int n_global) {

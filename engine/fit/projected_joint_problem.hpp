@@ -1,4 +1,4 @@
-// A joint fit's problem over the shape parameters alone, each band's bulge and disc amplitudes
+// A joint fit's problem over the shape parameters alone (when projects_amplitudes(options)), each band's bulge and disc amplitudes
 // solved linearly at every trial shape (variable projection, engine/solver/variable_projection.hpp,
 // as the single-stamp fit's project_amplitudes). The cutouts of a band share its two amplitudes;
 // the shape is every band's. chi2 at a shape is the joint fit's at the best amplitudes, so the
@@ -28,10 +28,6 @@ class ProjectedJointProblem final : public JointProblem {
  public:
   using RendererFor = std::function<ExactRenderer&(int box_size)>;
   explicit ProjectedJointProblem(RendererFor renderer_for) : renderer_for_(std::move(renderer_for)) {}
-
-  // Whether a fit of these free parameters is projected: both amplitudes free and unbounded, and
-  // some shape parameter free.
-  static bool applies(const FitterOptions& options);
 
   // The fit's cutouts (cutout c in band slot slot_of_cutout[c] < slots), the full parameter vector
   // of fixed values, the free parameters (one band's list) and the fitter's index of free

@@ -155,10 +155,6 @@ void MetacalFitter::fit(std::span<const double> pixels, std::span<const double> 
   record->r22 = (e2[3] - e2[4]) / two_step;
 }
 
-}  // namespace stampede
-
-namespace stampede {
-
 FitResult MetacalFitter::moments_result(std::span<const double> image, double variance) {
   FitResult r;
   // Noise-free images are measured in data units, as an unweighted fit is (and flagged so).

@@ -137,8 +137,8 @@ TEST(ProjectedJointProblem, MultiEpochAndMultiBandFitsReachTheJointFitsOptimum) 
   FitterOptions projected = testing::exact_fit_options(), joint = projected;
   projected.lm.eps4 = joint.lm.eps4 = 1e-12;
   joint.project_amplitudes = false;
-  ASSERT_TRUE(ProjectedJointProblem::applies(projected));
-  ASSERT_FALSE(ProjectedJointProblem::applies(joint));
+  ASSERT_TRUE(projects_amplitudes(projected));
+  ASSERT_FALSE(projects_amplitudes(joint));
   for (std::uint32_t seed : {11u, 12u, 13u}) {
     ThreeBands bands(seed);
     MultiBandFitter p(projected), j(joint);
