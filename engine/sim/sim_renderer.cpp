@@ -146,7 +146,7 @@ double SimRenderer::psf_round_transform(double k) const {
 double SimRenderer::psf_transform(double kx, double ky) const {
   if (psf_.kind == PsfKind::kAiry) return psf_round_transform(std::hypot(kx, ky));
   const double sx = psf_shear_[0] * kx + psf_shear_[1] * ky, sy = psf_shear_[1] * kx + psf_shear_[2] * ky;
-  return psf_round_transform(std::hypot(sx, sy));
+  return psf_round_transform(std::sqrt(sx * sx + sy * sy));  // no overflow to guard against here
 }
 
 double SimRenderer::sersic_transform(const kernels::LogTable* table, double q) {
@@ -187,7 +187,7 @@ void SimRenderer::draw(std::span<const SimComponent> components, bool psf_only, 
   // Per-component constants hoisted out of the frequency loop.
   struct Prepared {
     double s[3];
-    double flux, x, y, hlr;
+    double flux, hlr;
     const kernels::LogTable* table;  // looked up once, not per frequency
   };
   std::vector<Prepared> prepared;
@@ -196,34 +196,64 @@ void SimRenderer::draw(std::span<const SimComponent> components, bool psf_only, 
     Prepared p{};
     shear_matrix(c.e1, c.e2, p.s);
     p.flux = c.flux;
-    p.x = c.x;
-    p.y = c.y;
     p.hlr = c.half_light_radius;
     p.table = table_for(c.sersic_n);
     prepared.push_back(p);
   }
+  // The pixel response and each centre's phase factor into functions of kx and ky alone:
+  // tabulated per axis frequency j and alias m (index j * aliases + m + m_max), they replace a
+  // sincos per component and two sincs per frequency with products.
+  const int aliases = 2 * m_max + 1;
+  const std::size_t nx = static_cast<std::size_t>(half) * aliases, ny = static_cast<std::size_t>(n) * aliases;
+  const std::size_t phases = psf_only ? 1 : prepared.size();
+  ws.sinc_x_.resize(nx);
+  ws.sinc_y_.resize(ny);
+  ws.phase_x_.resize(nx * phases);
+  ws.phase_y_.resize(ny * phases);
+  auto axis_k = [&](int j, int m, bool is_y) { return dk * (is_y && j > n / 2 ? j - n : j) + alias * m; };
+  for (int axis = 0; axis < 2; ++axis) {
+    const bool is_y = axis == 1;
+    const int count = is_y ? n : half;
+    std::vector<double>& sinc = is_y ? ws.sinc_y_ : ws.sinc_x_;
+    std::vector<std::complex<double>>& phase = is_y ? ws.phase_y_ : ws.phase_x_;
+    const std::size_t stride = is_y ? ny : nx;
+    for (int j = 0; j < count; ++j)
+      for (int m = -m_max; m <= m_max; ++m) {
+        const std::size_t i = static_cast<std::size_t>(j) * aliases + (m + m_max);
+        const double k = axis_k(j, m, is_y);
+        sinc[i] = with_pixel ? kernels::sinc(0.5 * k) : 1.0;
+        if (psf_only) {
+          phase[i] = std::polar(1.0, -k * (is_y ? cy : cx) * step);
+        } else {
+          for (std::size_t c = 0; c < prepared.size(); ++c)
+            phase[c * stride + i] = std::polar(1.0, -k * (is_y ? components[c].y : components[c].x));
+        }
+      }
+  }
   for (int jy = 0; jy < n; ++jy) {
-    const double ky0 = dk * (jy <= n / 2 ? jy : jy - n);
     for (int jx = 0; jx < half; ++jx) {
-      const double kx0 = dk * jx;
       std::complex<double> sum = 0;
       for (int my = -m_max; my <= m_max; ++my) {
-        const double ky = ky0 + alias * my;
+        const std::size_t iy = static_cast<std::size_t>(jy) * aliases + (my + m_max);
+        const double ky = axis_k(jy, my, true);
         if (std::abs(ky) > k_bound) continue;
         for (int mx = -m_max; mx <= m_max; ++mx) {
-          const double kx = kx0 + alias * mx;
+          const std::size_t ix = static_cast<std::size_t>(jx) * aliases + (mx + m_max);
+          const double kx = axis_k(jx, mx, false);
           if (kx * kx + ky * ky > k_bound * k_bound) continue;
           double psf = psf_transform(kx, ky);
           if (psf == 0.0) continue;
-          if (with_pixel) psf *= kernels::sinc(0.5 * kx) * kernels::sinc(0.5 * ky);
+          psf *= ws.sinc_x_[ix] * ws.sinc_y_[iy];
           if (psf_only) {
-            sum += psf * std::polar(1.0, -(kx * cx + ky * cy) * step);
+            sum += psf * (ws.phase_x_[ix] * ws.phase_y_[iy]);
             continue;
           }
           std::complex<double> gal = 0;
-          for (const Prepared& p : prepared) {
-            const double k = std::hypot(p.s[0] * kx + p.s[1] * ky, p.s[1] * kx + p.s[2] * ky);
-            gal += p.flux * sersic_transform(p.table, k * p.hlr) * std::polar(1.0, -(kx * p.x + ky * p.y));
+          for (std::size_t c = 0; c < prepared.size(); ++c) {
+            const Prepared& p = prepared[c];
+            const double u = p.s[0] * kx + p.s[1] * ky, v = p.s[1] * kx + p.s[2] * ky;
+            gal += p.flux * sersic_transform(p.table, std::sqrt(u * u + v * v) * p.hlr) *
+                   (ws.phase_x_[c * nx + ix] * ws.phase_y_[c * ny + iy]);
           }
           sum += psf * gal;
         }

@@ -13,6 +13,7 @@
 // Layout: real images row-major, x fastest; stamp pixel (0, 0) is sample 0 of the grid.
 #pragma once
 
+#include <complex>
 #include <map>
 #include <span>
 #include <vector>
@@ -49,6 +50,10 @@ class SimWorkspace {
   };
   Grid& grid(int n);
   std::map<int, Grid> grids_;
+  // Separable factors of the frequency loop, per axis and alias: pixel sincs and, per component,
+  // phases exp(-i k x); kept here so a steady-state render allocates nothing.
+  std::vector<double> sinc_x_, sinc_y_;
+  std::vector<std::complex<double>> phase_x_, phase_y_;
 };
 
 class SimRenderer {
