@@ -523,6 +523,16 @@ RunSummary FitRun::run() const {
     } catch (const io::FitsError& e) {  // as the PSF record: only `metrics` checks it
       warn(std::string("the simulated set's identity is unreadable, not recorded: ") + e.what());
     }
+    // A set simulated with noise pairs gets its fixnoise fields paired alike (metacal_options.hpp).
+    if (cfg.metacal.enabled && cfg.metacal.fixnoise) {
+      std::optional<std::string> pairs;
+      try {
+        pairs = grid->header().read_key_string("NOISEPR");
+      } catch (const io::FitsError& e) {
+        warn(std::string("the NOISEPR record is unreadable, fixnoise fields not paired: ") + e.what());
+      }
+      cfg.metacal.noise_pairs = pairs && *pairs == "T";
+    }
     for (std::int64_t id : saved_ids)
       if (id < 0 || id >= grid->total_objects())
         throw io::ConfigError("option 'save_images': object id " + std::to_string(id) + " is not in '" + a.input +

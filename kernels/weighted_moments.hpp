@@ -2,28 +2,50 @@
 // with no model and no PSF correction, for metacalibration, which calibrates whatever it measures.
 // The weight's width is fixed, not matched to the object, so the estimator is a smooth function of
 // the pixels: its shear response has no tail from fits that end at the ellipticity limit.
+//
+// An object seen in several stamps (a MEDS tile's epochs, each with its own WCS) is measured on
+// the sky: the weight is round in the sky's (u, v) axes, each stamp's weighted sums are integrals
+// over the sky (pixel values over the stamp's flux scale), and the stamps' sums are averaged with
+// weights of their inverse noise variance per unit sky area, so the one shape is the combination.
 #pragma once
 
 #include <span>
+#include <vector>
 
 namespace stampede::kernels {
 
 struct WeightedMoments {
-  bool valid = false;        // false: no positive weighted flux or size, |e| >= 1, or the centroid left the stamp
-  double x = 0, y = 0;       // the weighted centroid the moments are taken about, pixels
-  double flux = 0;           // sum w I
-  double t = 0;              // T = Mxx + Myy of the weighted, flux-normalised moments, pixels^2
-  double e1 = 0, e2 = 0;     // (Mxx - Myy) / T, 2 Mxy / T
-  double e1_err = 0, e2_err = 0, snr = 0;  // for uncorrelated pixel noise of variance `variance`
+  bool valid = false;        // false: no positive weighted flux or size, |e| >= 1, or the centroid left a stamp
+  double x = 0, y = 0;       // the weighted centroid the moments are taken about, sky (u, v) (one stamp: pixels)
+  double flux = 0;           // sum w I (in sky units: over the stamps' flux scales)
+  double t = 0;              // T = Muu + Mvv of the weighted, flux-normalised moments, sky units^2
+  double e1 = 0, e2 = 0;     // (Muu - Mvv) / T, 2 Muv / T
+  double e1_err = 0, e2_err = 0, snr = 0;  // for uncorrelated pixel noise of each stamp's variance
 };
 
-// image is size x size, row-major. The weight is exp(-r^2 / (2 sigma^2)), sigma = fwhm / 2.3548,
-// about a centroid found by `centroid_iterations` rounds of the weighted centroid from the stamp's
-// centre (so the estimator does not depend on where in the stamp the object is; a fixed count keeps
-// it a smooth function of the pixels). variance: each
-// pixel's noise variance for the errors and S/N, the noise taken as uncorrelated (metacal's images'
-// is not: there they are approximate, as a fit's are); 0 gives errors 0 and snr inf. scratch: at
-// least 2 x size values (the weight's row and column factors).
+// One stamp of the object: pixel (x, y) (x the column, 0-based, pixel centres at integers) lies at
+// sky offset (u, v) = J (x - x_ref, y - y_ref).
+struct MomentsStamp {
+  std::span<const double> image;  // size x size, row-major
+  int size = 0;
+  double dudx = 1, dudy = 0, dvdx = 0, dvdy = 1;
+  double x_ref = 0, y_ref = 0;
+  double flux_scale = 1;  // image = flux_scale x the sky's flux
+  double variance = 0;    // each pixel's noise variance; 0 for noise-free (errors 0, snr inf)
+};
+
+// The weight is exp(-r^2 / (2 sigma^2)) on the sky, sigma = fwhm / 2.3548, about a centroid found by
+// `centroid_iterations` Newton steps of the weighted centroid from the first stamp's centre (so the
+// estimator does not depend on where in the stamps the object is; a fixed count keeps it a smooth
+// function of the pixels). Stamps are averaged with weights flux_scale^2 |det J| / variance (equal
+// weights when any variance is 0). The errors take each stamp's noise as uncorrelated (metacal's
+// images' is not: there they are approximate, as a fit's are). scratch grows to what is needed
+// and is kept, so a caller that reuses it allocates nothing in steady state.
+WeightedMoments weighted_moments(std::span<const MomentsStamp> stamps, double fwhm, std::vector<double>& scratch,
+                                 int centroid_iterations = 6);
+
+// One stamp in its own pixels (J the unit matrix, reference at pixel (0, 0), flux scale 1): the
+// centroid in pixel coordinates. scratch: at least 2 x size values.
 WeightedMoments weighted_moments(std::span<const double> image, int size, double fwhm, double variance,
                                  std::span<double> scratch, int centroid_iterations = 6);
 

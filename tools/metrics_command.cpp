@@ -27,8 +27,8 @@ void print_help() {
   std::printf(
       "usage: stampede metrics --fit FIT.fits --truth TRUTH.fits [--fit ... --truth ...]\n"
       "                        [--json OUT.json] [--bootstrap N] [--seed S] [--e-columns E1,E2]\n"
-      "                        [--metacal] [--cut-snr X] [--cut-radius R] [--cut-size-ratio Q]\n"
-      "                        [--shear-pairs]\n"
+      "                        [--metacal [--no-selection-response]] [--cut-snr X] [--cut-radius R]\n"
+      "                        [--cut-size-ratio Q] [--shear-pairs]\n"
       "\n"
       "Per set (a `stampede fit` table and the truth file of the same set, in the GREAT08-mini\n"
       "layout: SHEAR1 SHEAR2 in the primary header, a TRUTH table with `index` and `pair`):\n"
@@ -45,6 +45,9 @@ void print_help() {
       "  --metacal           tables of a `metacal = true` run: per set g = (<R> + R_S)^-1 <e>, with R_S\n"
       "                      the selection response of the cuts below made on each sheared image's\n"
       "                      quantities (Sheldon & Huff 2017); flag 262144 (metacal failure) excludes\n"
+      "  --no-selection-response\n"
+      "                      metacal: cut on the noshear quantities alone and leave R_S out, to\n"
+      "                      measure the bias a cut causes when its selection response is ignored\n"
       "  --cut-snr X         keep objects with snr >= X (metacal: on every image's own snr)\n"
       "  --cut-radius R      keep objects with radius >= R (likewise; pixels, arcsec for MEDS tables)\n"
       "  --cut-size-ratio Q  metacal: keep objects with radius >= Q x the FWHM of the reconvolution\n"
@@ -60,6 +63,7 @@ struct Cuts {
   bool metacal = false;
   double min_snr = -INFINITY, min_radius = -INFINITY;
   double min_size_ratio = -INFINITY;  // metacal: radius / Gamma's FWHM
+  bool selection_response = true;     // metacal: false leaves R_S out (to measure the bias it removes)
 };
 
 // A set's estimate, and what pairing it with its shear-pair partner needs.
@@ -143,8 +147,11 @@ SetData read_set(const std::string& fit_path, const std::string& truth_path, con
     for (std::size_t i = 0; i < id.size(); ++i) {
       if (!usable[i]) continue;
       std::uint8_t bits = passes(snr[i], radius[i]) && sized(i, radius[i]) ? 1 : 0;
-      for (int t = 0; t < 4; ++t)
-        bits |= (passes(snr_t[t][i], radius_t[t][i]) && sized(i, radius_t[t][i]) ? 1 : 0) << (t + 1);
+      for (int t = 0; t < 4; ++t) {
+        // Without R_S each sheared image's selection is the noshear one, so R_S is exactly 0.
+        const bool kept = cuts.selection_response ? passes(snr_t[t][i], radius_t[t][i]) && sized(i, radius_t[t][i]) : bits;
+        bits |= (kept ? 1 : 0) << (t + 1);
+      }
       selected[i] = bits;
     }
     const MetacalRows rows{e1, e2, {r11, r12, r21, r22}, selected, pair, step};
@@ -226,6 +233,8 @@ int run_metrics_command(int argc, char** argv) {
       shear_pairs = true;
     } else if (a == "--metacal") {
       cuts.metacal = true;
+    } else if (a == "--no-selection-response") {
+      cuts.selection_response = false;
     } else if (a == "--cut-snr") {
       cuts.min_snr = tools::number_value(argc, argv, &i);
     } else if (a == "--cut-radius") {
@@ -242,6 +251,8 @@ int run_metrics_command(int argc, char** argv) {
   }
   if (std::isfinite(cuts.min_size_ratio) && !cuts.metacal)
     throw std::invalid_argument("--cut-size-ratio is a metacal cut (the images' PSF is Gamma): add --metacal");
+  if (!cuts.selection_response && !cuts.metacal)
+    throw std::invalid_argument("--no-selection-response leaves metacal's R_S out: add --metacal");
   if (fits.empty() || fits.size() != truths.size())
     throw std::invalid_argument("give one --truth for each --fit (got " + std::to_string(fits.size()) + " and " +
                                 std::to_string(truths.size()) + ")");

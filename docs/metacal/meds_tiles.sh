@@ -9,7 +9,9 @@
 # Environment: N=32 SNR=30 NOISE_FREE=0 (1: --noise-free and metacal_fixnoise = false, the
 # weight maps then describe a noise the pixels lack) SHEARS="0.02,-0.015 0.0,0.02"
 # THREADS=(all cores) STAMPEDE=build/tools/stampede PYTHON=python3 (with numpy; PYTHONPATH=build/python)
-# SHARD= (e.g. 0/2: fit only that shard of each tile, the same objects in every set).
+# SHARD= (e.g. 0/2: fit only that shard of each tile, the same objects in every set) MODEL= (a
+# metacal_model; empty: the run's default) KEEP_TILES=1 (0: delete each tile once fitted; ~185 kB
+# an object).
 set -euo pipefail
 out=${1:?usage: meds_tiles.sh OUTDIR}
 N=${N:-32}
@@ -22,6 +24,7 @@ threads=()
 sim=(--objects "$N" --snr "$SNR")
 fit=(--set metacal=true)
 [[ -n "${SHARD:-}" ]] && fit+=(--shard "$SHARD")
+[[ -n "${MODEL:-}" ]] && fit+=(--set metacal_model="$MODEL")
 if [[ "${NOISE_FREE:-0}" == 1 ]]; then sim+=(--noise-free); fit+=(--set metacal_fixnoise=false); fi
 mkdir -p "$out"
 k=0
@@ -30,9 +33,12 @@ for g in $SHEARS; do
   for sign in p m; do
     if [[ $sign == p ]]; then shear="$g1,$g2"; else shear="$(awk -v a="$g1" -v b="$g2" 'BEGIN{printf "%g,%g", -a, -b}')"; fi
     d="$out/set${k}$sign"
-    [[ -f "$d/meds.fits" ]] || "$STAMPEDE" sim meds --out "$d" "${sim[@]}" --shear "$shear" --seed $((500 + k)) \
-      --overwrite "${threads[@]}" > /dev/null 2>&1
-    [[ -f "$d/fit.fits" ]] || "$STAMPEDE" fit --meds "$d/meds.fits" -o "$d/fit.fits" "${fit[@]}" --quiet "${threads[@]}"
+    if [[ ! -f "$d/fit.fits" ]]; then
+      [[ -f "$d/meds.fits" ]] || "$STAMPEDE" sim meds --out "$d" "${sim[@]}" --shear "$shear" --seed $((500 + k)) \
+        --overwrite "${threads[@]}" > /dev/null 2>&1
+      "$STAMPEDE" fit --meds "$d/meds.fits" -o "$d/fit.fits" "${fit[@]}" --quiet "${threads[@]}"
+      [[ "${KEEP_TILES:-1}" == 1 ]] || rm -f "$d/meds.fits"
+    fi
   done
   k=$((k + 1))
 done

@@ -4,15 +4,16 @@
 # e = (0, 0.05), 39 px stamps, ring and noise pairs) in shear pairs at a fixed shear (sets 2j and
 # 2j+1: the same galaxies and noise under +g and -g), each set fitted with metacal = true,
 # metacal_model = wmom; `stampede metrics --shear-pairs --metacal` over every set, without a cut
-# and with the cut (S/N >= 15 and size ratio >= 0.5 on every image, with R_S), into
-# OUTDIR/snrS/{all,cut}.txt.
+# and with the cut (S/N >= 15 and size ratio >= 0.5 on every image) with R_S and without it, into
+# OUTDIR/snrS/{all,cut,cut_without_rs}.txt.
 #
 #   docs/metacal/wmom_experiment.sh OUTDIR
 #
 # Environment: SNRS="20 40 10" PAIRS_20=32 PAIRS_40=8 PAIRS_10=8 (shear pairs per S/N, 2 x 2,500
-# galaxies each) SHEAR=0.02,0.02 THREADS=(all cores) STAMPEDE=build/tools/stampede. A pair whose
-# fits exist is skipped, so a stopped run goes on where it was and the metrics cover the pairs done.
-# Cost per galaxy here: ~27 CPU-ms to simulate, ~2 for the metacal row.
+# galaxies each) SHEAR=0.02,0.02 THREADS=(all cores) STAMPEDE=build/tools/stampede DEADLINE= (seconds
+# since the epoch: no pair starts after it; the metrics cover the pairs done). A pair whose fits
+# exist is skipped, so a stopped run goes on where it was and the metrics cover the pairs done.
+# Cost per galaxy: ~8 CPU-ms to simulate, ~2 for the metacal row.
 set -euo pipefail
 out=${1:?usage: wmom_experiment.sh OUTDIR}
 SNRS=${SNRS:-"20 40 10"}
@@ -29,6 +30,10 @@ for snr in $SNRS; do
   pairs=${!pairs_var:-8}
   args=()
   for ((j = 0; j < pairs; j++)); do
+    if [[ -n "${DEADLINE:-}" && ! -f "$dir/wmom_$((2 * j + 1)).fits" && $(date +%s) -ge $DEADLINE ]]; then
+      echo "S/N $snr: deadline reached after $j pairs" >&2
+      break
+    fi
     for k in $((2 * j)) $((2 * j + 1)); do
       if [[ ! -f "$dir/wmom_$k.fits" ]]; then
         [[ -f "$dir/set_$k.fits" ]] || "$STAMPEDE" sim great08 --out "$dir" --first-set $((2 * j)) --sets 2 --grid 50 \
@@ -43,4 +48,6 @@ for snr in $SNRS; do
   done
   "$STAMPEDE" metrics --shear-pairs --metacal "${args[@]}" > "$dir/all.txt"
   "$STAMPEDE" metrics --shear-pairs --metacal --cut-snr 15 --cut-size-ratio 0.5 "${args[@]}" > "$dir/cut.txt"
+  "$STAMPEDE" metrics --shear-pairs --metacal --cut-snr 15 --cut-size-ratio 0.5 --no-selection-response "${args[@]}" \
+    > "$dir/cut_without_rs.txt"
 done

@@ -84,9 +84,12 @@ bool MetacalFitter::set_psf(const PsfModel& psf, std::string* error) {
 
 bool MetacalFitter::make_images(std::span<const double> pixels, std::span<const double> weight, WeightKind kind,
                                 std::int64_t object_id, double* image_variance) {
+  // A simulated noise pair's members (4q + r and 4q + 2 + r) share one field, negated for the second.
+  const bool negated = options_.noise_pairs && object_id >= 0 && (object_id & 2);
+  const std::int64_t key = negated ? object_id - 2 : object_id;
   return images_set_.make(pixels, weight, kind, fit_options_.noise_sigma, *filters_, options_,
-                          RandomStream({options_.seed, static_cast<std::uint64_t>(object_id), kFixnoisePurpose}), images_,
-                          image_variance);
+                          RandomStream({options_.seed, static_cast<std::uint64_t>(key), kFixnoisePurpose}), images_,
+                          image_variance, negated ? -1.0 : 1.0);
 }
 
 void MetacalFitter::fit(std::span<const double> pixels, std::span<const double> weight, WeightKind kind,
@@ -155,13 +158,10 @@ void MetacalFitter::fit(std::span<const double> pixels, std::span<const double> 
   record->r22 = (e2[3] - e2[4]) / two_step;
 }
 
-FitResult MetacalFitter::moments_result(std::span<const double> image, double variance) {
+FitResult weighted_moments_row(const kernels::WeightedMoments& m, bool unweighted, int n_pixels) {
   FitResult r;
-  // Noise-free images are measured in data units, as an unweighted fit is (and flagged so).
-  const bool unweighted = !(variance > 0);
-  const kernels::WeightedMoments m = kernels::weighted_moments(image, s_, weight_fwhm(), unweighted ? 1.0 : variance, scratch_);
   if (unweighted) r.flags |= kFlagUnweighted;
-  r.n_pixels = static_cast<int>(image.size());
+  r.n_pixels = n_pixels;
   if (!m.valid) {
     r.status = FitStatus::kModelFailure;
     return r;
@@ -178,6 +178,13 @@ FitResult MetacalFitter::moments_result(std::span<const double> image, double va
   r.flux = m.flux;
   r.snr = m.snr;
   return r;
+}
+
+FitResult MetacalFitter::moments_result(std::span<const double> image, double variance) {
+  // Noise-free images are measured in data units, as an unweighted fit is (and flagged so).
+  const bool unweighted = !(variance > 0);
+  const kernels::WeightedMoments m = kernels::weighted_moments(image, s_, weight_fwhm(), unweighted ? 1.0 : variance, scratch_);
+  return weighted_moments_row(m, unweighted, static_cast<int>(image.size()));
 }
 
 }  // namespace stampede

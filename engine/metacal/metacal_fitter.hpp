@@ -14,12 +14,18 @@
 #include "engine/metacal/metacal_image_set.hpp"
 #include "engine/metacal/metacal_options.hpp"
 #include "engine/metacal/metacal_record.hpp"
+#include "kernels/weighted_moments.hpp"
 
 namespace stampede {
 
 // The fit options of metacal's model: bd keeps them; exp and gauss fit one component, the other's
 // amplitude held at 0 (gauss: a Sersic n = 0.5 bulge).
 FitterOptions metacal_fit_options(FitterOptions o, MetacalModel model);
+
+// metacal_model = wmom: weighted moments as a row (e, centroid, radius, S/N, errors; flux the
+// weighted flux; the radius the half-light radius of the Gaussian with that weighted T).
+// unweighted: measured on noise-free images in data units (flagged kFlagUnweighted).
+FitResult weighted_moments_row(const kernels::WeightedMoments& m, bool unweighted, int n_pixels);
 
 class MetacalFitter {
  public:

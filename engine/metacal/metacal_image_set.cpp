@@ -31,7 +31,7 @@ MetacalImageSet::MetacalImageSet(int stamp_size, FftPlanning planning)
 
 bool MetacalImageSet::make(std::span<const double> pixels, std::span<const double> weight, WeightKind kind,
                            double noise_sigma, const MetacalFilters& filters, const MetacalOptions& options,
-                           RandomStream noise, std::span<double> out, double* image_variance) {
+                           RandomStream noise, std::span<double> out, double* image_variance, double fixnoise_sign) {
   const std::size_t npix = static_cast<std::size_t>(s_) * s_;
   if (pixels.size() != npix || (!weight.empty() && weight.size() != npix) || out.size() != kNumMetacalTypes * npix)
     throw std::invalid_argument("MetacalImageSet::make: sizes do not match the stamp");
@@ -58,7 +58,7 @@ bool MetacalImageSet::make(std::span<const double> pixels, std::span<const doubl
   const double mean_variance = variance_sum / static_cast<double>(npix);
   const bool fixnoise = options.fixnoise && mean_variance > 0;
   if (fixnoise) {
-    for (std::size_t i = 0; i < npix; ++i) noise_[i] *= noise.normal();
+    for (std::size_t i = 0; i < npix; ++i) noise_[i] *= fixnoise_sign * noise.normal();
     rotate(noise_, rotated_, s_);
     imager_.make_images(rotated_, filters, centre, centre, noise_images_);
     for (int t = 0; t < kNumMetacalTypes; ++t)

@@ -31,10 +31,11 @@ class MetacalImageSet {
   // pixel: the weight map's (kInverseVariance), else noise_sigma. A masked pixel (weight 0) has
   // none to deconvolve: it is zeroed and make() returns false. *image_variance: the images'
   // per-pixel noise variance (the data's through the noshear filter, twice that with fixnoise; 0
-  // for noise-free data). `noise` draws the fixnoise field (used only with options.fixnoise).
+  // for noise-free data). `noise` draws the fixnoise field (used only with options.fixnoise),
+  // multiplied by fixnoise_sign (-1 for the noise-negated member of a simulated noise pair).
   bool make(std::span<const double> pixels, std::span<const double> weight, WeightKind kind, double noise_sigma,
             const MetacalFilters& filters, const MetacalOptions& options, RandomStream noise, std::span<double> out,
-            double* image_variance);
+            double* image_variance, double fixnoise_sign = 1.0);
 
  private:
   int s_;

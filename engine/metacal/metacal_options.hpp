@@ -24,6 +24,10 @@ struct MetacalOptions {
   // images' correlated noise is isotropic (Sheldon & Huff 2017's "fixnoise").
   bool fixnoise = true;
   std::uint64_t seed = 20170101;  // keys the fixnoise fields with each object's id
+  // Set by a run on a grid simulated with noise pairs (its NOISEPR = T: objects 4q+2 and 4q+3 are
+  // 4q and 4q+1 with the noise negated): the pair's fixnoise fields are negated alike, so the
+  // fixnoise noise cancels at first order in the pair as the simulated noise does.
+  bool noise_pairs = false;
   MetacalModel model = MetacalModel::kBulgeDisc;
   // kWeightedMoments: the weight's FWHM in pixels; 0 = kWeightOverGamma x the reconvolution PSF's.
   double weight_fwhm = 0.0;

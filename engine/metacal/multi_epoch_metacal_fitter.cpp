@@ -10,13 +10,7 @@
 namespace stampede {
 
 MultiEpochMetacalFitter::MultiEpochMetacalFitter(const FitterOptions& fit_options, const MetacalOptions& options)
-    : fit_options_(metacal_fit_options(fit_options, options.model)), options_(options), fitter_(fit_options_) {
-  // Weighted moments are taken in one stamp's pixels; over cutouts with their own WCS they would
-  // need a combination on the sky that is not built.
-  if (options.model == MetacalModel::kWeightedMoments)
-    throw std::invalid_argument("option 'metacal_model' = 'wmom' is for stamps (grids, catalogues, arrays); metacal on "
-                                "MEDS tiles fits bd, exp or gauss");
-}
+    : fit_options_(metacal_fit_options(fit_options, options.model)), options_(options), fitter_(fit_options_) {}
 
 MultiEpochMetacalFitter::~MultiEpochMetacalFitter() = default;
 
@@ -79,6 +73,8 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
 
   if (images_.size() < n) images_.resize(n), weights_.resize(n);
   prepared_.resize(n);
+  variances_.resize(n);
+  const bool moments = options_.model == MetacalModel::kWeightedMoments;
   for (std::size_t k = 0; k < n; ++k) {
     const MetacalEpoch& e = *used_[k];
     const std::size_t npix = static_cast<std::size_t>(e.box_size) * e.box_size;
@@ -93,10 +89,13 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
     // The images' noise is uniform: their weight is 1 / variance (unit for noise-free data).
     const double w = variance > 0 ? 1.0 / variance : 1.0;
     for (std::size_t i = 0; i < npix; ++i) weights_[k][i] = e.weight[i] > 0 ? w : 0.0;
+    variances_[k] = variance;
+    if (moments) continue;  // nothing is fitted: no Gamma to render
     prepared_[k] = fitter_.renderer_for(e.box_size).prepare_psf(gamma_.filters[k]->reconvolution(), &why);
     if (!prepared_[k]) return fail(FitStatus::kPsfFailure, "metacal: Gamma: " + why);
   }
   auto fit_type = [&](MetacalType t) {
+    if (moments) return measure_moments(t, n_bands, bands != nullptr && t == MetacalType::kNoshear);
     fit_epochs_.clear();
     for (std::size_t k = 0; k < n; ++k) {
       const MetacalEpoch& e = *used_[k];
@@ -133,6 +132,50 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
   record->r21 = (e2[1] - e2[2]) / two_step;
   record->r12 = (e1[3] - e1[4]) / two_step;
   record->r22 = (e2[3] - e2[4]) / two_step;
+}
+
+double MultiEpochMetacalFitter::weight_fwhm() const {
+  return options_.weight_fwhm > 0 ? options_.weight_fwhm : MetacalOptions::kWeightOverGamma * gamma_fwhm_;
+}
+
+MultiBandFitResult MultiEpochMetacalFitter::measure_moments(MetacalType t, int n_bands, bool per_band) {
+  // Noise-free images are measured in data units, as the single-stamp path does (and flagged so).
+  bool unweighted = false;
+  int n_pixels = 0;
+  auto stamps_of = [&](int band) {  // band < 0: every cutout
+    stamps_.clear();
+    for (std::size_t k = 0; k < used_.size(); ++k) {
+      const MetacalEpoch& e = *used_[k];
+      if (band >= 0 && e.band != band) continue;
+      const std::size_t npix = static_cast<std::size_t>(e.box_size) * e.box_size;
+      kernels::MomentsStamp s;
+      s.image = std::span<const double>(images_[k]).subspan(static_cast<int>(t) * npix, npix);
+      s.size = e.box_size;
+      s.dudx = e.frame.dudx, s.dudy = e.frame.dudy, s.dvdx = e.frame.dvdx, s.dvdy = e.frame.dvdy;
+      s.x_ref = e.frame.x_ref, s.y_ref = e.frame.y_ref;
+      s.flux_scale = e.flux_scale;
+      s.variance = variances_[k] > 0 ? variances_[k] : 1.0;
+      unweighted = unweighted || !(variances_[k] > 0);
+      if (band < 0) n_pixels += static_cast<int>(npix);
+      stamps_.push_back(s);
+    }
+  };
+  stamps_of(-1);
+  MultiBandFitResult out;
+  const kernels::WeightedMoments m = kernels::weighted_moments(stamps_, weight_fwhm(), moments_scratch_);
+  out.fit = weighted_moments_row(m, unweighted, n_pixels);
+  out.bands.assign(static_cast<std::size_t>(std::max(n_bands, 0)), BandFit{});
+  if (!per_band) return out;
+  // Each band's weighted flux and S/N, under the same weight, about its own centroid.
+  for (int b = 0; b < n_bands; ++b) {
+    stamps_of(b);
+    BandFit& bf = out.bands[static_cast<std::size_t>(b)];
+    bf.n_epochs = static_cast<int>(stamps_.size());
+    if (stamps_.empty()) continue;
+    const kernels::WeightedMoments mb = kernels::weighted_moments(stamps_, weight_fwhm(), moments_scratch_);
+    if (mb.valid) bf.flux = mb.flux, bf.snr = mb.snr;
+  }
+  return out;
 }
 
 }  // namespace stampede

@@ -3,6 +3,8 @@
 // pixels, MetacalFilters), reconvolved with the object's one Gamma, round on the sky
 // (sky_reconvolution states the rule), with a fixnoise field of its own weight map; then each of
 // the five image sets fitted jointly (MultiEpochFitter), so e and R are in the sky's (u, v) axes.
+// metacal_model = wmom fits nothing: each image set's weighted moments under a weight round on
+// the sky, the cutouts combined (kernels/weighted_moments), its width in the cutouts' sky units.
 //
 // Cutouts with masked pixels are left out (nothing can be deconvolved there); when every cutout
 // has some, all are used with those pixels zeroed and weightless, and the row is flagged, as the
@@ -23,6 +25,7 @@
 #include "engine/metacal/metacal_options.hpp"
 #include "engine/metacal/metacal_record.hpp"
 #include "engine/metacal/reconvolution_psf.hpp"
+#include "kernels/weighted_moments.hpp"
 
 namespace stampede {
 
@@ -54,11 +57,16 @@ class MultiEpochMetacalFitter {
   // The last object's: Gamma's FWHM on the sky (NaN when none served), cutouts used.
   double gamma_fwhm() const { return gamma_fwhm_; }
   int epochs_used() const { return epochs_used_; }
+  // metacal_model = wmom: the weight's FWHM on the sky for the last object (NaN when no Gamma).
+  double weight_fwhm() const;
   // The five images of cutout k of the last object's used ones (kMetacalTypes order).
   std::span<const double> images(std::size_t k) const { return images_[k]; }
 
  private:
   MetacalImageSet& set_for(int box_size);
+  // metacal_model = wmom: image set t's moments over the used cutouts (per_band: and each band's
+  // weighted flux and S/N).
+  MultiBandFitResult measure_moments(MetacalType t, int n_bands, bool per_band);
   FitterOptions fit_options_;
   MetacalOptions options_;
   MultiBandFitter fitter_;  // one band: MultiEpochFitter's fits
@@ -68,6 +76,9 @@ class MultiEpochMetacalFitter {
   std::vector<MetacalEpochPsf> psfs_;
   std::vector<std::shared_ptr<const PreparedPsf>> prepared_;
   std::vector<EpochData> fit_epochs_;
+  std::vector<double> variances_;  // each used cutout's image noise variance (0: noise-free)
+  std::vector<kernels::MomentsStamp> stamps_;
+  std::vector<double> moments_scratch_;
   SkyReconvolution gamma_;
   double gamma_fwhm_ = NAN;
   int epochs_used_ = 0;

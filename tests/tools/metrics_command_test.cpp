@@ -35,6 +35,30 @@ class MetricsCommand : public stampede::testing::FitCommandTest {
   RunResult metrics(const std::vector<std::string>& args) {
     return finish(spawn(args, path("metrics_err.txt"), "metrics", path("report.txt")), path("metrics_err.txt"));
   }
+  // A metacal table of 400 rows whose radii (0.6 .. 1.56 px) straddle 1.0 x Gamma / 3.2, the
+  // sheared images' radii a little apart from the noshear one's.
+  void write_metacal_table() {
+    constexpr double kGamma = 3.2;
+    std::vector<std::vector<double>> c(24);
+    const char* names[] = {"id", "e1", "e2", "status", "flags", "psf_e1", "psf_e2", "snr", "radius", "R11", "R12", "R21",
+                           "R22", "snr_1p", "radius_1p", "snr_1m", "radius_1m", "snr_2p", "radius_2p", "snr_2m",
+                           "radius_2m"};
+    for (int i = 0; i < 400; ++i) {
+      const double r = 0.6 + 0.01 * (i % 97);  // 0.6 .. 1.56 px: about half below 1.0 x Gamma / 3.2
+      const double values[] = {double(i), 0.01 * (i % 7) - 0.03, 0.02 - 0.005 * (i % 9), 0, 0, 0, 0.05, 20.0 + i % 11, r,
+                               0.9, 0.01, -0.01, 0.85, 20, r + 0.004 * (i % 3), 20, r - 0.003 * (i % 5), 20,
+                               r + 0.002 * (i % 4), 20, r - 0.001 * (i % 6)};
+      for (int k = 0; k < 21; ++k) c[k].push_back(values[k]);
+    }
+    FitsFile f = FitsFile::create(path("mcal.fits"), true);
+    f.write_empty_image();
+    std::vector<FitsFile::OutputColumn> cols;
+    for (int k = 0; k < 21; ++k) cols.push_back({names[k], k == 0 || k == 3 || k == 4, c[k]});
+    f.write_table("RESULTS", cols);
+    f.write_key("metacal_step", 0.01, "");
+    f.write_key("metacal_gamma_fwhm", kGamma, "");
+    f.close();
+  }
 };
 
 TEST_F(MetricsCommand, AFitPairedWithAnotherSetsTruthIsRefused) {
@@ -92,26 +116,7 @@ TEST_F(MetricsCommand, ASetWhoseRowsAreAllExcludedIsRefused) {
 // --cut-size-ratio Q is the radius cut at Q x Gamma, on every image's own radius, with its
 // selection response: the same report as --cut-radius Q x gamma; refused without --metacal.
 TEST_F(MetricsCommand, ASizeRatioCutIsTheRadiusCutAtThatMultipleOfGamma) {
-  constexpr double kGamma = 3.2;
-  std::vector<std::vector<double>> c(24);
-  const char* names[] = {"id", "e1", "e2", "status", "flags", "psf_e1", "psf_e2", "snr", "radius", "R11", "R12", "R21",
-                         "R22", "snr_1p", "radius_1p", "snr_1m", "radius_1m", "snr_2p", "radius_2p", "snr_2m",
-                         "radius_2m"};
-  for (int i = 0; i < 400; ++i) {
-    const double r = 0.6 + 0.01 * (i % 97);  // 0.6 .. 1.56 px: about half below 1.0 x Gamma / 3.2
-    const double values[] = {double(i), 0.01 * (i % 7) - 0.03, 0.02 - 0.005 * (i % 9), 0, 0, 0, 0.05, 20.0 + i % 11, r,
-                             0.9, 0.01, -0.01, 0.85, 20, r + 0.004 * (i % 3), 20, r - 0.003 * (i % 5), 20,
-                             r + 0.002 * (i % 4), 20, r - 0.001 * (i % 6)};
-    for (int k = 0; k < 21; ++k) c[k].push_back(values[k]);
-  }
-  FitsFile f = FitsFile::create(path("mcal.fits"), true);
-  f.write_empty_image();
-  std::vector<FitsFile::OutputColumn> cols;
-  for (int k = 0; k < 21; ++k) cols.push_back({names[k], k == 0 || k == 3 || k == 4, c[k]});
-  f.write_table("RESULTS", cols);
-  f.write_key("metacal_step", 0.01, "");
-  f.write_key("metacal_gamma_fwhm", kGamma, "");
-  f.close();
+  write_metacal_table();
   const std::vector<std::string> set = {"--metacal", "--fit", path("mcal.fits"), "--truth", data("truth_0.fits")};
   // 0.30171875 x 3.2 = 0.9655 px, away from every radius (multiples of 0.001 px).
   const RunResult ratio = metrics(set + std::vector<std::string>{"--cut-size-ratio", "0.30171875"});
@@ -126,6 +131,25 @@ TEST_F(MetricsCommand, ASizeRatioCutIsTheRadiusCutAtThatMultipleOfGamma) {
   const RunResult plain = metrics({"--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--cut-size-ratio", "0.3"});
   EXPECT_EQ(plain.exit_code, 1);
   EXPECT_TRUE(Contains(plain.err, "--cut-size-ratio is a metacal cut")) << plain.err;
+}
+
+// --no-selection-response cuts on the noshear quantities alone: R_S reads exactly zero and the
+// calibrated shear differs from the one with R_S; refused without --metacal.
+TEST_F(MetricsCommand, NoSelectionResponseLeavesRsOut) {
+  write_metacal_table();
+  const std::vector<std::string> set = {"--metacal", "--fit", path("mcal.fits"), "--truth", data("truth_0.fits"),
+                                        "--cut-radius", "0.9655"};
+  ASSERT_EQ(metrics(set).exit_code, 0);
+  const std::string with_rs = text_of(path("report.txt"));
+  const RunResult without = metrics(set + std::vector<std::string>{"--no-selection-response"});
+  ASSERT_EQ(without.exit_code, 0) << without.err;
+  const std::string without_rs = text_of(path("report.txt"));
+  EXPECT_FALSE(Contains(with_rs, "R_S = [[+0.0000 +0.0000] [+0.0000 +0.0000]]")) << with_rs;
+  EXPECT_TRUE(Contains(without_rs, "R_S = [[+0.0000 +0.0000] [+0.0000 +0.0000]]")) << without_rs;
+  EXPECT_NE(with_rs, without_rs);
+  const RunResult plain = metrics({"--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--no-selection-response"});
+  EXPECT_EQ(plain.exit_code, 1);
+  EXPECT_TRUE(Contains(plain.err, "--no-selection-response leaves metacal's R_S out")) << plain.err;
 }
 
 }  // namespace

@@ -308,5 +308,41 @@ TEST(MetacalFitter, APsfItCannotUseIsRefusedWithAMessage) {
   EXPECT_TRUE(std::isnan(rec.r11));
 }
 
+// A set simulated with noise pairs (objects 4q+2, 4q+3 are 4q, 4q+1 with the noise negated): with
+// noise_pairs the partner's fixnoise field is the negated field of its pair, so on a blank stamp
+// (the images are the fixnoise alone) the partner's images are exactly the negation; members of
+// different pairs, and every object without noise_pairs, have fields of their own.
+TEST(MetacalFitter, NoisePairsShareTheirFixnoiseFieldNegated) {
+  FftPlanCache plans(FftPlanning::kEstimate);
+  std::string error;
+  const std::vector<double> blank(kStamp * kStamp, 0.0);
+  auto images = [&](bool noise_pairs, std::int64_t id) {
+    MetacalOptions mo;
+    mo.noise_pairs = noise_pairs;
+    MetacalFitter mcal(fit_options(1.0), mo, kStamp, plans, FftPlanning::kEstimate);
+    EXPECT_TRUE(mcal.set_psf(kPsf, &error)) << error;
+    double variance = 0;
+    mcal.make_images(blank, {}, WeightKind::kInverseVariance, id, &variance);
+    EXPECT_GT(variance, 0);
+    return std::vector<double>(mcal.images().begin(), mcal.images().end());
+  };
+  auto negated = [](const std::vector<double>& a, const std::vector<double>& b) {
+    for (std::size_t i = 0; i < a.size(); ++i)
+      if (a[i] != -b[i]) return false;
+    return true;
+  };
+  const std::vector<double> first = images(true, 4), partner = images(true, 6), other = images(true, 5);
+  EXPECT_GT(std::abs(first[kStamp * kStamp / 2]), 0.0);  // there is a field to compare
+  EXPECT_TRUE(negated(first, partner));
+  EXPECT_EQ(images(true, 7), [&] {
+    std::vector<double> v = other;
+    for (double& x : v) x = -x;
+    return v;
+  }());
+  EXPECT_FALSE(negated(first, other));
+  EXPECT_EQ(images(false, 4), first);  // the pair's first member keeps the unpaired field
+  EXPECT_FALSE(negated(first, images(false, 6)));
+}
+
 }  // namespace
 }  // namespace stampede
