@@ -354,10 +354,10 @@ std::vector<Entry> make_registry() {
                },
                HeaderValueType::kInteger});
   r.push_back({"metacal_model",
-               "metacal: the model of its five fits (the row's e is the noshear fit's): bd (the run's bulge + disc "
-               "model), exp (the disc alone) or gauss (a Sersic n = 0.5 alone, as DES Y3); exp and gauss replace "
-               "the amplitude and bulge_index settings; wmom fits nothing: the moments under a round Gaussian "
-               "weight of metacal_weight_fwhm (as DES Y6; stamps only)",
+               "metacal: its estimator on the five images (the row's e is the noshear image's): wmom (default) fits "
+               "nothing, the moments under a round Gaussian weight of metacal_weight_fwhm (as DES Y6); bd (the run's "
+               "bulge + disc model), exp (the disc alone) or gauss (a Sersic n = 0.5 alone, as DES Y3) are fits; exp "
+               "and gauss replace the amplitude and bulge_index settings",
                mcal,
                [](const RunConfig& c) {
                  switch (c.metacal.model) {
@@ -377,8 +377,8 @@ std::vector<Entry> make_registry() {
                  return std::string();
                }});
   r.push_back(double_entry(mcal, "metacal_weight_fwhm",
-                           "metacal_model = wmom: FWHM in pixels of the moments' round Gaussian weight; 0 = 2.5 x the "
-                           "reconvolution PSF's",
+                           "metacal_model = wmom: FWHM of the moments' round Gaussian weight, in pixels (in the sky's "
+                           "units, arcsec, for MEDS tiles); 0 = 2.5 x the reconvolution PSF's",
                            DoubleKind::kFinite, [](auto& c) -> auto& { return c.metacal.weight_fwhm; }));
 
   const char* model = "Model reparameterisation (paper appendix A)";

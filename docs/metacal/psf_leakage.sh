@@ -8,7 +8,7 @@
 #
 #   docs/metacal/psf_leakage.sh OUTDIR
 #
-# Environment: A=0.06 GRID=40 SNR=20 MODEL=(metacal_model; empty: the default) THREADS=(all cores)
+# Environment: A=0.06 GRID=40 SNR=20 MODEL=bd (metacal_model) THREADS=(all cores)
 # STAMPEDE=build/tools/stampede PYTHON=python3 (with numpy; PYTHONPATH=build/python).
 set -euo pipefail
 out=${1:?usage: psf_leakage.sh OUTDIR}
@@ -19,8 +19,7 @@ STAMPEDE=${STAMPEDE:-build/tools/stampede}
 PYTHON=${PYTHON:-python3}
 threads=()
 [[ -n "${THREADS:-}" ]] && threads=(--threads "$THREADS")
-model=()
-[[ -n "${MODEL:-}" ]] && model=(--set metacal_model="$MODEL")
+model=(--set metacal_model="${MODEL:-bd}")
 mkdir -p "$out"
 for psf in "p1 $A 0" "m1 -$A 0" "p2 0 $A" "m2 0 -$A"; do
   read -r name e1 e2 <<< "$psf"

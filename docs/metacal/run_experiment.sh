@@ -45,7 +45,7 @@ for snr in $SNRS; do
   plain=() metacal=()
   for ((k = 0; k < SETS; k++)); do
     fit "$dir/set_$k.fits" "$dir/plain_$k.fits"
-    fit "$dir/set_$k.fits" "$dir/metacal_$k.fits" --set metacal=true
+    fit "$dir/set_$k.fits" "$dir/metacal_$k.fits" --set metacal=true --set metacal_model=bd
     plain+=(--fit "$dir/plain_$k.fits" --truth "$dir/truth_$k.fits")
     metacal+=(--fit "$dir/metacal_$k.fits" --truth "$dir/truth_$k.fits")
   done

@@ -13,7 +13,7 @@
 # galaxies each) SHEAR=0.02,0.02 THREADS=(all cores) STAMPEDE=build/tools/stampede DEADLINE= (seconds
 # since the epoch: no pair starts after it; the metrics cover the pairs done). A pair whose fits
 # exist is skipped, so a stopped run goes on where it was and the metrics cover the pairs done.
-# Cost per galaxy: ~8 CPU-ms to simulate, ~2 for the metacal row.
+# Cost per galaxy: ~12 CPU-ms to simulate, ~2 for the metacal row.
 set -euo pipefail
 out=${1:?usage: wmom_experiment.sh OUTDIR}
 SNRS=${SNRS:-"20 40 10"}

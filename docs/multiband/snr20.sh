@@ -10,7 +10,7 @@
 # With METACAL=1 each set is also fitted with metacal across the bands (joint_metacal.fits) and
 # docs/metacal/meds_tiles.py gives the calibrated m and c of the same pairs.
 #
-# Environment: N=1000 SNR=20 SHEARS="0.04,0 0,0.04" METACAL=0 THREADS=(all cores) STAMPEDE=build/tools/stampede
+# Environment: N=1000 SNR=20 SHEARS="0.04,0 0,0.04" METACAL=0 MODEL=bd (its metacal_model) THREADS=(all cores) STAMPEDE=build/tools/stampede
 # PYTHON=/usr/bin/python3 (numpy; PYTHONPATH=build/python). Steps whose outputs exist are skipped.
 set -euo pipefail
 out=${1:?usage: snr20.sh OUTDIR}
@@ -34,7 +34,7 @@ for g in $SHEARS; do
       --bands g,r,i -o "$d/joint.fits" --quiet "${threads[@]}"
     [[ -f "$d/g_only.fits" ]] || "$STAMPEDE" fit --meds "$d/g/meds.fits" -o "$d/g_only.fits" --quiet "${threads[@]}"
     [[ "${METACAL:-0}" == 0 || -f "$d/joint_metacal.fits" ]] || "$STAMPEDE" fit --meds "$d/g/meds.fits" \
-      --meds "$d/r/meds.fits" --meds "$d/i/meds.fits" --bands g,r,i --set metacal=true -o "$d/joint_metacal.fits" \
+      --meds "$d/r/meds.fits" --meds "$d/i/meds.fits" --bands g,r,i --set metacal=true --set metacal_model="${MODEL:-bd}" -o "$d/joint_metacal.fits" \
       --quiet "${threads[@]}"
   done
   k=$((k + 1))

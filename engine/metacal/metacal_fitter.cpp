@@ -39,8 +39,8 @@ bool MetacalOptions::IsValid(std::string* why) const {
     if (why) *why = "metacal_psf_dilation = " + number_text(psf_dilation) + ": must be 0 (automatic) or in [1, 3]";
     return false;
   }
-  if (!(weight_fwhm == 0 || (weight_fwhm >= 0.5 && weight_fwhm <= 1000))) {
-    if (why) *why = "metacal_weight_fwhm = " + number_text(weight_fwhm) + ": must be 0 (automatic) or in [0.5, 1000] pixels";
+  if (!(weight_fwhm == 0 || (weight_fwhm >= 0.1 && weight_fwhm <= 1000))) {
+    if (why) *why = "metacal_weight_fwhm = " + number_text(weight_fwhm) + ": must be 0 (automatic) or in [0.1, 1000] (pixels; arcsec for MEDS tiles)";
     return false;
   }
   return true;

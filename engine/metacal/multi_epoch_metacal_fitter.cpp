@@ -111,11 +111,12 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
   if (bands) *bands = std::move(noshear_bands.bands);
   std::array<double, kNumMetacalTypes> e1{}, e2{};
   std::string unusable;  // the first image set whose fit is not ok
-  if (noshear->status != FitStatus::kOk) unusable = std::string("noshear image set's fit is ") + ToString(noshear->status);
+  const std::string what = moments ? " image set's moments are " : " image set's fit is ";
+  if (noshear->status != FitStatus::kOk) unusable = "noshear" + what + ToString(noshear->status);
   for (int t = 1; t < kNumMetacalTypes; ++t) {
     const FitResult r = fit_type(static_cast<MetacalType>(t)).fit;
     if (r.status != FitStatus::kOk && unusable.empty())
-      unusable = std::string(metacal_type_name(static_cast<MetacalType>(t))) + " image set's fit is " + ToString(r.status);
+      unusable = std::string(metacal_type_name(static_cast<MetacalType>(t))) + what + ToString(r.status);
     e1[t] = r.params[index(Param::kE1)];
     e2[t] = r.params[index(Param::kE2)];
     record->e1[t - 1] = e1[t];

@@ -179,30 +179,6 @@ Great08Simulator::Great08Simulator(const Great08SimOptions& options) : options_(
   ro.max_half_light_radius = 1.1 * largest;
   if (ro.max_half_light_radius > 100) throw std::invalid_argument("--size needs galaxies larger than 100 pixels");
   renderer_ = std::make_unique<SimRenderer>(options.psf, ro);
-  if (two && options.bulge_fraction_min < options.bulge_fraction_max) tabulate_radius();
-}
-
-void Great08Simulator::tabulate_radius() {
-  // Solving for the radius costs ~4 ms a galaxy (thousands of Bessel functions per FWHM); the
-  // radius is smooth in the bulge fraction, so 48 Chebyshev nodes carry it (to ~3e-12 for the
-  // GREAT08 set-up), checked at the 47 points between them against the solved radius before use.
-  const double a = options_.bulge_fraction_min, b = options_.bulge_fraction_max;
-  constexpr int kNodes = 48;
-  constexpr double kTolerance = 1e-10;  // relative; the solve itself stops at 1e-11
-  std::vector<double> x = kernels::ChebyshevInterpolant::nodes(a, b, kNodes);
-  for (int j = 0; j + 1 < kNodes; ++j) x.push_back(0.5 * (x[static_cast<std::size_t>(j)] + x[static_cast<std::size_t>(j) + 1]));
-  std::vector<double> h(x.size());
-  parallel_indices(
-      static_cast<long long>(x.size()), 1, [] { return 0; },
-      [&](int, long long i) { h[static_cast<std::size_t>(i)] = half_light_radius(x[static_cast<std::size_t>(i)]); });
-  kernels::ChebyshevInterpolant table(a, b, std::vector<double>(h.begin(), h.begin() + kNodes));
-  for (std::size_t i = kNodes; i < x.size(); ++i)
-    if (!(std::abs(table(x[i]) / h[i] - 1) <= kTolerance)) return;
-  radius_by_bulge_fraction_ = std::move(table);
-}
-
-double Great08Simulator::drawn_half_light_radius(double bulge_fraction) const {
-  return radius_by_bulge_fraction_.empty() ? half_light_radius(bulge_fraction) : radius_by_bulge_fraction_(bulge_fraction);
 }
 
 SimSet Great08Simulator::simulate_set(int k) const {
@@ -271,7 +247,7 @@ SimSet Great08Simulator::simulate_set(int k) const {
           e_bulge = std::polar(magnitude, std::arg(e_disc) + 2 * turn);
           offset_bulge = std::polar(o.bd_offset * std::sqrt(rng.uniform()), 2 * std::numbers::pi * rng.uniform());
         }
-        const double hlr = fixed_fraction ? fixed_hlr : drawn_half_light_radius(bf);
+        const double hlr = fixed_fraction ? fixed_hlr : half_light_radius(bf);
         for (int member = 0; member < 2; ++member) {
           const long long index = group * pair + member;
           if (index >= n_objects) break;

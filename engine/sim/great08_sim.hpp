@@ -16,7 +16,6 @@
 
 #include "engine/model/psf_model.hpp"
 #include "engine/sim/sim_renderer.hpp"
-#include "kernels/math/chebyshev_interpolant.hpp"
 
 namespace stampede {
 
@@ -115,11 +114,6 @@ class Great08Simulator {
   Great08SimOptions options_;
   double psf_fwhm_ = 0;
   std::unique_ptr<SimRenderer> renderer_;
-  // half_light_radius over the drawn bulge fractions, when its interpolation was verified (empty:
-  // each galaxy solves for its radius).
-  kernels::ChebyshevInterpolant radius_by_bulge_fraction_;
-  void tabulate_radius();
-  double drawn_half_light_radius(double bulge_fraction) const;
   double bulge_radius_ratio() const;
   std::vector<SimComponent> round_components(double bulge_fraction, double disc_hlr) const;
 };

@@ -175,7 +175,9 @@ TEST_F(FitRunTest, MetacalRunsAreIdenticalForAnyThreadCount) {
       EXPECT_TRUE(same_bits(x, y)) << i;
     if (usable_for_shear(a.fit.status, a.flags)) {
       ++with_response;
-      EXPECT_GT(a.metacal.r11, 0.2) << i;  // a galaxy's response: positive, of order one
+      // A galaxy's response: positive; the default wmom's is below a fit's ~1 (its weight is
+      // PSF-sized, so the measured ellipticity is diluted by the round Gamma).
+      EXPECT_GT(a.metacal.r11, 0.05) << i;
       EXPECT_LT(a.metacal.r11, 2.0) << i;
     }
   }

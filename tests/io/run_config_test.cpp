@@ -169,7 +169,10 @@ TEST(RunConfigRegistry, MedsOptionsParseAndValidate) {
 // metacal_model's four values (wmom: the weighted moments, no fit) and the weight's width bounds.
 TEST(RunConfigRegistry, MetacalModelAndWeightParseAndValidate) {
   RunConfig c;
+  EXPECT_EQ(get_option(c, "metacal_model"), "wmom");  // the default
   set_option(c, "metacal", "true");
+  set_option(c, "metacal_model", "BD");
+  EXPECT_EQ(c.metacal.model, MetacalModel::kBulgeDisc);
   set_option(c, "metacal_model", "WMOM");
   EXPECT_EQ(c.metacal.model, MetacalModel::kWeightedMoments);
   EXPECT_EQ(get_option(c, "metacal_model"), "wmom");
@@ -177,9 +180,9 @@ TEST(RunConfigRegistry, MetacalModelAndWeightParseAndValidate) {
                        "expected bd, exp, gauss or wmom"));
   set_option(c, "metacal_weight_fwhm", "4.5");
   EXPECT_NO_THROW(validate(c));
-  set_option(c, "metacal_weight_fwhm", "0.2");
+  set_option(c, "metacal_weight_fwhm", "0.05");
   EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }),
-                       "metacal_weight_fwhm = 0.2: must be 0 (automatic) or in [0.5, 1000] pixels"));
+                       "metacal_weight_fwhm = 0.05: must be 0 (automatic) or in [0.1, 1000] (pixels; arcsec for MEDS tiles)"));
 }
 
 // --- get / set -----------------------------------------------------------------------------------

@@ -77,6 +77,7 @@ const std::vector<Galaxy> kGalaxies = {
 TEST(MetacalFitter, NoiseFreeResponseMatchesTrulyShearedRefits) {
   FftPlanCache plans(FftPlanning::kEstimate);
   MetacalOptions mo;
+  mo.model = MetacalModel::kBulgeDisc;
   MetacalFitter mcal(fit_options(), mo, kStamp, plans, FftPlanning::kEstimate);
   std::string error;
   ASSERT_TRUE(mcal.set_psf(kPsf, &error)) << error;
@@ -247,7 +248,9 @@ TEST(MetacalFitter, FixnoiseMakesTheNoiseCorrelationIsotropic) {
 // a noisy stamp's record equals fresh fits of its five images, bitwise.
 TEST(MetacalFitter, EachImageIsFittedFromItsOwnStart) {
   FftPlanCache plans(FftPlanning::kEstimate);
-  MetacalFitter mcal(fit_options(1.0), MetacalOptions(), kStamp, plans, FftPlanning::kEstimate);
+  MetacalOptions bd;
+  bd.model = MetacalModel::kBulgeDisc;
+  MetacalFitter mcal(fit_options(1.0), bd, kStamp, plans, FftPlanning::kEstimate);
   std::string error;
   ASSERT_TRUE(mcal.set_psf(kPsf, &error)) << error;
   Fitter fresh(fit_options(1.0), nullptr, plans);
