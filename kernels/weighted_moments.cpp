@@ -15,6 +15,11 @@ struct Sums {
 // a row's sums weighted by the row's factor, 2 x size exponentials per pass instead of size^2.
 bool separable(const MomentsStamp& s) { return s.dudy == 0 && s.dvdx == 0; }
 
+// Whether pixel (x, y) lies on the stamp (pixel centres at integers).
+bool inside(const MomentsStamp& s, double x, double y) {
+  return x >= -0.5 && x <= s.size - 0.5 && y >= -0.5 && y <= s.size - 0.5;
+}
+
 std::size_t scratch_size(const MomentsStamp& s) {
   return separable(s) ? 2 * static_cast<std::size_t>(s.size) : static_cast<std::size_t>(s.size) * s.size;
 }
@@ -137,7 +142,7 @@ WeightedMoments measure(std::span<const MomentsStamp> stamps, double fwhm, doubl
     for (std::size_t k = 0; k < n; ++k) {
       double xk, yk;
       stamp_centroid(k, &xk, &yk);
-      if (!(xk >= -0.5 && xk <= stamps[k].size - 0.5 && yk >= -0.5 && yk <= stamps[k].size - 0.5)) return m;
+      if (!inside(stamps[k], xk, yk)) return m;
       const Sums sk = weighted_sums(stamps[k], xk, yk, inv_two_s2, w);
       w += scratch_size(stamps[k]);
       const double f = c_of(stamps[k]) / c_sum / stamps[k].flux_scale;
@@ -161,10 +166,9 @@ WeightedMoments measure(std::span<const MomentsStamp> stamps, double fwhm, doubl
       du = ww * (ay * mx - axy * my) / det;
       dv = ww * (ax * my - axy * mx) / det;
     }
-    // The sky step in the first stamp's pixels.
+    // The sky step in the first stamp's pixels (every stamp's new centroid is checked above).
     x1 += (first.dvdy * du - first.dudy * dv) / det1;
     y1 += (-first.dvdx * du + first.dudx * dv) / det1;
-    if (!(x1 >= -0.5 && x1 <= first.size - 0.5 && y1 >= -0.5 && y1 <= first.size - 0.5)) return m;
   }
   const double ts = s.sxx + s.syy;
   if (!(ts > 0) || !std::isfinite(ts)) return m;

@@ -86,11 +86,11 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
     double variance = 0;
     set_for(e.box_size).make(e.pixels, e.weight, WeightKind::kInverseVariance, 0.0, *gamma_.filters[k], options_, noise,
                              images_[k], &variance);
+    variances_[k] = variance;
+    if (moments) continue;  // nothing is fitted: no weight map, no Gamma to render
     // The images' noise is uniform: their weight is 1 / variance (unit for noise-free data).
     const double w = variance > 0 ? 1.0 / variance : 1.0;
     for (std::size_t i = 0; i < npix; ++i) weights_[k][i] = e.weight[i] > 0 ? w : 0.0;
-    variances_[k] = variance;
-    if (moments) continue;  // nothing is fitted: no Gamma to render
     prepared_[k] = fitter_.renderer_for(e.box_size).prepare_psf(gamma_.filters[k]->reconvolution(), &why);
     if (!prepared_[k]) return fail(FitStatus::kPsfFailure, "metacal: Gamma: " + why);
   }

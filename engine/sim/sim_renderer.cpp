@@ -184,16 +184,10 @@ void SimRenderer::draw(std::span<const SimComponent> components, bool psf_only, 
   const double k_bound = k_limit_ * psf_stretch_;
   const int m_max = static_cast<int>(std::ceil(k_bound / alias + 0.5));
   const double scale = (with_pixel ? 1.0 / (step * step) : 1.0) / (static_cast<double>(n) * n);
-  // Per-component constants hoisted out of the frequency loop.
-  struct Prepared {
-    double s[3];
-    double flux, hlr;
-    const kernels::LogTable* table;  // looked up once, not per frequency
-  };
-  std::vector<Prepared> prepared;
-  prepared.reserve(components.size());
+  std::vector<SimWorkspace::Component>& prepared = ws.components_;
+  prepared.clear();
   for (const SimComponent& c : components) {
-    Prepared p{};
+    SimWorkspace::Component p{};
     shear_matrix(c.e1, c.e2, p.s);
     p.flux = c.flux;
     p.hlr = c.half_light_radius;
@@ -250,7 +244,7 @@ void SimRenderer::draw(std::span<const SimComponent> components, bool psf_only, 
           }
           std::complex<double> gal = 0;
           for (std::size_t c = 0; c < prepared.size(); ++c) {
-            const Prepared& p = prepared[c];
+            const SimWorkspace::Component& p = prepared[c];
             const double u = p.s[0] * kx + p.s[1] * ky, v = p.s[1] * kx + p.s[2] * ky;
             gal += p.flux * sersic_transform(p.table, std::sqrt(u * u + v * v) * p.hlr) *
                    (ws.phase_x_[c * nx + ix] * ws.phase_y_[c * ny + iy]);

@@ -50,8 +50,15 @@ class SimWorkspace {
   };
   Grid& grid(int n);
   std::map<int, Grid> grids_;
-  // Separable factors of the frequency loop, per axis and alias: pixel sincs and, per component,
-  // phases exp(-i k x); kept here so a steady-state render allocates nothing.
+  // Per-component constants hoisted out of the frequency loop, and its separable factors per axis
+  // and alias: pixel sincs and, per component, phases exp(-i k x); kept here so a steady-state
+  // render allocates nothing.
+  struct Component {
+    double s[3];
+    double flux, hlr;
+    const kernels::LogTable* table;  // looked up once, not per frequency
+  };
+  std::vector<Component> components_;
   std::vector<double> sinc_x_, sinc_y_;
   std::vector<std::complex<double>> phase_x_, phase_y_;
 };
