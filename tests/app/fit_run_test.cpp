@@ -275,6 +275,10 @@ TEST_F(FitRunTest, AStoppedRunKeepsItsPartialOutputsForResume) {
   const std::string out = scratch.path("stopped.fits");
   std::atomic<bool> stop{false};
   app::FitRunOptions o = options(out, 1);
+  // The reader may run a pool of batches (3 on one thread) ahead of the writer and reads one more
+  // while it waits for the first to come back, so the stop is certain to cut the run only when it
+  // has more than 4 batches: 6 of 2 here (with 3 of 5 it raced the writer thread).
+  io::apply_set(o.config, "batch_size=2");
   o.stop = &stop;
   o.on_rows = [&](std::span<const ObjectRecord>) { stop.store(true); };  // after the first committed batch
   const app::RunSummary s = app::FitRun(o).run();
