@@ -8,6 +8,8 @@
 //   BM_MetacalOneEpoch, BM_MetacalFourEpochs   metacal (metacal_model bd, fixnoise): the five
 //                  image sets and their joint fits, Gamma chosen per object (issue 30)
 //   BM_MetacalWmomFourEpochs   the same with metacal_model wmom: the image sets' moments on the sky
+//   BM_MetacalWmomFourEpochsImagePsf   the same with each PSF given as its image, as a MEDS tile's
+//                  PSFEx models give it (Gamma is then searched for, not given by a rule)
 //   BM_OneBandFourEpochs, BM_ThreeBandsFourEpochs   multi-band fits (issue 32): the same galaxies
 //                  in three bands of four cutouts each (other frames, PSFs and noise, bulge
 //                  fraction scaled 0.5x-1.5x over the bands), one band's or all three jointly
@@ -147,13 +149,14 @@ void fit_epochs(benchmark::State& state, int epochs, bool project = true) {
   state.counters["ms_per_object"] = benchmark::Counter(n * 1e-3, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
-void metacal_epochs(benchmark::State& state, int epochs, MetacalModel model = MetacalModel::kBulgeDisc) {
+void metacal_epochs(benchmark::State& state, int epochs, MetacalModel model = MetacalModel::kBulgeDisc,
+                    bool image_psf = false) {
   MetacalOptions mo;
   mo.enabled = true;
   mo.model = model;
   MultiEpochMetacalFitter fitter(options(), mo);
   std::vector<MetacalEpoch> data;
-  for (const Cutout& c : cutouts()) data.push_back({c.pixels, c.weight, kBox, c.frame, &c.psf, 1.0});
+  for (const Cutout& c : cutouts()) data.push_back({c.pixels, c.weight, kBox, c.frame, image_psf ? &c.psf_image : &c.psf, 1.0});
   long long n = 0, failed = 0;
   for (auto _ : state)
     for (int g = 0; g < kGalaxies; ++g, ++n) {
@@ -190,6 +193,9 @@ void BM_OneEpoch(benchmark::State& state) { fit_epochs(state, 1); }
 void BM_MetacalOneEpoch(benchmark::State& state) { metacal_epochs(state, 1); }
 void BM_MetacalFourEpochs(benchmark::State& state) { metacal_epochs(state, kEpochs); }
 void BM_MetacalWmomFourEpochs(benchmark::State& state) { metacal_epochs(state, kEpochs, MetacalModel::kWeightedMoments); }
+void BM_MetacalWmomFourEpochsImagePsf(benchmark::State& state) {
+  metacal_epochs(state, kEpochs, MetacalModel::kWeightedMoments, true);
+}
 void BM_SkyReconvolution(benchmark::State& state) { sky_reconvolution_of(state, false); }
 void BM_SkyReconvolutionImagePsf(benchmark::State& state) { sky_reconvolution_of(state, true); }
 void BM_FourEpochs(benchmark::State& state) { fit_epochs(state, kEpochs); }
@@ -208,6 +214,7 @@ BENCHMARK(BM_ThreeBandsFourEpochsJoint)->Unit(benchmark::kMillisecond)->UseRealT
 BENCHMARK(BM_MetacalOneEpoch)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_MetacalFourEpochs)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_MetacalWmomFourEpochs)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_MetacalWmomFourEpochsImagePsf)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_SkyReconvolution)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_SkyReconvolutionImagePsf)->Unit(benchmark::kMillisecond)->UseRealTime();
 

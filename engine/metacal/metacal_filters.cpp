@@ -4,6 +4,7 @@
 #include <cmath>
 #include <deque>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 #include "kernels/ellipse.hpp"
@@ -13,7 +14,31 @@
 namespace stampede {
 namespace {
 
-double sinc_half(double k) { return k == 0 ? 1.0 : std::sin(0.5 * k) / (0.5 * k); }
+// sin(k/2) / (k/2). For |k| <= 4 (every k the filters sample: the Nyquist square sheared by the
+// step through a cutout's frame) by its Taylor series in (k/2)^2 to the (k/2)^24 term (the next is
+// below 1e-18), a fifth of libm's sin and division; beyond, by them.
+double sinc_half(double k) {
+  const double x = 0.5 * k;
+  if (std::abs(k) > 4.0) return std::sin(x) / x;
+  // (-1)^n / (2n + 1)!, n = 0 .. 12.
+  constexpr double kC[13] = {1.0,
+                             -1.0 / 6,
+                             1.0 / 120,
+                             -1.0 / 5040,
+                             1.0 / 362880,
+                             -1.0 / 39916800,
+                             1.0 / 6227020800.0,
+                             -1.0 / 1307674368000.0,
+                             1.0 / 355687428096000.0,
+                             -1.0 / 121645100408832000.0,
+                             1.0 / 51090942171709440000.0,
+                             -1.0 / 25852016738884976640000.0,
+                             1.0 / 15511210043330985984000000.0};
+  const double y = x * x;
+  double sum = kC[12];
+  for (int n = 11; n >= 0; --n) sum = sum * y + kC[n];
+  return sum;
+}
 
 // PSF x pixel at (kx, ky) radians per pixel.
 std::complex<double> with_pixel(const PsfModel& p, double kx, double ky) {
@@ -40,6 +65,45 @@ std::array<double, 4> pixel_inverse_shear(const std::array<double, 2>& g, const 
 // Gamma's transform (of 1 at k = 0) below which its filter's gain is clipped, not checked.
 constexpr double kNegligibleGamma = 1e-4;
 
+// The arrays of destroyed filters and observed PSFs, kept per thread for the next ones: a MEDS
+// object builds a set per cutout, and fresh arrays each time made the heap grow and shrink by
+// megabytes per object, a page fault per 4 KB (measured: 8x the page faults of the arrays' reuse).
+template <class T>
+class ArrayPool {
+ public:
+  static std::vector<T> take(std::size_t n) {
+    std::vector<T> v;
+    if (Arrays* a = arrays(); a && !a->free.empty()) {
+      v = std::move(a->free.back());
+      a->free.pop_back();
+    }
+    v.resize(n);
+    return v;
+  }
+  static void give(std::vector<T>& v) {
+    if (Arrays* a = arrays(); a && a->free.size() < kKept && v.capacity() > 0) a->free.push_back(std::move(v));
+  }
+
+ private:
+  static constexpr std::size_t kKept = 64;  // a few objects' worth of cutouts
+  struct Arrays {
+    Arrays() { free.reserve(kKept); }
+    ~Arrays() { gone() = true; }
+    std::vector<std::vector<T>> free;
+  };
+  // Filters destroyed after this thread's pool (a static's, at exit) free their arrays themselves.
+  static bool& gone() {
+    thread_local bool g = false;  // trivially destructible: readable to the thread's end
+    return g;
+  }
+  static Arrays* arrays() {
+    if (gone()) return nullptr;
+    thread_local Arrays a;
+    return &a;
+  }
+};
+using SpectrumPool = ArrayPool<std::complex<double>>;
+
 // A Moffat's transform (times the pixel's) as PsfModel::k_value gives it, its radial function
 // tabulated (kernels::LogTable, ~1e-12 relative): the filters evaluate ~5 M^2 / 2 transforms per
 // build, which the Bessel function K made the bulk of a metacal fit's cost.
@@ -50,7 +114,7 @@ class MoffatTransform {
     const double t = m.truncation > 0 ? m.truncation / alpha_ : 0.0;
     table_ = &table(m.beta, t);
   }
-  std::complex<double> operator()(double kx, double ky) const {
+  double operator()(double kx, double ky) const {
     const double k = std::sqrt(q_.yy * kx * kx - 2.0 * q_.xy * kx * ky + q_.xx * ky * ky);
     return (*table_)(k * alpha_) * (sinc_half(kx) * sinc_half(ky));
   }
@@ -76,7 +140,54 @@ class MoffatTransform {
   const kernels::LogTable* table_;
 };
 
+// Where a Gamma's filter exceeds max_gain on the coarse grid, if anywhere: every third row and
+// column and the axes (where an image PSF's transform most often dips first, near the Nyquist
+// edge), away from the Nyquist row and column (where the full grid's ratios are the same).
+struct Violation {
+  double gain, kx, ky;
+  MetacalType type;
+};
+std::optional<Violation> coarse_violation(const MetacalFilters::Observed& observed_psf,
+                                          const MoffatTransform& gamma_transform, double step, double max_gain,
+                                          const PixelFrame& frame) {
+  const int m = observed_psf.period, h = m / 2 + 1;
+  const double dk = 2 * std::numbers::pi / m;
+  const std::vector<double>& inverse_abs = observed_psf.inverse_abs;
+  for (MetacalType t : kMetacalTypes) {
+    const auto b = pixel_inverse_shear(metacal_shear(t, step), frame);
+    for (int r = 0; r < m; ++r) {
+      if (r == m / 2) continue;
+      const int rs = r <= m / 2 ? r : r - m;
+      // Row 0 whole; else column 0 and every third column of every third row.
+      const int c_step = r == 0 ? 1 : r % 3 == 0 ? 3 : h;
+      for (int c = 0; c < h - 1; c += c_step) {
+        const double kx = dk * c, ky = dk * rs;
+        const double gm = gamma_transform(b[0] * kx + b[2] * ky, b[1] * kx + b[3] * ky);
+        const double gain = std::abs(gm) * inverse_abs[static_cast<std::size_t>(rs + m / 2) * h + c];
+        if (std::isfinite(gain) && gain > max_gain && std::abs(gm) >= kNegligibleGamma) return Violation{gain, kx, ky, t};
+      }
+    }
+  }
+  return std::nullopt;
+}
+
 }  // namespace
+
+bool MetacalFilters::passes_coarse_check(const Observed& observed, const PsfModel& reconvolution, double step,
+                                         double max_gain, const PixelFrame& frame) {
+  if (reconvolution.kind != PsfKind::kMoffat) return false;
+  return !coarse_violation(observed, MoffatTransform(reconvolution.moffat), step, max_gain, frame);
+}
+
+MetacalFilters::Observed::~Observed() {
+  SpectrumPool::give(values);
+  SpectrumPool::give(inverse);
+  ArrayPool<double>::give(inverse_abs);
+}
+
+MetacalFilters::~MetacalFilters() {
+  for (auto& f : filters_) SpectrumPool::give(f);
+}
 
 std::shared_ptr<const MetacalFilters::Observed> MetacalFilters::observe(const PsfModel& psf, int period,
                                                                         std::string* error) {
@@ -93,7 +204,7 @@ std::shared_ptr<const MetacalFilters::Observed> MetacalFilters::observe(const Ps
   // Nyquist signs: the filters average over them); negative c by Hermitian symmetry. An image PSF
   // in one separable transform, an analytic one point by point.
   std::vector<std::complex<double>>& observed = out->values;
-  observed.resize(static_cast<std::size_t>(m + 1) * h);
+  observed = SpectrumPool::take(static_cast<std::size_t>(m + 1) * h);
   if (psf.kind == PsfKind::kImage) {
     if (!psf.image) return fail("metacal: the PSF image is missing");
     std::vector<double> fx(h), fy(m + 1);
@@ -111,9 +222,16 @@ std::shared_ptr<const MetacalFilters::Observed> MetacalFilters::observe(const Ps
     for (int r = 0; r <= m; ++r)
       for (int c = 0; c < h; ++c) observed[static_cast<std::size_t>(r) * h + c] = with_pixel(psf, dk * c, dk * (r - m / 2));
   }
-  for (const std::complex<double>& v : observed)
-    if (!std::isfinite(v.real()) || !std::isfinite(v.imag()) || std::abs(v) == 0)
+  out->inverse = SpectrumPool::take(observed.size());
+  out->inverse_abs = ArrayPool<double>::take(observed.size());
+  for (std::size_t i = 0; i < observed.size(); ++i) {
+    const std::complex<double> v = observed[i];
+    const double n = std::norm(v);
+    if (!std::isfinite(v.real()) || !std::isfinite(v.imag()) || !(n > 0) || !std::isfinite(n))
       return fail("metacal: the PSF's transform is not finite and non-zero on the grid");
+    out->inverse[i] = std::conj(v) * (1.0 / n);
+    out->inverse_abs[i] = 1.0 / std::sqrt(n);
+  }
   return out;
 }
 
@@ -141,11 +259,11 @@ std::shared_ptr<const MetacalFilters> MetacalFilters::build(const Observed& obse
   f->reconvolution_ = reconvolution;
   const int m = period, h = m / 2 + 1;
   const double dk = 2 * std::numbers::pi / m, norm = 1.0 / (static_cast<double>(m) * m);
-  const std::vector<std::complex<double>>& observed = observed_psf.values;
+  const std::vector<std::complex<double>>& inverse = observed_psf.inverse;
   const MoffatTransform gamma_transform(reconvolution.moffat);
-  auto observed_at = [&](int c, int r) {  // c in [-M/2, M/2], r in [-M/2, M/2]
-    if (c < 0) return std::conj(observed[static_cast<std::size_t>(-r + m / 2) * h - c]);
-    return observed[static_cast<std::size_t>(r + m / 2) * h + c];
+  auto inverse_at = [&](int c, int r) {  // 1 / (PSF x pixel) at c in [-M/2, M/2], r in [-M/2, M/2]
+    if (c < 0) return std::conj(inverse[static_cast<std::size_t>(-r + m / 2) * h - c]);
+    return inverse[static_cast<std::size_t>(r + m / 2) * h + c];
   };
   auto refuse = [&](double gain, double kx, double ky, MetacalType t) {
     std::ostringstream msg;
@@ -153,22 +271,10 @@ std::shared_ptr<const MetacalFilters> MetacalFilters::build(const Observed& obse
         << ") rad/pixel, type " << metacal_type_name(t) << ")";
     return fail(msg.str());
   };
-  // A Gamma too narrow is refused by a violation somewhere on the grid: every third row and column
-  // first (away from the Nyquist edge, the same ratios as below), which rejects most candidates of
-  // a search at a ninth of the cost; acceptance is decided by the full grid alone.
-  for (MetacalType t : kMetacalTypes) {
-    const auto b = pixel_inverse_shear(metacal_shear(t, step), frame);
-    for (int r = 0; r < m; r += 3) {
-      if (r == m / 2) continue;
-      const int rs = r <= m / 2 ? r : r - m;
-      for (int c = 0; c < h - 1; c += 3) {
-        const double kx = dk * c, ky = dk * rs;
-        const std::complex<double> gm = gamma_transform(b[0] * kx + b[2] * ky, b[1] * kx + b[3] * ky);
-        const double gain = std::abs(gm / observed_at(c, rs));
-        if (std::isfinite(gain) && gain > max_gain && std::abs(gm) >= kNegligibleGamma) return refuse(gain, kx, ky, t);
-      }
-    }
-  }
+  // A Gamma too narrow is refused by a violation somewhere on the grid, most often already on the
+  // coarse one (a ninth of the cost); acceptance is decided by the full grid alone.
+  if (const auto v = coarse_violation(observed_psf, gamma_transform, step, max_gain, frame))
+    return refuse(v->gain, v->kx, v->ky, v->type);
   for (MetacalType t : kMetacalTypes) {
     const auto g = metacal_shear(t, step);
     const auto b = pixel_inverse_shear(g, frame);
@@ -176,7 +282,7 @@ std::shared_ptr<const MetacalFilters> MetacalFilters::build(const Observed& obse
     // A^-T k (for the identity frame b is symmetric and this is A^-1 k).
     auto gamma = [&](double kx, double ky) { return gamma_transform(b[0] * kx + b[2] * ky, b[1] * kx + b[3] * ky); };
     auto& out = f->filters_[static_cast<int>(t)];
-    out.resize(static_cast<std::size_t>(m) * h);
+    out = SpectrumPool::take(static_cast<std::size_t>(m) * h);
     for (int r = 0; r < m; ++r) {
       const int rs = r <= m / 2 ? r : r - m;  // signed; the Nyquist row as +M/2
       const double ky = dk * rs;
@@ -187,10 +293,11 @@ std::shared_ptr<const MetacalFilters> MetacalFilters::build(const Observed& obse
         // At the Nyquist row and column, +pi and -pi are one sample (the data's coefficient
         // holds both): take the mean of the filter at each, so that the filtered spectrum stays
         // Hermitian (a sheared Gamma, or an elliptical PSF, is not even in one k alone).
-        std::complex<double> ratio = gamma(kx, ky) / observed_at(c, rs);
+        const double g0 = gamma(kx, ky);
+        std::complex<double> ratio = g0 * inverse_at(c, rs);
         if (nyquist_row || nyquist_col) {
           int n = 1;
-          auto add = [&](int cs, int rr) { ratio += gamma(dk * cs, dk * rr) / observed_at(cs, rr), ++n; };
+          auto add = [&](int cs, int rr) { ratio += gamma(dk * cs, dk * rr) * inverse_at(cs, rr), ++n; };
           if (nyquist_row) add(c, -rs);
           if (nyquist_col) add(-c, rs);
           if (nyquist_row && nyquist_col) add(-c, -rs);
@@ -200,11 +307,13 @@ std::shared_ptr<const MetacalFilters> MetacalFilters::build(const Observed& obse
         // (an image PSF's truncation, aliasing and float32 rounding), and the ratio of two
         // negligible numbers says nothing of the widths: the gain is clipped there instead of
         // refusing Gamma, which would otherwise have to fall below that floor everywhere.
-        const double gain = std::abs(ratio);
-        if (std::isfinite(gain) && gain > max_gain && std::abs(gamma(kx, ky)) < kNegligibleGamma)
-          ratio *= max_gain / gain;
-        if (!std::isfinite(ratio.real()) || !std::isfinite(ratio.imag()) || std::abs(ratio) > max_gain)
-          return refuse(std::abs(ratio), kx, ky, t);
+        const double gain = std::sqrt(std::norm(ratio));
+        if (!(gain <= max_gain)) {
+          if (std::isfinite(gain) && std::abs(g0) < kNegligibleGamma)
+            ratio *= max_gain / gain;
+          else
+            return refuse(gain, kx, ky, t);
+        }
         out[static_cast<std::size_t>(r) * h + c] = ratio * norm;
       }
     }

@@ -26,8 +26,12 @@ class MetacalFilters {
   // The observed PSF x pixel on the grid, which the filters for any Gamma divide by: computed once
   // per PSF when several Gammas are tried.
   struct Observed {
+    ~Observed();  // hands its arrays to this thread's pool for the next
     int period = 0;
     std::vector<std::complex<double>> values;  // (period + 1) rows x (period / 2 + 1)
+    // 1 / values and 1 / |values|: the filters multiply by them (a search builds ~10 per PSF).
+    std::vector<std::complex<double>> inverse;
+    std::vector<double> inverse_abs;
   };
   // Null, with *error, when the PSF's transform is not finite and non-zero on the grid.
   static std::shared_ptr<const Observed> observe(const PsfModel& psf, int period, std::string* error);
@@ -45,6 +49,15 @@ class MetacalFilters {
   static std::shared_ptr<const MetacalFilters> build(const Observed& observed, const PsfModel& reconvolution, double step,
                                                      std::string* error, double max_gain = 1.01,
                                                      const PixelFrame& frame = PixelFrame());
+
+  // Whether build's first, coarse check (every third row and column, and the axes) passes: a Gamma
+  // that fails it is refused by build, and a wider round Gamma (a smaller transform at every k)
+  // passes whenever a narrower one does, so a search for the narrowest Gamma can bisect on it at
+  // a seventh of a build.
+  static bool passes_coarse_check(const Observed& observed, const PsfModel& reconvolution, double step,
+                                  double max_gain = 1.01, const PixelFrame& frame = PixelFrame());
+
+  ~MetacalFilters();  // hands its arrays to this thread's pool for the next filters
 
   int period() const { return period_; }
   double step() const { return step_; }

@@ -10,6 +10,8 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "kernels/math/phasors.hpp"
+
 namespace stampede {
 namespace {
 
@@ -57,23 +59,24 @@ MetacalImager::MetacalImager(int stamp_size, int period, FftPlanning planning)
     backward_2d_ = fftw_plan_dft_c2r_2d(m_, m_, work, h, flags | FFTW_DESTROY_INPUT);
     const int n[1] = {m_};
     rows_forward_ = fftw_plan_many_dft_r2c(1, n, m_, grid, nullptr, 1, m_, rows, nullptr, 1, h_count_, flags);
+    stamp_rows_forward_ = fftw_plan_many_dft_r2c(1, n, s_, grid, nullptr, 1, m_, rows, nullptr, 1, h_count_, flags);
     rows_backward_ =
         fftw_plan_many_dft_c2r(1, n, m_, rows, nullptr, 1, h_count_, grid, nullptr, 1, m_, flags | FFTW_DESTROY_INPUT);
   }
-  if (!forward_2d_ || !backward_2d_ || !rows_forward_ || !rows_backward_)
+  if (!forward_2d_ || !backward_2d_ || !rows_forward_ || !stamp_rows_forward_ || !rows_backward_)
     throw std::runtime_error("MetacalImager: FFTW could not plan a " + std::to_string(m_) + "-point grid");
   // Planning with FFTW_MEASURE overwrites the arrays.
   std::fill(pad, pad + static_cast<std::size_t>(m_) * m_, 0.0);
   weights_.reserve(static_cast<std::size_t>(2 * h_count_) * m_);
   positions_.resize(s_);
-  positions_full_.resize(m_);
+  phasors_.resize(h_count_);
   scratch_.resize(static_cast<std::size_t>(m_) * s_);
   scratch_t_.resize(static_cast<std::size_t>(m_) * s_);
 }
 
 MetacalImager::~MetacalImager() {
   std::lock_guard<std::mutex> lock(fftw_planner_mutex());
-  for (void* p : {forward_2d_, backward_2d_, rows_forward_, rows_backward_})
+  for (void* p : {forward_2d_, backward_2d_, rows_forward_, stamp_rows_forward_, rows_backward_})
     if (p) fftw_destroy_plan(static_cast<fftw_plan>(p));
 }
 
@@ -113,15 +116,15 @@ void MetacalImager::filtered(const std::complex<double>* f) {
   fftw_execute(static_cast<fftw_plan>(backward_2d_));
 }
 
-void MetacalImager::dft_weights(std::span<const double> positions, std::vector<double>* w) const {
+void MetacalImager::dft_weights(std::span<const double> positions, std::vector<double>* w) {
   const std::size_t n = positions.size();
   w->assign(static_cast<std::size_t>(2 * h_count_) * n, 0.0);
   for (std::size_t j = 0; j < n; ++j) {
-    const double theta = 2 * std::numbers::pi * positions[j] / m_;
+    kernels::phasors(0.0, 2 * std::numbers::pi * positions[j] / m_, h_count_, phasors_.data());
     for (int q = 0; q < h_count_; ++q) {
       const double wq = (q == 0 || q == m_ / 2 ? 1.0 : 2.0) / m_;
-      (*w)[static_cast<std::size_t>(2 * q) * n + j] = wq * std::cos(q * theta);
-      (*w)[static_cast<std::size_t>(2 * q + 1) * n + j] = -wq * std::sin(q * theta);
+      (*w)[static_cast<std::size_t>(2 * q) * n + j] = wq * phasors_[q].real();
+      (*w)[static_cast<std::size_t>(2 * q + 1) * n + j] = -wq * phasors_[q].imag();
     }
   }
 }
@@ -226,19 +229,18 @@ void MetacalImager::general(const std::array<double, 4>& b, double cx, double cy
     if (d < -0.5 * m_) d += m_;
     return d;
   };
-  // Columns (as rows of the transpose): column x read at y + l (x - cx), at the stretched rows.
+  // Columns (as rows of the transpose): column x read at y + l (x - cx), at the stretched rows of
+  // the stamp alone (the second pass reads no other row of G).
   transpose(static_cast<const double*>(h_.data()), transposed, m_, m_);
   fftw_execute_dft_r2c(static_cast<fftw_plan>(rows_forward_), transposed, reinterpret_cast<fftw_complex*>(rows));
   ramp_rows(m_, [&](int x) { return l * centred(x, cx); });
-  for (int j = 0; j < m_; ++j) positions_full_[j] = cy + d2 * centred(j, cy);
-  dft_weights(positions_full_, &weights_);
-  Eigen::Map<RowMatrix>(grid, m_, m_).noalias() =
-      Eigen::Map<const RowMatrix>(rows, m_, two_h) * Eigen::Map<const RowMatrix>(weights_.data(), two_h, m_);
-  transpose(grid, transposed, m_, m_);  // G, rows y
+  for (int j = 0; j < s_; ++j) positions_[j] = cy + d2 * centred(offset_ + j, cy);
+  dft_weights(positions_, &weights_);
+  Eigen::Map<RowMatrix>(grid, m_, s_).noalias() =
+      Eigen::Map<const RowMatrix>(rows, m_, two_h) * Eigen::Map<const RowMatrix>(weights_.data(), two_h, s_);
+  transpose(grid, transposed, m_, s_);  // G at the stamp's rows y, each a row of M
   // The stamp's rows: row y read at x + u (y - cy), at the stretched columns.
-  fftw_execute_dft_r2c(static_cast<fftw_plan>(rows_forward_), transposed, reinterpret_cast<fftw_complex*>(rows));
-  const std::size_t first = static_cast<std::size_t>(offset_) * h_count_ * 2;
-  std::copy_n(rows + first, static_cast<std::size_t>(s_) * two_h, rows);  // the stamp's rows first
+  fftw_execute_dft_r2c(static_cast<fftw_plan>(stamp_rows_forward_), transposed, reinterpret_cast<fftw_complex*>(rows));
   ramp_rows(s_, [&](int i) { return u * centred(offset_ + i, cy); });
   for (int j = 0; j < s_; ++j) positions_[j] = cx + d1 * centred(offset_ + j, cx);
   dft_weights(positions_, &weights_);

@@ -10,8 +10,8 @@
 //     limited, which costs only where H_T's spectrum reaches the Nyquist edge.
 //   any other A^-1 (the sky's shear seen through a cutout's WCS Jacobian, MetacalFilters):
 //     A^-1 = L D X (L a column shear, D diagonal, X a row shear, all within the step of 1), in two
-//     passes: every column shifted and stretched (a phase ramp, then a dense DFT at the stretched
-//     rows), then the stamp's rows shifted and stretched likewise.
+//     passes: every column shifted and stretched (a phase ramp, then a dense DFT at the stamp's
+//     stretched rows), then the stamp's rows shifted and stretched likewise.
 // Allocates at construction only.
 #pragma once
 
@@ -64,7 +64,7 @@ class MetacalImager {
   void ramp_rows(int n, Shift shift);
   // Interpolation weights (2 (M/2 + 1) x n, row-major): rows 2q, 2q + 1 hold w_q cos and -w_q sin
   // of 2 pi q p_j / M for the positions p_j (padded-grid coordinates), so Re(F . e) is one product.
-  void dft_weights(std::span<const double> positions, std::vector<double>* w) const;
+  void dft_weights(std::span<const double> positions, std::vector<double>* w);
 
   int s_, m_, h_count_;
   int offset_;  // the stamp's pixel (0, 0) sits at padded index (offset_, offset_)
@@ -72,8 +72,10 @@ class MetacalImager {
   void* forward_2d_ = nullptr;
   void* backward_2d_ = nullptr;
   void* rows_forward_ = nullptr;   // M rows of M, r2c
+  void* stamp_rows_forward_ = nullptr;  // S rows of M, r2c
   void* rows_backward_ = nullptr;  // M rows of M, c2r
-  std::vector<double> weights_, positions_, positions_full_, scratch_, scratch_t_;
+  std::vector<double> weights_, positions_, scratch_, scratch_t_;
+  std::vector<std::complex<double>> phasors_;  // dft_weights' scratch
 };
 
 }  // namespace stampede

@@ -1,6 +1,8 @@
 // The reconvolution PSF; see reconvolution_psf.hpp.
 #include "engine/metacal/reconvolution_psf.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -21,6 +23,29 @@ PsfModel round_moffat(double beta, double fwhm) {
 // An image PSF's Gamma search starts at this fraction of its Gaussian-equivalent FWHM: a Moffat's
 // moments overstate its core (beta 3: 2.3 x its FWHM), so the narrowest Gamma lies well below.
 constexpr double kImageStart = 0.5;
+
+// The search's rungs: start x 1.03^n, n < kRungs, by repeated multiplication.
+constexpr int kRungs = 40;
+std::array<double, kRungs> rungs_from(double start) {
+  std::array<double, kRungs> out{};
+  double fwhm = start;
+  for (double& f : out) f = fwhm, fwhm *= 1.03;
+  return out;
+}
+
+// The first rung n >= lo where passes(n) holds, bisecting (passes holds on every rung above one
+// where it holds: MetacalFilters::passes_coarse_check); kRungs when none does.
+template <class Passes>
+int first_passing(int lo, const Passes& passes) {
+  if (lo >= kRungs || passes(lo)) return lo;
+  int fails = lo, holds = kRungs - 1;
+  if (!passes(holds)) return kRungs;
+  while (holds - fails > 1) {
+    const int mid = (fails + holds) / 2;
+    (passes(mid) ? holds : fails) = mid;
+  }
+  return holds;
+}
 
 // The largest singular value of J: how far a unit step in the pixels reaches on the sky at most.
 double largest_stretch(const PixelFrame& f) {
@@ -88,12 +113,17 @@ std::shared_ptr<const MetacalFilters> reconvolution_filters(const PsfModel& psf,
     }
     const auto observed = MetacalFilters::observe(psf, period, error);
     if (!observed) return nullptr;
-    double fwhm = kImageStart * major;
-    for (int attempt = 0; attempt < 40; ++attempt, fwhm *= 1.03) {
-      auto f = MetacalFilters::build(*observed, round_moffat(3.0, fwhm), options.step, &why);
+    // The narrowest rung that passes the coarse check, then full builds up from it: the rung a
+    // full build at every rung from the first would accept, at a fraction of the builds.
+    const auto fwhms = rungs_from(kImageStart * major);
+    int n = first_passing(0, [&](int i) {
+      return MetacalFilters::passes_coarse_check(*observed, round_moffat(3.0, fwhms[i]), options.step);
+    });
+    for (n = std::min(n, kRungs - 1); n < kRungs; ++n) {
+      auto f = MetacalFilters::build(*observed, round_moffat(3.0, fwhms[n]), options.step, &why);
       if (f) return f;
     }
-    if (error) *error = why + " (round Moffats up to FWHM " + number_text(fwhm / 1.03) + " px tried)";
+    if (error) *error = why + " (round Moffats up to FWHM " + number_text(fwhms.back()) + " px tried)";
     return nullptr;
   }
   if (error)
@@ -157,25 +187,36 @@ bool sky_reconvolution(std::span<const MetacalEpochPsf> epochs, const MetacalOpt
   // An analytic PSF's rule is wide enough by construction: the search widens only when the
   // cutouts' frames or PSFs disagree. Image PSFs search from below, as the single-stamp rule.
   std::string why;
-  double fwhm = start;
-  const int attempts = options.psf_dilation > 0 && !ladder ? 1 : 40;
-  for (int attempt = 0; attempt < attempts; ++attempt, fwhm *= 1.03) {
+  const auto fwhms = rungs_from(start);
+  const int attempts = options.psf_dilation > 0 && !ladder ? 1 : kRungs;
+  // An image PSF's search: the narrowest rung every cutout passes the coarse check at (a cutout is
+  // bisected past the rung found so far only when it fails there), then full builds up from it:
+  // the rung that full builds of every cutout at every rung from the first would accept, at a
+  // fraction of the builds. An analytic PSF's first rung nearly always serves.
+  int n = 0;
+  if (ladder)
+    for (std::size_t k = 0; k < epochs.size(); ++k)
+      n = first_passing(n, [&](int i) {
+        return MetacalFilters::passes_coarse_check(*observed[k], round_on_sky(beta, fwhms[i], epochs[k].frame),
+                                                   options.step, 1.01, epochs[k].frame);
+      });
+  for (n = std::min(n, attempts - 1); n < attempts; ++n) {
     bool all = true;
     for (std::size_t k = 0; k < epochs.size() && all; ++k) {
       const MetacalEpochPsf& e = epochs[k];
       out->filters[k] =
-          MetacalFilters::build(*observed[k], round_on_sky(beta, fwhm, e.frame), options.step, &why, 1.01, e.frame);
+          MetacalFilters::build(*observed[k], round_on_sky(beta, fwhms[n], e.frame), options.step, &why, 1.01, e.frame);
       if (!out->filters[k]) {
         why = "cutout " + std::to_string(k) + ": " + why;
         all = false;
       }
     }
     if (all) {
-      out->fwhm = fwhm, out->beta = beta;
+      out->fwhm = fwhms[n], out->beta = beta;
       return true;
     }
   }
-  if (error) *error = why + " (round Moffats on the sky up to FWHM " + number_text(fwhm / 1.03) + " tried)";
+  if (error) *error = why + " (round Moffats on the sky up to FWHM " + number_text(fwhms[attempts - 1]) + " tried)";
   return false;
 }
 

@@ -18,8 +18,8 @@ namespace stampede {
 // Moffat PSF: a round Moffat of its beta and FWHM x metacal_psf_dilation (0: (1 + 2 step) x
 // sqrt((1 + |e|) / (1 - |e|)), its major axis's factor). Image PSF: a round Moffat of beta 3, FWHM
 // F x metacal_psf_dilation with F = 2.3548 sqrt(lambda_max) of the image's adaptive-moment
-// covariance; with dilation 0, the narrowest from 0.7 F up in steps of 3 % whose filters are all
-// bounded (40 tries).
+// covariance; with dilation 0, the narrowest from 0.5 F up in steps of 3 % whose filters are all
+// bounded (40 rungs, searched by bisection on the filters' coarse check).
 // The Airy disc is refused (its transform vanishes beyond its cut-off). Null, with *error, when
 // no Gamma serves; filters->reconvolution() is the Gamma chosen.
 std::shared_ptr<const MetacalFilters> reconvolution_filters(const PsfModel& psf, const MetacalOptions& options,
@@ -48,9 +48,9 @@ struct SkyReconvolution {
 
 // The rule: each cutout's start by the single-stamp rule above, carried to the sky: a Moffat PSF's
 // FWHM x dilation x s_k (s_k the largest singular value of J_k: the widest a round pixel Gamma is
-// on the sky), of its beta; an image PSF's 0.7 (or metacal_psf_dilation) x the Gaussian-equivalent
+// on the sky), of its beta; an image PSF's 0.5 (or metacal_psf_dilation) x the Gaussian-equivalent
 // FWHM of its covariance on the sky's major axis (J C J^T), beta 3. Gamma starts at the largest
-// start, and is widened by 3 % (up to 40 times) until every cutout's filters are bounded. One
+// start, and is widened by 3 % (up to 40 rungs) until every cutout's filters are bounded. One
 // cutout with a unit Jacobian gets the single-stamp Gamma exactly. False, with *error naming the
 // cutout (0-based in `epochs`), when none serves.
 bool sky_reconvolution(std::span<const MetacalEpochPsf> epochs, const MetacalOptions& options, SkyReconvolution* out,

@@ -1,6 +1,7 @@
 // PSF models; see psf_model.hpp.
 #include "engine/model/psf_model.hpp"
 
+#include <Eigen/Core>
 #include <algorithm>
 #include <cctype>
 #include <numbers>
@@ -9,6 +10,7 @@
 #include "kernels/ellipse.hpp"
 #include "kernels/fourier_profiles.hpp"
 #include "kernels/math/airy.hpp"
+#include "kernels/math/phasors.hpp"
 
 namespace stampede {
 namespace {
@@ -50,39 +52,42 @@ bool PsfImage::transform(std::span<const double> fx, std::span<const double> fy,
     *error = msg.str();
     return false;
   }
-  // Separably: rows along y first, T[j'][m] = sum_j p[j][m] exp(-2 pi i fy_j' y_j), then columns.
-  const std::size_t nfx = fx.size(), nfy = fy.size();
-  std::vector<std::complex<double>> t(nfy * nx);
-  for (std::size_t ky = 0; ky < nfy; ++ky) {
+  // Separably: rows along y first, T[j'][m] = sum_j p[j][m] exp(-2 pi i fy_j' y_j), then columns
+  // as one complex product T Wx^T. Scratch per thread: a MEDS object transforms each cutout's
+  // PSF, and a steady state allocates nothing.
+  using ComplexRows = Eigen::Matrix<std::complex<double>, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const auto nfx = static_cast<Eigen::Index>(fx.size()), nfy = static_cast<Eigen::Index>(fy.size());
+  thread_local ComplexRows t, wx, sum;
+  thread_local std::vector<std::complex<double>> wy;
+  thread_local std::vector<double> sinc_x;
+  t.setZero(nfy, nx);
+  wy.resize(static_cast<std::size_t>(ny));
+  for (Eigen::Index ky = 0; ky < nfy; ++ky) {
     if (std::abs(fy[ky]) > nyquist) continue;
+    const double d = -2.0 * std::numbers::pi * fy[ky] / o;
+    kernels::phasors(-d * cy, d, ny, wy.data());
+    std::complex<double>* trow = t.row(ky).data();
     for (int j = 0; j < ny; ++j) {
-      const double ph = -2.0 * std::numbers::pi * fy[ky] * (j - cy) / o;
-      const std::complex<double> w(std::cos(ph), std::sin(ph));
+      const std::complex<double> w = wy[j];
       const double* row = pixels.data() + static_cast<std::size_t>(j) * nx;
-      std::complex<double>* trow = t.data() + ky * nx;
       for (int m = 0; m < nx; ++m) trow[m] += w * row[m];
     }
   }
-  std::vector<std::complex<double>> wx(nfx * nx);
-  for (std::size_t kx = 0; kx < nfx; ++kx) {
-    for (int m = 0; m < nx; ++m) {
-      const double ph = -2.0 * std::numbers::pi * fx[kx] * (m - cx) / o;
-      wx[kx * nx + m] = {std::cos(ph), std::sin(ph)};
-    }
+  wx.resize(nfx, nx);
+  sinc_x.resize(static_cast<std::size_t>(nfx));
+  for (Eigen::Index kx = 0; kx < nfx; ++kx) {
+    const double d = -2.0 * std::numbers::pi * fx[kx] / o;
+    kernels::phasors(-d * cx, d, nx, wx.row(kx).data());
+    sinc_x[kx] = pixel_integrated ? sinc(std::numbers::pi * fx[kx] / o) : 1.0;
   }
-  std::fill(out.begin(), out.end(), std::complex<double>(0.0, 0.0));
-  for (std::size_t ky = 0; ky < nfy; ++ky) {
-    if (std::abs(fy[ky]) > nyquist) continue;
-    const std::complex<double>* trow = t.data() + ky * nx;
-    for (std::size_t kx = 0; kx < nfx; ++kx) {
-      if (std::abs(fx[kx]) > nyquist) continue;
-      std::complex<double> s = 0;
-      const std::complex<double>* w = wx.data() + kx * nx;
-      for (int m = 0; m < nx; ++m) s += trow[m] * w[m];
-      s /= total;
-      // A pixel-integrated sample carries the image pixel's top-hat: divide it out.
-      if (pixel_integrated) s /= sinc(std::numbers::pi * fx[kx] / o) * sinc(std::numbers::pi * fy[ky] / o);
-      out[ky * nfx + kx] = s;
+  sum.resize(nfy, nfx);
+  sum.noalias() = t * wx.transpose();
+  for (Eigen::Index ky = 0; ky < nfy; ++ky) {
+    // A pixel-integrated sample carries the image pixel's top-hat: divide it out.
+    const double sinc_y = pixel_integrated ? sinc(std::numbers::pi * fy[ky] / o) : 1.0;
+    for (Eigen::Index kx = 0; kx < nfx; ++kx) {
+      const bool beyond = std::abs(fx[kx]) > nyquist || std::abs(fy[ky]) > nyquist;
+      out[ky * nfx + kx] = beyond ? std::complex<double>(0.0, 0.0) : sum(ky, kx) / (total * (sinc_x[kx] * sinc_y));
     }
   }
   return true;
