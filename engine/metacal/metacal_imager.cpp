@@ -67,7 +67,7 @@ MetacalImager::MetacalImager(int stamp_size, int period, FftPlanning planning)
     throw std::runtime_error("MetacalImager: FFTW could not plan a " + std::to_string(m_) + "-point grid");
   // Planning with FFTW_MEASURE overwrites the arrays.
   std::fill(pad, pad + static_cast<std::size_t>(m_) * m_, 0.0);
-  weights_.reserve(static_cast<std::size_t>(2 * h_count_) * m_);
+  weight_cache_.resize(kWeightSlots);
   positions_.resize(s_);
   phasors_.resize(h_count_);
   scratch_.resize(static_cast<std::size_t>(m_) * s_);
@@ -129,6 +129,21 @@ void MetacalImager::dft_weights(std::span<const double> positions, std::vector<d
   }
 }
 
+const double* MetacalImager::weights_for(std::span<const double> positions) {
+  ++clock_;
+  for (CachedWeights& c : weight_cache_)
+    if (std::equal(positions.begin(), positions.end(), c.positions.begin(), c.positions.end())) {
+      c.used = clock_;
+      return c.weights.data();
+    }
+  CachedWeights& slot = *std::min_element(weight_cache_.begin(), weight_cache_.end(),
+                                          [](const CachedWeights& a, const CachedWeights& b) { return a.used < b.used; });
+  slot.positions.assign(positions.begin(), positions.end());
+  dft_weights(positions, &slot.weights);
+  slot.used = clock_;
+  return slot.weights.data();
+}
+
 void MetacalImager::transpose(const double* in, double* out, int rows, int cols) {
   for (int r = 0; r < rows; ++r)
     for (int c = 0; c < cols; ++c) out[static_cast<std::size_t>(c) * rows + r] = in[static_cast<std::size_t>(r) * cols + c];
@@ -142,16 +157,14 @@ void MetacalImager::scaled(double b0, double b1, double cx, double cy, double* o
   fftw_execute_dft_r2c(static_cast<fftw_plan>(rows_forward_), static_cast<double*>(h_.data()),
                        reinterpret_cast<fftw_complex*>(rows));
   for (int j = 0; j < s_; ++j) positions_[j] = cx + b0 * (offset_ + j - cx);
-  dft_weights(positions_, &weights_);
   Eigen::Map<RowMatrix> by_row(scratch_.data(), m_, s_);
-  by_row.noalias() = Eigen::Map<const RowMatrix>(rows, m_, two_h) * Eigen::Map<const RowMatrix>(weights_.data(), two_h, s_);
+  by_row.noalias() = Eigen::Map<const RowMatrix>(rows, m_, two_h) * Eigen::Map<const RowMatrix>(weights_for(positions_), two_h, s_);
   // Columns: the stamp's columns, as rows of the transpose, at the stamp's rows stretched about cy.
   transpose(scratch_.data(), grid, m_, s_);  // s_ rows of m_ (the rest of grid is not read)
   fftw_execute_dft_r2c(static_cast<fftw_plan>(rows_forward_), grid, reinterpret_cast<fftw_complex*>(rows));
   for (int i = 0; i < s_; ++i) positions_[i] = cy + b1 * (offset_ + i - cy);
-  dft_weights(positions_, &weights_);
   Eigen::Map<RowMatrix> by_column(scratch_t_.data(), s_, s_);  // [x][y]
-  by_column.noalias() = Eigen::Map<const RowMatrix>(rows, s_, two_h) * Eigen::Map<const RowMatrix>(weights_.data(), two_h, s_);
+  by_column.noalias() = Eigen::Map<const RowMatrix>(rows, s_, two_h) * Eigen::Map<const RowMatrix>(weights_for(positions_), two_h, s_);
   transpose(scratch_t_.data(), out, s_, s_);
 }
 
@@ -235,17 +248,15 @@ void MetacalImager::general(const std::array<double, 4>& b, double cx, double cy
   fftw_execute_dft_r2c(static_cast<fftw_plan>(rows_forward_), transposed, reinterpret_cast<fftw_complex*>(rows));
   ramp_rows(m_, [&](int x) { return l * centred(x, cx); });
   for (int j = 0; j < s_; ++j) positions_[j] = cy + d2 * centred(offset_ + j, cy);
-  dft_weights(positions_, &weights_);
   Eigen::Map<RowMatrix>(grid, m_, s_).noalias() =
-      Eigen::Map<const RowMatrix>(rows, m_, two_h) * Eigen::Map<const RowMatrix>(weights_.data(), two_h, s_);
+      Eigen::Map<const RowMatrix>(rows, m_, two_h) * Eigen::Map<const RowMatrix>(weights_for(positions_), two_h, s_);
   transpose(grid, transposed, m_, s_);  // G at the stamp's rows y, each a row of M
   // The stamp's rows: row y read at x + u (y - cy), at the stretched columns.
   fftw_execute_dft_r2c(static_cast<fftw_plan>(stamp_rows_forward_), transposed, reinterpret_cast<fftw_complex*>(rows));
   ramp_rows(s_, [&](int i) { return u * centred(offset_ + i, cy); });
   for (int j = 0; j < s_; ++j) positions_[j] = cx + d1 * centred(offset_ + j, cx);
-  dft_weights(positions_, &weights_);
   Eigen::Map<RowMatrix>(out, s_, s_).noalias() =
-      Eigen::Map<const RowMatrix>(rows, s_, two_h) * Eigen::Map<const RowMatrix>(weights_.data(), two_h, s_);
+      Eigen::Map<const RowMatrix>(rows, s_, two_h) * Eigen::Map<const RowMatrix>(weights_for(positions_), two_h, s_);
 }
 
 }  // namespace stampede

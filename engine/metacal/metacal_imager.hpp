@@ -65,6 +65,10 @@ class MetacalImager {
   // Interpolation weights (2 (M/2 + 1) x n, row-major): rows 2q, 2q + 1 hold w_q cos and -w_q sin
   // of 2 pi q p_j / M for the positions p_j (padded-grid coordinates), so Re(F . e) is one product.
   void dft_weights(std::span<const double> positions, std::vector<double>* w);
+  // dft_weights at these positions, from the cache when the same positions came before: a grid's
+  // stamps share their filters and centre, so every stamp's and its fixnoise's weights are the
+  // first stamp's; a cutout's fixnoise pass reuses its data pass's.
+  const double* weights_for(std::span<const double> positions);
 
   int s_, m_, h_count_;
   int offset_;  // the stamp's pixel (0, 0) sits at padded index (offset_, offset_)
@@ -74,7 +78,14 @@ class MetacalImager {
   void* rows_forward_ = nullptr;   // M rows of M, r2c
   void* stamp_rows_forward_ = nullptr;  // S rows of M, r2c
   void* rows_backward_ = nullptr;  // M rows of M, c2r
-  std::vector<double> weights_, positions_, scratch_, scratch_t_;
+  struct CachedWeights {
+    std::vector<double> positions, weights;
+    unsigned long long used = 0;  // clock_ at the last use; the least recent is replaced
+  };
+  static constexpr int kWeightSlots = 16;  // a call uses eight (two per sheared type): two calls' worth
+  std::vector<CachedWeights> weight_cache_;
+  unsigned long long clock_ = 0;
+  std::vector<double> positions_, scratch_, scratch_t_;
   std::vector<std::complex<double>> phasors_;  // dft_weights' scratch
 };
 
