@@ -16,7 +16,7 @@ namespace {
 
 // sin(k/2) / (k/2). For |k| <= 4 (every k the filters sample: the Nyquist square sheared by the
 // step through a cutout's frame) by its Taylor series in (k/2)^2 to the (k/2)^24 term (the next is
-// below 1e-18), a fifth of libm's sin and division; beyond, by them.
+// below 1e-18), cheaper than libm's sin and a division; beyond, by them.
 double sinc_half(double k) {
   const double x = 0.5 * k;
   if (std::abs(k) > 4.0) return std::sin(x) / x;
@@ -67,7 +67,7 @@ constexpr double kNegligibleGamma = 1e-4;
 
 // The arrays of destroyed filters and observed PSFs, kept per thread for the next ones: a MEDS
 // object builds a set per cutout, and fresh arrays each time made the heap grow and shrink by
-// megabytes per object, a page fault per 4 KB (measured: 8x the page faults of the arrays' reuse).
+// megabytes per object, a page fault per 4 KB (docs/metacal.md).
 template <class T>
 class ArrayPool {
  public:
