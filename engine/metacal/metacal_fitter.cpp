@@ -60,8 +60,7 @@ MetacalFitter::MetacalFitter(const FitterOptions& fit_options, const MetacalOpti
 }
 
 double MetacalFitter::weight_fwhm() const {
-  if (options_.weight_fwhm > 0) return options_.weight_fwhm;
-  return filters_ ? MetacalOptions::kWeightOverGamma * gamma_.moffat.fwhm : NAN;
+  return options_.moments_weight_fwhm(filters_ ? gamma_.moffat.fwhm : NAN);
 }
 
 bool MetacalFitter::set_psf(const PsfModel& psf, std::string* error) {

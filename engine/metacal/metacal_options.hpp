@@ -34,6 +34,8 @@ struct MetacalOptions {
   // x the reconvolution PSF's.
   double weight_fwhm = 0.0;
   static constexpr double kWeightOverGamma = 2.5;  // docs/metacal.md, "Weighted moments"
+  // The weight's FWHM for a reconvolution PSF of this FWHM (same units).
+  double moments_weight_fwhm(double gamma_fwhm) const { return weight_fwhm > 0 ? weight_fwhm : kWeightOverGamma * gamma_fwhm; }
   bool IsValid(std::string* why) const;
 };
 

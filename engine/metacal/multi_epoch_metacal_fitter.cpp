@@ -136,7 +136,7 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
 }
 
 double MultiEpochMetacalFitter::weight_fwhm() const {
-  return options_.weight_fwhm > 0 ? options_.weight_fwhm : MetacalOptions::kWeightOverGamma * gamma_fwhm_;
+  return options_.moments_weight_fwhm(gamma_fwhm_);
 }
 
 MultiBandFitResult MultiEpochMetacalFitter::measure_moments(MetacalType t, int n_bands, bool per_band) {

@@ -11,14 +11,9 @@
 #include "kernels/fourier_profiles.hpp"
 #include "kernels/math/airy.hpp"
 #include "kernels/math/phasors.hpp"
+#include "kernels/math/sinc.hpp"
 
 namespace stampede {
-namespace {
-
-inline double sinc(double x) { return std::abs(x) < 1e-12 ? 1.0 : std::sin(x) / x; }
-
-}  // namespace
-
 const char* psf_kind_name(PsfKind kind) {
   switch (kind) {
     case PsfKind::kMoffat: return "moffat";
@@ -78,13 +73,13 @@ bool PsfImage::transform(std::span<const double> fx, std::span<const double> fy,
   for (Eigen::Index kx = 0; kx < nfx; ++kx) {
     const double d = -2.0 * std::numbers::pi * fx[kx] / o;
     kernels::phasors(-d * cx, d, nx, wx.row(kx).data());
-    sinc_x[kx] = pixel_integrated ? sinc(std::numbers::pi * fx[kx] / o) : 1.0;
+    sinc_x[kx] = pixel_integrated ? kernels::sinc(std::numbers::pi * fx[kx] / o) : 1.0;
   }
   sum.resize(nfy, nfx);
   sum.noalias() = t * wx.transpose();
   for (Eigen::Index ky = 0; ky < nfy; ++ky) {
     // A pixel-integrated sample carries the image pixel's top-hat: divide it out.
-    const double sinc_y = pixel_integrated ? sinc(std::numbers::pi * fy[ky] / o) : 1.0;
+    const double sinc_y = pixel_integrated ? kernels::sinc(std::numbers::pi * fy[ky] / o) : 1.0;
     for (Eigen::Index kx = 0; kx < nfx; ++kx) {
       const bool beyond = std::abs(fx[kx]) > nyquist || std::abs(fy[ky]) > nyquist;
       out[ky * nfx + kx] = beyond ? std::complex<double>(0.0, 0.0) : sum(ky, kx) / (total * (sinc_x[kx] * sinc_y));
