@@ -17,13 +17,12 @@
 
 #include <tbb/task_arena.h>
 
-#include "app/meds_batch_fitter.hpp"
+#include "app/survey_object_fit.hpp"
 #include "app/psf_setup.hpp"
 #include "app/run_fingerprint.hpp"
 #include "app/run_memory.hpp"
 #include "app/stamp_fitter_recipe.hpp"
 #include "engine/common/number_text.hpp"
-#include "engine/pipeline/index_source.hpp"
 #include "engine/pipeline/pipeline.hpp"
 #include "engine/pipeline/range_source.hpp"
 #include "engine/pipeline/stamp_fitter.hpp"
@@ -35,6 +34,7 @@
 #include "io/fits_file.hpp"
 #include "io/fits_error.hpp"
 #include "io/grid_source.hpp"
+#include "io/meds_object_source.hpp"
 #include "io/output_check.hpp"
 #include "io/output_lock.hpp"
 #include "io/psf_keys.hpp"
@@ -42,6 +42,8 @@
 #include "io/system_memory.hpp"
 
 namespace stampede::app {
+
+MedsFitOptions survey_fit_options(const io::RunConfig& cfg);
 
 namespace {
 
@@ -234,13 +236,13 @@ bool output_is_this_complete_run(const FitRunOptions& a, const io::CatalogWriter
 }
 
 // The problems of a survey run's objects, as warnings: the first few in full, then a count at the
-// end (a tile with many masked objects must not flood the terminal). Called from the fit threads.
+// end (a tile with many masked objects must not flood the terminal). Called from the writer
+// thread, in input order.
 class ProblemReporter {
  public:
   static constexpr int kShown = 10;
   explicit ProblemReporter(const FitRunOptions& a) : a_(a) {}
   void report(long long row, const std::string& problem) {
-    std::lock_guard lock(mutex_);
     if (++count_ <= kShown && a_.on_warning) a_.on_warning("object_data row " + std::to_string(row) + ": " + problem);
   }
   void finish() {
@@ -250,7 +252,6 @@ class ProblemReporter {
 
  private:
   const FitRunOptions& a_;
-  std::mutex mutex_;
   long long count_ = 0;
 };
 
@@ -282,9 +283,6 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
       if (a.meds[t] == a.meds[u]) throw io::ConfigError("--meds '" + a.meds[t] + "' is given twice: one tile per band");
 
   // The MPI driver's workers fit the pixels they are sent; a survey batch carries row numbers only.
-  if (a.distribute)
-    throw io::ConfigError("--meds with stampede-mpi: a tile's objects are not spread over ranks yet; run `stampede fit "
-                          "--meds` per tile (stampede-mpi --input-list is for grids), or a job array with --shard I/N");
   if (!cfg.save_images.empty()) throw io::ConfigError("option 'save_images': not available with --meds");
   if (cfg.psf_from_catalogue) throw io::ConfigError("option 'psf_input' = 'moffat_catalog': not available with --meds");
   if (cfg.fitter.renderer == RendererKind::kUpsampled) {
@@ -304,42 +302,20 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
              "is its psf cutout or its source image's PSFEx model)");
   io::validate(cfg);
 
-  MedsFitOptions meds_options;
-  static_cast<io::MedsOptions&>(meds_options) = cfg.meds;
-  meds_options.fitter = cfg.fitter;
-  meds_options.metacal = cfg.metacal;
-  if (cfg.meds.psf == io::MedsPsfSource::kOptions) {
-    FftPlanCache plans(FftPlanning::kEstimate);
-    meds_options.psf_model = app::build_shared_psf(cfg, plans).model;
-  }
-  // The tile is opened here once, so that a bad file fails before any thread starts; each thread
-  // then opens its own handle.
-  long long input_objects = 0;
-  std::vector<std::string> psfex_files;
-  {
-    std::deque<io::MedsFile> tiles;
-    std::vector<io::MedsFile*> handles;
-    for (const std::string& m : a.meds) handles.push_back(&tiles.emplace_back(io::MedsFile::open(m)));
-    input_objects = tiles.front().size();
-    check_band_tiles(handles);
-    try {
-      for (io::MedsFile& tile : tiles) {
-        const MedsObjectFitter check(tile, meds_options);  // the options the tile cannot serve
-        for (const std::string& p : check.psfex_files())
-          if (std::find(psfex_files.begin(), psfex_files.end(), p) == psfex_files.end()) psfex_files.push_back(p);
-      }
-    } catch (const std::invalid_argument& e) {
-      throw io::ConfigError(e.what());
-    }
-  }
+  const MedsFitOptions meds_options = survey_fit_options(cfg);
+  // The tiles are read in the pipeline's serial stage (io/meds_object_source): a bad file fails
+  // here, before any thread starts; options a tile cannot serve are refused likewise.
+  io::MedsObjectSource source_whole(a.meds, meds_options, meds_options.psf_model);
+  const long long input_objects = source_whole.total_objects();
+  const std::vector<std::string> psfex_files = source_whole.psfex_files();
+  make_survey_fitter(cfg, a.meds, bands);  // options that cannot work together fail here
   // Every file the run reads is protected from its outputs, PSFEx models included.
   const std::vector<io::OutputLock> locks = lock_outputs(a, cfg, psfex_files);
-  IndexSource whole(input_objects);
   std::unique_ptr<RangeSource> shard;
   if (a.shards > 1)
-    shard = std::make_unique<RangeSource>(whole, shard_begin(input_objects, a.shard, a.shards),
+    shard = std::make_unique<RangeSource>(source_whole, shard_begin(input_objects, a.shard, a.shards),
                                           shard_begin(input_objects, a.shard + 1, a.shards));
-  StampSource& source = shard ? static_cast<StampSource&>(*shard) : whole;
+  StampSource& source = shard ? static_cast<StampSource&>(*shard) : source_whole;
 
   RunSummary summary;
   summary.input = a.meds[0];
@@ -387,32 +363,40 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
       writer = io::CatalogWriter::create(wo);
     }
   }
+  ProblemReporter problems(a);
   try {
     class RowSink final : public BatchSink {
      public:
-      RowSink(io::CatalogWriter* writer, const FitRunOptions& a) : writer_(writer), a_(a) {}
+      RowSink(io::CatalogWriter* writer, const FitRunOptions& a, ProblemReporter* problems)
+          : writer_(writer), a_(a), problems_(problems) {}
       void write(const StampBatch& batch) override {
         const std::span<const ObjectRecord> rows(batch.records.data(), static_cast<std::size_t>(batch.count));
         if (writer_) writer_->append(rows);
         if (a_.on_rows) a_.on_rows(rows);
         for (const ObjectRecord& r : rows) ++by_status[static_cast<int>(r.fit.status)];
+        for (int k = 0; k < batch.count; ++k)
+          if (!batch.problems[static_cast<std::size_t>(k)].empty())
+            problems_->report(batch.first_object + k, batch.problems[static_cast<std::size_t>(k)]);
       }
       std::array<long long, kFitStatusCount> by_status{};
 
      private:
       io::CatalogWriter* writer_;
       const FitRunOptions& a_;
-    } sink(writer.get(), a);
-    ProblemReporter problems(a);
+      ProblemReporter* problems_;
+    } sink(writer.get(), a, &problems);
     PipelineOptions po;
     po.threads = a.threads;
     po.batch_size = cfg.batch_size;
-    po.stamp_size = 0;  // the fit stage reads each object's cutouts itself
-    const std::function<std::unique_ptr<BatchFitter>()> make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
-      auto report = [&problems](long long row, const std::string& p) { problems.report(row, p); };
-      if (bands.empty()) return std::make_unique<MedsBatchFitter>(a.meds[0], meds_options, report);
-      return std::make_unique<MedsBatchFitter>(a.meds, bands, meds_options, report);
+    po.stamp_size = 0;  // each object's cutouts travel in the batch's observation arena
+    std::function<std::unique_ptr<BatchFitter>()> make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
+      return std::make_unique<SurveyBatchFitter>(meds_options, a.meds, bands);
     };
+    if (a.distribute) {
+      FitDistribution d = a.distribute(DistributedRun{cfg, a.meds, bands}, make_fitter);
+      make_fitter = std::move(d.make_fitter);
+      po.threads = d.pipeline_threads;
+    }
     summary.setup_seconds = since(start);
     po.stop = a.stop;
     const PipelineSummary fitted =
@@ -454,6 +438,27 @@ void check_threads(long long threads, const std::string& what) {
   if (threads < 0 || threads > kMaxThreads)
     throw io::ConfigError(what + " = " + std::to_string(threads) + ": must be 0 (all cores) or 1.." +
                           std::to_string(kMaxThreads));
+}
+
+MedsFitOptions survey_fit_options(const io::RunConfig& cfg) {
+  MedsFitOptions options;
+  static_cast<io::MedsOptions&>(options) = cfg.meds;
+  options.fitter = cfg.fitter;
+  options.metacal = cfg.metacal;
+  if (cfg.meds.psf == io::MedsPsfSource::kOptions) {
+    FftPlanCache plans(FftPlanning::kEstimate);
+    options.psf_model = app::build_shared_psf(cfg, plans).model;
+  }
+  return options;
+}
+
+std::unique_ptr<BatchFitter> make_survey_fitter(const io::RunConfig& config, const std::vector<std::string>& meds,
+                                                const std::vector<std::string>& bands) {
+  try {
+    return std::make_unique<SurveyBatchFitter>(survey_fit_options(config), meds, bands);
+  } catch (const std::invalid_argument& e) {
+    throw io::ConfigError(e.what());
+  }
 }
 
 RunSummary FitRun::run() const {
@@ -651,7 +656,7 @@ RunSummary FitRun::run() const {
       return recipe.make(planning);
     };
     if (a.distribute) {
-      FitDistribution d = a.distribute(cfg, make_fitter);
+      FitDistribution d = a.distribute(DistributedRun{cfg, {}, {}}, make_fitter);
       make_fitter = std::move(d.make_fitter);
       po.threads = d.pipeline_threads;
     }

@@ -54,21 +54,33 @@ struct FitRunProgress {
 };
 
 // How a run spreads its fits beyond this process (the MPI driver): given the run's final
-// configuration and the factory of local per-thread fitters, the factory the pipeline uses instead
-// and the pipeline's thread count (fit stages in flight). Called once, after the input, PSF and
-// outputs are set up and before the first batch.
+// configuration (and, for survey input, its tiles and bands) and the factory of local per-thread
+// fitters, the factory the pipeline uses instead and the pipeline's thread count (fit stages in
+// flight). Called once, after the input, PSF and outputs are set up and before the first batch.
+// A batch carries everything its fit needs (a grid's stamps, a survey object's cutouts and PSFs),
+// so a worker elsewhere fits it from the configuration alone.
 struct FitDistribution {
   std::function<std::unique_ptr<BatchFitter>()> make_fitter;
   int pipeline_threads = 0;
 };
+struct DistributedRun {
+  const io::RunConfig& config;     // effective: stamp size, PSF and renderer as the run resolved them
+  std::vector<std::string> meds;   // survey input: the tiles, in band order (the workers' messages name them)
+  std::vector<std::string> bands;  // survey input: the band names (empty: one tile without band columns)
+};
 using FitDistributor =
-    std::function<FitDistribution(const io::RunConfig& effective, std::function<std::unique_ptr<BatchFitter>()> local)>;
+    std::function<FitDistribution(const DistributedRun& run, std::function<std::unique_ptr<BatchFitter>()> local)>;
+
+// The per-thread fitter of a survey run's batches with this configuration (the run's own and an
+// MPI worker's). Throws io::ConfigError for options that cannot work together.
+std::unique_ptr<BatchFitter> make_survey_fitter(const io::RunConfig& config, const std::vector<std::string>& meds,
+                                                const std::vector<std::string>& bands);
 
 struct FitRunOptions {
   std::string input;        // a grid of stamps, or with `catalog` the image to cut them from
   // MEDS tiles (`--meds`), instead of `input`: each object fitted jointly on its cutouts
-  // (app/meds_object_fit; options meds_*), one survey row per object (io/result_columns). Several
-  // tiles are one per band of the same objects, fitted jointly (app/multi_band_object_fit).
+  // (io/meds_object_source, app/survey_object_fit; options meds_*), one survey row per object (io/result_columns). Several
+  // tiles are one per band of the same objects, fitted jointly.
   std::vector<std::string> meds;
   // The bands of `meds`, in its order (`--bands g,r,i`); empty: none for one tile, b0, b1, ... for
   // several. Given, the table has each band's columns (flux_<band>, ...), one band included.

@@ -105,7 +105,7 @@ const std::vector<Cutout>& band_cutouts() {
 // The joint fit of each galaxy's first `bands` bands (4 cutouts each) through MultiBandFitter.
 void fit_bands(benchmark::State& state, int bands, bool project = true) {
   MultiBandFitter fitter(options(project));
-  std::vector<EpochData> data;
+  std::vector<Observation> data;
   for (std::size_t i = 0; i < band_cutouts().size(); ++i) {
     const Cutout& c = band_cutouts()[i];
     std::string error;
@@ -117,7 +117,7 @@ void fit_bands(benchmark::State& state, int bands, bool project = true) {
   double iterations = 0, surrogate_iterations = 0, evaluations = 0;
   for (auto _ : state)
     for (int g = 0; g < kGalaxies; ++g, ++n) {
-      const MultiBandFitResult r = fitter.fit(std::span<const EpochData>(data).subspan(g * kBands * kEpochs, bands * kEpochs), bands);
+      const MultiBandFitResult r = fitter.fit(std::span<const Observation>(data).subspan(g * kBands * kEpochs, bands * kEpochs), bands);
       iterations += r.fit.iterations;
       surrogate_iterations += r.fit.surrogate_iterations;
       evaluations += r.fit.evaluations + r.fit.surrogate_evaluations;
@@ -130,7 +130,7 @@ void fit_bands(benchmark::State& state, int bands, bool project = true) {
 
 void fit_epochs(benchmark::State& state, int epochs, bool project = true) {
   MultiEpochFitter fitter(options(project));
-  std::vector<EpochData> data;
+  std::vector<Observation> data;
   for (const Cutout& c : cutouts()) {
     std::string error;
     data.push_back({c.pixels, c.weight, kBox, c.frame, fitter.renderer_for(kBox).prepare_psf(c.psf, &error), 1.0});
@@ -140,7 +140,7 @@ void fit_epochs(benchmark::State& state, int epochs, bool project = true) {
   double iterations = 0, surrogate_iterations = 0;
   for (auto _ : state)
     for (int g = 0; g < kGalaxies; ++g, ++n) {
-      const FitResult r = fitter.fit(std::span<const EpochData>(data).subspan(g * kEpochs, epochs));
+      const FitResult r = fitter.fit(std::span<const Observation>(data).subspan(g * kEpochs, epochs));
       iterations += r.iterations;
       surrogate_iterations += r.surrogate_iterations;
     }

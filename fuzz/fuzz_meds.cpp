@@ -17,7 +17,7 @@ extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t siz
       if (!o.problem.empty()) continue;
       for (int k = 0; k < static_cast<int>(o.cutouts.size()); ++k) {
         if (!o.cutouts[static_cast<std::size_t>(k)].problem.empty()) continue;
-        // Sized only for a usable cutout, whose pixels the arrays hold (as app/meds_object_fit
+        // Sized only for a usable cutout, whose pixels the arrays hold (as io/meds_object_source
         // does): a box size alone is a claim (harness finding H5: 2 GB for a 16384 box).
         pixels.resize(static_cast<std::size_t>(o.box_size * o.box_size));
         for (int t = 0; t < kNumMedsCutoutTypes; ++t)

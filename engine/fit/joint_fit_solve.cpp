@@ -7,7 +7,7 @@
 
 namespace stampede {
 
-ExactRenderer& CutoutScratch::select(ExactRenderer& r, const EpochData& e, bool surrogate) {
+ExactRenderer& CutoutScratch::select(ExactRenderer& r, const Observation& e, bool surrogate) {
   r.set_psf(e.psf);
   r.set_frame(e.frame);  // the surrogate follows the renderer's PSF and frame
   ExactRenderer* coarse = surrogate ? r.exact_surrogate() : nullptr;
@@ -21,8 +21,8 @@ ExactRenderer& CutoutScratch::select(ExactRenderer& r, const EpochData& e, bool 
   return coarse ? *coarse : r;
 }
 
-FitStatus check_cutouts(std::span<const EpochData> epochs, const char* who) {
-  for (const EpochData& e : epochs) {
+FitStatus check_cutouts(std::span<const Observation> epochs, const char* who) {
+  for (const Observation& e : epochs) {
     if (!e.psf) return FitStatus::kPsfFailure;
     const std::size_t n = static_cast<std::size_t>(e.box_size) * e.box_size;
     if (e.box_size < 1 || e.pixels.size() != n || e.weight.size() != n)

@@ -30,7 +30,7 @@ class CutoutScratch {
  public:
   // `r` set to e's PSF and frame, the scratch sized for e; returns the renderer to draw with (r's
   // exact surrogate when `surrogate` and r has one).
-  ExactRenderer& select(ExactRenderer& r, const EpochData& e, bool surrogate);
+  ExactRenderer& select(ExactRenderer& r, const Observation& e, bool surrogate);
   std::span<double> model() const { return model_span_; }
   const std::vector<double>& derivative(std::size_t k) const { return jacobian_[k]; }
   std::span<double* const> columns(std::size_t n) const { return {columns_.data(), n}; }
@@ -44,14 +44,14 @@ class CutoutScratch {
 
 // kPsfFailure when a cutout has no PSF (else kOk); throws std::invalid_argument naming `who` when a
 // cutout's pixels or weights are not box_size^2.
-FitStatus check_cutouts(std::span<const EpochData> epochs, const char* who);
+FitStatus check_cutouts(std::span<const Observation> epochs, const char* who);
 
 // Whether any cutout's PSF gives its renderer (renderer_for(box_size)) an exact surrogate: the
 // solve then starts on the surrogates.
 template <class RendererFor>
-bool any_surrogate(std::span<const EpochData> epochs, RendererFor&& renderer_for) {
+bool any_surrogate(std::span<const Observation> epochs, RendererFor&& renderer_for) {
   bool coarse = false;
-  for (const EpochData& e : epochs) {
+  for (const Observation& e : epochs) {
     ExactRenderer& r = renderer_for(e.box_size);
     r.set_psf(e.psf);
     coarse = coarse || r.exact_surrogate() != nullptr;

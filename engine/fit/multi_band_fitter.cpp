@@ -23,7 +23,7 @@ class MultiBandFitter::Problem final : public JointProblem {
 
   // The fit's cutouts, the full parameter vector of fixed values, the single-band free list and
   // the slot of each band in the solver's vector (-1: not fitted).
-  void reset(std::span<const EpochData> epochs, const ParamVector& base, std::span<const Param> free,
+  void reset(std::span<const Observation> epochs, const ParamVector& base, std::span<const Param> free,
              std::span<const int> slot_of_band, int slots) {
     epochs_ = epochs;
     base_ = base;
@@ -39,7 +39,7 @@ class MultiBandFitter::Problem final : public JointProblem {
     }
     pixels_ = 0;
     double sum = 0;
-    for (const EpochData& e : epochs)
+    for (const Observation& e : epochs)
       for (std::size_t i = 0; i < e.weight.size(); ++i) {
         pixels_ += e.weight[i] > 0;
         sum += e.weight[i] * e.pixels[i] * e.pixels[i];
@@ -71,7 +71,7 @@ class MultiBandFitter::Problem final : public JointProblem {
 
   bool chi2(const LmVector& x, double* chi2) override {
     double sum = 0;
-    for (const EpochData& e : epochs_) {
+    for (const Observation& e : epochs_) {
       const ParamVector p = full(x, slot_of_band_[static_cast<std::size_t>(e.band)]);
       ExactRenderer& r = select(e);
       const std::span<double> model = scratch_.model();
@@ -93,7 +93,7 @@ class MultiBandFitter::Problem final : public JointProblem {
     double sum = 0;
     signal_.fill(0.0);
     std::array<int, kNumParams> g{};
-    for (const EpochData& e : epochs_) {
+    for (const Observation& e : epochs_) {
       const int slot = slot_of_band_[static_cast<std::size_t>(e.band)];
       const ParamVector p = full(x, slot);
       for (std::size_t a = 0; a < nf; ++a) g[a] = global(a, slot);
@@ -132,10 +132,10 @@ class MultiBandFitter::Problem final : public JointProblem {
     int k = 0;  // index among the shape parameters, or among one band's amplitudes
   };
 
-  ExactRenderer& select(const EpochData& e) { return scratch_.select(f_.renderer_for(e.box_size), e, surrogates_); }
+  ExactRenderer& select(const Observation& e) { return scratch_.select(f_.renderer_for(e.box_size), e, surrogates_); }
 
   MultiBandFitter& f_;
-  std::span<const EpochData> epochs_;
+  std::span<const Observation> epochs_;
   ParamVector base_{};
   std::span<const Param> free_;
   std::array<Local, kNumParams> local_{};
@@ -157,7 +157,7 @@ MultiBandFitter::MultiBandFitter(const FitterOptions& options)
 
 MultiBandFitter::~MultiBandFitter() = default;
 
-MultiBandFitResult MultiBandFitter::fit(std::span<const EpochData> epochs, int n_bands, std::size_t first) {
+MultiBandFitResult MultiBandFitter::fit(std::span<const Observation> epochs, int n_bands, std::size_t first) {
   if (n_bands < 1 || n_bands > kMaxBands)
     throw std::invalid_argument("MultiBandFitter::fit: " + std::to_string(n_bands) + " bands (1.." +
                                 std::to_string(kMaxBands) + ")");
@@ -199,10 +199,10 @@ MultiBandFitResult MultiBandFitter::fit(std::span<const EpochData> epochs, int n
   std::uint32_t flags = 0;
   const ParamVector start = single_.joint_start(epochs, first, &flags);
   std::vector<ParamVector> amplitude_start(static_cast<std::size_t>(slots), start);
-  std::vector<EpochData> band;
+  std::vector<Observation> band;
   for (int s = 0; s < slots && !project_; ++s) {
     band.clear();
-    for (const EpochData& e : epochs)
+    for (const Observation& e : epochs)
       if (e.band == band_of_slot[static_cast<std::size_t>(s)]) band.push_back(e);
     ParamVector& a = amplitude_start[static_cast<std::size_t>(s)];
     a = single_.joint_start(band, 0, &flags);
@@ -219,7 +219,7 @@ MultiBandFitResult MultiBandFitter::fit(std::span<const EpochData> epochs, int n
   JointSolve solve;
   if (project_) {
     slot_of_cutout_.clear();
-    for (const EpochData& e : epochs) slot_of_cutout_.push_back(slot_of_band[static_cast<std::size_t>(e.band)]);
+    for (const Observation& e : epochs) slot_of_cutout_.push_back(slot_of_band[static_cast<std::size_t>(e.band)]);
     projected_->reset(epochs, start, free, slot_of_cutout_, slots, [this](std::size_t a, int s) { return problem_->global(a, s); },
                       problem_->size());
     if (!solve_joint(*projected_, projected_->shape_of(x0), options_, coarse, &r, &solve)) return out;

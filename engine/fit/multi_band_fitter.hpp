@@ -34,7 +34,7 @@ class MultiBandFitter {
   // from the single-stamp moments of epochs[first] and each band's amplitudes from its first
   // cutout's. Throws std::invalid_argument for a band index out of range or n_bands outside
   // 1..kMaxBands.
-  MultiBandFitResult fit(std::span<const EpochData> epochs, int n_bands, std::size_t first = 0);
+  MultiBandFitResult fit(std::span<const Observation> epochs, int n_bands, std::size_t first = 0);
 
  private:
   class Problem;

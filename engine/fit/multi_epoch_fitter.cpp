@@ -17,13 +17,13 @@ class MultiEpochFitter::Problem final : public JointProblem {
   explicit Problem(MultiEpochFitter& f) : f_(f) {}
 
   // The fit's cutouts, its full parameter vector and which of them are free.
-  void reset(std::span<const EpochData> epochs, const ParamVector& start, std::span<const Param> free) {
+  void reset(std::span<const Observation> epochs, const ParamVector& start, std::span<const Param> free) {
     epochs_ = epochs;
     p_ = start;
     free_ = free;
     pixels_ = 0;
     double sum = 0;
-    for (const EpochData& e : epochs)
+    for (const Observation& e : epochs)
       for (std::size_t i = 0; i < e.weight.size(); ++i) {
         pixels_ += e.weight[i] > 0;
         sum += e.weight[i] * e.pixels[i] * e.pixels[i];
@@ -44,7 +44,7 @@ class MultiEpochFitter::Problem final : public JointProblem {
   bool chi2(const LmVector& x, double* chi2) override {
     const ParamVector p = full(x);
     double sum = 0;
-    for (const EpochData& e : epochs_) {
+    for (const Observation& e : epochs_) {
       ExactRenderer& r = select(e);
       const std::span<double> model = scratch_.model();
       if (r.render(p, model) != RenderStatus::kOk) return false;
@@ -63,7 +63,7 @@ class MultiEpochFitter::Problem final : public JointProblem {
     alpha->setZero(n, n);
     beta->setZero(n);
     double sum = 0, signal = 0;
-    for (const EpochData& e : epochs_) {
+    for (const Observation& e : epochs_) {
       ExactRenderer& r = select(e);
       const std::span<double> model = scratch_.model();
       if (r.render_with_jacobian(p, free_, model, scratch_.columns(free_.size())) != RenderStatus::kOk) return false;
@@ -93,10 +93,10 @@ class MultiEpochFitter::Problem final : public JointProblem {
 
  private:
   // The renderer for e's size, set to its PSF and frame, with scratch sized for it.
-  ExactRenderer& select(const EpochData& e) { return scratch_.select(f_.renderer_for(e.box_size), e, surrogates_); }
+  ExactRenderer& select(const Observation& e) { return scratch_.select(f_.renderer_for(e.box_size), e, surrogates_); }
 
   MultiEpochFitter& f_;
-  std::span<const EpochData> epochs_;
+  std::span<const Observation> epochs_;
   ParamVector p_{};
   std::span<const Param> free_;
   int pixels_ = 0;
@@ -138,7 +138,7 @@ Fitter& MultiEpochFitter::starter_for(int box_size) {
   return *it->second;
 }
 
-ParamVector MultiEpochFitter::sky_start(const EpochData& e, std::uint32_t* flags) {
+ParamVector MultiEpochFitter::sky_start(const Observation& e, std::uint32_t* flags) {
   Fitter& f = starter_for(e.box_size);
   f.set_psf(e.psf);
   const ParamVector pixel = f.starting_point(e.pixels, e.weight, flags);
@@ -161,13 +161,13 @@ ParamVector MultiEpochFitter::sky_start(const EpochData& e, std::uint32_t* flags
   return sky;
 }
 
-ParamVector MultiEpochFitter::joint_start(std::span<const EpochData> epochs, std::size_t first, std::uint32_t* flags) {
+ParamVector MultiEpochFitter::joint_start(std::span<const Observation> epochs, std::size_t first, std::uint32_t* flags) {
   ParamVector p = sky_start(epochs[first], flags);
   if (epochs.size() < 2) return p;
   double sw = 0, u = 0, v = 0, flux = 0, g[3] = {0, 0, 0}, t[3] = {0, 0, 0};
   double first_flux = NAN;
   for (std::size_t k = 0; k < epochs.size(); ++k) {
-    const EpochData& e = epochs[k];
+    const Observation& e = epochs[k];
     if (!e.psf) continue;
     const kernels::ImageMoments m = kernels::adaptive_moments(e.pixels, e.weight, e.box_size);
     if (!m.valid || !(m.flux > 0)) continue;
@@ -226,14 +226,14 @@ ParamVector MultiEpochFitter::joint_start(std::span<const EpochData> epochs, std
   return p;
 }
 
-FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, std::size_t first) {
+FitResult MultiEpochFitter::fit(std::span<const Observation> epochs, std::size_t first) {
   if (first >= epochs.size()) throw std::invalid_argument("MultiEpochFitter::fit: no epoch to start from");
   if (!epochs[first].psf) {
     FitResult r;
     r.status = FitStatus::kPsfFailure;
     return r;
   }
-  const EpochData& e = epochs.front();
+  const Observation& e = epochs.front();
   if (epochs.size() == 1 && e.flux_scale == 1 && e.frame.unit_jacobian()) {
     // One cutout whose sky is its pixel grid is a single stamp: the single-stamp fit (amplitude
     // projection, scaled units), so such a MEDS row is the grid path's row bit for bit; only the
@@ -252,7 +252,7 @@ FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, std::size_t f
   return r;
 }
 
-FitResult MultiEpochFitter::fit(std::span<const EpochData> epochs, const ParamVector& start) {
+FitResult MultiEpochFitter::fit(std::span<const Observation> epochs, const ParamVector& start) {
   FitResult r;
   std::array<Param, kNumParams> free_all{};
   const int nf = options_.params.free_params(&free_all);

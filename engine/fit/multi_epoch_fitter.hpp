@@ -16,24 +16,13 @@
 
 #include "engine/fit/fit_result.hpp"
 #include "engine/fit/fitter.hpp"
+#include "engine/fit/observation.hpp"
 #include "engine/model/pixel_frame.hpp"
 #include "engine/render/exact_renderer.hpp"
 
 namespace stampede {
 
 class ProjectedJointProblem;
-
-// One cutout as the fit sees it. psf: prepared by renderer_for(box_size) (any renderer of the
-// fitter's options and that size).
-struct EpochData {
-  std::span<const double> pixels;  // box_size^2, row-major (rows slow)
-  std::span<const double> weight;  // inverse variance per pixel; 0 masks
-  int box_size = 0;
-  PixelFrame frame;
-  std::shared_ptr<const PreparedPsf> psf;
-  double flux_scale = 1;  // data = flux_scale x model (a zero point's factor)
-  int band = 0;           // multi-band fits (multi_band_fitter): the band whose amplitudes it sees
-};
 
 class MultiEpochFitter {
  public:
@@ -46,19 +35,19 @@ class MultiEpochFitter {
 
   // Fits from `start` (sky units). Result: params, errors and fluxes in sky units; chi2 and S/N
   // summed over the cutouts; n_pixels the unmasked pixels of all of them.
-  FitResult fit(std::span<const EpochData> epochs, const ParamVector& start);
+  FitResult fit(std::span<const Observation> epochs, const ParamVector& start);
   // Fits from joint_start(epochs, first); *flags gains what that start reports
   // (kFlagDefaultStart). One epoch
   // whose frame is the pixel grid (J = 1, flux scale 1) is fitted by the single-stamp Fitter: its
   // row is then the grid path's, the centroid taken relative to the frame's reference.
-  FitResult fit(std::span<const EpochData> epochs, std::size_t first = 0);
+  FitResult fit(std::span<const Observation> epochs, std::size_t first = 0);
   // That start alone.
-  ParamVector sky_start(const EpochData& epoch, std::uint32_t* flags);
+  ParamVector sky_start(const Observation& epoch, std::uint32_t* flags);
   // The start of a fit of several cutouts: every cutout's adaptive moments carried to the sky
   // (J M J^T) less its PSF's, averaged with weights flux^2 x mean weight (S/N^2), for the centroid,
   // e and radius, so the start has the S/N of all the cutouts, not of one; the amplitudes are
   // sky_start(epochs[first])'s scaled to the mean flux at that radius. One cutout: sky_start.
-  ParamVector joint_start(std::span<const EpochData> epochs, std::size_t first, std::uint32_t* flags);
+  ParamVector joint_start(std::span<const Observation> epochs, std::size_t first, std::uint32_t* flags);
 
  private:
   class Problem;

@@ -6,7 +6,7 @@
 
 namespace stampede {
 
-void ProjectedJointProblem::reset(std::span<const EpochData> epochs, const ParamVector& base, std::span<const Param> free,
+void ProjectedJointProblem::reset(std::span<const Observation> epochs, const ParamVector& base, std::span<const Param> free,
                                   std::span<const int> slot_of_cutout, int slots,
                                   const std::function<int(std::size_t, int)>& global, int n_global) {
   if (slots < 1 || slots > kMaxBands || slot_of_cutout.size() != epochs.size())
@@ -35,7 +35,7 @@ void ProjectedJointProblem::reset(std::span<const EpochData> epochs, const Param
   pixels_ = 0;
   double sum = 0;
   for (std::size_t c = 0; c < epochs.size(); ++c) {
-    const EpochData& e = epochs[c];
+    const Observation& e = epochs[c];
     offset_[c + 1] = offset_[c] + 2 * e.pixels.size();
     for (std::size_t i = 0; i < e.weight.size(); ++i) {
       pixels_ += e.weight[i] > 0;
@@ -63,7 +63,7 @@ bool ProjectedJointProblem::chi2(const LmVector& x, double* chi2) {
   std::array<std::array<double, 4>, kMaxBands> g{};
   std::array<std::array<double, 2>, kMaxBands> h{};
   for (std::size_t c = 0; c < epochs_.size(); ++c) {
-    const EpochData& e = epochs_[c];
+    const Observation& e = epochs_[c];
     const std::size_t n = e.pixels.size();
     double* b = components_.data() + offset_[c];
     double* d = b + n;
@@ -92,7 +92,7 @@ bool ProjectedJointProblem::chi2(const LmVector& x, double* chi2) {
   }
   double sum = 0;
   for (std::size_t c = 0; c < epochs_.size(); ++c) {
-    const EpochData& e = epochs_[c];
+    const Observation& e = epochs_[c];
     const std::size_t n = e.pixels.size();
     const double* b = components_.data() + offset_[c];
     const double* d = b + n;
@@ -129,7 +129,7 @@ bool ProjectedJointProblem::normal_equations(const LmVector& x, double* chi2, Lm
   signal_.fill(0.0);
   double sum = 0;
   for (std::size_t c = 0; c < epochs_.size(); ++c) {
-    const EpochData& e = epochs_[c];
+    const Observation& e = epochs_[c];
     const std::size_t slot = static_cast<std::size_t>(slot_of_cutout_[c]);
     ExactRenderer& r = select(e);
     const std::span<double> model = scratch_.model();

@@ -32,7 +32,7 @@ class ProjectedJointProblem final : public JointProblem {
   // The fit's cutouts (cutout c in band slot slot_of_cutout[c] < slots), the full parameter vector
   // of fixed values, the free parameters (one band's list) and the fitter's index of free
   // parameter a of slot s, global(a, s), in a layout of `n_global` parameters.
-  void reset(std::span<const EpochData> epochs, const ParamVector& base, std::span<const Param> free,
+  void reset(std::span<const Observation> epochs, const ParamVector& base, std::span<const Param> free,
              std::span<const int> slot_of_cutout, int slots, const std::function<int(std::size_t, int)>& global,
              int n_global);
 
@@ -53,10 +53,10 @@ class ProjectedJointProblem final : public JointProblem {
  private:
   // The full parameter vector of slot s at shape x and amplitudes la.
   ParamVector params(const LmVector& x, const LinearAmplitudes& la) const;
-  ExactRenderer& select(const EpochData& e) { return scratch_.select(renderer_for_(e.box_size), e, surrogates_); }
+  ExactRenderer& select(const Observation& e) { return scratch_.select(renderer_for_(e.box_size), e, surrogates_); }
 
   RendererFor renderer_for_;
-  std::span<const EpochData> epochs_;
+  std::span<const Observation> epochs_;
   ParamVector base_{};
   std::span<const Param> free_;
   std::vector<int> slot_of_cutout_;

@@ -75,7 +75,7 @@ class MultiEpochMetacalFitter {
   std::vector<const MetacalEpoch*> used_;
   std::vector<MetacalEpochPsf> psfs_;
   std::vector<std::shared_ptr<const PreparedPsf>> prepared_;
-  std::vector<EpochData> fit_epochs_;
+  std::vector<Observation> fit_epochs_;
   std::vector<double> variances_;  // each used cutout's image noise variance (0: noise-free)
   std::vector<kernels::MomentsStamp> stamps_;
   std::vector<double> moments_scratch_;

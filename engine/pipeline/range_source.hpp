@@ -14,6 +14,7 @@ class RangeSource final : public StampSource {
   // `inner` must outlive this; 0 <= begin <= end <= inner.total_objects().
   RangeSource(StampSource& inner, long long begin, long long end) : inner_(inner), begin_(begin), end_(end) {
     inner_.skip_to(begin_);
+    inner_.set_end(end_);
   }
   long long total_objects() const override { return end_ - begin_; }
   void skip_to(long long index) override {

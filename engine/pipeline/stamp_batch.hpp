@@ -1,12 +1,16 @@
-// A batch of stamps travelling through the pipeline: the unit of reading, fitting and writing.
-// Batches are allocated once (a fixed pool) and reused, so steady state allocates nothing.
+// A batch of objects travelling through the pipeline: the unit of reading, fitting and writing.
+// An object is one stamp of a grid or catalogue (pixels, weights, PSFs below) or any number of
+// observations (`observations`: a MEDS tile's cutouts over one band or several). Batches are
+// allocated once (a fixed pool) and reused, so steady state allocates nothing.
 #pragma once
 
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "engine/model/psf_model.hpp"
 #include "engine/pipeline/object_record.hpp"
+#include "engine/pipeline/observation_arena.hpp"
 
 namespace stampede {
 
@@ -23,6 +27,10 @@ struct StampBatch {
   // nothing; an image model shares its immutable image.
   std::vector<PsfModel> psf;
   std::vector<ObjectRecord> records;  // input identity, then fit results
+  ObservationArena observations;      // objects of several observations (stamp_size 0)
+  // Survey objects: each one's first problem (why cutouts or the object were not used), "" none;
+  // the run reports them in input order.
+  std::vector<std::string> problems;
   StampBatch* next = nullptr;         // intrusive link for the writer hand-off
 
   StampBatch(int capacity, int stamp, bool per_object_psf)
@@ -30,7 +38,8 @@ struct StampBatch {
         pixels(static_cast<std::size_t>(capacity) * stamp * stamp),
         weights(static_cast<std::size_t>(capacity) * stamp * stamp),
         psf(per_object_psf ? capacity : 0),
-        records(capacity) {}
+        records(capacity),
+        problems(capacity) {}
   int capacity() const { return static_cast<int>(records.size()); }
   std::size_t npix() const { return static_cast<std::size_t>(stamp_size) * stamp_size; }
   double* stamp(int k) { return pixels.data() + k * npix(); }
@@ -47,6 +56,8 @@ class StampSource {
   virtual long long total_objects() const = 0;  // -1 if unknown
   // Positions the source so the next batch starts at object `index` (resume).
   virtual void skip_to(long long index) = 0;
+  // Reads no object at or after `end` (a shard's end), so that the last batch reads nothing past it.
+  virtual void set_end(long long /*end*/) {}
   virtual bool fill(StampBatch& batch) = 0;
 };
 

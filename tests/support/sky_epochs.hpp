@@ -80,8 +80,8 @@ inline ParamVector sky_params(const SkyGalaxy& g, ExactRenderer& r) {
 }
 
 // The epochs as a fit takes them, their PSFs prepared by `renderer` (one of kEpochBox pixels).
-inline std::vector<EpochData> epoch_data(ExactRenderer& renderer, std::vector<SkyEpoch>& epochs, int band = 0) {
-  std::vector<EpochData> data;
+inline std::vector<Observation> epoch_data(ExactRenderer& renderer, std::vector<SkyEpoch>& epochs, int band = 0) {
+  std::vector<Observation> data;
   for (SkyEpoch& e : epochs) {
     std::string error;
     auto psf = renderer.prepare_psf(e.psf, &error);

@@ -247,16 +247,34 @@ TEST_F(MpiDriver, MeasuredFftPlansAreRefused) {
 
 // The workers fit the pixels they are sent and a survey batch carries only row numbers: a MEDS tile
 // is refused by name (and nothing is written), never fitted wrong on the other ranks.
-TEST_F(MpiDriver, AMedsTileIsRefusedNotFittedWrong) {
-  const auto r = stampede::testing::finish(
-      spawn_mpi(2, {"--meds", std::string(STAMPEDE_DATA_DIR) + "/meds-sample/meds.fits", "-o", path("m.fits"), "--threads",
-                    "1", "--quiet"},
-                path("err.txt")),
-      path("err.txt"));
-  EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.err.find("--meds with stampede-mpi"), std::string::npos) << r.err;
-  EXPECT_FALSE(fs::exists(path("m.fits")));
-  EXPECT_FALSE(fs::exists(path("m.fits.partial")));
+// MEDS tiles over ranks: each batch carries its objects' cutouts, weights, frames and PSF images
+// (io/meds_object_source fills them in rank 0's serial stage), so a worker fits them without the
+// tile. One band with PSFEx models, and three bands with metacal, equal one process's table.
+TEST_F(MpiDriver, MedsTilesOverTwoRanksWriteTheSingleProcessTable) {
+  for (const auto& [dir, extra] : std::vector<std::pair<std::string, std::vector<std::string>>>{
+           {"one", {"--objects", "24", "--neighbours", "0.5", "--bad-columns", "0.3"}},
+           {"three", {"--objects", "12", "--bands", "g,r,i"}}}) {
+    const auto sim = stampede::testing::finish(
+        stampede::testing::spawn(std::vector<std::string>{"meds", "--out", path(dir)} + extra, path("sim.txt"), "sim"),
+        path("sim.txt"));
+    ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  }
+  const std::vector<std::string> one = {"--meds", path("one/meds.fits"), "--set", "batch_size=4", "--threads", "1",
+                                        "--quiet"};
+  const std::vector<std::string> three = {"--meds", path("three/g/meds.fits"), "--meds", path("three/r/meds.fits"),
+                                          "--meds", path("three/i/meds.fits"), "--bands", "g,r,i", "--set", "metacal=true",
+                                          "--set", "batch_size=2", "--threads", "1", "--quiet"};
+  for (const auto& [name, args] : std::vector<std::pair<std::string, std::vector<std::string>>>{{"one", one}, {"three", three}}) {
+    const auto single = stampede::testing::finish(
+        stampede::testing::spawn(std::vector<std::string>{"-o", path(name + "_single.fits")} + args, path("single.txt")),
+        path("single.txt"));
+    ASSERT_EQ(single.exit_code, 0) << single.err;
+    const auto r = stampede::testing::finish(spawn_mpi(2, std::vector<std::string>{"-o", path(name + "_mpi.fits")} + args,
+                                                       path("mpi.txt")),
+                                             path("mpi.txt"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    expect_every_column_equal(path(name + "_single.fits"), path(name + "_mpi.fits"));
+  }
 }
 
 }  // namespace

@@ -20,9 +20,11 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: mpirun -n R stampede-mpi fit INPUT.fits -o OUT.fits [--threads T] [stampede fit options]\n"
+    "       mpirun -n R stampede-mpi fit --meds TILE.fits [--meds ... --bands ...] -o OUT.fits [options]\n"
     "       mpirun -n R stampede-mpi fit --input-list LIST -o DIR [--threads T] [options]\n"
     "\n"
-    "Runs `stampede fit` (see `stampede fit --help`) over R MPI ranks. Rank 0 reads the input, writes\n"
+    "Runs `stampede fit` (see `stampede fit --help`) over R MPI ranks. Rank 0 reads the input (a grid,\n"
+    "a catalogue, or MEDS tiles: each object's cutouts and PSFs travel with its batch), writes\n"
     "the one output table and fits on T threads; every other rank fits the batches it is handed, a\n"
     "batch at a time to whichever rank is free, on T threads. The table equals a single process's\n"
     "(every column but time_us); --resume after a killed job (any rank) finishes it without refitting\n"

@@ -10,6 +10,7 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -29,6 +30,7 @@ namespace {
 // Slot j of a worker talks on these tags; 0-length messages on the batch tag mean stop.
 int batch_tag(int slot) { return 100 + slot; }
 int rows_tag(int slot) { return 100000 + slot; }
+int problems_tag(int slot) { return 200000 + slot; }
 
 struct Slot {
   int rank = 0;  // 0: fitted here
@@ -67,6 +69,22 @@ void check(int rc, const char* what) {
   if (rc != MPI_SUCCESS) throw std::runtime_error(std::string("MPI: ") + what + " failed");
 }
 
+// The next message from `source` on `tag`, whatever its size, into *buffer (grown as needed, so a
+// run allocates only until its largest batch has been seen). Waits without spinning (idle_wait.hpp).
+void receive_any_size(int source, int tag, std::vector<char>* buffer) {
+  MPI_Message message;
+  MPI_Status status;
+  for (int found = 0;;) {
+    check(MPI_Improbe(source, tag, MPI_COMM_WORLD, &found, &message, &status), "probe");
+    if (found) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  int size = 0;
+  check(MPI_Get_count(&status, MPI_BYTE, &size), "message size");
+  buffer->resize(static_cast<std::size_t>(size));
+  check(MPI_Mrecv(buffer->data(), size, MPI_BYTE, &message, MPI_STATUS_IGNORE), "receive");
+}
+
 // A pipeline thread's fitter on rank 0: fits the batch in the first free slot, here or remotely.
 class DispatchingFitter final : public BatchFitter {
  public:
@@ -88,6 +106,10 @@ class DispatchingFitter final : public BatchFitter {
                         rows_tag(s.index), MPI_COMM_WORLD, &request),
               "receive rows");
         wait_idle(&request, MPI_STATUS_IGNORE, "receive rows");
+        if (batch.stamp_size == 0) {  // a survey batch: its problem texts follow its rows
+          receive_any_size(s.rank, problems_tag(s.index), &message_);
+          unpack_problems(message_.data(), message_.size(), &batch);
+        }
       }
     } catch (...) {
       pool_->release(s);
@@ -123,11 +145,14 @@ std::string receive_text() {
 }  // namespace
 
 app::FitDistributor rank0_distributor(int ranks, int threads) {
-  return [ranks, threads](const io::RunConfig& cfg, std::function<std::unique_ptr<BatchFitter>()> local) {
-    // The effective options (stamp size and PSF as the input's header made them), one per line.
+  return [ranks, threads](const app::DistributedRun& run, std::function<std::unique_ptr<BatchFitter>()> local) {
+    // The effective options (stamp size and PSF as the input's header made them), one per line,
+    // then the driver's own lines (not option keys): slots, and a survey run's tiles and bands.
     std::string text;
-    for (const auto& [k, v] : io::effective_options(cfg)) text += k + "=" + v + "\n";
-    text += "mpi_slots=" + std::to_string(threads) + "\n";  // not an option key: the driver's own
+    for (const auto& [k, v] : io::effective_options(run.config)) text += k + "=" + v + "\n";
+    text += "mpi_slots=" + std::to_string(threads) + "\n";
+    for (const std::string& m : run.meds) text += "mpi_meds=" + m + "\n";
+    for (const std::string& b : run.bands) text += "mpi_band=" + b + "\n";
     broadcast_text(text);
     g_distributed = true;
     g_slots = threads;
@@ -155,40 +180,50 @@ void run_worker(int /*threads*/) {
   if (text.empty()) return;
   io::RunConfig cfg;
   int slots = 1;
+  std::vector<std::string> meds, bands;
   std::istringstream lines(text);
   for (std::string line; std::getline(lines, line);) {
     const std::size_t eq = line.find('=');
     const std::string key = line.substr(0, eq), value = line.substr(eq + 1);
     if (key == "mpi_slots") {
       slots = std::stoi(value);
+    } else if (key == "mpi_meds") {
+      meds.push_back(value);
+    } else if (key == "mpi_band") {
+      bands.push_back(value);
     } else {
       io::set_option(cfg, key, value);
     }
   }
   io::validate(cfg);
+  // A survey run's batches carry their objects' cutouts and PSFs (stamp size 0); a grid's, stamps.
+  const bool survey = !meds.empty();
+  const int stamp_size = survey ? 0 : cfg.fitter.render.stamp_size;
   FftPlanCache setup_plans(FftPlanning::kEstimate);
-  const app::StampFitterRecipe recipe = app::stamp_fitter_recipe(cfg, setup_plans, cfg.psf_from_catalogue);
+  std::optional<app::StampFitterRecipe> recipe;
+  if (!survey) recipe = app::stamp_fitter_recipe(cfg, setup_plans, cfg.psf_from_catalogue);
+  auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
+    if (survey) return app::make_survey_fitter(cfg, meds, bands);
+    return recipe->make(FftPlanning::kEstimate);
+  };
 
-  const std::size_t max_message = max_batch_message(cfg.batch_size, cfg.fitter.render.stamp_size, cfg.psf_from_catalogue);
   auto serve_slot = [&](int j) {
-      const std::unique_ptr<StampFitter> fitter = recipe.make(FftPlanning::kEstimate);
-      StampBatch batch(cfg.batch_size, cfg.fitter.render.stamp_size, cfg.psf_from_catalogue);
-      std::vector<char> message(max_message);
+      const std::unique_ptr<BatchFitter> fitter = make_fitter();
+      StampBatch batch(cfg.batch_size, stamp_size, !survey && cfg.psf_from_catalogue);
+      std::vector<char> message;
       for (;;) {
-        MPI_Status status;
-        MPI_Request request;
-        check(MPI_Irecv(message.data(), static_cast<int>(message.size()), MPI_BYTE, 0, batch_tag(j), MPI_COMM_WORLD,
-                        &request),
-              "receive batch");
-        wait_idle(&request, &status, "receive batch");
-        int size = 0;
-        MPI_Get_count(&status, MPI_BYTE, &size);
-        if (size == 0) return;
-        unpack_batch(message.data(), static_cast<std::size_t>(size), &batch);
+        receive_any_size(0, batch_tag(j), &message);
+        if (message.empty()) return;
+        unpack_batch(message.data(), message.size(), &batch);
         fitter->fit(batch);
         check(MPI_Send(batch.records.data(), static_cast<int>(batch.count * sizeof(ObjectRecord)), MPI_BYTE, 0,
                        rows_tag(j), MPI_COMM_WORLD),
               "send rows");
+        if (survey) {
+          pack_problems(batch, &message);
+          check(MPI_Send(message.data(), static_cast<int>(message.size()), MPI_BYTE, 0, problems_tag(j), MPI_COMM_WORLD),
+                "send problems");
+        }
       }
   };
   std::vector<std::thread> threads;

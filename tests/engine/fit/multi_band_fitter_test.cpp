@@ -47,7 +47,7 @@ TEST(MultiBandFitter, NoiseFreeBandsGiveTheShapeAndEachBandsFluxesBack) {
     const SkyGalaxy shape{0.4 * u(rng), 0.4 * u(rng), 0.55 + 0.15 * u(rng), 0.05 * u(rng), 0.05 * u(rng), 0, 0};
     std::vector<SkyGalaxy> bands;
     std::vector<std::vector<SkyEpoch>> epochs;
-    std::vector<EpochData> data;
+    std::vector<Observation> data;
     for (int b = 0; b < 3; ++b) {
       SkyGalaxy g = shape;
       g.bulge_flux = (100 + 150 * b) * (1 + 0.2 * u(rng));  // redder bands: more bulge
@@ -56,7 +56,7 @@ TEST(MultiBandFitter, NoiseFreeBandsGiveTheShapeAndEachBandsFluxesBack) {
       epochs.push_back(band_epochs(g, 3.8 - 0.3 * b, 4, rng));
     }
     for (int b = 0; b < 3; ++b)
-      for (const EpochData& e : testing::epoch_data(fitter.renderer_for(kEpochBox), epochs[b], b)) data.push_back(e);
+      for (const Observation& e : testing::epoch_data(fitter.renderer_for(kEpochBox), epochs[b], b)) data.push_back(e);
     const MultiBandFitResult r = fitter.fit(data, 3);
     ASSERT_EQ(r.fit.status, FitStatus::kOk) << "galaxy " << galaxy;
     const double d1 = r.fit.params[index(Param::kE1)] - shape.e1, d2 = r.fit.params[index(Param::kE2)] - shape.e2;
@@ -93,8 +93,8 @@ TEST(MultiBandFitter, OneBandIsTheMultiEpochFitBitForBit) {
     for (double& v : e.pixels) v += noise(rng);
   MultiBandFitter bands(testing::exact_fit_options());
   MultiEpochFitter single(testing::exact_fit_options());
-  const std::vector<EpochData> a = testing::epoch_data(bands.renderer_for(kEpochBox), epochs);
-  const std::vector<EpochData> b = testing::epoch_data(single.renderer_for(kEpochBox), epochs);
+  const std::vector<Observation> a = testing::epoch_data(bands.renderer_for(kEpochBox), epochs);
+  const std::vector<Observation> b = testing::epoch_data(single.renderer_for(kEpochBox), epochs);
   const MultiBandFitResult joint = bands.fit(a, 1);
   const FitResult one = single.fit(b);
   ASSERT_EQ(one.status, FitStatus::kOk);
@@ -125,10 +125,10 @@ TEST(MultiBandFitter, IdenticalBandsDivideTheShapeErrorsByTheRootOfTheirNumber) 
   FitterOptions o = testing::exact_fit_options();
   o.lm.eps4 = 1e-12;
   MultiBandFitter fitter(o);
-  std::vector<EpochData> three;
+  std::vector<Observation> three;
   for (int b = 0; b < 3; ++b)
-    for (const EpochData& e : testing::epoch_data(fitter.renderer_for(kEpochBox), epochs, b)) three.push_back(e);
-  const MultiBandFitResult one = fitter.fit(std::span<const EpochData>(three.data(), 2), 3);
+    for (const Observation& e : testing::epoch_data(fitter.renderer_for(kEpochBox), epochs, b)) three.push_back(e);
+  const MultiBandFitResult one = fitter.fit(std::span<const Observation>(three.data(), 2), 3);
   const MultiBandFitResult joint = fitter.fit(three, 3);
   ASSERT_EQ(one.fit.status, FitStatus::kOk);
   ASSERT_EQ(joint.fit.status, FitStatus::kOk);
@@ -150,7 +150,7 @@ TEST(MultiBandFitter, ABandOutOfRangeOrTooManyBandsThrow) {
   const SkyGalaxy g{0.1, 0.1, 0.6, 0, 0, 300, 1000};
   std::vector<SkyEpoch> epochs = band_epochs(g, 3.6, 1, rng);
   MultiBandFitter fitter(testing::exact_fit_options());
-  const std::vector<EpochData> data = testing::epoch_data(fitter.renderer_for(kEpochBox), epochs, 2);
+  const std::vector<Observation> data = testing::epoch_data(fitter.renderer_for(kEpochBox), epochs, 2);
   EXPECT_THROW(fitter.fit(data, 2), std::invalid_argument);
   EXPECT_THROW(fitter.fit(data, kMaxBands + 1), std::invalid_argument);
   EXPECT_THROW(fitter.fit(data, 0), std::invalid_argument);

@@ -33,7 +33,7 @@ ParamVector perturbed(ParamVector p) {
   return p;
 }
 
-std::vector<EpochData> epoch_data(MultiEpochFitter& fitter, std::vector<Epoch>& epochs) {
+std::vector<Observation> epoch_data(MultiEpochFitter& fitter, std::vector<Epoch>& epochs) {
   return testing::epoch_data(fitter.renderer_for(kBox), epochs);
 }
 
@@ -53,7 +53,7 @@ TEST(MultiEpochFitter, NoiseFreeEpochsGiveTheSkyEllipticityBack) {
       e.pixels = draw(g, e.frame, e.psf);
       e.weight.assign(kBox * kBox, 1.0);
     }
-    const std::vector<EpochData> data = epoch_data(fitter, epochs);
+    const std::vector<Observation> data = epoch_data(fitter, epochs);
     const ParamVector truth = sky_params(g, fitter.renderer_for(kBox));
     const FitResult r = fitter.fit(data, perturbed(truth));
     // From the moments of the first epoch, carried to the sky: the same optimum.
@@ -103,7 +103,7 @@ TEST(MultiEpochFitter, TurningEveryEpochBy90DegreesChangesNothingOnTheSky) {
     t.psf = moffat(3.6, -e.psf.moffat.e1, -e.psf.moffat.e2);  // a 90-degree turn negates e
   }
   const ParamVector start = perturbed(sky_params(g, fitter.renderer_for(kBox)));
-  const std::vector<EpochData> a = epoch_data(fitter, epochs), b = epoch_data(fitter, turned);
+  const std::vector<Observation> a = epoch_data(fitter, epochs), b = epoch_data(fitter, turned);
   const FitResult ra = fitter.fit(a, start), rb = fitter.fit(b, start);
   ASSERT_EQ(ra.status, FitStatus::kOk);
   ASSERT_EQ(rb.status, FitStatus::kOk);
@@ -139,10 +139,10 @@ TEST(MultiEpochFitter, ErrorsFallAsOneOverRootN) {
       e.weight.assign(kBox * kBox, 1.0);
     }
     const ParamVector start = sky_params(g, fitter.renderer_for(kBox));
-    std::vector<EpochData> all = epoch_data(fitter, epochs);
+    std::vector<Observation> all = epoch_data(fitter, epochs);
     double err1[2] = {0, 0};
     for (int n : {1, 2, 4, 8}) {
-      const FitResult r = fitter.fit(std::span<const EpochData>(all.data(), n), start);
+      const FitResult r = fitter.fit(std::span<const Observation>(all.data(), n), start);
       ASSERT_EQ(r.status, FitStatus::kOk);
       if (n == 1) err1[0] = r.e1_err, err1[1] = r.e2_err;
       const double ratio1 = r.e1_err * std::sqrt(n) / err1[0], ratio2 = r.e2_err * std::sqrt(n) / err1[1];

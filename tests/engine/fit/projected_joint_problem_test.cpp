@@ -41,10 +41,10 @@ struct ThreeBands {
       epochs.push_back(std::move(band));
     }
   }
-  std::vector<EpochData> data(ExactRenderer& r) {
-    std::vector<EpochData> out;
+  std::vector<Observation> data(ExactRenderer& r) {
+    std::vector<Observation> out;
     for (int b = 0; b < 3; ++b)
-      for (const EpochData& e : testing::epoch_data(r, epochs[static_cast<std::size_t>(b)], b)) out.push_back(e);
+      for (const Observation& e : testing::epoch_data(r, epochs[static_cast<std::size_t>(b)], b)) out.push_back(e);
     return out;
   }
 };
@@ -60,7 +60,7 @@ RenderOptions box_options() {
 struct ThreeBandProblem {
   ExactRenderer renderer;
   ThreeBands bands;
-  std::vector<EpochData> data;
+  std::vector<Observation> data;
   std::array<Param, kNumParams> free_all{};
   std::span<const Param> free;
   std::vector<int> slot;
@@ -72,7 +72,7 @@ struct ThreeBandProblem {
         data(bands.data(renderer)),
         problem([this](int) -> ExactRenderer& { return renderer; }) {
     free = std::span<const Param>(free_all.data(), static_cast<std::size_t>(ParameterSet{}.free_params(&free_all)));
-    for (const EpochData& e : data) slot.push_back(e.band);
+    for (const Observation& e : data) slot.push_back(e.band);
     problem.reset(data, ParameterSet::default_values(), free, slot, 3,
                   [](std::size_t a, int s) { return a < 5 ? static_cast<int>(a) : 5 + 2 * s + static_cast<int>(a - 5); },
                   11);
@@ -142,7 +142,7 @@ TEST(ProjectedJointProblem, MultiEpochAndMultiBandFitsReachTheJointFitsOptimum) 
   for (std::uint32_t seed : {11u, 12u, 13u}) {
     ThreeBands bands(seed);
     MultiBandFitter p(projected), j(joint);
-    const std::vector<EpochData> dp = bands.data(p.renderer_for(kEpochBox)), dj = bands.data(j.renderer_for(kEpochBox));
+    const std::vector<Observation> dp = bands.data(p.renderer_for(kEpochBox)), dj = bands.data(j.renderer_for(kEpochBox));
     const MultiBandFitResult rp = p.fit(dp, 3), rj = j.fit(dj, 3);
     ASSERT_EQ(rp.fit.status, FitStatus::kOk);
     ASSERT_EQ(rj.fit.status, FitStatus::kOk);
@@ -162,8 +162,8 @@ TEST(ProjectedJointProblem, MultiEpochAndMultiBandFitsReachTheJointFitsOptimum) 
     }
     // One band's cutouts through MultiEpochFitter, projected and joint.
     MultiEpochFitter ep(projected), ej(joint);
-    const std::vector<EpochData> one_p = testing::epoch_data(ep.renderer_for(kEpochBox), bands.epochs[1]);
-    const std::vector<EpochData> one_j = testing::epoch_data(ej.renderer_for(kEpochBox), bands.epochs[1]);
+    const std::vector<Observation> one_p = testing::epoch_data(ep.renderer_for(kEpochBox), bands.epochs[1]);
+    const std::vector<Observation> one_j = testing::epoch_data(ej.renderer_for(kEpochBox), bands.epochs[1]);
     const FitResult fp = ep.fit(one_p), fj = ej.fit(one_j);
     ASSERT_EQ(fp.status, FitStatus::kOk);
     ASSERT_EQ(fj.status, FitStatus::kOk);

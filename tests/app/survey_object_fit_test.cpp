@@ -1,9 +1,10 @@
-// Tests for one MEDS object's joint fit (app/meds_object_fit) on the tile the meds package wrote
+// Tests for one survey object's joint fit (app/survey_object_fit) on the observations the MEDS
+// source reads (io/meds_object_source), on the tile the meds package wrote
 // (../shared/data/meds-sample: 24 bulge + disc galaxies, four epochs each with random WCS, PSFEx
 // PSFs, S/N ~30 per epoch): every object fitted on its four epochs gives its true sky ellipticity
-// within its errors; the PSF each cutout used is its PSFEx model at the object's position; uberseg
-// against a hand-built seg map; a missing PSFEx file is a flagged row naming the file.
-#include "app/meds_object_fit.hpp"
+// within its errors; the PSF each cutout used is its PSFEx model at the object's position; a
+// missing PSFEx file is a flagged row naming the file.
+#include "app/survey_object_fit.hpp"
 
 #include <gtest/gtest.h>
 
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include "io/fits_file.hpp"
+#include "io/meds_object_source.hpp"
 #include "io/meds_writer.hpp"
 #include "support/scratch_dir.hpp"
 
@@ -29,15 +31,34 @@ MedsFitOptions options() {
   return o;
 }
 
-TEST(MedsObjectFit, TheSampleTilesObjectsGiveTheirTrueShapes) {
-  io::MedsFile meds = io::MedsFile::open(kSample + "/meds.fits");
-  MedsObjectFitter fitter(meds, options());
+// One object at a time as a run does it: the source reads the row into a batch's arena (the serial
+// stage), the fitter fits it from there (a fit stage).
+class OneObject {
+ public:
+  OneObject(const std::string& tile, const MedsFitOptions& o)
+      : source_({tile}, o, o.psf_model), fitter_(o, {tile}, {}), batch_(1, 0, false) {}
+  long long size() const { return source_.total_objects(); }
+  MedsObjectResult fit(long long row) {
+    source_.skip_to(row);
+    EXPECT_TRUE(source_.fill(batch_));
+    return fitter_.fit(batch_.observations, 0, row, batch_.records[0]);
+  }
+  const ObservationArena& arena() const { return batch_.observations; }
+
+ private:
+  io::MedsObjectSource source_;
+  SurveyObjectFitter fitter_;
+  StampBatch batch_;
+};
+
+TEST(SurveyObjectFit, TheSampleTilesObjectsGiveTheirTrueShapes) {
+  OneObject fitter(kSample + "/meds.fits", options());
   io::FitsFile truth = io::FitsFile::open_read(kSample + "/truth.fits");
   truth.move_to("OBJECTS");
   const std::vector<double> e1 = truth.read_column("e1_obs"), e2 = truth.read_column("e2_obs"), id = truth.read_column("id");
   double chi2 = 0, worst = 0;
   int n = 0;
-  for (long long row = 0; row < meds.size(); ++row) {
+  for (long long row = 0; row < fitter.size(); ++row) {
     const MedsObjectResult r = fitter.fit(row);
     ASSERT_EQ(r.fit.status, FitStatus::kOk) << "object " << row << ": " << r.problem;
     EXPECT_EQ(r.n_epochs, 4);
@@ -54,9 +75,8 @@ TEST(MedsObjectFit, TheSampleTilesObjectsGiveTheirTrueShapes) {
 
 // Must-show 4: the PSF a cutout's fit used is its source image's PSFEx model at the object's
 // position there: the tile writer's own stamps (truth PSF_STAMPS, rows in cutout order).
-TEST(MedsObjectFit, EachCutoutUsesItsPsfexModelAtTheObjectsPosition) {
-  io::MedsFile meds = io::MedsFile::open(kSample + "/meds.fits");
-  MedsObjectFitter fitter(meds, options());
+TEST(SurveyObjectFit, EachCutoutUsesItsPsfexModelAtTheObjectsPosition) {
+  OneObject fitter(kSample + "/meds.fits", options());
   fitsfile* f = nullptr;
   int status = 0;
   fits_open_file(&f, (kSample + "/truth.fits[PSF_STAMPS]").c_str(), READONLY, &status);
@@ -68,9 +88,12 @@ TEST(MedsObjectFit, EachCutoutUsesItsPsfexModelAtTheObjectsPosition) {
   double worst = 0;
   for (long long row : {0LL, 7LL, 23LL}) {
     fitter.fit(row);
-    ASSERT_EQ(fitter.last_psfs().size(), 4u);
+    ASSERT_EQ(fitter.arena().size(), 4);
     for (int k = 1; k <= 4; ++k) {  // cutouts 1..4 of the object: truth row 5 row + k
-      const PsfImage& used = *fitter.last_psfs()[static_cast<std::size_t>(k - 1)];
+      const ArenaObservation& observation = fitter.arena()[k - 1];
+      EXPECT_EQ(observation.cutout, k);
+      ASSERT_TRUE(observation.psf_from_image);
+      const PsfImage& used = *observation.psf.image;
       const double* want = stamps.data() + (5 * row + k) * 41 * 41;
       double sum = 0, peak = 0;
       for (int p = 0; p < 41 * 41; ++p) sum += want[p], peak = std::max(peak, want[p]);
@@ -83,11 +106,10 @@ TEST(MedsObjectFit, EachCutoutUsesItsPsfexModelAtTheObjectsPosition) {
 
 // bord: a pure bulge and a pure disc, the better likelihood kept; each is the single-component
 // fit alone, and its other amplitude is 0.
-TEST(MedsObjectFit, BulgeOrDiscKeepsTheBetterLikelihood) {
-  io::MedsFile meds = io::MedsFile::open(kSample + "/meds.fits");
+TEST(SurveyObjectFit, BulgeOrDiscKeepsTheBetterLikelihood) {
   MedsFitOptions o = options();
   o.model = MedsModel::kBulgeOrDisc;
-  MedsObjectFitter bord(meds, o);
+  OneObject bord(kSample + "/meds.fits", o);
   int bulges = 0;
   for (long long row = 0; row < 6; ++row) {
     const MedsObjectResult r = bord.fit(row);
@@ -100,37 +122,11 @@ TEST(MedsObjectFit, BulgeOrDiscKeepsTheBetterLikelihood) {
   std::printf("bord: %d of 6 objects fitted best by the pure bulge\n", bulges);
 }
 
-// Uberseg on a hand-built 6 x 6 seg map: object 5 in the top-left, object 9 in the bottom-right;
-// each pixel keeps its weight unless a pixel of 9 is strictly nearer than every pixel of 5.
-TEST(MedsObjectFit, UbersegMasksWhatIsNearerAnotherObject) {
-  const std::vector<double> seg = {5, 5, 0, 0, 0, 0,  //
-                                   5, 5, 0, 0, 0, 0,  //
-                                   0, 0, 0, 0, 0, 0,  //
-                                   0, 0, 0, 0, 0, 0,  //
-                                   0, 0, 0, 0, 9, 9,  //
-                                   0, 0, 0, 0, 9, 9};
-  // Worked out from squared distances to the nearest 5-pixel and 9-pixel (ties kept): (5, 1): 16
-  // against 9, masked; (3, 2): 5 against 5, kept; (5, 0): 16 against 16, kept; (3, 3): 8 against 2.
-  const std::vector<double> want = {1, 1, 1, 1, 1, 1,  //
-                                    1, 1, 1, 1, 1, 0,  //
-                                    1, 1, 1, 1, 0, 0,  //
-                                    1, 1, 1, 0, 0, 0,  //
-                                    1, 1, 0, 0, 0, 0,  //
-                                    1, 0, 0, 0, 0, 0};
-  std::vector<double> weight(36, 1.0);
-  apply_uberseg(seg, 6, 5, weight);
-  for (int i = 0; i < 36; ++i) EXPECT_EQ(weight[i], want[i]) << "pixel (" << i % 6 << ", " << i / 6 << ")";
-  std::vector<double> untouched(36, 1.0);
-  apply_uberseg(std::vector<double>(36, 0.0), 6, 5, untouched);
-  EXPECT_EQ(untouched, std::vector<double>(36, 1.0));
-}
-
-TEST(MedsObjectFit, AMissingPsfexFileIsAFlaggedRowNamingIt) {
+TEST(SurveyObjectFit, AMissingPsfexFileIsAFlaggedRowNamingIt) {
   stampede::testing::ScratchDir dir("stampede_meds_fit_");
-  io::MedsFile meds = io::MedsFile::open(kSample + "/meds.fits");
   MedsFitOptions o = options();
   o.psf_dir = dir.path("nowhere");
-  MedsObjectFitter fitter(meds, o);
+  OneObject fitter(kSample + "/meds.fits", o);
   const MedsObjectResult r = fitter.fit(0);
   EXPECT_EQ(r.n_epochs, 0);
   EXPECT_TRUE(r.flags & kFlagNoUsableEpoch);
@@ -147,7 +143,7 @@ namespace {
 
 // A box size the arrays really hold but no galaxy fit needs (a corrupt row, or a star mask's
 // cutout) is a flagged row: fitting it would cost gigabytes of Fourier grids.
-TEST(MedsObjectFit, AnOversizedBoxIsAFlaggedRowNotAnAllocation) {
+TEST(SurveyObjectFit, AnOversizedBoxIsAFlaggedRowNotAnAllocation) {
   testing::ScratchDir dir("stampede_meds_fit_");
   io::MedsObjectLayout big;
   big.id = big.number = 1, big.box_size = 1100;
@@ -164,7 +160,7 @@ TEST(MedsObjectFit, AnOversizedBoxIsAFlaggedRowNotAnAllocation) {
   }
   io::MedsFile meds = io::MedsFile::open(dir.path("big.fits"));
   ASSERT_TRUE(meds.object(0).cutouts[1].problem.empty());
-  MedsObjectFitter fitter(meds, options());
+  OneObject fitter(dir.path("big.fits"), options());
   const MedsObjectResult r = fitter.fit(0);
   EXPECT_TRUE(r.flags & kFlagNoUsableEpoch);
   EXPECT_NE(r.problem.find("'box_size' = 1100 is larger than a galaxy fit takes (1024)"), std::string::npos) << r.problem;

@@ -1,8 +1,8 @@
-// Multi-band fits of `stampede sim meds --bands` tiles (issue 32, app/multi_band_object_fit):
+// Multi-band fits of `stampede sim meds --bands` tiles (app/survey_object_fit):
 // noise-free three bands of four epochs under four shears have no bias and give each band's flux
 // (must-show 1); one band through the multi-band path is the single tile's rows bit for bit
 // (must-show 2); bad inputs are refused naming the tile, or are flagged rows (must-show 5).
-#include "app/multi_band_object_fit.hpp"
+#include "app/survey_object_fit.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,0 +1,26 @@
+// One image of an object as a fit sees it: its pixels and inverse-variance weights, the PSF
+// prepared for its box, the frame that carries the sky model onto its pixels, the factor between
+// model and data flux, and its band. A grid stamp is one observation whose frame is the pixel grid
+// (the identity); a MEDS object is one per usable cutout, of one band or several.
+#pragma once
+
+#include <memory>
+#include <span>
+
+#include "engine/model/pixel_frame.hpp"
+#include "engine/render/renderer.hpp"
+
+namespace stampede {
+
+// psf: prepared by a renderer of the fitter's options at box_size (renderer_for(box_size)).
+struct Observation {
+  std::span<const double> pixels;  // box_size^2, row-major (rows slow)
+  std::span<const double> weight;  // inverse variance per pixel; 0 masks
+  int box_size = 0;
+  PixelFrame frame;
+  std::shared_ptr<const PreparedPsf> psf;
+  double flux_scale = 1;  // data = flux_scale x model (a zero point's factor)
+  int band = 0;           // multi-band fits (multi_band_fitter): the band whose amplitudes it sees
+};
+
+}  // namespace stampede

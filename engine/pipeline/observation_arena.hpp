@@ -1,0 +1,116 @@
+// The observations a batch carries for its objects when an object is more than one stamp (a MEDS
+// tile's cutouts, over one band or several): ragged, each object with any number of them, of any
+// box size, their pixels and weights in one arena per batch. A batch is reused for the whole run,
+// so the arena grows to the largest batch seen and then allocates nothing.
+//
+// The serial reader stage fills it (io/meds_object_source: pixels read, masks applied, PSFs looked
+// up); the parallel fit stage prepares each PSF for its renderer and fits. What reading found
+// (flags, the first problem, pixel counts) travels with each object and band, so the fit stage
+// decides the row from the whole story.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "engine/model/pixel_frame.hpp"
+#include "engine/model/psf_model.hpp"
+
+namespace stampede {
+
+// One usable cutout as read: its pixels and weights at `offset` in the arena, its PSF not yet
+// prepared (that is numerics: the fit stage's).
+struct ArenaObservation {
+  std::size_t offset = 0;  // first of box_size^2 pixels in ObservationArena::pixels / weights
+  int box_size = 0;
+  int cutout = 0;          // its index among the object's cutouts in its tile (for messages)
+  int band = 0;
+  PixelFrame frame;
+  double flux_scale = 1;   // data = flux_scale x model (the zero point's factor)
+  PsfModel psf;            // in the cutout's pixels
+  bool psf_from_image = false;  // psf is the tile's PSF cutout or a PSFEx model's image
+};
+
+// What reading one band of one object found.
+struct BandReading {
+  std::uint32_t flags = 0;   // input flags (object_record.hpp) raised while reading
+  bool readable = true;      // false: the object or its box cannot be fitted (nothing was read)
+  long long pixels_total = 0, pixels_unmasked = 0;  // of the cutouts read (masked fraction's terms)
+  int first = 0, count = 0;  // its observations in the arena
+  std::string problem;       // the first reason a cutout or the object was not used ("" none)
+};
+
+class ObservationArena {
+ public:
+  // Starts a batch: no objects, no observations (the storage is kept).
+  void clear() {
+    objects_ = 0;
+    observations_.clear();
+    used_ = 0;
+  }
+  // Starts the next object with `bands` readings (all cleared).
+  void begin_object(int bands) {
+    const std::size_t need = static_cast<std::size_t>(objects_ + 1) * static_cast<std::size_t>(bands);
+    if (readings_.size() < need) readings_.resize(need);
+    for (int b = 0; b < bands; ++b) readings_[static_cast<std::size_t>(objects_) * bands + b] = BandReading{};
+    bands_ = bands;
+    ++objects_;
+  }
+  BandReading& reading(int object, int band) {
+    return readings_[static_cast<std::size_t>(object) * bands_ + band];
+  }
+  const BandReading& reading(int object, int band) const {
+    return readings_[static_cast<std::size_t>(object) * bands_ + band];
+  }
+  int bands() const { return bands_; }
+  int objects() const { return objects_; }
+  // Space for one more observation of box_size^2 pixels: its entry (offset and box set) and spans
+  // to fill. Spans stay valid until the next add().
+  ArenaObservation& add(int box_size, std::span<double>* pixels, std::span<double>* weights) {
+    const std::size_t npix = static_cast<std::size_t>(box_size) * box_size;
+    if (pixels_.size() < used_ + npix) pixels_.resize(used_ + npix), weights_.resize(used_ + npix);
+    ArenaObservation& o = observations_.emplace_back();
+    o.offset = used_;
+    o.box_size = box_size;
+    used_ += npix;
+    *pixels = std::span<double>(pixels_.data() + o.offset, npix);
+    *weights = std::span<double>(weights_.data() + o.offset, npix);
+    return o;
+  }
+  // Drops the last observation added (a cutout found unusable after its pixels were read).
+  void drop_last() {
+    used_ = observations_.back().offset;
+    observations_.pop_back();
+  }
+  int size() const { return static_cast<int>(observations_.size()); }
+  const ArenaObservation& operator[](int k) const { return observations_[static_cast<std::size_t>(k)]; }
+  ArenaObservation& operator[](int k) { return observations_[static_cast<std::size_t>(k)]; }
+  std::span<const double> pixels(const ArenaObservation& o) const {
+    return {pixels_.data() + o.offset, static_cast<std::size_t>(o.box_size) * o.box_size};
+  }
+  std::span<const double> weights(const ArenaObservation& o) const {
+    return {weights_.data() + o.offset, static_cast<std::size_t>(o.box_size) * o.box_size};
+  }
+  std::size_t pixels_used() const { return used_; }
+  // For a transport (the MPI driver): the raw arrays, sized by reserve_pixels() before filling.
+  double* pixel_data() { return pixels_.data(); }
+  double* weight_data() { return weights_.data(); }
+  const double* pixel_data() const { return pixels_.data(); }
+  const double* weight_data() const { return weights_.data(); }
+  void set_pixels_used(std::size_t n) {
+    if (pixels_.size() < n) pixels_.resize(n), weights_.resize(n);
+    used_ = n;
+  }
+
+ private:
+  std::vector<ArenaObservation> observations_;
+  std::vector<BandReading> readings_;
+  std::vector<double> pixels_, weights_;
+  std::size_t used_ = 0;
+  int objects_ = 0;
+  int bands_ = 1;
+};
+
+}  // namespace stampede
