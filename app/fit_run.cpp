@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <memory>
 #include <mutex>
+#include <map>
 #include <optional>
 #include <set>
 #include <stdexcept>
@@ -51,14 +52,45 @@ using Clock = std::chrono::steady_clock;
 
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
+using Warn = std::function<void(const std::string&)>;
+void warn_of(const FitRunOptions& a, const std::string& text) {
+  if (a.on_warning) a.on_warning(text);
+}
+
+// The problems of a survey run's objects, as warnings: the first few in full, then a count at the
+// end (a tile with many masked objects must not flood the terminal). Called from the writer
+// thread, in input order.
+class ProblemReporter {
+ public:
+  static constexpr int kShown = 10;
+  explicit ProblemReporter(const FitRunOptions& a) : a_(a) {}
+  void report(long long row, const std::string& problem) {
+    if (++count_ <= kShown && a_.on_warning) a_.on_warning("object_data row " + std::to_string(row) + ": " + problem);
+  }
+  void finish() {
+    if (count_ > kShown && a_.on_warning)
+      a_.on_warning(std::to_string(count_ - kShown) + " more objects had problems (their rows' flags say which)");
+  }
+
+ private:
+  const FitRunOptions& a_;
+  long long count_ = 0;
+};
+
 // The output sink: appends each batch to the catalogue writer (if any), hands the rows to the
-// caller, counts statuses, and saves the data, best-fit model and residual of the objects named by
+// caller, counts statuses, reports survey objects' problems in input order, and saves the data, best-fit model and residual of the objects named by
 // save_images (re-rendered here from the row's parameters, on the writer thread, with its own plans).
 class WriterSink final : public BatchSink {
  public:
   WriterSink(io::CatalogWriter* writer, const FitRunOptions& run, const io::RunConfig& cfg,
-             std::shared_ptr<const PreparedPsf> shared_psf, PsfCache* psf_cache, const std::string& images_path)
-      : writer_(writer), run_(run), cfg_(cfg), shared_psf_(std::move(shared_psf)), psf_cache_(psf_cache) {
+             std::shared_ptr<const PreparedPsf> shared_psf, PsfCache* psf_cache, const std::string& images_path,
+             ProblemReporter* problems)
+      : writer_(writer),
+        run_(run),
+        cfg_(cfg),
+        shared_psf_(std::move(shared_psf)),
+        psf_cache_(psf_cache),
+        problems_(problems) {
     for (std::int64_t id : io::save_image_ids(cfg)) wanted_.insert(id);
     if (!wanted_.empty()) images_ = std::make_unique<io::FitsFile>(io::FitsFile::create(images_path, true));
   }
@@ -70,6 +102,8 @@ class WriterSink final : public BatchSink {
       const ObjectRecord& r = batch.records[k];
       ++by_status[static_cast<int>(r.fit.status)];
       if (wanted_.count(r.id) && IsUsable(r.fit.status)) save(batch, k);
+      if (!batch.problems[static_cast<std::size_t>(k)].empty())
+        problems_->report(batch.first_object + k, batch.problems[static_cast<std::size_t>(k)]);
     }
   }
   std::array<long long, kFitStatusCount> by_status{};
@@ -98,6 +132,7 @@ class WriterSink final : public BatchSink {
   const io::RunConfig& cfg_;
   std::shared_ptr<const PreparedPsf> shared_psf_;
   PsfCache* psf_cache_;
+  ProblemReporter* problems_;
   std::set<std::int64_t> wanted_;
   std::unique_ptr<io::FitsFile> images_;
   FftPlanCache plans_{FftPlanning::kEstimate};
@@ -235,35 +270,181 @@ bool output_is_this_complete_run(const FitRunOptions& a, const io::CatalogWriter
                         "it with --overwrite");
 }
 
-// The problems of a survey run's objects, as warnings: the first few in full, then a count at the
-// end (a tile with many masked objects must not flood the terminal). Called from the writer
-// thread, in input order.
-class ProblemReporter {
- public:
-  static constexpr int kShown = 10;
-  explicit ProblemReporter(const FitRunOptions& a) : a_(a) {}
-  void report(long long row, const std::string& problem) {
-    if (++count_ <= kShown && a_.on_warning) a_.on_warning("object_data row " + std::to_string(row) + ": " + problem);
-  }
-  void finish() {
-    if (count_ > kShown && a_.on_warning)
-      a_.on_warning(std::to_string(count_ - kShown) + " more objects had problems (their rows' flags say which)");
-  }
 
- private:
-  const FitRunOptions& a_;
-  long long count_ = 0;
+// What an input gives the run path: its source (and shard), the configuration as the input made it,
+// the fit stage's factory, and what the table records of the input.
+struct RunInput {
+  io::RunConfig cfg;
+  std::unique_ptr<StampSource> whole;  // the input
+  std::unique_ptr<StampSource> shard;  // its shard's range (--shard), or null
+  StampSource& source() { return shard ? *shard : *whole; }
+  long long objects = 0;               // the whole input's
+  std::vector<io::OutputLock> locks;   // held until the writer is done
+  int stamp_size = 0;                  // 0: objects travel as observations (the batch's arena)
+  bool per_object_psf = false;
+  std::function<std::unique_ptr<BatchFitter>()> make_fitter;
+  std::vector<std::string> meds, bands;  // survey input: for the workers of a distributed run
+  FftPlanning planning = FftPlanning::kEstimate;
+  std::shared_ptr<const StampFitterRecipe> recipe;  // stamp input: its fitters' recipe (and PSF, for save_images)
+  // The table: its positions' columns; keys before the fingerprint; the files fingerprinted and
+  // a text the fingerprint adds; keys after it; and a last step given the files' digests.
+  io::PositionColumns positions = io::PositionColumns::kGrid;
+  std::vector<std::pair<std::string, std::string>> header_before, header_after;
+  std::map<std::string, io::HeaderValueType> header_types;
+  std::vector<FingerprintFile> files;
+  std::string fingerprint_extra;
+  std::function<void(const std::vector<std::string>& digests, io::CatalogWriterOptions*)> finish_header;
 };
 
-// A MEDS tile's run: an IndexSource of object_data rows, each fitted by a MedsBatchFitter.
-RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
-  auto warn = [&](const std::string& text) {
-    if (a.on_warning) a.on_warning(text);
+// A shard reads only its range of the input (the whole input's source stays alive beside it).
+void take_shard(const FitRunOptions& a, RunInput* in) {
+  in->objects = in->whole->total_objects();
+  if (a.shards <= 1) return;
+  if (in->objects < 0) throw io::ConfigError("--shard needs an input whose object count is known");
+  in->shard = std::make_unique<RangeSource>(*in->whole, shard_begin(in->objects, a.shard, a.shards),
+                                            shard_begin(in->objects, a.shard + 1, a.shards));
+}
+
+// What a grid's header says of itself, used as a user expects: the PSF it records (unless the run
+// sets one), its noise (NOISESIG, unless the run sets noise_sigma or gives a weight map), the
+// simulated set it is (*input_set), and its noise pairs (NOISEPR, for metacal's fixnoise fields).
+void use_grid_records(const FitRunOptions& a, io::GridStampSource& grid, const Warn& warn, io::RunConfig* cfg,
+                      std::optional<PsfModel>* recorded_psf, std::string* input_set) {
+  const std::string where = grid.header().describe();
+  try {
+    *recorded_psf = io::read_psf_keys_if_present(grid.header());
+  } catch (const io::FitsError& e) {  // the record is a convenience: the fit does not need it
+    warn(std::string("the PSF record is unreadable, neither used nor checked: ") + e.what());
+  }
+  if (*recorded_psf && !app::sets_psf_options(*cfg)) app::use_recorded_psf(**recorded_psf, where, cfg);
+  if (a.weight.empty() && !cfg->explicitly_set.count("noise_sigma")) {
+    std::optional<double> sigma;
+    try {
+      sigma = grid.header().read_key_double("NOISESIG");
+    } catch (const io::FitsError& e) {
+      warn(std::string("the NOISESIG record is unreadable, not used: ") + e.what());
+    }
+    if (sigma && std::isfinite(*sigma) && *sigma > 0) {
+      cfg->fitter.noise_sigma = *sigma;
+      cfg->explicitly_set["noise_sigma"] = "";  // as if the run had set it
+      warn("noise_sigma = " + number_text(*sigma) + " taken from " + where +
+           " NOISESIG (the run sets none; set noise_sigma to override)");
+    } else if (sigma && !(std::isfinite(*sigma) && *sigma >= 0)) {
+      warn(where + " NOISESIG = " + number_text(*sigma) + " is not a noise level, not used");
+    }
+  }
+  try {
+    *input_set = io::simulation_identity(grid.header());
+  } catch (const io::FitsError& e) {  // as the PSF record: only `metrics` checks it
+    warn(std::string("the simulated set's identity is unreadable, not recorded: ") + e.what());
+  }
+  if (cfg->metacal.enabled && cfg->metacal.fixnoise) {  // a set simulated in noise pairs pairs its fixnoise fields
+    std::optional<std::string> pairs;
+    try {
+      pairs = grid.header().read_key_string("NOISEPR");
+    } catch (const io::FitsError& e) {
+      warn(std::string("the NOISEPR record is unreadable, fixnoise fields not paired: ") + e.what());
+    }
+    cfg->metacal.noise_pairs = pairs && *pairs == "T";
+  }
+}
+
+// A grid of stamps, or an image with a catalogue of objects to cut from it.
+RunInput open_stamp_input(const FitRunOptions& a, const Warn& warn) {
+  RunInput in;
+  io::RunConfig& cfg = in.cfg;
+  cfg = a.config;
+  if (!a.weight.empty() && cfg.fitter.noise_sigma != 0) {
+    const auto where = cfg.explicitly_set.find("noise_sigma");
+    const std::string from = where != cfg.explicitly_set.end() && !where->second.empty() ? " (" + where->second + ")" : "";
+    throw io::ConfigError("option 'noise_sigma' = " + io::get_option(cfg, "noise_sigma") + from + " and --weight '" +
+                          a.weight + "' both give the noise; give one (noise_sigma = 0 with a weight map)");
+  }
+  // A stamp size the run sets is checked before the input is read: an invalid one (0, negative)
+  // must be refused, not replaced by the header's STAMPSZ.
+  const bool stamp_from_header = a.catalog.empty() && !cfg.explicitly_set.count("stamp_size");
+  if (!stamp_from_header) io::validate(cfg);
+  const std::vector<std::int64_t> saved_ids = io::save_image_ids(cfg);
+  in.locks = lock_outputs(a, cfg);  // before anything is read: a refused output costs nothing
+
+  // Input first: its header may fix the stamp size, and a bad file should fail before anything.
+  std::optional<PsfModel> recorded_psf;
+  std::string recorded_where, input_set;
+  if (a.catalog.empty()) {
+    auto grid = std::make_unique<io::GridStampSource>(a.input, a.weight, stamp_from_header ? 0 : cfg.fitter.render.stamp_size);
+    cfg.fitter.render.stamp_size = grid->stamp_size();
+    recorded_where = grid->header().describe();
+    use_grid_records(a, *grid, warn, &cfg, &recorded_psf, &input_set);
+    for (std::int64_t id : saved_ids)
+      if (id < 0 || id >= grid->total_objects())
+        throw io::ConfigError("option 'save_images': object id " + std::to_string(id) + " is not in '" + a.input +
+                              "' (ids 0.." + std::to_string(grid->total_objects() - 1) + ")");
+    in.whole = std::move(grid);
+  } else {
+    const io::CatalogueColumns cols{cfg.catalog_id_column,       cfg.catalog_x_column,       cfg.catalog_y_column,
+                                    cfg.psf_from_catalogue,      cfg.catalog_psf_beta_column, cfg.catalog_psf_fwhm_column,
+                                    cfg.catalog_psf_e1_column,   cfg.catalog_psf_e2_column};
+    in.whole = std::make_unique<io::CatalogueStampSource>(a.input, a.weight, a.catalog, cfg.fitter.render.stamp_size, cols,
+                                                          saved_ids);
+  }
+  if (stamp_from_header) io::validate(cfg);
+  take_shard(a, &in);
+  if (cfg.psf_from_catalogue && a.catalog.empty())
+    throw io::ConfigError("option 'psf_input' = 'moffat_catalog' needs --catalog");
+  if (a.output.empty() && !cfg.save_images.empty())
+    throw io::ConfigError("option 'save_images' needs an output (the images go beside it)");
+
+  // The machine must hold the run: refused now rather than swapping or killed mid-run.
+  const int threads = a.threads > 0 ? a.threads : tbb::this_task_arena::max_concurrency();
+  if (const auto available = io::available_memory_bytes())
+    check_fit_memory(estimate_fit_memory(cfg, threads, cfg.psf_from_catalogue), *available);
+  // Measured plans are chosen per process (by timing), so ranks could round differently.
+  if (a.distribute && !cfg.fft_wisdom.empty())
+    throw io::ConfigError("option 'fft_wisdom' with stampede-mpi: each rank would measure its own FFTW plans and "
+                          "the rows would differ in their last bits from a single process's; run without it");
+  in.planning = cfg.fft_wisdom.empty() ? FftPlanning::kEstimate : FftPlanning::kMeasure;
+  if (!cfg.fft_wisdom.empty()) load_fftw_wisdom(cfg.fft_wisdom);  // a missing file is fine: it is made at the end
+  FftPlanCache setup_plans(in.planning);
+  in.recipe = std::make_shared<const StampFitterRecipe>(stamp_fitter_recipe(cfg, setup_plans, cfg.psf_from_catalogue));
+  cfg.fitter.renderer = in.recipe->options.renderer;  // the header records the renderer auto chose
+  if (!cfg.psf_from_catalogue) {
+    if (!in.recipe->auto_note.empty()) warn(in.recipe->auto_note);
+    // A set written by `stampede sim` or GalSim records its PSF; fitting it with another (e.g. the
+    // default round Moffat) is almost always a forgotten option, and biases c by the difference.
+    if (recorded_psf) {
+      std::string list;
+      for (const auto& d : app::psf_differences(*recorded_psf, in.recipe->psf_model)) list += (list.empty() ? "" : ", ") + d;
+      if (!list.empty())
+        warn(recorded_where + " records a PSF other than the run's: " + list +
+             ". The fit uses the run's PSF; set those options to fit with the recorded one.");
+    }
+  }
+  in.stamp_size = cfg.fitter.render.stamp_size;
+  in.per_object_psf = static_cast<bool>(in.recipe->psf_cache);
+  in.make_fitter = [recipe = in.recipe, planning = in.planning]() -> std::unique_ptr<BatchFitter> {
+    return recipe->make(planning);
   };
-  io::RunConfig cfg = a.config;
-  if (!a.input.empty() || !a.catalog.empty() || !a.weight.empty())
-    throw io::ConfigError("--meds '" + a.meds[0] + "' takes no INPUT, --catalog or --weight: the tile holds the cutouts and weights");
-  // The bands: as given, b0, b1, ... for several tiles without names, none for one tile.
+  in.positions = a.catalog.empty() ? io::PositionColumns::kGrid : io::PositionColumns::kCatalogue;
+  if (std::isfinite(in.recipe->gamma_fwhm)) {  // the reconvolution PSF the rows were fitted with
+    char text[32];
+    std::snprintf(text, sizeof text, "%.17g", in.recipe->gamma_fwhm);
+    in.header_before.emplace_back("metacal_gamma_fwhm", text);
+    in.header_types["metacal_gamma_fwhm"] = io::HeaderValueType::kReal;
+  }
+  in.header_before.emplace_back("INPUT", a.input);
+  if (!a.catalog.empty()) in.header_before.emplace_back("CATALOG", a.catalog);
+  if (!a.weight.empty()) in.header_before.emplace_back("WEIGHTS", a.weight);
+  in.files = {{"input", a.input, "INDIGEST"}};
+  if (!a.catalog.empty()) in.files.push_back({"catalog", a.catalog, "CATDIGST"});
+  if (!a.weight.empty()) in.files.push_back({"weight", a.weight, "WGTDIGST"});
+  if (cfg.psf_kind == PsfKind::kImage && !cfg.psf_from_catalogue) in.files.push_back({"psf_image", cfg.psf_image, "PSFDIGST"});
+  if (!input_set.empty()) in.header_after.emplace_back(io::kInputSetKey, input_set);  // for `metrics` to match the truth
+  return in;
+}
+
+// The band names of a survey run: as given, b0, b1, ... for several tiles without names, none for
+// one tile. Throws io::ConfigError for names the table cannot take.
+std::vector<std::string> survey_bands(const FitRunOptions& a) {
   std::vector<std::string> bands = a.bands;
   if (bands.empty() && a.meds.size() > 1)
     for (std::size_t b = 0; b < a.meds.size(); ++b) bands.push_back("b" + std::to_string(b));
@@ -281,8 +462,18 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
   for (std::size_t t = 1; t < a.meds.size(); ++t)
     for (std::size_t u = 0; u < t; ++u)
       if (a.meds[t] == a.meds[u]) throw io::ConfigError("--meds '" + a.meds[t] + "' is given twice: one tile per band");
+  return bands;
+}
 
-  // The MPI driver's workers fit the pixels they are sent; a survey batch carries row numbers only.
+// MEDS tiles, one per band: each object's cutouts read in the serial stage (io/meds_object_source).
+RunInput open_survey_input(const FitRunOptions& a, const Warn& warn) {
+  RunInput in;
+  io::RunConfig& cfg = in.cfg;
+  cfg = a.config;
+  if (!a.input.empty() || !a.catalog.empty() || !a.weight.empty())
+    throw io::ConfigError("--meds '" + a.meds[0] + "' takes no INPUT, --catalog or --weight: the tile holds the cutouts and weights");
+  in.bands = survey_bands(a);
+  in.meds = a.meds;
   if (!cfg.save_images.empty()) throw io::ConfigError("option 'save_images': not available with --meds");
   if (cfg.psf_from_catalogue) throw io::ConfigError("option 'psf_input' = 'moffat_catalog': not available with --meds");
   if (cfg.fitter.renderer == RendererKind::kUpsampled) {
@@ -296,119 +487,115 @@ RunSummary run_survey(const FitRunOptions& a, Clock::time_point start) {
       warn(std::string("option '") + key + "' is not used with --meds (each cutout has its own " +
            (std::string(key) == "noise_sigma" ? "weight map" : "box size") + ")");
   if (cfg.meds.psf != io::MedsPsfSource::kOptions)
-    for (const char* key : {"psf_input", "psf_fwhm", "psf_beta", "psf_e1", "psf_e2", "psf_image"})
-      if (cfg.explicitly_set.count(key))
-        warn(std::string("option '") + key + "' is not used with --meds unless meds_psf = options (each cutout's PSF " +
-             "is its psf cutout or its source image's PSFEx model)");
+    for (const std::string& key : app::psf_options_set(cfg))
+      warn("option '" + key + "' is not used with --meds unless meds_psf = options (each cutout's PSF " +
+           "is its psf cutout or its source image's PSFEx model)");
   io::validate(cfg);
+  const MedsFitOptions options = survey_fit_options(cfg);
+  // A bad file fails here, before any thread starts; options a tile cannot serve likewise.
+  auto source = std::make_unique<io::MedsObjectSource>(a.meds, options, options.psf_model);
+  const std::vector<std::string> psfex_files = source->psfex_files();
+  make_survey_fitter(cfg, a.meds, in.bands);
+  in.locks = lock_outputs(a, cfg, psfex_files);  // every file the run reads is protected, PSFEx models included
+  in.whole = std::move(source);
+  take_shard(a, &in);
+  in.make_fitter = [options, meds = a.meds, bands = in.bands]() -> std::unique_ptr<BatchFitter> {
+    return std::make_unique<SurveyBatchFitter>(options, meds, bands);
+  };
+  in.positions = io::PositionColumns::kSurvey;
+  // A multi-band run's further tiles as MEDS1.., their digests as MEDSDIG1.. (merge compares them).
+  for (std::size_t t = 0; t < a.meds.size(); ++t) {
+    const std::string k = t == 0 ? "" : std::to_string(t);
+    in.header_before.emplace_back("MEDS" + k, a.meds[t]);
+    in.files.push_back({"meds", a.meds[t], t == 0 ? "MEDSDIGS" : "MEDSDIG" + k});
+  }
+  // The PSFEx models are part of the run: a model replaced between kill and resume is refused. A
+  // missing one is a flagged row, not an error, and is fingerprinted as missing.
+  const std::size_t n_tiles = in.files.size();
+  for (const std::string& p : psfex_files) {
+    if (std::filesystem::is_regular_file(p)) in.files.push_back({"psfex", p});
+    else in.fingerprint_extra += "psfex " + p + ": missing\n";
+  }
+  if (!psfex_files.empty())  // one key for all the models: merge compares it
+    in.finish_header = [n_tiles, missing = in.fingerprint_extra](const std::vector<std::string>& digests,
+                                                                  io::CatalogWriterOptions* wo) {
+      RunFingerprint psfex;
+      for (std::size_t k = n_tiles; k < digests.size(); ++k) psfex.line(digests[k]);
+      wo->header.emplace_back("PSFEXDIG", psfex.text(missing).hex());
+    };
+  return in;
+}
 
-  const MedsFitOptions meds_options = survey_fit_options(cfg);
-  // The tiles are read in the pipeline's serial stage (io/meds_object_source): a bad file fails
-  // here, before any thread starts; options a tile cannot serve are refused likewise.
-  io::MedsObjectSource source_whole(a.meds, meds_options, meds_options.psf_model);
-  const long long input_objects = source_whole.total_objects();
-  const std::vector<std::string> psfex_files = source_whole.psfex_files();
-  make_survey_fitter(cfg, a.meds, bands);  // options that cannot work together fail here
-  // Every file the run reads is protected from its outputs, PSFEx models included.
-  const std::vector<io::OutputLock> locks = lock_outputs(a, cfg, psfex_files);
-  std::unique_ptr<RangeSource> shard;
-  if (a.shards > 1)
-    shard = std::make_unique<RangeSource>(source_whole, shard_begin(input_objects, a.shard, a.shards),
-                                          shard_begin(input_objects, a.shard + 1, a.shards));
-  StampSource& source = shard ? static_cast<StampSource&>(*shard) : source_whole;
+// The table's writer (created, or resumed with the source moved past the committed rows); null
+// without an output, or when the output is already this complete run's (*skipped).
+std::unique_ptr<io::CatalogWriter> open_writer(const FitRunOptions& a, RunInput& in, RunSummary* summary) {
+  if (a.output.empty()) return nullptr;
+  io::CatalogWriterOptions wo = base_writer_options(a, in.cfg);
+  wo.positions = in.positions;
+  wo.metacal = in.cfg.metacal.enabled;
+  wo.bands = in.bands;
+  for (const auto& [key, type] : in.header_types) wo.header_types[key] = type;
+  wo.header.insert(wo.header.end(), in.header_before.begin(), in.header_before.end());
+  std::vector<std::string> digests;
+  wo.fingerprint = fit_fingerprint(in.files, wo.header, &digests) + in.fingerprint_extra;
+  wo.header.insert(wo.header.end(), in.header_after.begin(), in.header_after.end());
+  add_shard_keys(a, in.objects, &wo);
+  add_identity_keys(in.files, digests, &wo);
+  if (in.finish_header) in.finish_header(digests, &wo);
+  if (output_is_this_complete_run(a, wo)) {
+    summary->skipped = true;
+    return nullptr;
+  }
+  if (!a.resume) return io::CatalogWriter::create(wo);
+  std::unique_ptr<io::CatalogWriter> writer = io::CatalogWriter::resume(wo, &summary->resumed);
+  in.source().skip_to(summary->resumed);
+  return writer;
+}
 
+// The one run path of every input: the writer, the pipeline (here or distributed), the finish.
+RunSummary run_input(const FitRunOptions& a, RunInput& in, Clock::time_point start) {
+  const io::RunConfig& cfg = in.cfg;
   RunSummary summary;
-  summary.input = a.meds[0];
+  summary.input = a.meds.empty() ? a.input : a.meds[0];
   for (std::size_t t = 1; t < a.meds.size(); ++t) summary.input += "," + a.meds[t];
+  summary.catalog = a.catalog;
+  summary.weight = a.weight;
   summary.output = a.output;
   summary.text_output = a.text_output;
-  std::unique_ptr<io::CatalogWriter> writer;
-  if (!a.output.empty()) {
-    io::CatalogWriterOptions wo = base_writer_options(a, cfg);
-    wo.positions = io::PositionColumns::kSurvey;
-    wo.metacal = cfg.metacal.enabled;
-    wo.bands = bands;
-    // A multi-band run's further tiles as MEDS1.., their digests as MEDSDIG1.. (merge compares them).
-    std::vector<FingerprintFile> files;
-    for (std::size_t t = 0; t < a.meds.size(); ++t) {
-      const std::string k = t == 0 ? "" : std::to_string(t);
-      wo.header.emplace_back("MEDS" + k, a.meds[t]);
-      files.push_back({"meds", a.meds[t], t == 0 ? "MEDSDIGS" : "MEDSDIG" + k});
-    }
-    const std::size_t n_tiles = files.size();
-    // The PSFEx models are part of the run: a model replaced between kill and resume is refused. A
-    // missing one is a flagged row, not an error, and is fingerprinted as missing.
-    std::string missing;
-    for (const std::string& p : psfex_files) {
-      if (std::filesystem::is_regular_file(p)) files.push_back({"psfex", p});
-      else missing += "psfex " + p + ": missing\n";
-    }
-    std::vector<std::string> digests;
-    wo.fingerprint = fit_fingerprint(files, wo.header, &digests) + missing;
-    add_shard_keys(a, input_objects, &wo);
-    add_identity_keys(files, digests, &wo);
-    if (!psfex_files.empty()) {  // one key for all the models: merge compares it
-      RunFingerprint psfex;
-      for (std::size_t k = n_tiles; k < files.size(); ++k) psfex.line(digests[k]);
-      wo.header.emplace_back("PSFEXDIG", psfex.text(missing).hex());
-    }
-    if (output_is_this_complete_run(a, wo)) {
-      summary.skipped = true;
-      return summary;
-    }
-    if (a.resume) {
-      writer = io::CatalogWriter::resume(wo, &summary.resumed);
-      source.skip_to(summary.resumed);
-    } else {
-      writer = io::CatalogWriter::create(wo);
-    }
-  }
+  std::unique_ptr<io::CatalogWriter> writer = open_writer(a, in, &summary);
+  if (summary.skipped) return summary;
+  // A run that fails with an error leaves no partial output (a killed one leaves it for --resume).
+  const std::string images_path = images_path_for(a.output);
   ProblemReporter problems(a);
   try {
-    class RowSink final : public BatchSink {
-     public:
-      RowSink(io::CatalogWriter* writer, const FitRunOptions& a, ProblemReporter* problems)
-          : writer_(writer), a_(a), problems_(problems) {}
-      void write(const StampBatch& batch) override {
-        const std::span<const ObjectRecord> rows(batch.records.data(), static_cast<std::size_t>(batch.count));
-        if (writer_) writer_->append(rows);
-        if (a_.on_rows) a_.on_rows(rows);
-        for (const ObjectRecord& r : rows) ++by_status[static_cast<int>(r.fit.status)];
-        for (int k = 0; k < batch.count; ++k)
-          if (!batch.problems[static_cast<std::size_t>(k)].empty())
-            problems_->report(batch.first_object + k, batch.problems[static_cast<std::size_t>(k)]);
-      }
-      std::array<long long, kFitStatusCount> by_status{};
-
-     private:
-      io::CatalogWriter* writer_;
-      const FitRunOptions& a_;
-      ProblemReporter* problems_;
-    } sink(writer.get(), a, &problems);
+    WriterSink sink(writer.get(), a, cfg, in.recipe ? in.recipe->shared_psf : nullptr,
+                    in.recipe ? in.recipe->psf_cache.get() : nullptr, images_path, &problems);
     PipelineOptions po;
     po.threads = a.threads;
     po.batch_size = cfg.batch_size;
-    po.stamp_size = 0;  // each object's cutouts travel in the batch's observation arena
-    std::function<std::unique_ptr<BatchFitter>()> make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
-      return std::make_unique<SurveyBatchFitter>(meds_options, a.meds, bands);
-    };
+    po.per_object_psf = in.per_object_psf;
+    po.stamp_size = in.stamp_size;
+    po.stop = a.stop;
+    std::function<std::unique_ptr<BatchFitter>()> make_fitter = in.make_fitter;
     if (a.distribute) {
-      FitDistribution d = a.distribute(DistributedRun{cfg, a.meds, bands}, make_fitter);
+      FitDistribution d = a.distribute(DistributedRun{cfg, in.meds, in.bands}, make_fitter);
       make_fitter = std::move(d.make_fitter);
       po.threads = d.pipeline_threads;
     }
     summary.setup_seconds = since(start);
-    po.stop = a.stop;
-    const PipelineSummary fitted =
-        run_pipeline(source, sink, make_fitter, po, progress_reporter(a, source.total_objects(), summary.resumed));
+    const PipelineSummary fitted = run_pipeline(in.source(), sink, make_fitter, po,
+                                                progress_reporter(a, in.source().total_objects(), summary.resumed));
     const Clock::time_point finish_start = Clock::now();
     summary.interrupted = fitted.stopped;
     if (writer && !fitted.stopped) writer->finish();  // stopped: the partials stay, as a kill leaves them
+    if (in.recipe && !cfg.fft_wisdom.empty() && !save_fftw_wisdom(cfg.fft_wisdom) && !a.quiet)
+      warn_of(a, "could not write FFTW wisdom to '" + cfg.fft_wisdom + "'");
     problems.finish();
     add_pipeline_figures(fitted, sink.by_status, start, finish_start, &summary);
     return summary;
   } catch (...) {
     if (writer) writer->abandon();
+    if (writer && !cfg.save_images.empty()) io::remove_if_present(images_path);
     throw;
   }
 }
@@ -465,217 +652,13 @@ RunSummary FitRun::run() const {
   const Clock::time_point start = Clock::now();
   const FitRunOptions& a = options_;
   check_threads(a.threads, "threads");
-  auto warn = [&](const std::string& text) {
-    if (a.on_warning) a.on_warning(text);
-  };
   if (a.output.empty() && a.resume) throw std::invalid_argument("fit run: resume needs the output to resume");
   if (a.shards < 1 || a.shard < 0 || a.shard >= a.shards)
     throw io::ConfigError("--shard " + std::to_string(a.shard) + "/" + std::to_string(a.shards) +
                           ": must be i/N with 0 <= i < N");
-  if (!a.meds.empty()) return run_survey(a, start);
-  io::RunConfig cfg = a.config;
-  if (!a.weight.empty() && cfg.fitter.noise_sigma != 0) {
-    const auto where = cfg.explicitly_set.find("noise_sigma");
-    const std::string from = where != cfg.explicitly_set.end() && !where->second.empty() ? " (" + where->second + ")" : "";
-    throw io::ConfigError("option 'noise_sigma' = " + io::get_option(cfg, "noise_sigma") + from + " and --weight '" +
-                          a.weight + "' both give the noise; give one (noise_sigma = 0 with a weight map)");
-  }
-  // A stamp size the run sets is checked before the input is read: an invalid one (0, negative)
-  // must be refused, not replaced by the header's STAMPSZ.
-  const bool stamp_from_header = a.catalog.empty() && !cfg.explicitly_set.count("stamp_size");
-  if (!stamp_from_header) io::validate(cfg);
-  const std::vector<std::int64_t> saved_ids = io::save_image_ids(cfg);
-
-  // The outputs before anything is read: a refused one costs nothing, and from here on no other
-  // run can write them (the locks are released last, after the writer is done).
-  const std::vector<io::OutputLock> locks = lock_outputs(a, cfg);
-
-  // Input first: its header may fix the stamp size, and a bad file should fail before anything.
-  std::unique_ptr<StampSource> source;
-  std::optional<PsfModel> recorded_psf;  // the PSF the input's header records, if any
-  std::string recorded_where;              // its file and HDU
-  std::string input_set;                   // the simulated set the input is, if it says so
-  if (a.catalog.empty()) {
-    auto grid = std::make_unique<io::GridStampSource>(a.input, a.weight, stamp_from_header ? 0 : cfg.fitter.render.stamp_size);
-    cfg.fitter.render.stamp_size = grid->stamp_size();
-    recorded_where = grid->header().describe();
-    try {
-      recorded_psf = io::read_psf_keys_if_present(grid->header());
-    } catch (const io::FitsError& e) {  // the record is a convenience: the fit does not need it
-      warn(std::string("the PSF record is unreadable, neither used nor checked: ") + e.what());
-    }
-    // What a user expects of a set that says what its PSF is (GREAT08, `stampede sim`, GalSim).
-    if (recorded_psf && !app::sets_psf_options(cfg)) app::use_recorded_psf(*recorded_psf, recorded_where, &cfg);
-    // Its noise too (NOISESIG, as GREAT08-like sets and `stampede sim` write it): a run that sets no
-    // noise_sigma and gives no weight map is weighted with it, and says so.
-    if (a.weight.empty() && !cfg.explicitly_set.count("noise_sigma")) {
-      std::optional<double> sigma;
-      try {
-        sigma = grid->header().read_key_double("NOISESIG");
-      } catch (const io::FitsError& e) {
-        warn(std::string("the NOISESIG record is unreadable, not used: ") + e.what());
-      }
-      if (sigma && std::isfinite(*sigma) && *sigma > 0) {
-        io::set_option(cfg, "noise_sigma", number_text(*sigma));
-        warn("noise_sigma = " + number_text(*sigma) + " taken from " + recorded_where +
-             " NOISESIG (the run sets none; set noise_sigma to override)");
-      } else if (sigma && !(std::isfinite(*sigma) && *sigma >= 0)) {
-        warn(recorded_where + " NOISESIG = " + number_text(*sigma) + " is not a noise level, not used");
-      }
-    }
-    try {
-      input_set = io::simulation_identity(grid->header());
-    } catch (const io::FitsError& e) {  // as the PSF record: only `metrics` checks it
-      warn(std::string("the simulated set's identity is unreadable, not recorded: ") + e.what());
-    }
-    // A set simulated with noise pairs gets its fixnoise fields paired alike (metacal_options.hpp).
-    if (cfg.metacal.enabled && cfg.metacal.fixnoise) {
-      std::optional<std::string> pairs;
-      try {
-        pairs = grid->header().read_key_string("NOISEPR");
-      } catch (const io::FitsError& e) {
-        warn(std::string("the NOISEPR record is unreadable, fixnoise fields not paired: ") + e.what());
-      }
-      cfg.metacal.noise_pairs = pairs && *pairs == "T";
-    }
-    for (std::int64_t id : saved_ids)
-      if (id < 0 || id >= grid->total_objects())
-        throw io::ConfigError("option 'save_images': object id " + std::to_string(id) + " is not in '" + a.input +
-                              "' (ids 0.." + std::to_string(grid->total_objects() - 1) + ")");
-    source = std::move(grid);
-  } else {
-    io::CatalogueColumns cols;
-    cols.id = cfg.catalog_id_column;
-    cols.x = cfg.catalog_x_column;
-    cols.y = cfg.catalog_y_column;
-    cols.with_psf = cfg.psf_from_catalogue;
-    cols.psf_beta = cfg.catalog_psf_beta_column;
-    cols.psf_fwhm = cfg.catalog_psf_fwhm_column;
-    cols.psf_e1 = cfg.catalog_psf_e1_column;
-    cols.psf_e2 = cfg.catalog_psf_e2_column;
-    source = std::make_unique<io::CatalogueStampSource>(a.input, a.weight, a.catalog, cfg.fitter.render.stamp_size, cols,
-                                                        saved_ids);
-  }
-  if (stamp_from_header) io::validate(cfg);
-  // A shard reads only its range of the input (the inner source stays alive beside it).
-  std::unique_ptr<StampSource> whole_input;
-  const long long input_objects = source->total_objects();
-  if (a.shards > 1) {
-    if (input_objects < 0) throw io::ConfigError("--shard needs an input whose object count is known");
-    whole_input = std::move(source);
-    source = std::make_unique<RangeSource>(*whole_input, shard_begin(input_objects, a.shard, a.shards),
-                                           shard_begin(input_objects, a.shard + 1, a.shards));
-  }
-  if (cfg.psf_from_catalogue && a.catalog.empty())
-    throw io::ConfigError("option 'psf_input' = 'moffat_catalog' needs --catalog");
-  if (a.output.empty() && !cfg.save_images.empty())
-    throw io::ConfigError("option 'save_images' needs an output (the images go beside it)");
-
-  // The machine must hold the run: refused now rather than swapping or killed mid-run.
-  const int threads = a.threads > 0 ? a.threads : tbb::this_task_arena::max_concurrency();
-  if (const auto available = io::available_memory_bytes())
-    check_fit_memory(estimate_fit_memory(cfg, threads, cfg.psf_from_catalogue), *available);
-
-  // Measured plans are chosen per process (by timing), so ranks could round differently.
-  if (a.distribute && !cfg.fft_wisdom.empty())
-    throw io::ConfigError("option 'fft_wisdom' with stampede-mpi: each rank would measure its own FFTW plans and "
-                          "the rows would differ in their last bits from a single process's; run without it");
-  const FftPlanning planning = cfg.fft_wisdom.empty() ? FftPlanning::kEstimate : FftPlanning::kMeasure;
-  if (!cfg.fft_wisdom.empty()) load_fftw_wisdom(cfg.fft_wisdom);  // a missing file is fine: it is made at the end
-  FftPlanCache setup_plans(planning);
-  const StampFitterRecipe recipe = stamp_fitter_recipe(cfg, setup_plans, cfg.psf_from_catalogue);
-  cfg.fitter.renderer = recipe.options.renderer;  // the header records the renderer auto chose
-  const double gamma_fwhm = recipe.gamma_fwhm;
-  if (!cfg.psf_from_catalogue) {
-    if (!recipe.auto_note.empty()) warn(recipe.auto_note);
-    // A set written by `stampede sim` or GalSim records its PSF; fitting it with another (e.g. the
-    // default round Moffat) is almost always a forgotten option, and biases c by the difference.
-    if (recorded_psf) {
-      const std::vector<std::string> diff = app::psf_differences(*recorded_psf, recipe.psf_model);
-      if (!diff.empty()) {
-        std::string list;
-        for (const auto& d : diff) list += (list.empty() ? "" : ", ") + d;
-        warn(recorded_where + " records a PSF other than the run's: " + list +
-             ". The fit uses the run's PSF; set those options to fit with the recorded one.");
-      }
-    }
-  }
-
-  RunSummary summary;
-  summary.input = a.input;
-  summary.catalog = a.catalog;
-  summary.weight = a.weight;
-  summary.output = a.output;
-  summary.text_output = a.text_output;
-  std::unique_ptr<io::CatalogWriter> writer;
-  if (!a.output.empty()) {
-    io::CatalogWriterOptions wo = base_writer_options(a, cfg);
-    wo.positions = a.catalog.empty() ? io::PositionColumns::kGrid : io::PositionColumns::kCatalogue;
-    wo.metacal = cfg.metacal.enabled;
-    if (std::isfinite(gamma_fwhm)) {  // the reconvolution PSF the rows were fitted with
-      char text[32];
-      std::snprintf(text, sizeof text, "%.17g", gamma_fwhm);
-      wo.header.emplace_back("metacal_gamma_fwhm", text);
-      wo.header_types["metacal_gamma_fwhm"] = io::HeaderValueType::kReal;
-    }
-    wo.header.emplace_back("INPUT", a.input);
-    if (!a.catalog.empty()) wo.header.emplace_back("CATALOG", a.catalog);
-    if (!a.weight.empty()) wo.header.emplace_back("WEIGHTS", a.weight);
-    std::vector<FingerprintFile> files = {{"input", a.input, "INDIGEST"}};
-    if (!a.catalog.empty()) files.push_back({"catalog", a.catalog, "CATDIGST"});
-    if (!a.weight.empty()) files.push_back({"weight", a.weight, "WGTDIGST"});
-    if (cfg.psf_kind == PsfKind::kImage && !cfg.psf_from_catalogue)
-      files.push_back({"psf_image", cfg.psf_image, "PSFDIGST"});
-    std::vector<std::string> digests;
-    wo.fingerprint = fit_fingerprint(files, wo.header, &digests);
-    if (!input_set.empty()) wo.header.emplace_back(io::kInputSetKey, input_set);  // for `metrics` to match the truth
-    add_shard_keys(a, input_objects, &wo);
-    add_identity_keys(files, digests, &wo);
-    if (output_is_this_complete_run(a, wo)) {
-      summary.skipped = true;
-      return summary;
-    }
-    if (a.resume) {
-      writer = io::CatalogWriter::resume(wo, &summary.resumed);
-      source->skip_to(summary.resumed);
-    } else {
-      writer = io::CatalogWriter::create(wo);
-    }
-  }
-
-  // A run that fails with an error leaves no partial output (a killed one leaves it for --resume).
-  const std::string images_path = images_path_for(a.output);
-  try {
-    WriterSink sink(writer.get(), a, cfg, recipe.shared_psf, recipe.psf_cache.get(), images_path);
-    PipelineOptions po;
-    po.threads = a.threads;
-    po.batch_size = cfg.batch_size;
-    po.per_object_psf = static_cast<bool>(recipe.psf_cache);
-    po.stamp_size = cfg.fitter.render.stamp_size;
-    std::function<std::unique_ptr<BatchFitter>()> make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
-      return recipe.make(planning);
-    };
-    if (a.distribute) {
-      FitDistribution d = a.distribute(DistributedRun{cfg, {}, {}}, make_fitter);
-      make_fitter = std::move(d.make_fitter);
-      po.threads = d.pipeline_threads;
-    }
-    summary.setup_seconds = since(start);
-    po.stop = a.stop;
-    const PipelineSummary fitted =
-        run_pipeline(*source, sink, make_fitter, po, progress_reporter(a, source->total_objects(), summary.resumed));
-    const Clock::time_point finish_start = Clock::now();
-    summary.interrupted = fitted.stopped;
-    if (writer && !fitted.stopped) writer->finish();  // stopped: the partials stay, as a kill leaves them
-    if (!cfg.fft_wisdom.empty() && !save_fftw_wisdom(cfg.fft_wisdom) && !a.quiet)
-      warn("could not write FFTW wisdom to '" + cfg.fft_wisdom + "'");
-    add_pipeline_figures(fitted, sink.by_status, start, finish_start, &summary);
-    return summary;
-  } catch (...) {
-    if (writer) writer->abandon();
-    if (writer && !cfg.save_images.empty()) io::remove_if_present(images_path);
-    throw;
-  }
+  const Warn warn = [&a](const std::string& text) { warn_of(a, text); };
+  RunInput input = a.meds.empty() ? open_stamp_input(a, warn) : open_survey_input(a, warn);
+  return run_input(a, input, start);
 }
 
 }  // namespace stampede::app

@@ -100,15 +100,18 @@ std::vector<std::string> psf_differences(const PsfModel& recorded, const PsfMode
   return out;
 }
 
-bool sets_psf_options(const io::RunConfig& cfg) {
+std::vector<std::string> psf_options_set(const io::RunConfig& cfg) {
   static const char* const kPsfKeys[] = {"psf_input",          "psf_beta",         "psf_fwhm",  "psf_e1",
                                          "psf_e2",             "psf_truncation",   "airy_lambda_over_d",
                                          "airy_obscuration",   "psf_image",        "psf_upsampling",
                                          "psf_pixel_integrated"};
+  std::vector<std::string> set;
   for (const char* key : kPsfKeys)
-    if (cfg.explicitly_set.contains(key)) return true;
-  return false;
+    if (cfg.explicitly_set.contains(key)) set.emplace_back(key);
+  return set;
 }
+
+bool sets_psf_options(const io::RunConfig& cfg) { return !psf_options_set(cfg).empty(); }
 
 void use_recorded_psf(const PsfModel& recorded, const std::string& where, io::RunConfig* cfg) {
   std::string why;

@@ -43,6 +43,8 @@ std::vector<std::string> psf_differences(const PsfModel& recorded, const PsfMode
 // psf_upsampling or psf_pixel_integrated explicitly set. A run that sets none fits a grid whose
 // header records a PSF with that PSF (use_recorded_psf) rather than with the defaults.
 bool sets_psf_options(const io::RunConfig& cfg);
+// Those of the keys above that the run sets, in that order.
+std::vector<std::string> psf_options_set(const io::RunConfig& cfg);
 // cfg's PSF replaced by `recorded`, an analytic PSF as io::read_psf_keys returns it, so the effective
 // options (output header, fingerprint) record the PSF the fit used. Throws io::ConfigError naming
 // `where` (the file and HDU) when the recorded PSF is not a valid one.

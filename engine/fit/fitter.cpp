@@ -1,11 +1,14 @@
 // Single-stamp fitting; see fitter.hpp.
 #include "engine/fit/fitter.hpp"
 
+#include "engine/fit/solve.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
 
+#include "engine/fit/solve.hpp"
 #include "engine/solver/variable_projection.hpp"
 #include "kernels/least_squares.hpp"
 #include "kernels/moments.hpp"
@@ -454,9 +457,43 @@ FitResult Fitter::fit_from(std::span<const double> pixels, std::span<const doubl
   return run(units_.to_internal(start), flags);
 }
 
+// The stamp's problem as the solve drives it: the free parameters, or (projected) the shape ones
+// with the amplitudes solved linearly; drawn with the renderer or its surrogate.
+class Fitter::Solving final : public SolveProblem {
+ public:
+  Solving(Fitter& f, const ParamVector& start) : f_(f), start_(start) {}
+  int num_pixels() const override { return active().num_pixels(); }
+  double negligible_chi2() const override { return active().negligible_chi2(); }
+  bool chi2(const LmVector& x, double* chi2) override { return active().chi2(x, chi2); }
+  bool normal_equations(const LmVector& x, double* chi2, LmMatrix* alpha, LmVector* beta) override {
+    return active().normal_equations(x, chi2, alpha, beta);
+  }
+  void use_surrogates(bool on) override { f_.active_ = on ? f_.renderer_->surrogate() : f_.renderer_.get(); }
+  void restart() override {
+    f_.problem_->reset(start_);
+    f_.projected_->reset(start_);
+  }
+  int extra_evaluations() const override { return f_.project_ ? f_.projected_->extra_renders() : 0; }
+  // x as every free parameter (internal units); alpha over them (projected: from the last images).
+  bool expand(LmVector* x, LmMatrix* alpha) override {
+    if (f_.project_ ? !f_.projected_->finish(*x, &p_, alpha) : !f_.problem_->expand(*x, &p_)) return false;
+    x->resize(f_.num_free_);
+    for (int k = 0; k < f_.num_free_; ++k) (*x)[k] = p_[index(f_.free_[k])];
+    return true;
+  }
+  const ParamVector& params() const { return p_; }  // after expand: the full vector (internal units)
+
+ private:
+  LeastSquaresProblem& active() const {
+    return f_.project_ ? static_cast<LeastSquaresProblem&>(*f_.projected_) : *f_.problem_;
+  }
+  Fitter& f_;
+  ParamVector start_;
+  ParamVector p_{};
+};
+
 FitResult Fitter::run(const ParamVector& start, std::uint32_t flags) {
   FitResult r;
-  const int used = problem_->num_pixels();
   problem_->reset(start);
   projected_->reset(start);
   // The solver's variables: every free parameter, or (projected) the shape ones.
@@ -468,72 +505,19 @@ FitResult Fitter::run(const ParamVector& start, std::uint32_t flags) {
     x0[j] = start[index(q)];
     units.param[j] = units_.of(q);
   }
-  LeastSquaresProblem& problem = project_ ? static_cast<LeastSquaresProblem&>(*projected_) : *problem_;
-  LmOptions lm = options_.lm;
-  if (Renderer* coarse = renderer_->surrogate()) {
-    // The surrogate's optimum, to the looser rule, is where the renderer's own iterations start:
-    // near enough that they take one or two Jacobians (the surrogate's model error sets how far).
-    LmOptions first = options_.lm;
-    first.eps4 = std::max(options_.lm.eps4, options_.surrogate_eps4);
-    active_ = coarse;
-    const LmSummary s = levenberg_marquardt(problem, x0, first, units);
-    active_ = renderer_.get();
-    r.surrogate_iterations = s.iterations;
-    r.surrogate_evaluations = s.evaluations + (project_ ? projected_->extra_renders() : 0);
-    problem_->reset(start);
-    projected_->reset(start);
-    if (s.reason != StopReason::kInvalidStart && s.x.allFinite()) {
-      x0 = s.x;
-      lm.stop_at_jacobian = true;
-    }
-  }
-  LmSummary sum = levenberg_marquardt(problem, x0, lm, units);
-  r.stop_reason = sum.reason;
-  r.stop_value = sum.stop_value;
-  r.stop_threshold = sum.stop_threshold;
-  r.iterations = sum.iterations;
-  r.evaluations = sum.evaluations;
-  r.n_pixels = used;
-  if (sum.reason == StopReason::kInvalidStart) {  // no model, so no chi2: it stays NaN
-    r.status = FitStatus::kModelFailure;
+  Solving problem(*this, start);
+  SolveResult solved;
+  if (!solve(problem, x0, options_, units, renderer_->surrogate() != nullptr, &r, &solved)) {
     r.flags = flags;
     return r;
   }
-  // Parameter errors and the S/N need J^T W J and the model at the optimum: the solver's last
-  // Jacobian evaluation when it was taken there, else one more.
-  double chi2 = sum.chi2;
-  LmMatrix alpha = sum.alpha;
-  LmVector beta;
-  if (!sum.alpha_at_x) {
-    ++r.evaluations;
-    if (!problem.normal_equations(sum.x, &chi2, &alpha, &beta)) {
-      r.status = FitStatus::kSolverFailure;
-      r.flags = flags;
-      return r;
-    }
-  }
-  ParamVector p;
-  if (project_) {
-    r.evaluations += projected_->extra_renders();
-    // The amplitudes the last Jacobian was drawn with, and J^T W J over every free parameter.
-    if (!projected_->finish(sum.x, &p, &alpha)) {
-      r.status = FitStatus::kSolverFailure;
-      r.flags = flags;
-      return r;
-    }
-  } else {
-    problem_->expand(sum.x, &p);
-  }
-  if (!std::isfinite(chi2)) {
-    r.status = FitStatus::kSolverFailure;
-    r.flags = flags;
-    return r;
-  }
+  const ParamVector& p = problem.params();
+  const double chi2 = solved.chi2;
+  const LmMatrix& cov = solved.cov;
+  const bool cov_ok = solved.cov_ok;
+  const LmSummary& sum = solved.summary;
   // Errors from the inverse of J^T W J, in data units: chi2 = units_.chi2() chi2_internal, so
   // cov(x_data) = unit_k unit_l cov(x_internal) / units_.chi2().
-  Eigen::LDLT<LmMatrix> ldlt(alpha);
-  LmMatrix cov = ldlt.solve(LmMatrix::Identity(num_free_, num_free_));
-  const bool cov_ok = ldlt.info() == Eigen::Success && cov.allFinite() && (cov.diagonal().array() > 0).all();
   if (!cov_ok) flags |= kFlagNoErrors;
   for (int k = 0; k < num_free_; ++k) {
     const int i = index(free_[k]);

@@ -81,6 +81,7 @@ class Fitter {
  private:
   class Problem;
   class ProjectedProblem;
+  class Solving;
   // The PSF and weight checks fit() and fit_from() share; false, with *r filled, when nothing can be fitted.
   bool ready(std::span<const double> pixels, std::span<const double> weight, WeightKind kind, FitResult* r,
              std::uint32_t* flags);

@@ -1,8 +1,6 @@
-// What the joint fits over cutouts (MultiEpochFitter) and over bands (MultiBandFitter) share: the
-// scratch a cutout is drawn into, the check of their cutouts, and the solve itself, as the
-// single-stamp fit's: first on the cutouts' surrogates (where their PSFs have one) to the looser
-// rule, then exactly from there until the exact model's own rules hold, then J^T W J at the
-// optimum (the solver's last when it was there) and its inverse.
+// What the joint fits over cutouts (MultiEpochFitter) and over bands (MultiBandFitter) share besides
+// the solve (engine/fit/solve.hpp): the scratch a cutout is drawn into, the check of their cutouts,
+// and whether any cutout's renderer has a surrogate to start on.
 #pragma once
 
 #include <array>
@@ -12,17 +10,33 @@
 #include "engine/fit/fit_result.hpp"
 #include "engine/fit/fitter.hpp"
 #include "engine/fit/multi_epoch_fitter.hpp"
+#include "engine/fit/solve.hpp"
+#include "kernels/least_squares.hpp"
 
 namespace stampede {
 
-// A joint fit's problem: it draws with each cutout renderer's surrogate while asked to.
-class JointProblem : public LeastSquaresProblem {
+
+// The cutouts' data and weights as the least-squares kernels take them, each cutout's flux scale s
+// folded in: sum w (d - s m)^2 = sum (w s^2) (d/s - m)^2, and the normal equations of the columns
+// s c likewise, so one kernel call per cutout serves every joint fit. Copies only the cutouts whose
+// scale is not 1, into storage that grows to the largest object seen and is then reused.
+class KernelCutouts {
  public:
-  virtual void use_surrogates(bool on) = 0;
-  // After the solve: x (the solver's vector) as the fitter's vector of every free parameter, and
-  // alpha as J^T W J over all of them at x. A problem that solves some parameters linearly at each
-  // trial point (ProjectedJointProblem) has fewer than the fit; here both stay as they are.
-  virtual bool expand(LmVector* /*x*/, LmMatrix* /*alpha*/) { return true; }
+  void reset(std::span<const Observation> epochs);
+  std::span<const double> data(std::size_t c) const { return data_[c]; }
+  std::span<const double> weight(std::size_t c) const { return weight_[c]; }
+
+ private:
+  std::vector<std::span<const double>> data_, weight_;
+  std::vector<std::vector<double>> scaled_data_, scaled_weight_;
+};
+
+// One cutout's sums at a model and its columns: chi2, the signal sum w s^2 m^2, and the normal
+// equations (alpha ncol x ncol row-major and symmetric, beta).
+struct CutoutSums {
+  double chi2 = 0, signal = 0;
+  std::array<double, kMaxFree * kMaxFree> alpha{};
+  std::array<double, kMaxFree> beta{};
 };
 
 // A cutout's model and derivative images, grown to the largest box once and then reused.
@@ -30,12 +44,20 @@ class CutoutScratch {
  public:
   // `r` set to e's PSF and frame, the scratch sized for e; returns the renderer to draw with (r's
   // exact surrogate when `surrogate` and r has one).
-  ExactRenderer& select(ExactRenderer& r, const Observation& e, bool surrogate);
+  Renderer& select(Renderer& r, const Observation& e, bool surrogate);
   std::span<double> model() const { return model_span_; }
   const std::vector<double>& derivative(std::size_t k) const { return jacobian_[k]; }
   std::span<double* const> columns(std::size_t n) const { return {columns_.data(), n}; }
+  // chi2 of the model drawn here against a cutout's kernel data and weight (KernelCutouts).
+  double chi2(const kernels::LeastSquaresKernels& k, std::span<const double> data, std::span<const double> weight) const {
+    return k.weighted_chi2(data, model_span_, weight);
+  }
+  // The sums of the model and first ncol columns drawn here against them; false when not finite.
+  bool sums(const kernels::LeastSquaresKernels& k, std::span<const double> data, std::span<const double> weight, int ncol,
+            CutoutSums* out);
 
  private:
+  std::vector<double> zeros_;  // the signal's data: sum w m^2 is the chi2 of the model against zero
   std::vector<double> model_;
   std::span<double> model_span_;
   std::array<std::vector<double>, kNumParams> jacobian_;
@@ -52,25 +74,11 @@ template <class RendererFor>
 bool any_surrogate(std::span<const Observation> epochs, RendererFor&& renderer_for) {
   bool coarse = false;
   for (const Observation& e : epochs) {
-    ExactRenderer& r = renderer_for(e.box_size);
+    Renderer& r = renderer_for(e.box_size);
     r.set_psf(e.psf);
-    coarse = coarse || r.exact_surrogate() != nullptr;
+    coarse = coarse || r.surrogate() != nullptr;
   }
   return coarse;
 }
-
-struct JointSolve {
-  LmSummary summary;
-  double chi2 = NAN;
-  LmMatrix cov;
-  bool cov_ok = false;
-};
-
-// Solves from x0 (the solver's vector; surrogates first when `coarse`), filling r's solver fields
-// (stop reason, counts, n_pixels). out->summary.x and out->cov are in the fitter's layout
-// (JointProblem::expand). False when there is no fit: r->status is then kModelFailure or
-// kSolverFailure.
-bool solve_joint(JointProblem& problem, LmVector x0, const FitterOptions& options, bool coarse, FitResult* r,
-                 JointSolve* out);
 
 }  // namespace stampede

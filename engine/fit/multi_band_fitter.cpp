@@ -17,15 +17,16 @@ bool is_amplitude(Param p) { return p == Param::kBulgeA || p == Param::kDiscA; }
 
 }  // namespace
 
-class MultiBandFitter::Problem final : public JointProblem {
+class MultiBandFitter::Problem final : public SolveProblem {
  public:
-  explicit Problem(MultiBandFitter& f) : f_(f) {}
+  explicit Problem(MultiBandFitter& f) : f_(f), kernels_(kernels::least_squares_kernels(f.options_.render.simd)) {}
 
   // The fit's cutouts, the full parameter vector of fixed values, the single-band free list and
   // the slot of each band in the solver's vector (-1: not fitted).
   void reset(std::span<const Observation> epochs, const ParamVector& base, std::span<const Param> free,
              std::span<const int> slot_of_band, int slots) {
     epochs_ = epochs;
+    cutouts_.reset(epochs);
     base_ = base;
     free_ = free;
     slot_of_band_.assign(slot_of_band.begin(), slot_of_band.end());
@@ -71,15 +72,12 @@ class MultiBandFitter::Problem final : public JointProblem {
 
   bool chi2(const LmVector& x, double* chi2) override {
     double sum = 0;
-    for (const Observation& e : epochs_) {
+    for (std::size_t c = 0; c < epochs_.size(); ++c) {
+      const Observation& e = epochs_[c];
       const ParamVector p = full(x, slot_of_band_[static_cast<std::size_t>(e.band)]);
-      ExactRenderer& r = select(e);
-      const std::span<double> model = scratch_.model();
-      if (r.render(p, model) != RenderStatus::kOk) return false;
-      for (std::size_t i = 0; i < e.pixels.size(); ++i) {
-        const double d = e.pixels[i] - e.flux_scale * model[i];
-        sum += e.weight[i] * d * d;
-      }
+      Renderer& r = select(e);
+      if (r.render(p, scratch_.model()) != RenderStatus::kOk) return false;
+      sum += scratch_.chi2(kernels_, cutouts_.data(c), cutouts_.weight(c));
     }
     *chi2 = sum;
     return std::isfinite(sum);
@@ -87,39 +85,32 @@ class MultiBandFitter::Problem final : public JointProblem {
 
   bool normal_equations(const LmVector& x, double* chi2, LmMatrix* alpha, LmVector* beta) override {
     const int n = size();
-    const std::size_t nf = free_.size();
+    const int nf = static_cast<int>(free_.size());
     alpha->setZero(n, n);
     beta->setZero(n);
     double sum = 0;
     signal_.fill(0.0);
     std::array<int, kNumParams> g{};
-    for (const Observation& e : epochs_) {
+    for (std::size_t c = 0; c < epochs_.size(); ++c) {
+      const Observation& e = epochs_[c];
       const int slot = slot_of_band_[static_cast<std::size_t>(e.band)];
       const ParamVector p = full(x, slot);
-      for (std::size_t a = 0; a < nf; ++a) g[a] = global(a, slot);
-      ExactRenderer& r = select(e);
-      const std::span<double> model = scratch_.model();
-      if (r.render_with_jacobian(p, free_, model, scratch_.columns(nf)) != RenderStatus::kOk) return false;
-      double signal = 0;
-      for (std::size_t i = 0; i < e.pixels.size(); ++i) {
-        const double w = e.weight[i];
-        if (w == 0) continue;
-        const double m = e.flux_scale * model[i], d = e.pixels[i] - m;
-        sum += w * d * d;
-        signal += w * m * m;
-        for (std::size_t a = 0; a < nf; ++a) {
-          const double ja = e.flux_scale * scratch_.derivative(a)[i] * w;
-          (*beta)[g[a]] += ja * d;
-          for (std::size_t b = 0; b <= a; ++b)
-            (*alpha)(std::max(g[a], g[b]), std::min(g[a], g[b])) += ja * e.flux_scale * scratch_.derivative(b)[i];
-        }
+      for (int a = 0; a < nf; ++a) g[static_cast<std::size_t>(a)] = global(static_cast<std::size_t>(a), slot);
+      Renderer& r = select(e);
+      if (r.render_with_jacobian(p, free_, scratch_.model(), scratch_.columns(free_.size())) != RenderStatus::kOk ||
+          !scratch_.sums(kernels_, cutouts_.data(c), cutouts_.weight(c), nf, &sums_))
+        return false;
+      sum += sums_.chi2;
+      signal_[static_cast<std::size_t>(slot)] += sums_.signal;
+      // A band's amplitudes are its own columns; the shape's are every band's.
+      for (int a = 0; a < nf; ++a) {
+        (*beta)[g[static_cast<std::size_t>(a)]] += sums_.beta[static_cast<std::size_t>(a)];
+        for (int b = 0; b < nf; ++b)
+          (*alpha)(g[static_cast<std::size_t>(a)], g[static_cast<std::size_t>(b)]) += sums_.alpha[static_cast<std::size_t>(a * nf + b)];
       }
-      signal_[static_cast<std::size_t>(slot)] += signal;
     }
-    for (int a = 0; a < n; ++a)
-      for (int b = 0; b < a; ++b) (*alpha)(b, a) = (*alpha)(a, b);
     *chi2 = sum;
-    return std::isfinite(sum) && alpha->allFinite() && beta->allFinite();
+    return std::isfinite(sum);
   }
 
   // sum w m^2 of slot s's cutouts at the last normal_equations.
@@ -132,7 +123,7 @@ class MultiBandFitter::Problem final : public JointProblem {
     int k = 0;  // index among the shape parameters, or among one band's amplitudes
   };
 
-  ExactRenderer& select(const Observation& e) { return scratch_.select(f_.renderer_for(e.box_size), e, surrogates_); }
+  Renderer& select(const Observation& e) { return scratch_.select(f_.renderer_for(e.box_size), e, surrogates_); }
 
   MultiBandFitter& f_;
   std::span<const Observation> epochs_;
@@ -145,7 +136,10 @@ class MultiBandFitter::Problem final : public JointProblem {
   double negligible_chi2_ = 0;
   std::array<double, kMaxBands> signal_{};
   bool surrogates_ = false;
+  const kernels::LeastSquaresKernels& kernels_;
+  KernelCutouts cutouts_;
   CutoutScratch scratch_;
+  CutoutSums sums_;
 };
 
 MultiBandFitter::MultiBandFitter(const FitterOptions& options)
@@ -153,7 +147,8 @@ MultiBandFitter::MultiBandFitter(const FitterOptions& options)
       single_(options),
       problem_(std::make_unique<Problem>(*this)),
       project_(projects_amplitudes(options)),
-      projected_(std::make_unique<ProjectedJointProblem>([this](int box) -> ExactRenderer& { return renderer_for(box); })) {}
+      projected_(std::make_unique<ProjectedJointProblem>([this](int box) -> Renderer& { return renderer_for(box); },
+                                                         kernels::least_squares_kernels(options.render.simd))) {}
 
 MultiBandFitter::~MultiBandFitter() = default;
 
@@ -215,21 +210,21 @@ MultiBandFitResult MultiBandFitter::fit(std::span<const Observation> epochs, int
     return out;
   }
   const LmVector x0 = problem_->vector_of(start, amplitude_start);
-  const bool coarse = any_surrogate(epochs, [this](int box) -> ExactRenderer& { return renderer_for(box); });
-  JointSolve solve;
+  const bool coarse = any_surrogate(epochs, [this](int box) -> Renderer& { return renderer_for(box); });
+  SolveResult solved;
   if (project_) {
     slot_of_cutout_.clear();
     for (const Observation& e : epochs) slot_of_cutout_.push_back(slot_of_band[static_cast<std::size_t>(e.band)]);
     projected_->reset(epochs, start, free, slot_of_cutout_, slots, [this](std::size_t a, int s) { return problem_->global(a, s); },
                       problem_->size());
-    if (!solve_joint(*projected_, projected_->shape_of(x0), options_, coarse, &r, &solve)) return out;
-  } else if (!solve_joint(*problem_, x0, options_, coarse, &r, &solve)) {
+    if (!solve(*projected_, projected_->shape_of(x0), options_, LmUnits{}, coarse, &r, &solved)) return out;
+  } else if (!solve(*problem_, x0, options_, LmUnits{}, coarse, &r, &solved)) {
     return out;
   }
-  const LmSummary& sum = solve.summary;
-  const double chi2 = solve.chi2;
-  const bool cov_ok = solve.cov_ok;
-  const LmMatrix& cov = solve.cov;
+  const LmSummary& sum = solved.summary;
+  const double chi2 = solved.chi2;
+  const bool cov_ok = solved.cov_ok;
+  const LmMatrix& cov = solved.cov;
   if (!cov_ok) flags |= kFlagNoErrors;
   for (std::size_t a = 0; a < free.size(); ++a)
     if (cov_ok && !is_amplitude(free[a])) {
@@ -238,7 +233,7 @@ MultiBandFitResult MultiBandFitter::fit(std::span<const Observation> epochs, int
     }
   const ParamVector p0 = problem_->full(sum.x, 0);
   if (std::hypot(p0[index(Param::kE1)], p0[index(Param::kE2)]) > options_.model.ellipticity_mirror) flags |= kFlagMirrored;
-  ExactRenderer& any = renderer_for(epochs.front().box_size);
+  Renderer& any = renderer_for(epochs.front().box_size);
   any.effective_params(p0, &r.params);
   r.params[index(Param::kBulgeA)] = r.params[index(Param::kDiscA)] = NAN;
   r.e1_err = r.errors[index(Param::kE1)];

@@ -1,4 +1,4 @@
-// Fits one galaxy jointly to its cutouts in several bands (issue 32; DES Y3/Y6 combine r, i, z): one
+// Fits one galaxy jointly to its cutouts in several bands (DES Y3/Y6 combine r, i, z; measurements in docs/multiband.md): one
 // shape for all bands — (u0, v0), e1, e2 and the radius on the sky — and, per band, a bulge and a
 // disc amplitude, so each band has its own flux and bulge fraction (a colour gradient in the
 // co-elliptical bulge + disc model). Each cutout keeps its PSF, WCS frame, weights and flux scale,
@@ -28,7 +28,7 @@ class MultiBandFitter {
   ~MultiBandFitter();
 
   // The renderer for cutouts of box_size pixels, to prepare their PSFs (any band).
-  ExactRenderer& renderer_for(int box_size) { return single_.renderer_for(box_size); }
+  Renderer& renderer_for(int box_size) { return single_.renderer_for(box_size); }
 
   // Fits the cutouts of `n_bands` bands (each epoch's `band` in 0..n_bands-1), starting the shape
   // from the single-stamp moments of epochs[first] and each band's amplitudes from its first

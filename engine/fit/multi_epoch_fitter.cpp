@@ -12,13 +12,14 @@
 
 namespace stampede {
 
-class MultiEpochFitter::Problem final : public JointProblem {
+class MultiEpochFitter::Problem final : public SolveProblem {
  public:
-  explicit Problem(MultiEpochFitter& f) : f_(f) {}
+  explicit Problem(MultiEpochFitter& f) : f_(f), kernels_(kernels::least_squares_kernels(f.options_.render.simd)) {}
 
   // The fit's cutouts, its full parameter vector and which of them are free.
   void reset(std::span<const Observation> epochs, const ParamVector& start, std::span<const Param> free) {
     epochs_ = epochs;
+    cutouts_.reset(epochs);
     p_ = start;
     free_ = free;
     pixels_ = 0;
@@ -44,14 +45,10 @@ class MultiEpochFitter::Problem final : public JointProblem {
   bool chi2(const LmVector& x, double* chi2) override {
     const ParamVector p = full(x);
     double sum = 0;
-    for (const Observation& e : epochs_) {
-      ExactRenderer& r = select(e);
-      const std::span<double> model = scratch_.model();
-      if (r.render(p, model) != RenderStatus::kOk) return false;
-      for (std::size_t i = 0; i < e.pixels.size(); ++i) {
-        const double d = e.pixels[i] - e.flux_scale * model[i];
-        sum += e.weight[i] * d * d;
-      }
+    for (std::size_t c = 0; c < epochs_.size(); ++c) {
+      Renderer& r = select(epochs_[c]);
+      if (r.render(p, scratch_.model()) != RenderStatus::kOk) return false;
+      sum += scratch_.chi2(kernels_, cutouts_.data(c), cutouts_.weight(c));
     }
     *chi2 = sum;
     return std::isfinite(sum);
@@ -63,28 +60,20 @@ class MultiEpochFitter::Problem final : public JointProblem {
     alpha->setZero(n, n);
     beta->setZero(n);
     double sum = 0, signal = 0;
-    for (const Observation& e : epochs_) {
-      ExactRenderer& r = select(e);
-      const std::span<double> model = scratch_.model();
-      if (r.render_with_jacobian(p, free_, model, scratch_.columns(free_.size())) != RenderStatus::kOk) return false;
-      for (std::size_t i = 0; i < e.pixels.size(); ++i) {
-        const double w = e.weight[i];
-        if (w == 0) continue;
-        const double m = e.flux_scale * model[i], d = e.pixels[i] - m;
-        sum += w * d * d;
-        signal += w * m * m;
-        for (int a = 0; a < n; ++a) {
-          const double ja = e.flux_scale * scratch_.derivative(static_cast<std::size_t>(a))[i] * w;
-          (*beta)[a] += ja * d;
-          for (int b = 0; b <= a; ++b) (*alpha)(a, b) += ja * e.flux_scale * scratch_.derivative(static_cast<std::size_t>(b))[i];
-        }
+    for (std::size_t c = 0; c < epochs_.size(); ++c) {
+      Renderer& r = select(epochs_[c]);
+      if (r.render_with_jacobian(p, free_, scratch_.model(), scratch_.columns(free_.size())) != RenderStatus::kOk ||
+          !scratch_.sums(kernels_, cutouts_.data(c), cutouts_.weight(c), n, &sums_))
+        return false;
+      sum += sums_.chi2, signal += sums_.signal;
+      for (int a = 0; a < n; ++a) {
+        (*beta)[a] += sums_.beta[static_cast<std::size_t>(a)];
+        for (int b = 0; b < n; ++b) (*alpha)(a, b) += sums_.alpha[static_cast<std::size_t>(a * n + b)];
       }
     }
-    for (int a = 0; a < n; ++a)
-      for (int b = 0; b < a; ++b) (*alpha)(b, a) = (*alpha)(a, b);
     *chi2 = sum;
     signal_ = signal;
-    return std::isfinite(sum) && alpha->allFinite() && beta->allFinite();
+    return std::isfinite(sum);
   }
 
   double signal() const { return signal_; }  // sum w m^2 at the last normal_equations
@@ -93,7 +82,7 @@ class MultiEpochFitter::Problem final : public JointProblem {
 
  private:
   // The renderer for e's size, set to its PSF and frame, with scratch sized for it.
-  ExactRenderer& select(const Observation& e) { return scratch_.select(f_.renderer_for(e.box_size), e, surrogates_); }
+  Renderer& select(const Observation& e) { return scratch_.select(f_.renderer_for(e.box_size), e, surrogates_); }
 
   MultiEpochFitter& f_;
   std::span<const Observation> epochs_;
@@ -103,7 +92,10 @@ class MultiEpochFitter::Problem final : public JointProblem {
   double negligible_chi2_ = 0;
   double signal_ = NAN;
   bool surrogates_ = false;
+  const kernels::LeastSquaresKernels& kernels_;
+  KernelCutouts cutouts_;
   CutoutScratch scratch_;
+  CutoutSums sums_;
 };
 
 MultiEpochFitter::MultiEpochFitter(const FitterOptions& options)
@@ -111,14 +103,15 @@ MultiEpochFitter::MultiEpochFitter(const FitterOptions& options)
       plans_(FftPlanning::kEstimate),
       problem_(std::make_unique<Problem>(*this)),
       project_(projects_amplitudes(options)),
-      projected_(std::make_unique<ProjectedJointProblem>([this](int box) -> ExactRenderer& { return renderer_for(box); })) {
+      projected_(std::make_unique<ProjectedJointProblem>([this](int box) -> Renderer& { return renderer_for(box); },
+                                                         kernels::least_squares_kernels(options.render.simd))) {
   if (options.renderer == RendererKind::kUpsampled)
     throw std::invalid_argument("MultiEpochFitter: cutouts with WCS Jacobians need renderer = exact");
 }
 
 MultiEpochFitter::~MultiEpochFitter() = default;
 
-ExactRenderer& MultiEpochFitter::renderer_for(int box_size) {
+Renderer& MultiEpochFitter::renderer_for(int box_size) {
   auto it = renderers_.find(box_size);
   if (it == renderers_.end()) {
     RenderOptions ro = options_.render;
@@ -266,24 +259,24 @@ FitResult MultiEpochFitter::fit(std::span<const Observation> epochs, const Param
   }
   LmVector x0(nf);
   for (int k = 0; k < nf; ++k) x0[k] = start[index(free[static_cast<std::size_t>(k)])];
-  const bool coarse = any_surrogate(epochs, [this](int box) -> ExactRenderer& { return renderer_for(box); });
-  JointSolve solve;
+  const bool coarse = any_surrogate(epochs, [this](int box) -> Renderer& { return renderer_for(box); });
+  SolveResult solved;
   if (project_) {
     slot_of_cutout_.assign(epochs.size(), 0);
     projected_->reset(epochs, start, free, slot_of_cutout_, 1, [](std::size_t a, int) { return static_cast<int>(a); }, nf);
-    if (!solve_joint(*projected_, projected_->shape_of(x0), options_, coarse, &r, &solve)) return r;
-  } else if (!solve_joint(*problem_, x0, options_, coarse, &r, &solve)) {
+    if (!solve(*projected_, projected_->shape_of(x0), options_, LmUnits{}, coarse, &r, &solved)) return r;
+  } else if (!solve(*problem_, x0, options_, LmUnits{}, coarse, &r, &solved)) {
     return r;
   }
-  const LmSummary& sum = solve.summary;
-  const double chi2 = solve.chi2;
+  const LmSummary& sum = solved.summary;
+  const double chi2 = solved.chi2;
   const ParamVector p = problem_->full(sum.x);
   std::uint32_t flags = 0;
-  if (!solve.cov_ok) flags |= kFlagNoErrors;
+  if (!solved.cov_ok) flags |= kFlagNoErrors;
   for (int k = 0; k < nf; ++k)
-    if (solve.cov_ok) r.errors[index(free[static_cast<std::size_t>(k)])] = std::sqrt(solve.cov(k, k));
+    if (solved.cov_ok) r.errors[index(free[static_cast<std::size_t>(k)])] = std::sqrt(solved.cov(k, k));
   if (std::hypot(p[index(Param::kE1)], p[index(Param::kE2)]) > options_.model.ellipticity_mirror) flags |= kFlagMirrored;
-  ExactRenderer& any = renderer_for(epochs.front().box_size);
+  Renderer& any = renderer_for(epochs.front().box_size);
   any.effective_params(p, &r.params);
   r.e1_err = r.errors[index(Param::kE1)];
   r.e2_err = r.errors[index(Param::kE2)];

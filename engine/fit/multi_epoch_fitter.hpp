@@ -31,7 +31,7 @@ class MultiEpochFitter {
   ~MultiEpochFitter();
 
   // The renderer for cutouts of box_size pixels (made on first use), e.g. to prepare their PSFs.
-  ExactRenderer& renderer_for(int box_size);
+  Renderer& renderer_for(int box_size);
 
   // Fits from `start` (sky units). Result: params, errors and fluxes in sky units; chi2 and S/N
   // summed over the cutouts; n_pixels the unmasked pixels of all of them.

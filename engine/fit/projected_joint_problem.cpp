@@ -12,6 +12,7 @@ void ProjectedJointProblem::reset(std::span<const Observation> epochs, const Par
   if (slots < 1 || slots > kMaxBands || slot_of_cutout.size() != epochs.size())
     throw std::invalid_argument("ProjectedJointProblem::reset: slots do not match the cutouts");
   epochs_ = epochs;
+  cutouts_.reset(epochs);
   base_ = base;
   free_ = free;
   slot_of_cutout_.assign(slot_of_cutout.begin(), slot_of_cutout.end());
@@ -131,36 +132,26 @@ bool ProjectedJointProblem::normal_equations(const LmVector& x, double* chi2, Lm
   for (std::size_t c = 0; c < epochs_.size(); ++c) {
     const Observation& e = epochs_[c];
     const std::size_t slot = static_cast<std::size_t>(slot_of_cutout_[c]);
-    ExactRenderer& r = select(e);
+    Renderer& r = select(e);
     const std::span<double> model = scratch_.model();
     if (r.render_with_jacobian(params(x, jacobian_amplitudes_[slot]), free_, model, scratch_.columns(free_.size())) !=
         RenderStatus::kOk)
       return false;
+    if (!scratch_.sums(kernels_, cutouts_.data(c), cutouts_.weight(c), nf, &sums_)) return false;
     LmMatrix& ms = m[slot];
     LmVector& vs = v[slot];
-    double signal = 0;
-    const double fs = e.flux_scale;
-    for (std::size_t i = 0; i < e.pixels.size(); ++i) {
-      const double w = e.weight[i];
-      if (w == 0) continue;
-      const double mi = fs * model[i], d = e.pixels[i] - mi;
-      sum += w * d * d;
-      signal += w * mi * mi;
-      for (int a = 0; a < nf; ++a) {
-        const double ja = fs * scratch_.derivative(static_cast<std::size_t>(a))[i] * w;
-        vs[a] += ja * d;
-        for (int b = 0; b <= a; ++b) ms(a, b) += ja * fs * scratch_.derivative(static_cast<std::size_t>(b))[i];
-      }
+    for (int a = 0; a < nf; ++a) {
+      vs[a] += sums_.beta[static_cast<std::size_t>(a)];
+      for (int b = 0; b < nf; ++b) ms(a, b) += sums_.alpha[static_cast<std::size_t>(a * nf + b)];
     }
-    signal_[slot] += signal;
+    sum += sums_.chi2;
+    signal_[slot] += sums_.signal;
   }
   full_alpha_.setZero(n_global_, n_global_);
   alpha->setZero(n_shape_, n_shape_);
   beta->setZero(n_shape_);
   for (int s = 0; s < slots_; ++s) {
-    LmMatrix& ms = m[static_cast<std::size_t>(s)];
-    for (int a = 0; a < nf; ++a)
-      for (int b = 0; b < a; ++b) ms(b, a) = ms(a, b);
+    const LmMatrix& ms = m[static_cast<std::size_t>(s)];
     const auto& gl = global_[static_cast<std::size_t>(s)];
     for (int a = 0; a < nf; ++a)
       for (int b = 0; b < nf; ++b) full_alpha_(gl[static_cast<std::size_t>(a)], gl[static_cast<std::size_t>(b)]) += ms(a, b);

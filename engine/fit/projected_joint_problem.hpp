@@ -24,10 +24,12 @@
 
 namespace stampede {
 
-class ProjectedJointProblem final : public JointProblem {
+class ProjectedJointProblem final : public SolveProblem {
  public:
-  using RendererFor = std::function<ExactRenderer&(int box_size)>;
-  explicit ProjectedJointProblem(RendererFor renderer_for) : renderer_for_(std::move(renderer_for)) {}
+  using RendererFor = std::function<Renderer&(int box_size)>;
+  // kernels: the least-squares kernels of the fitter's instruction set (kernels/least_squares.hpp).
+  ProjectedJointProblem(RendererFor renderer_for, const kernels::LeastSquaresKernels& kernels)
+      : renderer_for_(std::move(renderer_for)), kernels_(kernels) {}
 
   // The fit's cutouts (cutout c in band slot slot_of_cutout[c] < slots), the full parameter vector
   // of fixed values, the free parameters (one band's list) and the fitter's index of free
@@ -53,7 +55,7 @@ class ProjectedJointProblem final : public JointProblem {
  private:
   // The full parameter vector of slot s at shape x and amplitudes la.
   ParamVector params(const LmVector& x, const LinearAmplitudes& la) const;
-  ExactRenderer& select(const Observation& e) { return scratch_.select(renderer_for_(e.box_size), e, surrogates_); }
+  Renderer& select(const Observation& e) { return scratch_.select(renderer_for_(e.box_size), e, surrogates_); }
 
   RendererFor renderer_for_;
   std::span<const Observation> epochs_;
@@ -75,7 +77,10 @@ class ProjectedJointProblem final : public JointProblem {
   LmMatrix full_alpha_;
   std::array<double, kMaxBands> signal_{};
   bool surrogates_ = false;
+  const kernels::LeastSquaresKernels& kernels_;
+  KernelCutouts cutouts_;
   CutoutScratch scratch_;
+  CutoutSums sums_;
 };
 
 }  // namespace stampede

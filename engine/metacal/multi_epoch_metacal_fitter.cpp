@@ -109,7 +109,6 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
   MultiBandFitResult noshear_bands = fit_type(MetacalType::kNoshear);
   *noshear = noshear_bands.fit;
   if (bands) *bands = std::move(noshear_bands.bands);
-  std::array<double, kNumMetacalTypes> e1{}, e2{};
   std::string unusable;  // the first image set whose fit is not ok
   const std::string what = moments ? " image set's moments are " : " image set's fit is ";
   if (noshear->status != FitStatus::kOk) unusable = "noshear" + what + ToString(noshear->status);
@@ -117,22 +116,13 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
     const FitResult r = fit_type(static_cast<MetacalType>(t)).fit;
     if (r.status != FitStatus::kOk && unusable.empty())
       unusable = std::string(metacal_type_name(static_cast<MetacalType>(t))) + what + ToString(r.status);
-    e1[t] = r.params[index(Param::kE1)];
-    e2[t] = r.params[index(Param::kE2)];
-    record->e1[t - 1] = e1[t];
-    record->e2[t - 1] = e2[t];
-    record->snr[t - 1] = r.snr;
-    record->radius[t - 1] = r.params[index(Param::kRadius)];
+    record->set_sheared(t - 1, r);
   }
   if (!unusable.empty()) {
     *flags |= failure_flag;
     if (problem->empty()) *problem = "metacal: the " + unusable + " (R not usable)";
   }
-  const double two_step = 2 * options_.step;
-  record->r11 = (e1[1] - e1[2]) / two_step;
-  record->r21 = (e2[1] - e2[2]) / two_step;
-  record->r12 = (e1[3] - e1[4]) / two_step;
-  record->r22 = (e2[3] - e2[4]) / two_step;
+  record->set_response(options_.step);
 }
 
 double MultiEpochMetacalFitter::weight_fwhm() const {

@@ -15,6 +15,7 @@
 #include <string>
 
 #include "engine/model/parameters.hpp"
+#include "engine/model/pixel_frame.hpp"
 #include "engine/model/psf_model.hpp"
 
 namespace stampede {
@@ -47,6 +48,13 @@ class Renderer {
   // Swaps the PSF for the following renders. Throws std::invalid_argument for a PSF another kind
   // or another grid prepared. Allocates nothing.
   virtual void set_psf(std::shared_ptr<const PreparedPsf> psf) = 0;
+  // The frame the model's parameters live in (model/pixel_frame.hpp) for the following renders: x0,
+  // y0 become (u0, v0), the shape is (u, v)'s, and d/dx0, d/dy0 become d/du0, d/dv0; the surrogate
+  // follows it. The identity (the default) is the stamp's own pixels. A renderer that draws in its
+  // stamp's pixels only (takes_frames() false) takes the identity and throws std::invalid_argument
+  // for any other frame, naming itself: a joint fit over cutouts' WCS needs one that takes frames.
+  virtual bool takes_frames() const { return false; }
+  virtual void set_frame(const PixelFrame& frame);
 
   // model: stamp_size^2 pixels, flux per pixel.
   virtual RenderStatus render(const ParamVector& p, std::span<double> model) = 0;

@@ -68,7 +68,7 @@ inline std::vector<double> draw(const SkyGalaxy& g, const PixelFrame& f, const P
 
 // Sky parameters of g for the fitter (amplitudes from the fluxes through the renderer's own
 // flux per amplitude).
-inline ParamVector sky_params(const SkyGalaxy& g, ExactRenderer& r) {
+inline ParamVector sky_params(const SkyGalaxy& g, Renderer& r) {
   ParamVector p = ParameterSet::default_values();
   p[index(Param::kX0)] = g.u0, p[index(Param::kY0)] = g.v0;
   p[index(Param::kE1)] = g.e1, p[index(Param::kE2)] = g.e2, p[index(Param::kRadius)] = g.radius;
@@ -80,7 +80,7 @@ inline ParamVector sky_params(const SkyGalaxy& g, ExactRenderer& r) {
 }
 
 // The epochs as a fit takes them, their PSFs prepared by `renderer` (one of kEpochBox pixels).
-inline std::vector<Observation> epoch_data(ExactRenderer& renderer, std::vector<SkyEpoch>& epochs, int band = 0) {
+inline std::vector<Observation> epoch_data(Renderer& renderer, std::vector<SkyEpoch>& epochs, int band = 0) {
   std::vector<Observation> data;
   for (SkyEpoch& e : epochs) {
     std::string error;

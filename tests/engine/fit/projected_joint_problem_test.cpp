@@ -41,7 +41,7 @@ struct ThreeBands {
       epochs.push_back(std::move(band));
     }
   }
-  std::vector<Observation> data(ExactRenderer& r) {
+  std::vector<Observation> data(Renderer& r) {
     std::vector<Observation> out;
     for (int b = 0; b < 3; ++b)
       for (const Observation& e : testing::epoch_data(r, epochs[static_cast<std::size_t>(b)], b)) out.push_back(e);
@@ -70,7 +70,7 @@ struct ThreeBandProblem {
       : renderer(box_options(), ModelOptions{}),
         bands(5),
         data(bands.data(renderer)),
-        problem([this](int) -> ExactRenderer& { return renderer; }) {
+        problem([this](int) -> Renderer& { return renderer; }, kernels::least_squares_kernels()) {
     free = std::span<const Param>(free_all.data(), static_cast<std::size_t>(ParameterSet{}.free_params(&free_all)));
     for (const Observation& e : data) slot.push_back(e.band);
     problem.reset(data, ParameterSet::default_values(), free, slot, 3,

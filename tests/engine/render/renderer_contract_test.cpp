@@ -276,3 +276,48 @@ TYPED_TEST(RendererContract, NeedsItsOwnPreparedPsf) {
 
 }  // namespace
 }  // namespace stampede
+
+namespace stampede {
+namespace {
+
+// Frames (Renderer::set_frame): the identity draws exactly as no frame; a renderer that takes
+// frames draws a scaled frame as the model seen through it (a unit shift of the reference moves the
+// image by one pixel), and one that does not refuses any other frame by name rather than drawing it
+// wrong.
+TYPED_TEST(RendererContract, TakesAFrameOrRefusesIt) {
+  const RenderOptions ro = TypeParam::options(31, Resolution::kDefault);
+  auto r = this->make(ro, this->moffat());
+  ParamVector p = ParameterSet::default_values();
+  p[index(Param::kX0)] = 0.3, p[index(Param::kY0)] = -0.2, p[index(Param::kE1)] = 0.2, p[index(Param::kE2)] = -0.1;
+  p[index(Param::kRadius)] = 2.5, p[index(Param::kBulgeA)] = 0.5, p[index(Param::kDiscA)] = 1.0;
+  const std::size_t n = 31 * 31;
+  std::vector<double> plain(n), framed(n);
+  ASSERT_EQ(r->render(p, plain), RenderStatus::kOk);
+  r->set_frame(PixelFrame{});
+  ASSERT_EQ(r->render(p, framed), RenderStatus::kOk);
+  EXPECT_EQ(plain, framed);
+  PixelFrame shifted;
+  shifted.x_ref = 1;  // the model's origin one pixel to the right
+  if (!r->takes_frames()) {
+    try {
+      r->set_frame(shifted);
+      FAIL() << "a renderer that takes no frames accepted one";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("renderer = exact"), std::string::npos) << e.what();
+    }
+    return;
+  }
+  r->set_frame(shifted);
+  ASSERT_EQ(r->render(p, framed), RenderStatus::kOk);
+  double worst = 0, peak = 0;
+  for (int y = 0; y < 31; ++y)
+    for (int x = 1; x < 31; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * 31 + x;
+      worst = std::max(worst, std::abs(framed[i] - plain[i - 1]));
+      peak = std::max(peak, plain[i]);
+    }
+  EXPECT_LT(worst, 1e-6 * peak);  // the same light one pixel over, to the renderer's wrap-around floor
+}
+
+}  // namespace
+}  // namespace stampede
