@@ -1,10 +1,10 @@
-// End to end (issue 29, must-show 3): `stampede fit` as a user runs it, the whole process per
+// End to end (docs/performance.md): `stampede fit` as a user runs it, the whole process per
 // iteration (start-up, reading, fitting, writing the table), over 10,000 GREAT08-like stamps at
 // S/N 20 (`stampede sim great08 --grid 100 --snr 20 --seed 2020`, the surrogate experiment's set,
 // simulated once into STAMPEDE_BENCH_DIR, default $TMPDIR/stampede_bench_fit_command, and reused):
 //   BM_StampedeFitS20/threads:N   objects/s of the default fit on N threads (items = objects)
-//   BM_StampedeMetacalWmomS20     metacal = true, metacal_model = wmom on one thread (issue 30's
-//                                 <= 5 ms a row, the whole process)
+//   BM_StampedeMetacalWmomS20     metacal = true, metacal_model = wmom on one thread (its budget:
+//                                 <= 5 ms a row, the whole process; docs/metacal.md)
 // The speed-up is threads:2 / threads:1 from one run (bench/run interleaves the repetitions).
 #include <benchmark/benchmark.h>
 #include <sys/wait.h>

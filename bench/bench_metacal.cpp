@@ -5,7 +5,8 @@
 //   BM_Metacal       images and the five fits: the cost of a metacal row (metacal_model bd)
 //   BM_MetacalGauss  the same with metacal_model gauss (DES Y3's model)
 //   BM_MetacalWmom   the images and five weighted moments (metacal_model wmom, DES Y6's): no fit
-// The ratio BM_Metacal / BM_OneFit is issue 21's budget (<= 6); issue 30's is <= 5 ms a row.
+// The budgets: BM_Metacal / BM_OneFit <= 6, and <= 5 ms a metacal row (docs/metacal.md, "Cost" and
+// "Weighted moments").
 #include <benchmark/benchmark.h>
 
 #include <cmath>

@@ -1,8 +1,8 @@
-"""MPI-driver benchmark (issue 19): the whole `stampede-mpi fit` job on 1 and 2 ranks x 1 thread
-beside the plain `stampede fit` on 1 thread, over one simulated S/N 20 set (40 x 40 stamps of 39
-px, exact renderer), repetitions interleaved at random; written as Google Benchmark JSON (median
-aggregates) for bench/summarize.py. The driver's overhead per object is the 1-rank job's time per
-object beyond the plain command's.
+"""MPI-driver benchmark (results in docs/scaling.md): the whole `stampede-mpi fit` job on 1 and 2
+ranks x 1 thread beside the plain `stampede fit` on 1 thread, over one simulated S/N 20 set (40 x 40
+stamps of 39 px, exact renderer), repetitions interleaved at random; written as Google Benchmark
+JSON (median aggregates) for bench/summarize.py. The driver's overhead per object is the 1-rank
+job's time per object beyond the plain command's.
 
     python3 bench/bench_mpi.py BUILD_DIR OUT.json [REPETITIONS]
 """

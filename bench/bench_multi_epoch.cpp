@@ -1,4 +1,5 @@
-// A joint fit's cost against the number of cutouts (issue 20's budget: four epochs <= 4.5x one).
+// A joint fit's cost against the number of cutouts (the budget: four epochs <= 4.5x one; results
+// in docs/meds.md and docs/multiband.md, "Cost").
 // Eight bulge + disc galaxies (half-light radius 0.5-0.7", |e| <= 0.4), each seen in four 48-pixel
 // cutouts with DES-like random WCS Jacobians (0.263"/px within 3 %, any rotation, WCS shear <= 0.02)
 // and Moffat PSFs of FWHM 0.85-1.05", drawn by the simulator, noise at S/N 30 per cutout; exact
@@ -6,11 +7,11 @@
 //   BM_OneEpoch    the first cutout alone
 //   BM_FourEpochs  all four jointly
 //   BM_MetacalOneEpoch, BM_MetacalFourEpochs   metacal (metacal_model bd, fixnoise): the five
-//                  image sets and their joint fits, Gamma chosen per object (issue 30)
+//                  image sets and their joint fits, Gamma chosen per object
 //   BM_MetacalWmomFourEpochs   the same with metacal_model wmom: the image sets' moments on the sky
 //   BM_MetacalWmomFourEpochsImagePsf   the same with each PSF given as its image, as a MEDS tile's
 //                  PSFEx models give it (Gamma is then searched for, not given by a rule)
-//   BM_OneBandFourEpochs, BM_ThreeBandsFourEpochs   multi-band fits (issue 32): the same galaxies
+//   BM_OneBandFourEpochs, BM_ThreeBandsFourEpochs   multi-band fits: the same galaxies
 //                  in three bands of four cutouts each (other frames, PSFs and noise, bulge
 //                  fraction scaled 0.5x-1.5x over the bands), one band's or all three jointly
 //   ...Joint       the same with every amplitude in the solver (project_amplitudes = false)

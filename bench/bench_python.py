@@ -1,4 +1,4 @@
-"""Python-module benchmarks (issue 18): fit_stamps on 1 and 2 engine threads, and the per-stamp
+"""Python-module benchmarks: fit_stamps on 1 and 2 engine threads, and the per-stamp
 overhead of the one-stamp call (Fitter.fit) against the fit itself, on S/N 20 GREAT08-like stamps
 with the fastest renderer. Repetitions are interleaved at random, as bench/run does for the C++
 benchmarks, and written as Google Benchmark JSON (median aggregates) for bench/summarize.py.

@@ -1,8 +1,9 @@
-// Issue 29's single-precision prototype, measured beside the double render it would replace: the
-// exact renderer's Jacobian term loop (7 spectra) and its pruned inverse (column c2c + stamp-row
-// c2r) in float, 16 AVX-512 lanes (two alias entries of one spectrum block per vector), against the
-// double kernels and fftw plans the renderer uses. Fiducial PSF (Moffat beta 3, FWHM 2.85,
-// e = (0, 0.05)), N = 96, 39-pixel stamp; a bulge + disc galaxy (r = 2 px, e = (0.3, -0.2)).
+// A single-precision prototype, measured beside the double render it would replace (one of the
+// cheaper renders weighed in docs/performance.md, "The floor of a fit that ends on the exact
+// model"): the exact renderer's Jacobian term loop (7 spectra) and its pruned inverse (column c2c +
+// stamp-row c2r) in float, 16 AVX-512 lanes (two alias entries of one spectrum block per vector),
+// against the double kernels and fftw plans the renderer uses. Fiducial PSF (Moffat beta 3, FWHM
+// 2.85, e = (0, 0.05)), N = 96, 39-pixel stamp; a bulge + disc galaxy (r = 2 px, e = (0.3, -0.2)).
 //   BM_JacobianTermsDouble / BM_JacobianTermsFloat     the term loop alone
 //   BM_JacobianInverseDouble / BM_JacobianInverseFloat  the seven inverses alone
 // The error counter `worst_over_peak`: max |float - double| over the seven stamps, over each

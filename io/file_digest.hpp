@@ -2,8 +2,8 @@
 // seed 0) of every byte, headers and data alike, read once in 1 MiB blocks. The run fingerprint
 // records it, so `--resume` after an input's content was replaced at the same path is refused.
 // XXH64 (written here from its specification) hashes 32 bytes per round in four independent lanes
-// of 64-bit multiply-rotate (3.3 GB/s measured; a file from the page cache 0.6-0.8 GB/s), far below
-// the cost of fitting what the file holds; it is not cryptographic (it detects accidents, not
+// of 64-bit multiply-rotate, faster than the file can be read and far below the cost of fitting
+// what the file holds (docs/usage.md, "Resume"); it is not cryptographic (it detects accidents, not
 // forgeries). Its value is the same on every machine.
 #pragma once
 

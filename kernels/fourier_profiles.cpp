@@ -1,7 +1,7 @@
 // Fourier transforms of radial profiles; see fourier_profiles.hpp.
 #include "kernels/fourier_profiles.hpp"
 
-#include <math.h>  // j0: glibc's is ~15x faster than std::cyl_bessel_j and agrees to 1e-12
+#include <math.h>  // j0: glibc's is far faster than std::cyl_bessel_j, as accurate (docs/performance.md)
 
 #include <algorithm>
 #include <cmath>

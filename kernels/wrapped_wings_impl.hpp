@@ -30,11 +30,12 @@ inline T wing_root(const WingComponent& c, T u) {
 // I(u) = exp(phi), phi = -b u^s, and the blur's second-order term over I, in log form:
 //   B = 1/2 M : grad grad I / I = 1/2 (phi'' + phi'^2) G + phi' T,
 // G = grad u^T M grad u, T = tr(M Q) (grad grad u = 2 Q). The value is I e^B rather than I (1 + B):
-// the same to second order, and exact for an exponential wing under a Gaussian blur (1 + B leaves
-// 3 % of a disc's wing at 30-60 px where the blur raises it by 26 %). Where the profile is steep on
-// the blur's scale (across a thin disc's minor axis) B grows without bound and the expansion means
-// nothing (a Moffat's power-law wing against an exponential has no such moment), so B is saturated
-// smoothly: B / sqrt(1 + B^2 / 6) = B (1 - B^2 / 12 ...), below sqrt(6).
+// the same to second order, and exact for an exponential wing under a Gaussian blur (1 + B misses
+// part of the blur's effect on a disc's far wing: docs/performance.md, "The exact renderer's
+// constants"). Where the profile is steep on the blur's scale (across a thin disc's minor axis) B
+// grows without bound and the expansion means nothing (a Moffat's power-law wing against an
+// exponential has no such moment), so B is saturated smoothly: B / sqrt(1 + B^2 / 6) =
+// B (1 - B^2 / 12 ...), below sqrt(6).
 template <class T, bool kDerivatives>
 inline T copy_wing(const WingComponent& c, const BlurMoments& m, T x, T y, std::array<T, kWingDerivatives>* d) {
   using L = Lanes<T>;

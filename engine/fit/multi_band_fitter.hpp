@@ -1,8 +1,8 @@
-// Fits one galaxy jointly to its cutouts in several bands (DES Y3/Y6 combine r, i, z; measurements in docs/multiband.md): one
-// shape for all bands — (u0, v0), e1, e2 and the radius on the sky — and, per band, a bulge and a
-// disc amplitude, so each band has its own flux and bulge fraction (a colour gradient in the
-// co-elliptical bulge + disc model). Each cutout keeps its PSF, WCS frame, weights and flux scale,
-// as in MultiEpochFitter:
+// Fits one galaxy jointly to its cutouts in several bands, as DES Y3/Y6 combine r, i, z
+// (measurements in docs/multiband.md): one shape for all bands — (u0, v0), e1, e2 and the radius
+// on the sky — and, per band, a bulge and a disc amplitude, so each band has its own flux and
+// bulge fraction (a colour gradient in the co-elliptical bulge + disc model). Each cutout keeps its
+// PSF, WCS frame, weights and flux scale, as in MultiEpochFitter:
 //   chi2 = sum over bands b, cutouts c of b, pixels i of w_ci (d_ci - s_c M(shape, A_b)_ci)^2.
 // The parameter vector is the free shape parameters followed by each band's free amplitudes; the
 // Jacobian is the renderer's analytic one, its shape columns summed over bands and its amplitude

@@ -1,8 +1,11 @@
 // One output row: what the engine knows about one input object after fitting it.
 //
-// Designed for multi-epoch input later: an object's identity and position live here, while the
-// per-exposure inputs (cutout, weight, PSF, pixel-to-sky Jacobian) belong to the batch that carries
-// the object to the fitter, so adding exposures changes the input side, not this record.
+// The per-exposure inputs (cutout, weight, PSF, pixel-to-sky Jacobian) belong to the batch that
+// carries the object to the fitter, not to this record: however many cutouts an object has, its row
+// holds one joint fit. What survey (MEDS) input adds per object -- the sky identity, how many
+// cutouts were fitted and how masked they were, the bands' fluxes -- is in `survey`
+// (survey_record.hpp), and the fit is then in sky units; grid and catalogue rows leave it at its
+// defaults.
 #pragma once
 
 #include <cmath>

@@ -52,8 +52,8 @@ std::shared_ptr<const kernels::SersicKTable> build_sersic_k_table(double n, doub
 
 std::shared_ptr<const kernels::SersicKTable> de_vaucouleurs_k_table() {
   // q = k r_e up to 2,000: k below ~10 rad/pixel where the PSF terms live, r_e up to ~30 pixels
-  // at |e| = 0.95 (stretch 6.2). Beyond, the power law through the last two nodes (slope -1.96):
-  // measured against the quadrature, 0.5 % of F (3e-8 of F(0)) at q = 3,000, 4 % (6e-8) at 6,000.
+  // at |e| = 0.95 (stretch 6.2). Beyond, the power law through the last two nodes, checked against
+  // the quadrature to q = 6,000 (docs/performance.md, "The exact renderer's constants").
   static const std::shared_ptr<const kernels::SersicKTable> table = build_sersic_k_table(4.0, 2000.0);
   return table;
 }
@@ -78,7 +78,8 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
   std::string why;
   if (!options_.IsValid(&why)) throw std::invalid_argument("ExactRenderer: " + why);
   // The de Vaucouleurs table (the default bulge) is built here, with the renderer, rather than
-  // inside the first fit (~0.5 s once per process), so no fit's time_us carries it.
+  // inside the first fit (once per process, but longer than many fits), so no fit's time_us
+  // carries it.
   bulge_table_ = de_vaucouleurs_k_table();
   bulge_index_ = 4.0;
   if (stamp_size_ < 1) throw std::invalid_argument("ExactRenderer: stamp_size must be positive");
@@ -92,10 +93,10 @@ ExactRenderer::ExactRenderer(const RenderOptions& render, const ModelOptions& mo
     std::memset(b.data(), 0, 2 * sizeof(double) * spectrum_size_);
   }
   grid_ = AlignedBuffer(sizeof(double) * static_cast<std::size_t>(stamp_size_) * n_);
-  // FFTW's interleaved complex values: its c2r plans for them run 1.3-3.5x faster than a
-  // split-complex guru plan over the kernels' padded rows, so each spectrum is interleaved before
-  // its inverse, and transposed on the way: the columns' transforms then read contiguous
-  // columns (a strided column plan copies them through buffers; docs/performance.md).
+  // FFTW's interleaved complex values: its c2r plans for them run faster than a split-complex
+  // guru plan over the kernels' padded rows, so each spectrum is interleaved before its inverse,
+  // and transposed on the way: the columns' transforms then read contiguous columns (a strided
+  // column plan copies them through buffers; docs/performance.md).
   const int half = n_ / 2 + 1;
   complex_ = AlignedBuffer(sizeof(fftw_complex) * static_cast<std::size_t>(n_) * half);
   columns_ = AlignedBuffer(sizeof(fftw_complex) * static_cast<std::size_t>(n_) * half);

@@ -35,16 +35,17 @@ namespace stampede {
 
 // The period rule: N = kernels::fft_friendly_size(stamp_size + kExactPeriodMargin) (39 -> 96,
 // 25 -> 84, 48 -> 105) with the copies' light subtracted, for PSFs with finite second moments.
-// Measured (exact_renderer_test, WrappedLight, fiducial PSF, 39-pixel stamp, |e| <= 0.7): the light
-// left after the subtraction is <= 3.7e-6 of the peak for r_e <= 3 px and <= 3.8e-5 for r_e <= 8 px
-// (it was 6.7e-4 and 4.8e-3 before); on the GalSim render_cases the worst case is 5.7e-7 of its
-// peak. Smaller periods leave more, mostly for |e| = 0.7: at N = 72 (margin 33) 4.6e-5 (bulge,
-// r_e 3) and 7.6e-4 (disc, r_e 8), the GalSim worst 5.6e-6; at N = 80, 4.5e-5 and 6.9e-4.
-// PSFs without finite second moments (the Airy disc, Moffat beta <= 2) need the uncorrected rule,
-// kernels::fft_friendly_size(4 stamp_size) (GalSim worst 9.0e-6 at 160 for 39).
+// The margin trades the render's cost (terms and FFTs grow as N^2) against the light the
+// subtraction leaves (exact_renderer_test, WrappedLight), which grows as the copies come nearer:
+// most for |e| = 0.7, whose copies' light has singularities close to the stamp along the minor
+// axis, where the Chebyshev interpolation converges slowly. PSFs without finite second moments
+// (the Airy disc, Moffat beta <= 2) need the uncorrected rule, kernels::fft_friendly_size(4
+// stamp_size): their wings are no small correction to subtract. Figures: docs/performance.md,
+// "The exact renderer's constants".
 inline constexpr int kExactPeriodMargin = 57;
-// Chebyshev nodes per stamp axis for the copies beyond the first ring (exact_renderer_test,
-// WrappedLight: the light left is unchanged from all copies on wrap_nodes = 12).
+// Chebyshev nodes per stamp axis for the copies beyond the first ring: their light varies by a
+// factor of a few across the stamp, so 6 nodes leave what 12 would (exact_renderer_test,
+// WrappedLight; docs/performance.md) at a quarter of the evaluations.
 inline constexpr int kFarWrapNodes = 6;
 int exact_period(int stamp_size);
 // The surrogate's period rule (ExactRenderOptions::surrogate_period 0).
@@ -53,8 +54,8 @@ int exact_surrogate_period(int stamp_size);
 int exact_uncorrected_period(int stamp_size);
 
 // The de Vaucouleurs (n = 4) transform table, built once per process on first use (thread-safe)
-// and immutable after (294 quadrature nodes to q = 2,113, resampled into 784 intervals: ~0.5 s
-// on this 2-core machine, 2.2-3.8 s on the loaded one of the session that measured it first).
+// and immutable after (294 quadrature nodes to q = 2,113, resampled into 784 intervals): the
+// quadrature costs far more than a fit (docs/performance.md, "The exact renderer's constants").
 std::shared_ptr<const kernels::SersicKTable> de_vaucouleurs_k_table();
 // A table for any index n >= 1 covering q = k r_e up to q_max (nodes computed in parallel).
 std::shared_ptr<const kernels::SersicKTable> build_sersic_k_table(double n, double q_max);
@@ -86,10 +87,9 @@ class ExactRenderer final : public Renderer {
   // The same, as what it is (a multi-epoch fit draws each cutout with its box's renderer or this).
   ExactRenderer* exact_surrogate() { return surrogate_ && psf_ && psf_->surrogate() ? surrogate_.get() : nullptr; }
 
-  // The frame the model's parameters live in (model/pixel_frame.hpp): x0, y0 become (u0, v0) and
-  // the shape is (u, v)'s, and d/dx0, d/dy0 become d/du0, d/dv0. The identity (the default) is the
-  // stamp's own pixels, drawn exactly as without a frame. Allocates nothing.
-  void set_frame(const PixelFrame& frame);
+  // Any frame (Renderer::set_frame), carried exactly; the identity draws as without a frame.
+  bool takes_frames() const override { return true; }
+  void set_frame(const PixelFrame& frame) override;  // allocates nothing
   const PixelFrame& frame() const { return frame_; }
 
   int period() const { return n_; }

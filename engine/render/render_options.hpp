@@ -11,11 +11,11 @@ namespace stampede {
 struct ExactRenderOptions {
   // The exact renderer's options (renderer = exact).
   // Alias terms whose |PSF transform x pixel sinc| (PPi, with PPi(0) = 1) is at most this are
-  // dropped (by blocks of 8 columns: a block is kept when any of its values exceeds it). Measured
-  // on the GalSim render_cases discs (no wrap to speak of at exact_period): worst |diff| / peak
-  // 1.0e-5 at 1e-5, 7.7e-7 at 1e-6, 3.9e-8 at 1e-7, 1.2e-8 at 1e-8 (GalSim's own floor); the
-  // fiducial PSF on the 160-pixel period needs 29,024 / 37,176 / 44,792 / 55,792 terms. Default
-  // 1e-7: its error is 1 % of the 1e-5 budget, 17 % more terms than 1e-6.
+  // dropped (by blocks of 8 columns: a block is kept when any of its values exceeds it). The error
+  // on the GalSim render_cases discs (no wrap to speak of at exact_period) falls with the tolerance
+  // to GalSim's own floor near 1e-8, and the term count grows. Default 1e-7: its error is far
+  // inside the 1e-5 budget for a few more terms than 1e-6 (docs/performance.md, "The exact
+  // renderer's constants").
   double psf_tolerance = 1e-7;
   // Period N of the grid in pixels; 0: exact_period(stamp_size).
   int period = 0;
@@ -26,8 +26,8 @@ struct ExactRenderOptions {
   // The surrogate a fit iterates on before its exact iterations (Renderer::surrogate,
   // engine/fit/fitter.hpp): this renderer on a smaller period (0: exact_surrogate_period, 64 for
   // 39 pixels), a looser term tolerance and one ring of copies subtracted on coarser nodes; the
-  // same model to ~5e-4 of the peak at ~1/4 of a render's cost (docs/performance.md). Off: every
-  // iteration is exact.
+  // same model to within a small fraction of the peak at a fraction of a render's cost
+  // (docs/performance.md, "The surrogate fit and `renderer = auto`"). Off: every iteration is exact.
   bool surrogate = true;
   int surrogate_period = 0;
   double surrogate_psf_tolerance = 1e-4;

@@ -1,10 +1,10 @@
-// Multi-epoch survey simulations (`stampede sim meds`, issue 20): objects seen in several
-// single-epoch cutouts under one constant shear, each cutout with a random affine WCS (any
-// rotation, pixel scale within +-scale_jitter, a WCS shear up to wcs_shear), the PSF of its source
-// image (a Moffat of its own FWHM and e; each object's epochs use distinct images), a zero point
-// of its own, noise, optionally a bad column (bmask bit 1, garbage pixels) and a neighbour labelled
-// in the seg map. Objects 2m and 2m+1 are a ring pair: the same galaxy turned by 90 degrees, seen
-// through the same epochs.
+// Multi-epoch survey simulations (`stampede sim meds`; experiments in docs/meds.md): objects seen
+// in several single-epoch cutouts under one constant shear, each cutout with a random affine WCS
+// (any rotation, pixel scale within +-scale_jitter, a WCS shear up to wcs_shear), the PSF of its
+// source image (a Moffat of its own FWHM and e; each object's epochs use distinct images), a zero
+// point of its own, noise, optionally a bad column (bmask bit 1, garbage pixels) and a neighbour
+// labelled in the seg map. Objects 2m and 2m+1 are a ring pair: the same galaxy turned by 90
+// degrees, seen through the same epochs.
 //
 // Galaxies are drawn in (u, v) by the exact renderer through each cutout's Jacobian (its frame
 // maths is checked against an independent pixel-frame derivation to 1e-10, render/exact_renderer)

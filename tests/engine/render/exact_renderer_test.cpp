@@ -9,9 +9,16 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <numbers>
 #include <random>
+#include <string>
+#include <utility>
 
 #include "engine/solver/levenberg_marquardt.hpp"
+#include "kernels/ellipse.hpp"
+#include "kernels/fourier_profiles.hpp"
+#include "kernels/math/sinc.hpp"
+#include "kernels/psf_profile.hpp"
 #include "kernels/sersic.hpp"
 #include "support/image_compare.hpp"
 #include "support/reference_data.hpp"
@@ -95,14 +102,115 @@ TEST(ExactRenderer, MatchesGalSimReferenceCases) {
   }
 }
 
+// The term list against its rule (exact_psf.hpp): an entry is a block of kKBlock columns at one
+// alias pair, kept when any of its |PSF x pixel sinc| exceeds the tolerance. Recounted here from the
+// transform itself: every kept entry holds a term above the tolerance, every lattice point above it
+// (aliases one beyond the list's included) lies in a kept entry with its value, and the aliases stay
+// within the list's cap (five pixel-frequency aliases at the PSF's stretch). A tighter tolerance
+// keeps a superset. So entries <= terms above the tolerance <= kKBlock x entries.
 TEST(ExactRenderer, TermCountsForTheFiducialPsf) {
-  for (int stamp : {25, 39, 48})
+  constexpr double kPi = std::numbers::pi;
+  const double beta = 3.0, fwhm = 2.85, e1 = 0.0, e2 = 0.05;
+  const double alpha = kernels::moffat_alpha(fwhm, beta);
+  const kernels::EllipseQuadratic s2 = kernels::ellipse_quadratic(-e1, -e2, 1.0);
+  const double e = std::hypot(e1, e2), stretch = std::sqrt((1 + e) / (1 - e));
+  const int alias_cap = static_cast<int>(std::ceil(5 * stretch + 0.5));
+  auto ppi = [&](double kx, double ky) {  // as build_kspace_terms evaluates it, before its k cut
+    return kernels::moffat_fourier(beta, 0.0, std::sqrt(std::max(0.0, s2(kx, ky))) * alpha) * kernels::sinc(0.5 * kx) *
+           kernels::sinc(0.5 * ky);
+  };
+  for (int stamp : {25, 39, 48}) {
+    const int n = exact_period(stamp);
+    long long previous_entries = 0, previous_above = 0;
+    int previous_alias_max = 0;
     for (double tolerance : {1e-5, 1e-6, 1e-7, 1e-8}) {
-      const int n = exact_period(stamp);
-      const auto terms = build_kspace_terms(moffat(3.0, 2.85, 0.0, 0.05), n, tolerance);
-      std::printf("stamp %d N %d tolerance %.0e: %lld entries = %lld terms (%d blocks of %d)\n", stamp, n, tolerance,
-                  terms->entries(), terms->entries() * kernels::kKBlock, terms->blocks(), kernels::kKBlock);
+      char trace[64];
+      std::snprintf(trace, sizeof trace, "stamp %d, tolerance %.0e", stamp, tolerance);
+      SCOPED_TRACE(trace);
+      const auto terms = build_kspace_terms(moffat(beta, fwhm, e1, e2), n, tolerance);
+      const int half = n / 2 + 1, stride = terms->row_stride, m_max = terms->alias_max;
+      const int aliases = terms->aliases();
+      const double dk = 2 * kPi / n, n2 = static_cast<double>(n) * n;
+      ASSERT_EQ(terms->n, n);
+      ASSERT_EQ(stride % kernels::kKBlock, 0);
+      ASSERT_GE(stride, half);
+      ASSERT_EQ(terms->blocks(), n * (stride / kernels::kKBlock));
+      ASSERT_EQ(terms->block_begin.back(), terms->entries());
+      EXPECT_LE(m_max, alias_cap);
+      EXPECT_LE(terms->entries(), static_cast<long long>(terms->blocks()) * aliases * aliases);
+
+      // Kept side: each entry's lanes are the transform's values (0 where the list cut them, which
+      // must then be at most the tolerance), and one of them exceeds the tolerance.
+      std::map<std::pair<int, int>, long long> kept;  // (kx index, ky index) -> entry
+      for (long long i = 0; i < terms->entries(); ++i) {
+        kept[{terms->entry_ix[i], terms->entry_iy[i]}] = i;
+        double largest = 0;
+        for (int l = 0; l < kernels::kKBlock; ++l) {
+          const double lane = terms->ppi[i * kernels::kKBlock + l] * n2;
+          const int jx = terms->entry_ix[i] % stride + l;
+          if (jx >= half) {
+            EXPECT_EQ(lane, 0.0) << "padding column " << jx;
+            continue;
+          }
+          const double v = ppi(terms->kx_values[terms->entry_ix[i] + l], terms->ky_values[terms->entry_iy[i]]);
+          if (lane == 0.0)
+            EXPECT_LE(std::abs(v), tolerance);
+          else
+            EXPECT_NEAR(lane, v, 1e-12 * std::abs(v));
+          largest = std::max(largest, std::abs(lane));
+        }
+        EXPECT_GT(largest, tolerance) << "entry " << i << " holds no term above the tolerance";
+      }
+
+      // Dropped side: every lattice point of the half-spectrum above the tolerance, over one more
+      // alias than the list has, is in a kept entry. The Moffat transform falls monotonically in
+      // x = |S k| alpha (x^nu K_nu(x) does) and |sinc| <= 1, so points beyond x_tol need no
+      // evaluation.
+      double lo = 0, hi = 1;
+      while (kernels::moffat_fourier(beta, 0.0, hi) > tolerance) hi *= 2;
+      for (int i = 0; i < 60; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        if (kernels::moffat_fourier(beta, 0.0, mid) > tolerance)
+          lo = mid;
+        else
+          hi = mid;
+      }
+      const double x_tol = hi;  // the transform is at most the tolerance from here on
+      long long above = 0, dropped = 0;
+      std::string first_dropped;
+      for (int my = -m_max - 1; my <= m_max + 1; ++my)
+        for (int jy = 0; jy < n; ++jy) {
+          const double ky = 2 * kPi * my + dk * (jy <= n / 2 ? jy : jy - n);
+          for (int mx = -m_max - 1; mx <= m_max + 1; ++mx)
+            for (int jx = 0; jx < half; ++jx) {
+              const double kx = 2 * kPi * mx + dk * jx;
+              if (std::sqrt(std::max(0.0, s2(kx, ky))) * alpha >= x_tol) continue;
+              const double v = ppi(kx, ky);
+              if (!(std::abs(v) > tolerance)) continue;
+              ++above;
+              const bool in_list = std::abs(mx) <= m_max && std::abs(my) <= m_max &&
+                                   kept.count({(mx + m_max) * stride + jx / kernels::kKBlock * kernels::kKBlock,
+                                               (my + m_max) * n + jy}) == 1;
+              if (!in_list && dropped++ == 0)
+                first_dropped = "alias (" + std::to_string(mx) + ", " + std::to_string(my) + "), bin (" +
+                                std::to_string(jx) + ", " + std::to_string(jy) + "), |PPi| " +
+                                std::to_string(std::abs(v));
+            }
+        }
+      EXPECT_EQ(dropped, 0) << "terms above the tolerance dropped, the first at " << first_dropped;
+      EXPECT_LE(terms->entries(), above);
+      EXPECT_LE(above, terms->entries() * kernels::kKBlock);
+      // A tighter tolerance keeps every term a looser one kept.
+      EXPECT_GE(terms->entries(), previous_entries);
+      EXPECT_GE(above, previous_above);
+      EXPECT_GE(m_max, previous_alias_max);
+      previous_entries = terms->entries(), previous_above = above, previous_alias_max = m_max;
+      std::printf("stamp %d N %d tolerance %.0e: %lld entries = %lld terms (%d blocks of %d), %lld above the "
+                  "tolerance, aliases -%d..%d\n",
+                  stamp, n, tolerance, terms->entries(), terms->entries() * kernels::kKBlock, terms->blocks(),
+                  kernels::kKBlock, above, m_max, m_max);
     }
+  }
 }
 
 // Must-show 2: the analytic Jacobian equals central differences of render() to 1e-6 relative, for
