@@ -55,6 +55,32 @@ void KernelCutouts::reset(std::span<const Observation> epochs) {
   }
 }
 
+void JointCutouts::reset(std::span<const Observation> epochs) {
+  epochs_ = epochs;
+  data_.reset(epochs);
+  pixels_ = 0;
+  double sum = 0;
+  for (const Observation& e : epochs)
+    for (std::size_t i = 0; i < e.weight.size(); ++i) {
+      pixels_ += e.weight[i] > 0;
+      sum += e.weight[i] * e.pixels[i] * e.pixels[i];
+    }
+  negligible_chi2_ = 1e-14 * sum;
+}
+
+bool JointCutouts::chi2(std::size_t c, const ParamVector& p, double* chi2) {
+  Renderer& r = select(c);
+  if (r.render(p, scratch_.model()) != RenderStatus::kOk) return false;
+  *chi2 = scratch_.chi2(kernels_, data_.data(c), data_.weight(c));
+  return true;
+}
+
+bool JointCutouts::sums(std::size_t c, const ParamVector& p, std::span<const Param> free, CutoutSums* out) {
+  Renderer& r = select(c);
+  return r.render_with_jacobian(p, free, scratch_.model(), scratch_.columns(free.size())) == RenderStatus::kOk &&
+         scratch_.sums(kernels_, data_.data(c), data_.weight(c), static_cast<int>(free.size()), out);
+}
+
 FitStatus check_cutouts(std::span<const Observation> epochs, const char* who) {
   for (const Observation& e : epochs) {
     if (!e.psf) return FitStatus::kPsfFailure;

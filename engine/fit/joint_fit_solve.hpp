@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -62,6 +63,41 @@ class CutoutScratch {
   std::span<double> model_span_;
   std::array<std::vector<double>, kNumParams> jacobian_;
   std::array<double*, kNumParams> columns_{};
+};
+
+// What every joint problem holds of its cutouts (MultiEpochFitter's, MultiBandFitter's and the
+// projected one): the cutouts and their kernel data, the renderer per box size, the scratch they
+// are drawn into, the unmasked pixel count and the chi2 that counts as exact.
+class JointCutouts {
+ public:
+  using RendererFor = std::function<Renderer&(int box_size)>;
+  JointCutouts(RendererFor renderer_for, const kernels::LeastSquaresKernels& kernels)
+      : renderer_for_(std::move(renderer_for)), kernels_(kernels) {}
+  void reset(std::span<const Observation> epochs);
+  std::span<const Observation> epochs() const { return epochs_; }
+  int pixels() const { return pixels_; }
+  // As the single-stamp fit's: a model within ~1e-7 rms of the data, relative to it, is exact for
+  // any purpose (noise-free data would otherwise keep chi2 halving to the iteration limit).
+  double negligible_chi2() const { return negligible_chi2_; }
+  // Draw with each cutout renderer's surrogate where it has one (the surrogate stage).
+  void use_surrogates(bool on) { surrogates_ = on; }
+  // Cutout c's renderer, set to its PSF and frame (its surrogate in the surrogate stage), with the
+  // scratch sized for it.
+  Renderer& select(std::size_t c) { return scratch_.select(renderer_for_(epochs_[c].box_size), epochs_[c], surrogates_); }
+  // Cutout c's chi2 at p; false when no model exists there.
+  bool chi2(std::size_t c, const ParamVector& p, double* chi2);
+  // Cutout c's sums at p over the free parameters; false when no model exists there.
+  bool sums(std::size_t c, const ParamVector& p, std::span<const Param> free, CutoutSums* out);
+
+ private:
+  RendererFor renderer_for_;
+  const kernels::LeastSquaresKernels& kernels_;
+  std::span<const Observation> epochs_;
+  KernelCutouts data_;
+  CutoutScratch scratch_;
+  int pixels_ = 0;
+  double negligible_chi2_ = 0;
+  bool surrogates_ = false;
 };
 
 // kPsfFailure when a cutout has no PSF (else kOk); throws std::invalid_argument naming `who` when a

@@ -19,13 +19,14 @@ bool is_amplitude(Param p) { return p == Param::kBulgeA || p == Param::kDiscA; }
 
 class MultiBandFitter::Problem final : public SolveProblem {
  public:
-  explicit Problem(MultiBandFitter& f) : f_(f), kernels_(kernels::least_squares_kernels(f.options_.render.simd)) {}
+  explicit Problem(MultiBandFitter& f)
+      : cutouts_([&f](int box) -> Renderer& { return f.renderer_for(box); },
+                 kernels::least_squares_kernels(f.options_.render.simd)) {}
 
   // The fit's cutouts, the full parameter vector of fixed values, the single-band free list and
   // the slot of each band in the solver's vector (-1: not fitted).
   void reset(std::span<const Observation> epochs, const ParamVector& base, std::span<const Param> free,
              std::span<const int> slot_of_band, int slots) {
-    epochs_ = epochs;
     cutouts_.reset(epochs);
     base_ = base;
     free_ = free;
@@ -38,18 +39,10 @@ class MultiBandFitter::Problem final : public SolveProblem {
       else
         local_[a] = {true, n_shape_++};
     }
-    pixels_ = 0;
-    double sum = 0;
-    for (const Observation& e : epochs)
-      for (std::size_t i = 0; i < e.weight.size(); ++i) {
-        pixels_ += e.weight[i] > 0;
-        sum += e.weight[i] * e.pixels[i] * e.pixels[i];
-      }
-    negligible_chi2_ = 1e-14 * sum;  // as MultiEpochFitter's
   }
   int size() const { return n_shape_ + slots_ * n_amp_; }
-  int num_pixels() const override { return pixels_; }
-  double negligible_chi2() const override { return negligible_chi2_; }
+  int num_pixels() const override { return cutouts_.pixels(); }
+  double negligible_chi2() const override { return cutouts_.negligible_chi2(); }
 
   // The solver's index of single-band free parameter a in the band at `slot`.
   int global(std::size_t a, int slot) const {
@@ -72,12 +65,10 @@ class MultiBandFitter::Problem final : public SolveProblem {
 
   bool chi2(const LmVector& x, double* chi2) override {
     double sum = 0;
-    for (std::size_t c = 0; c < epochs_.size(); ++c) {
-      const Observation& e = epochs_[c];
-      const ParamVector p = full(x, slot_of_band_[static_cast<std::size_t>(e.band)]);
-      Renderer& r = select(e);
-      if (r.render(p, scratch_.model()) != RenderStatus::kOk) return false;
-      sum += scratch_.chi2(kernels_, cutouts_.data(c), cutouts_.weight(c));
+    for (std::size_t c = 0; c < cutouts_.epochs().size(); ++c) {
+      double one = 0;
+      if (!cutouts_.chi2(c, full(x, slot_of(c)), &one)) return false;
+      sum += one;
     }
     *chi2 = sum;
     return std::isfinite(sum);
@@ -91,15 +82,10 @@ class MultiBandFitter::Problem final : public SolveProblem {
     double sum = 0;
     signal_.fill(0.0);
     std::array<int, kNumParams> g{};
-    for (std::size_t c = 0; c < epochs_.size(); ++c) {
-      const Observation& e = epochs_[c];
-      const int slot = slot_of_band_[static_cast<std::size_t>(e.band)];
-      const ParamVector p = full(x, slot);
+    for (std::size_t c = 0; c < cutouts_.epochs().size(); ++c) {
+      const int slot = slot_of(c);
       for (int a = 0; a < nf; ++a) g[static_cast<std::size_t>(a)] = global(static_cast<std::size_t>(a), slot);
-      Renderer& r = select(e);
-      if (r.render_with_jacobian(p, free_, scratch_.model(), scratch_.columns(free_.size())) != RenderStatus::kOk ||
-          !scratch_.sums(kernels_, cutouts_.data(c), cutouts_.weight(c), nf, &sums_))
-        return false;
+      if (!cutouts_.sums(c, full(x, slot), free_, &sums_)) return false;
       sum += sums_.chi2;
       signal_[static_cast<std::size_t>(slot)] += sums_.signal;
       // A band's amplitudes are its own columns; the shape's are every band's.
@@ -115,7 +101,7 @@ class MultiBandFitter::Problem final : public SolveProblem {
 
   // sum w m^2 of slot s's cutouts at the last normal_equations.
   double signal(int slot) const { return signal_[static_cast<std::size_t>(slot)]; }
-  void use_surrogates(bool on) override { surrogates_ = on; }
+  void use_surrogates(bool on) override { cutouts_.use_surrogates(on); }
 
  private:
   struct Local {
@@ -123,22 +109,15 @@ class MultiBandFitter::Problem final : public SolveProblem {
     int k = 0;  // index among the shape parameters, or among one band's amplitudes
   };
 
-  Renderer& select(const Observation& e) { return scratch_.select(f_.renderer_for(e.box_size), e, surrogates_); }
+  int slot_of(std::size_t c) const { return slot_of_band_[static_cast<std::size_t>(cutouts_.epochs()[c].band)]; }
 
-  MultiBandFitter& f_;
-  std::span<const Observation> epochs_;
+  JointCutouts cutouts_;
   ParamVector base_{};
   std::span<const Param> free_;
   std::array<Local, kNumParams> local_{};
   std::vector<int> slot_of_band_;
   int slots_ = 0, n_shape_ = 0, n_amp_ = 0;
-  int pixels_ = 0;
-  double negligible_chi2_ = 0;
   std::array<double, kMaxBands> signal_{};
-  bool surrogates_ = false;
-  const kernels::LeastSquaresKernels& kernels_;
-  KernelCutouts cutouts_;
-  CutoutScratch scratch_;
   CutoutSums sums_;
 };
 

@@ -14,27 +14,18 @@ namespace stampede {
 
 class MultiEpochFitter::Problem final : public SolveProblem {
  public:
-  explicit Problem(MultiEpochFitter& f) : f_(f), kernels_(kernels::least_squares_kernels(f.options_.render.simd)) {}
+  explicit Problem(MultiEpochFitter& f)
+      : cutouts_([&f](int box) -> Renderer& { return f.renderer_for(box); },
+                 kernels::least_squares_kernels(f.options_.render.simd)) {}
 
   // The fit's cutouts, its full parameter vector and which of them are free.
   void reset(std::span<const Observation> epochs, const ParamVector& start, std::span<const Param> free) {
-    epochs_ = epochs;
     cutouts_.reset(epochs);
     p_ = start;
     free_ = free;
-    pixels_ = 0;
-    double sum = 0;
-    for (const Observation& e : epochs)
-      for (std::size_t i = 0; i < e.weight.size(); ++i) {
-        pixels_ += e.weight[i] > 0;
-        sum += e.weight[i] * e.pixels[i] * e.pixels[i];
-      }
-    // As the single-stamp fit's: a model within ~1e-7 rms of the data, relative to it, is exact for
-    // any purpose (noise-free data would otherwise keep chi2 halving to the iteration limit).
-    negligible_chi2_ = 1e-14 * sum;
   }
-  int num_pixels() const override { return pixels_; }
-  double negligible_chi2() const override { return negligible_chi2_; }
+  int num_pixels() const override { return cutouts_.pixels(); }
+  double negligible_chi2() const override { return cutouts_.negligible_chi2(); }
 
   ParamVector full(const LmVector& x) const {
     ParamVector p = p_;
@@ -45,10 +36,10 @@ class MultiEpochFitter::Problem final : public SolveProblem {
   bool chi2(const LmVector& x, double* chi2) override {
     const ParamVector p = full(x);
     double sum = 0;
-    for (std::size_t c = 0; c < epochs_.size(); ++c) {
-      Renderer& r = select(epochs_[c]);
-      if (r.render(p, scratch_.model()) != RenderStatus::kOk) return false;
-      sum += scratch_.chi2(kernels_, cutouts_.data(c), cutouts_.weight(c));
+    for (std::size_t c = 0; c < cutouts_.epochs().size(); ++c) {
+      double one = 0;
+      if (!cutouts_.chi2(c, p, &one)) return false;
+      sum += one;
     }
     *chi2 = sum;
     return std::isfinite(sum);
@@ -60,11 +51,8 @@ class MultiEpochFitter::Problem final : public SolveProblem {
     alpha->setZero(n, n);
     beta->setZero(n);
     double sum = 0, signal = 0;
-    for (std::size_t c = 0; c < epochs_.size(); ++c) {
-      Renderer& r = select(epochs_[c]);
-      if (r.render_with_jacobian(p, free_, scratch_.model(), scratch_.columns(free_.size())) != RenderStatus::kOk ||
-          !scratch_.sums(kernels_, cutouts_.data(c), cutouts_.weight(c), n, &sums_))
-        return false;
+    for (std::size_t c = 0; c < cutouts_.epochs().size(); ++c) {
+      if (!cutouts_.sums(c, p, free_, &sums_)) return false;
       sum += sums_.chi2, signal += sums_.signal;
       for (int a = 0; a < n; ++a) {
         (*beta)[a] += sums_.beta[static_cast<std::size_t>(a)];
@@ -77,24 +65,13 @@ class MultiEpochFitter::Problem final : public SolveProblem {
   }
 
   double signal() const { return signal_; }  // sum w m^2 at the last normal_equations
-  // Draw with each cutout renderer's surrogate where it has one (the surrogate stage).
-  void use_surrogates(bool on) override { surrogates_ = on; }
+  void use_surrogates(bool on) override { cutouts_.use_surrogates(on); }
 
  private:
-  // The renderer for e's size, set to its PSF and frame, with scratch sized for it.
-  Renderer& select(const Observation& e) { return scratch_.select(f_.renderer_for(e.box_size), e, surrogates_); }
-
-  MultiEpochFitter& f_;
-  std::span<const Observation> epochs_;
+  JointCutouts cutouts_;
   ParamVector p_{};
   std::span<const Param> free_;
-  int pixels_ = 0;
-  double negligible_chi2_ = 0;
   double signal_ = NAN;
-  bool surrogates_ = false;
-  const kernels::LeastSquaresKernels& kernels_;
-  KernelCutouts cutouts_;
-  CutoutScratch scratch_;
   CutoutSums sums_;
 };
 

@@ -12,7 +12,7 @@ void ProjectedJointProblem::reset(std::span<const Observation> epochs, const Par
   if (slots < 1 || slots > kMaxBands || slot_of_cutout.size() != epochs.size())
     throw std::invalid_argument("ProjectedJointProblem::reset: slots do not match the cutouts");
   epochs_ = epochs;
-  cutouts_.reset(epochs);
+  cutouts_.reset(epochs);  // pixels, the negligible chi2, the kernels' data
   base_ = base;
   free_ = free;
   slot_of_cutout_.assign(slot_of_cutout.begin(), slot_of_cutout.end());
@@ -33,18 +33,8 @@ void ProjectedJointProblem::reset(std::span<const Observation> epochs, const Par
     throw std::invalid_argument("ProjectedJointProblem::reset: needs both amplitudes and a shape parameter free");
   offset_.resize(epochs.size() + 1);
   offset_[0] = 0;
-  pixels_ = 0;
-  double sum = 0;
-  for (std::size_t c = 0; c < epochs.size(); ++c) {
-    const Observation& e = epochs[c];
-    offset_[c + 1] = offset_[c] + 2 * e.pixels.size();
-    for (std::size_t i = 0; i < e.weight.size(); ++i) {
-      pixels_ += e.weight[i] > 0;
-      sum += e.weight[i] * e.pixels[i] * e.pixels[i];
-    }
-  }
+  for (std::size_t c = 0; c < epochs.size(); ++c) offset_[c + 1] = offset_[c] + 2 * epochs[c].pixels.size();
   if (components_.size() < offset_.back()) components_.resize(offset_.back());  // grows, then is reused
-  negligible_chi2_ = 1e-14 * sum;  // as the joint fits'
   cached_ = false;
   jacobian_x_ = LmVector();
 }
@@ -68,7 +58,7 @@ bool ProjectedJointProblem::chi2(const LmVector& x, double* chi2) {
     const std::size_t n = e.pixels.size();
     double* b = components_.data() + offset_[c];
     double* d = b + n;
-    if (select(e).render_components(p, {b, n}, {d, n}) != RenderStatus::kOk) return false;
+    if (cutouts_.select(c).render_components(p, {b, n}, {d, n}) != RenderStatus::kOk) return false;
     auto& gs = g[static_cast<std::size_t>(slot_of_cutout_[c])];
     auto& hs = h[static_cast<std::size_t>(slot_of_cutout_[c])];
     const double s = e.flux_scale;
@@ -130,14 +120,8 @@ bool ProjectedJointProblem::normal_equations(const LmVector& x, double* chi2, Lm
   signal_.fill(0.0);
   double sum = 0;
   for (std::size_t c = 0; c < epochs_.size(); ++c) {
-    const Observation& e = epochs_[c];
     const std::size_t slot = static_cast<std::size_t>(slot_of_cutout_[c]);
-    Renderer& r = select(e);
-    const std::span<double> model = scratch_.model();
-    if (r.render_with_jacobian(params(x, jacobian_amplitudes_[slot]), free_, model, scratch_.columns(free_.size())) !=
-        RenderStatus::kOk)
-      return false;
-    if (!scratch_.sums(kernels_, cutouts_.data(c), cutouts_.weight(c), nf, &sums_)) return false;
+    if (!cutouts_.sums(c, params(x, jacobian_amplitudes_[slot]), free_, &sums_)) return false;
     LmMatrix& ms = m[slot];
     LmVector& vs = v[slot];
     for (int a = 0; a < nf; ++a) {

@@ -26,10 +26,10 @@ namespace stampede {
 
 class ProjectedJointProblem final : public SolveProblem {
  public:
-  using RendererFor = std::function<Renderer&(int box_size)>;
+  using RendererFor = JointCutouts::RendererFor;
   // kernels: the least-squares kernels of the fitter's instruction set (kernels/least_squares.hpp).
   ProjectedJointProblem(RendererFor renderer_for, const kernels::LeastSquaresKernels& kernels)
-      : renderer_for_(std::move(renderer_for)), kernels_(kernels) {}
+      : cutouts_(std::move(renderer_for), kernels) {}
 
   // The fit's cutouts (cutout c in band slot slot_of_cutout[c] < slots), the full parameter vector
   // of fixed values, the free parameters (one band's list) and the fitter's index of free
@@ -39,12 +39,12 @@ class ProjectedJointProblem final : public SolveProblem {
              int n_global);
 
   int size() const { return n_shape_; }  // the solver's parameters
-  int num_pixels() const override { return pixels_; }
-  double negligible_chi2() const override { return negligible_chi2_; }
+  int num_pixels() const override { return cutouts_.pixels(); }
+  double negligible_chi2() const override { return cutouts_.negligible_chi2(); }
   bool chi2(const LmVector& x, double* chi2) override;
   bool normal_equations(const LmVector& x, double* chi2, LmMatrix* alpha, LmVector* beta) override;
   // The amplitudes found on the surrogates are not the exact model's.
-  void use_surrogates(bool on) override { surrogates_ = on, cached_ = false, jacobian_x_ = LmVector(); }
+  void use_surrogates(bool on) override { cutouts_.use_surrogates(on), cached_ = false, jacobian_x_ = LmVector(); }
   bool expand(LmVector* x, LmMatrix* alpha) override;
 
   // The solver's vector of a vector in the fitter's layout (its shape parameters).
@@ -55,9 +55,8 @@ class ProjectedJointProblem final : public SolveProblem {
  private:
   // The full parameter vector of slot s at shape x and amplitudes la.
   ParamVector params(const LmVector& x, const LinearAmplitudes& la) const;
-  Renderer& select(const Observation& e) { return scratch_.select(renderer_for_(e.box_size), e, surrogates_); }
 
-  RendererFor renderer_for_;
+  JointCutouts cutouts_;
   std::span<const Observation> epochs_;
   ParamVector base_{};
   std::span<const Param> free_;
@@ -66,8 +65,6 @@ class ProjectedJointProblem final : public SolveProblem {
   std::array<int, kNumParams> shape_{};  // indices into free_ of the shape parameters
   int bulge_ = -1, disc_ = -1;           // and of the amplitudes
   std::array<std::array<int, kNumParams>, kMaxBands> global_{};
-  int pixels_ = 0;
-  double negligible_chi2_ = 0;
   // Each cutout's bulge and disc images (times its flux scale) at the last chi2 point.
   std::vector<double> components_;
   std::vector<std::size_t> offset_;
@@ -76,10 +73,6 @@ class ProjectedJointProblem final : public SolveProblem {
   bool cached_ = false;
   LmMatrix full_alpha_;
   std::array<double, kMaxBands> signal_{};
-  bool surrogates_ = false;
-  const kernels::LeastSquaresKernels& kernels_;
-  KernelCutouts cutouts_;
-  CutoutScratch scratch_;
   CutoutSums sums_;
 };
 
