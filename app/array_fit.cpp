@@ -93,8 +93,8 @@ void check_arrays(const ArrayStamps& in) {
 }
 
 // cfg with the arrays' stamp size (refused when stamp_size was set to another), validated.
-io::RunConfig config_for(const io::RunConfig& config, int stamp_size, bool per_stamp_psf) {
-  io::RunConfig cfg = config;
+app::RunConfig config_for(const app::RunConfig& config, int stamp_size, bool per_stamp_psf) {
+  app::RunConfig cfg = config;
   if (cfg.explicitly_set.contains("stamp_size") && cfg.fitter.render.stamp_size != stamp_size)
     throw io::ConfigError("option 'stamp_size' = " + std::to_string(cfg.fitter.render.stamp_size) +
                           " but the stamps are " + std::to_string(stamp_size) + " pixels square");
@@ -104,13 +104,13 @@ io::RunConfig config_for(const io::RunConfig& config, int stamp_size, bool per_s
   } else if (cfg.psf_from_catalogue) {
     throw io::ConfigError("option 'psf_input' = 'moffat_catalog' needs a PSF per stamp");
   }
-  io::validate(cfg);
+  app::validate(cfg);
   return cfg;
 }
 
 // metacal deconvolves a PSF and widens it: the Airy disc (its transform vanishes beyond its
 // cut-off) cannot be used.
-void check_metacal_psfs(const io::RunConfig& cfg, const std::vector<PsfModel>& psfs) {
+void check_metacal_psfs(const app::RunConfig& cfg, const std::vector<PsfModel>& psfs) {
   if (!cfg.metacal.enabled) return;
   for (const PsfModel& p : psfs)
     if (p.kind == PsfKind::kAiry)
@@ -119,14 +119,14 @@ void check_metacal_psfs(const io::RunConfig& cfg, const std::vector<PsfModel>& p
 
 }  // namespace
 
-SingleStampFitter::SingleStampFitter(const io::RunConfig& config, int stamp_size, std::optional<PsfModel> psf)
+SingleStampFitter::SingleStampFitter(const app::RunConfig& config, int stamp_size, std::optional<PsfModel> psf)
     : batch_(1, (config_for(config, std::max(stamp_size, 1), false), std::max(stamp_size, 1)), false) {
   // (config_for first: a stamp size out of the options' range is their error, not an allocation's.)
   ArrayStamps shape;
   shape.stamp_size = stamp_size;
   if (psf) shape.psfs.push_back(*psf);
   check_arrays(shape);
-  const io::RunConfig cfg = config_for(config, stamp_size, false);
+  const app::RunConfig cfg = config_for(config, stamp_size, false);
   check_metacal_psfs(cfg, shape.psfs);
   FftPlanCache setup_plans(FftPlanning::kEstimate);
   fitter_ = stamp_fitter_recipe(cfg, setup_plans, false, psf, "the stamps' PSF").make(FftPlanning::kEstimate);
@@ -156,10 +156,10 @@ ObjectRecord SingleStampFitter::fit(std::span<const double> pixels, std::span<co
   return r;
 }
 
-std::vector<ObjectRecord> fit_array_stamps(const io::RunConfig& config, const ArrayStamps& in, int threads) {
+std::vector<ObjectRecord> fit_array_stamps(const app::RunConfig& config, const ArrayStamps& in, int threads) {
   check_threads(threads, "threads");
   check_arrays(in);
-  const io::RunConfig cfg = config_for(config, in.stamp_size, in.psfs.size() > 1);
+  const app::RunConfig cfg = config_for(config, in.stamp_size, in.psfs.size() > 1);
   check_metacal_psfs(cfg, in.psfs);
 
   std::vector<ObjectRecord> rows(static_cast<std::size_t>(in.count));

@@ -13,7 +13,7 @@
 #include "engine/model/psf_model.hpp"
 #include "engine/pipeline/object_record.hpp"
 #include "engine/pipeline/stamp_batch.hpp"
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 
 namespace stampede {
 class StampFitter;
@@ -39,7 +39,7 @@ struct ArrayStamps {
 // per stamp, in order. Throws io::ConfigError for options that do not validate (or a stamp_size set
 // to other than the arrays'), std::invalid_argument for inconsistent arrays or an invalid PSF, and
 // std::runtime_error when the shared PSF cannot be prepared. Bad pixels are flagged rows.
-std::vector<ObjectRecord> fit_array_stamps(const io::RunConfig& config, const ArrayStamps& stamps, int threads);
+std::vector<ObjectRecord> fit_array_stamps(const app::RunConfig& config, const ArrayStamps& stamps, int threads);
 
 // One stamp at a time on the calling thread, with the PSF prepared once: the Python module's
 // Fitter, where one call per stamp must cost little beyond the fit. Not thread-safe (one per
@@ -47,7 +47,7 @@ std::vector<ObjectRecord> fit_array_stamps(const io::RunConfig& config, const Ar
 class SingleStampFitter {
  public:
   // Validates as fit_array_stamps (psf empty: the configuration's PSF; moffat_catalog refused).
-  SingleStampFitter(const io::RunConfig& config, int stamp_size, std::optional<PsfModel> psf);
+  SingleStampFitter(const app::RunConfig& config, int stamp_size, std::optional<PsfModel> psf);
   ~SingleStampFitter();
   int stamp_size() const { return batch_.stamp_size; }
   // pixels (and weights, if not empty) hold stamp_size^2 values; throws std::invalid_argument if not.

@@ -133,18 +133,18 @@ std::string CalibrationBuildSummary::FullReport() const {
 }
 
 CalibrationBuild::CalibrationBuild(CalibrationBuildOptions options) : options_(std::move(options)) {
-  const io::RunConfig& cfg = options_.config;
+  const app::RunConfig& cfg = options_.config;
   CalibrationGridOptions& g = options_.grid;
   const io::RunOutput output{"-o", options_.output,
                              {options_.output + ".partial", options_.output + ".tmp", io::OutputLock::path_for(options_.output)}};
   io::check_outputs(std::span(&output, 1), {}, options_.overwrite || options_.resume);
   lock_ = io::OutputLock::acquire(options_.output);
-  io::validate(cfg);
+  app::validate(cfg);
   if (cfg.metacal.enabled)
     throw io::ConfigError("option 'metacal' = true: calibrate build simulates the plain fit's noise bias; a metacal run "
                           "measures its response from its own images and needs no calibration table");
   if (cfg.psf_from_catalogue || cfg.psf_kind == PsfKind::kImage)
-    throw io::ConfigError("option 'psf_input' = '" + io::psf_input_value(cfg) +
+    throw io::ConfigError("option 'psf_input' = '" + app::psf_input_value(cfg) +
                           "': calibrate build simulates analytic PSFs only (moffat or airy)");
   if (!(cfg.fitter.noise_sigma > 0))
     throw io::ConfigError("option 'noise_sigma' = 0: the calibration fits (and the science run's) must be weighted; "
@@ -158,7 +158,7 @@ CalibrationBuild::CalibrationBuild(CalibrationBuildOptions options) : options_(s
   g.psf = psf_.model;
   grid_ = std::make_unique<CalibrationGrid>(g);  // validates the grid options
   checkpoint_ = std::make_unique<BuildCheckpoint>(options_.output + ".partial",
-                                                  calibration_build_fingerprint(g, io::effective_options(cfg)),
+                                                  calibration_build_fingerprint(g, app::effective_options(cfg)),
                                                   options_.resume, points());
 }
 
@@ -181,7 +181,7 @@ std::string CalibrationBuild::PlanReport() const {
 }
 
 CalibrationBuildSummary CalibrationBuild::run(const std::function<void(const CalibrationBuildProgress&)>& progress) {
-  const io::RunConfig& cfg = options_.config;
+  const app::RunConfig& cfg = options_.config;
   const CalibrationGrid& grid = *grid_;
   const int n_points = points(), first = first_point();
   CalibrationBuildSummary summary;
@@ -230,9 +230,9 @@ CalibrationBuildSummary CalibrationBuild::run(const std::function<void(const Cal
   table.points = grid.points();
   // The renderer as renderer = auto resolved for this PSF: apply compares it with the science
   // table's, which records its run's resolution alike.
-  io::RunConfig recorded = cfg;
+  app::RunConfig recorded = cfg;
   recorded.fitter.renderer = psf_.kind;
-  table.config = io::effective_options(recorded);
+  table.config = app::effective_options(recorded);
   table.biases = checkpoint_->done();
   table.curves = fit_bias_curves(table.grid, table.points, table.biases);
   const std::string tmp = options_.output + ".tmp";

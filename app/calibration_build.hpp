@@ -13,7 +13,7 @@
 #include "engine/calibration/calibration_grid.hpp"
 #include "engine/calibration/noise_bias.hpp"
 #include "io/output_lock.hpp"
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 
 namespace stampede::app {
 
@@ -21,7 +21,7 @@ struct CalibrationBuildOptions {
   // The grid (snr, radii, bulge_fractions, e_max, e_steps, realisations, seed); its noise_sigma,
   // stamp_size, bulge_radius_ratio and PSF are the configuration's.
   CalibrationGridOptions grid;
-  io::RunConfig config;   // the science run's: psf_input moffat or airy, noise_sigma > 0
+  app::RunConfig config;   // the science run's: psf_input moffat or airy, noise_sigma > 0
   std::string output;     // the calibration table; progress in OUTPUT.partial
   int threads = 0;        // 0: all of the calling task arena's
   bool resume = false;    // continue from OUTPUT.partial

@@ -44,7 +44,7 @@
 
 namespace stampede::app {
 
-MedsFitOptions survey_fit_options(const io::RunConfig& cfg);
+MedsFitOptions survey_fit_options(const app::RunConfig& cfg);
 
 namespace {
 
@@ -82,7 +82,7 @@ class ProblemReporter {
 // save_images (re-rendered here from the row's parameters, on the writer thread, with its own plans).
 class WriterSink final : public BatchSink {
  public:
-  WriterSink(io::CatalogWriter* writer, const FitRunOptions& run, const io::RunConfig& cfg,
+  WriterSink(io::CatalogWriter* writer, const FitRunOptions& run, const app::RunConfig& cfg,
              std::shared_ptr<const PreparedPsf> shared_psf, PsfCache* psf_cache, const std::string& images_path,
              ProblemReporter* problems)
       : writer_(writer),
@@ -91,7 +91,7 @@ class WriterSink final : public BatchSink {
         shared_psf_(std::move(shared_psf)),
         psf_cache_(psf_cache),
         problems_(problems) {
-    for (std::int64_t id : io::save_image_ids(cfg)) wanted_.insert(id);
+    for (std::int64_t id : app::save_image_ids(cfg)) wanted_.insert(id);
     if (!wanted_.empty()) images_ = std::make_unique<io::FitsFile>(io::FitsFile::create(images_path, true));
   }
   void write(const StampBatch& batch) override {
@@ -129,7 +129,7 @@ class WriterSink final : public BatchSink {
 
   io::CatalogWriter* writer_;
   const FitRunOptions& run_;
-  const io::RunConfig& cfg_;
+  const app::RunConfig& cfg_;
   std::shared_ptr<const PreparedPsf> shared_psf_;
   PsfCache* psf_cache_;
   ProblemReporter* problems_;
@@ -146,7 +146,7 @@ std::string images_path_for(std::string output) {
 }
 
 // The run's outputs and the files it writes beside them, as io::check_outputs takes them.
-std::vector<io::RunOutput> outputs_of(const FitRunOptions& a, const io::RunConfig& cfg) {
+std::vector<io::RunOutput> outputs_of(const FitRunOptions& a, const app::RunConfig& cfg) {
   std::vector<io::RunOutput> out;
   out.push_back({"-o", a.output, {a.output + ".partial", a.output + ".checkpoint", io::temporary_path(a.output + ".checkpoint"),
                                   io::OutputLock::path_for(a.output)}});
@@ -157,7 +157,7 @@ std::vector<io::RunOutput> outputs_of(const FitRunOptions& a, const io::RunConfi
 }
 
 // Every file the run reads, as it is on disk.
-std::vector<io::RunInput> inputs_of(const FitRunOptions& a, const io::RunConfig& cfg,
+std::vector<io::RunInput> inputs_of(const FitRunOptions& a, const app::RunConfig& cfg,
                                    const std::vector<std::string>& psfex_files) {
   if (!a.meds.empty()) {
     std::vector<io::RunInput> in;
@@ -175,7 +175,7 @@ std::vector<io::RunInput> inputs_of(const FitRunOptions& a, const io::RunConfig&
 
 // The outputs, checked before anything is read (a refused one costs nothing) and locked so that no
 // other run can write them until these locks are released, after the writer is done.
-std::vector<io::OutputLock> lock_outputs(const FitRunOptions& a, const io::RunConfig& cfg,
+std::vector<io::OutputLock> lock_outputs(const FitRunOptions& a, const app::RunConfig& cfg,
                                          const std::vector<std::string>& psfex_files = {}) {
   std::vector<io::OutputLock> locks;
   if (a.output.empty()) return locks;
@@ -215,12 +215,12 @@ std::function<void(const PipelineProgress&)> progress_reporter(const FitRunOptio
 }
 
 // Writer options every run's table shares: the path, the effective options as typed header keys.
-io::CatalogWriterOptions base_writer_options(const FitRunOptions& a, const io::RunConfig& cfg) {
+io::CatalogWriterOptions base_writer_options(const FitRunOptions& a, const app::RunConfig& cfg) {
   io::CatalogWriterOptions wo;
   wo.path = a.output;
   wo.text_path = a.text_output;
-  wo.header = io::effective_options(cfg);
-  for (const io::OptionInfo& o : io::run_config_options())
+  wo.header = app::effective_options(cfg);
+  for (const io::OptionInfo& o : app::run_config_options())
     if (o.type != io::HeaderValueType::kText) wo.header_types[o.name] = o.type;
   return wo;
 }
@@ -274,7 +274,7 @@ bool output_is_this_complete_run(const FitRunOptions& a, const io::CatalogWriter
 // What an input gives the run path: its source (and shard), the configuration as the input made it,
 // the fit stage's factory, and what the table records of the input.
 struct RunInput {
-  io::RunConfig cfg;
+  app::RunConfig cfg;
   std::unique_ptr<StampSource> whole;  // the input
   std::unique_ptr<StampSource> shard;  // its shard's range (--shard), or null
   StampSource& source() { return shard ? *shard : *whole; }
@@ -308,7 +308,7 @@ void take_shard(const FitRunOptions& a, RunInput* in) {
 // What a grid's header says of itself, used as a user expects: the PSF it records (unless the run
 // sets one), its noise (NOISESIG, unless the run sets noise_sigma or gives a weight map), the
 // simulated set it is (*input_set), and its noise pairs (NOISEPR, for metacal's fixnoise fields).
-void use_grid_records(const FitRunOptions& a, io::GridStampSource& grid, const Warn& warn, io::RunConfig* cfg,
+void use_grid_records(const FitRunOptions& a, io::GridStampSource& grid, const Warn& warn, app::RunConfig* cfg,
                       std::optional<PsfModel>* recorded_psf, std::string* input_set) {
   const std::string where = grid.header().describe();
   try {
@@ -352,19 +352,19 @@ void use_grid_records(const FitRunOptions& a, io::GridStampSource& grid, const W
 // A grid of stamps, or an image with a catalogue of objects to cut from it.
 RunInput open_stamp_input(const FitRunOptions& a, const Warn& warn) {
   RunInput in;
-  io::RunConfig& cfg = in.cfg;
+  app::RunConfig& cfg = in.cfg;
   cfg = a.config;
   if (!a.weight.empty() && cfg.fitter.noise_sigma != 0) {
     const auto where = cfg.explicitly_set.find("noise_sigma");
     const std::string from = where != cfg.explicitly_set.end() && !where->second.empty() ? " (" + where->second + ")" : "";
-    throw io::ConfigError("option 'noise_sigma' = " + io::get_option(cfg, "noise_sigma") + from + " and --weight '" +
+    throw io::ConfigError("option 'noise_sigma' = " + app::get_option(cfg, "noise_sigma") + from + " and --weight '" +
                           a.weight + "' both give the noise; give one (noise_sigma = 0 with a weight map)");
   }
   // A stamp size the run sets is checked before the input is read: an invalid one (0, negative)
   // must be refused, not replaced by the header's STAMPSZ.
   const bool stamp_from_header = a.catalog.empty() && !cfg.explicitly_set.count("stamp_size");
-  if (!stamp_from_header) io::validate(cfg);
-  const std::vector<std::int64_t> saved_ids = io::save_image_ids(cfg);
+  if (!stamp_from_header) app::validate(cfg);
+  const std::vector<std::int64_t> saved_ids = app::save_image_ids(cfg);
   in.locks = lock_outputs(a, cfg);  // before anything is read: a refused output costs nothing
 
   // Input first: its header may fix the stamp size, and a bad file should fail before anything.
@@ -387,7 +387,7 @@ RunInput open_stamp_input(const FitRunOptions& a, const Warn& warn) {
     in.whole = std::make_unique<io::CatalogueStampSource>(a.input, a.weight, a.catalog, cfg.fitter.render.stamp_size, cols,
                                                           saved_ids);
   }
-  if (stamp_from_header) io::validate(cfg);
+  if (stamp_from_header) app::validate(cfg);
   take_shard(a, &in);
   if (cfg.psf_from_catalogue && a.catalog.empty())
     throw io::ConfigError("option 'psf_input' = 'moffat_catalog' needs --catalog");
@@ -468,7 +468,7 @@ std::vector<std::string> survey_bands(const FitRunOptions& a) {
 // MEDS tiles, one per band: each object's cutouts read in the serial stage (io/meds_object_source).
 RunInput open_survey_input(const FitRunOptions& a, const Warn& warn) {
   RunInput in;
-  io::RunConfig& cfg = in.cfg;
+  app::RunConfig& cfg = in.cfg;
   cfg = a.config;
   if (!a.input.empty() || !a.catalog.empty() || !a.weight.empty())
     throw io::ConfigError("--meds '" + a.meds[0] + "' takes no INPUT, --catalog or --weight: the tile holds the cutouts and weights");
@@ -478,7 +478,7 @@ RunInput open_survey_input(const FitRunOptions& a, const Warn& warn) {
   if (cfg.psf_from_catalogue) throw io::ConfigError("option 'psf_input' = 'moffat_catalog': not available with --meds");
   if (cfg.fitter.renderer == RendererKind::kUpsampled) {
     if (cfg.explicitly_set.count("renderer"))
-      throw io::ConfigError("option 'renderer' = '" + io::get_option(cfg, "renderer") +
+      throw io::ConfigError("option 'renderer' = '" + app::get_option(cfg, "renderer") +
                             "': --meds needs renderer = exact (it draws through each cutout's WCS Jacobian)");
     cfg.fitter.renderer = RendererKind::kExact;
   }
@@ -490,7 +490,7 @@ RunInput open_survey_input(const FitRunOptions& a, const Warn& warn) {
     for (const std::string& key : app::psf_options_set(cfg))
       warn("option '" + key + "' is not used with --meds unless meds_psf = options (each cutout's PSF " +
            "is its psf cutout or its source image's PSFEx model)");
-  io::validate(cfg);
+  app::validate(cfg);
   const MedsFitOptions options = survey_fit_options(cfg);
   // A bad file fails here, before any thread starts; options a tile cannot serve likewise.
   auto source = std::make_unique<io::MedsObjectSource>(a.meds, options, options.psf_model);
@@ -554,7 +554,7 @@ std::unique_ptr<io::CatalogWriter> open_writer(const FitRunOptions& a, RunInput&
 
 // The one run path of every input: the writer, the pipeline (here or distributed), the finish.
 RunSummary run_input(const FitRunOptions& a, RunInput& in, Clock::time_point start) {
-  const io::RunConfig& cfg = in.cfg;
+  const app::RunConfig& cfg = in.cfg;
   RunSummary summary;
   summary.input = a.meds.empty() ? a.input : a.meds[0];
   for (std::size_t t = 1; t < a.meds.size(); ++t) summary.input += "," + a.meds[t];
@@ -627,7 +627,7 @@ void check_threads(long long threads, const std::string& what) {
                           std::to_string(kMaxThreads));
 }
 
-MedsFitOptions survey_fit_options(const io::RunConfig& cfg) {
+MedsFitOptions survey_fit_options(const app::RunConfig& cfg) {
   MedsFitOptions options;
   static_cast<io::MedsOptions&>(options) = cfg.meds;
   options.fitter = cfg.fitter;
@@ -639,7 +639,7 @@ MedsFitOptions survey_fit_options(const io::RunConfig& cfg) {
   return options;
 }
 
-std::unique_ptr<BatchFitter> make_survey_fitter(const io::RunConfig& config, const std::vector<std::string>& meds,
+std::unique_ptr<BatchFitter> make_survey_fitter(const app::RunConfig& config, const std::vector<std::string>& meds,
                                                 const std::vector<std::string>& bands) {
   try {
     return std::make_unique<SurveyBatchFitter>(survey_fit_options(config), meds, bands);

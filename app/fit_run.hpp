@@ -23,7 +23,7 @@
 #include "app/run_summary.hpp"
 #include "engine/pipeline/object_record.hpp"
 #include "engine/pipeline/pipeline.hpp"
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 
 namespace stampede::app {
 
@@ -64,7 +64,7 @@ struct FitDistribution {
   int pipeline_threads = 0;
 };
 struct DistributedRun {
-  const io::RunConfig& config;     // effective: stamp size, PSF and renderer as the run resolved them
+  const app::RunConfig& config;     // effective: stamp size, PSF and renderer as the run resolved them
   std::vector<std::string> meds;   // survey input: the tiles, in band order (the workers' messages name them)
   std::vector<std::string> bands;  // survey input: the band names (empty: one tile without band columns)
 };
@@ -73,7 +73,7 @@ using FitDistributor =
 
 // The per-thread fitter of a survey run's batches with this configuration (the run's own and an
 // MPI worker's). Throws io::ConfigError for options that cannot work together.
-std::unique_ptr<BatchFitter> make_survey_fitter(const io::RunConfig& config, const std::vector<std::string>& meds,
+std::unique_ptr<BatchFitter> make_survey_fitter(const app::RunConfig& config, const std::vector<std::string>& meds,
                                                 const std::vector<std::string>& bands);
 
 struct FitRunOptions {
@@ -101,7 +101,7 @@ struct FitRunOptions {
   int shard = 0;
   int shards = 1;
   bool quiet = false;       // no end-of-run warnings (FFTW wisdom not saved); input warnings still go out
-  io::RunConfig config;     // validated by run(); stamp_size from the grid's STAMPSZ unless set
+  app::RunConfig config;     // validated by run(); stamp_size from the grid's STAMPSZ unless set
 
   // Called from the pipeline's writer thread, at most every progress_interval seconds.
   std::function<void(const FitRunProgress&)> on_progress;

@@ -5,7 +5,7 @@
 #include <fstream>
 #include <map>
 
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 #include "io/text_lines.hpp"
 
 namespace stampede::app {

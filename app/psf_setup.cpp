@@ -15,7 +15,7 @@
 
 namespace stampede::app {
 
-SharedPsf build_shared_psf(const io::RunConfig& cfg, FftPlanCache& plans) {
+SharedPsf build_shared_psf(const app::RunConfig& cfg, FftPlanCache& plans) {
   if (cfg.psf_from_catalogue) throw std::logic_error("build_shared_psf: psf_input = moffat_catalog has no shared PSF");
   SharedPsf out;
   switch (cfg.psf_kind) {
@@ -34,10 +34,10 @@ SharedPsf build_shared_psf(const io::RunConfig& cfg, FftPlanCache& plans) {
       break;
     }
   }
-  return prepare_shared_psf(out.model, cfg, plans, "psf_input = " + io::psf_input_value(cfg));
+  return prepare_shared_psf(out.model, cfg, plans, "psf_input = " + app::psf_input_value(cfg));
 }
 
-SharedPsf prepare_shared_psf(const PsfModel& model, const io::RunConfig& cfg, FftPlanCache& plans,
+SharedPsf prepare_shared_psf(const PsfModel& model, const app::RunConfig& cfg, FftPlanCache& plans,
                              const std::string& what) {
   SharedPsf out;
   out.model = model;
@@ -100,7 +100,7 @@ std::vector<std::string> psf_differences(const PsfModel& recorded, const PsfMode
   return out;
 }
 
-std::vector<std::string> psf_options_set(const io::RunConfig& cfg) {
+std::vector<std::string> psf_options_set(const app::RunConfig& cfg) {
   static const char* const kPsfKeys[] = {"psf_input",          "psf_beta",         "psf_fwhm",  "psf_e1",
                                          "psf_e2",             "psf_truncation",   "airy_lambda_over_d",
                                          "airy_obscuration",   "psf_image",        "psf_upsampling",
@@ -111,9 +111,9 @@ std::vector<std::string> psf_options_set(const io::RunConfig& cfg) {
   return set;
 }
 
-bool sets_psf_options(const io::RunConfig& cfg) { return !psf_options_set(cfg).empty(); }
+bool sets_psf_options(const app::RunConfig& cfg) { return !psf_options_set(cfg).empty(); }
 
-void use_recorded_psf(const PsfModel& recorded, const std::string& where, io::RunConfig* cfg) {
+void use_recorded_psf(const PsfModel& recorded, const std::string& where, app::RunConfig* cfg) {
   std::string why;
   if (!recorded.IsValid(&why))
     throw io::ConfigError(where + " records a PSF the fit cannot use (" + why +
@@ -124,11 +124,11 @@ void use_recorded_psf(const PsfModel& recorded, const std::string& where, io::Ru
   if (recorded.kind == PsfKind::kAiry) cfg->airy = recorded.airy;
 }
 
-PsfModel checked_reconvolution_psf(const PsfModel& psf, const io::RunConfig& cfg) {
+PsfModel checked_reconvolution_psf(const PsfModel& psf, const app::RunConfig& cfg) {
   std::string why;
   const auto filters =
       reconvolution_filters(psf, cfg.metacal, MetacalImager::padded_size(cfg.fitter.render.stamp_size), &why);
-  if (!filters) throw io::ConfigError("metacal_psf_dilation = " + io::get_option(cfg, "metacal_psf_dilation") + ": " + why);
+  if (!filters) throw io::ConfigError("metacal_psf_dilation = " + app::get_option(cfg, "metacal_psf_dilation") + ": " + why);
   return filters->reconvolution();
 }
 

@@ -11,7 +11,7 @@
 
 namespace stampede::app {
 
-RunMemoryEstimate estimate_fit_memory(const io::RunConfig& config, int threads, bool per_object_psf) {
+RunMemoryEstimate estimate_fit_memory(const app::RunConfig& config, int threads, bool per_object_psf) {
   RunMemoryEstimate e;
   e.threads = threads;
   const double npix = static_cast<double>(config.fitter.render.stamp_size) * config.fitter.render.stamp_size;

@@ -13,7 +13,7 @@
 #include "io/catalog_writer.hpp"
 #include "io/output_check.hpp"
 #include "io/output_lock.hpp"
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 #include "io/simulation_identity.hpp"
 
 namespace stampede::app {
@@ -39,7 +39,7 @@ bool names_a_file(const std::string& key) {
 // inputs and configuration, in the order the fit wrote them (absent keys are left out).
 std::vector<std::string> run_keys() {
   std::vector<std::string> keys;
-  for (const io::OptionInfo& o : io::run_config_options()) keys.push_back(o.name);
+  for (const io::OptionInfo& o : app::run_config_options()) keys.push_back(o.name);
   keys.emplace_back("metacal_gamma_fwhm");  // a metacal run's reconvolution PSF
   for (const char* k : {"INPUT", "CATALOG", "WEIGHTS", "MEDS", "MEDS1", "MEDS2", "MEDS3", "MEDS4", "MEDS5", "MEDS6",
                         "MEDS7", io::kInputSetKey})
@@ -144,7 +144,7 @@ ShardMergeSummary merge_shards(const ShardMergeOptions& o) {
   wo.metacal = shards[*by_index[0]].metacal;
   wo.bands = shards[*by_index[0]].bands;
   wo.header = shards.front().header;  // the run's keys, as a single process writes them
-  for (const io::OptionInfo& info : io::run_config_options())
+  for (const io::OptionInfo& info : app::run_config_options())
     if (info.type != io::HeaderValueType::kText) wo.header_types[info.name] = info.type;
   wo.header_types["metacal_gamma_fwhm"] = io::HeaderValueType::kReal;
   wo.fingerprint = "stampede merge of " + std::to_string(by_index.size()) + " shards\n";

@@ -10,7 +10,7 @@ std::unique_ptr<StampFitter> StampFitterRecipe::make(FftPlanning planning) const
                                        metacal);
 }
 
-StampFitterRecipe stamp_fitter_recipe(const io::RunConfig& cfg, FftPlanCache& plans, bool per_object,
+StampFitterRecipe stamp_fitter_recipe(const app::RunConfig& cfg, FftPlanCache& plans, bool per_object,
                                       const std::optional<PsfModel>& psf, const std::string& what) {
   StampFitterRecipe r;
   r.options = cfg.fitter;

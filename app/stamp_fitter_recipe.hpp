@@ -12,7 +12,7 @@
 #include "engine/pipeline/stamp_fitter.hpp"
 #include "engine/render/fft_plans.hpp"
 #include "engine/render/psf_cache.hpp"
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 
 namespace stampede::app {
 
@@ -33,7 +33,7 @@ struct StampFitterRecipe {
 // cfg's recipe: per_object, a PSF per object (prepared through a cache); else `psf` when given
 // (`what` names it in errors) or the PSF cfg describes (build_shared_psf). A metacal run's
 // reconvolution PSF is checked here (checked_reconvolution_psf), before any fitting.
-StampFitterRecipe stamp_fitter_recipe(const io::RunConfig& cfg, FftPlanCache& plans, bool per_object,
+StampFitterRecipe stamp_fitter_recipe(const app::RunConfig& cfg, FftPlanCache& plans, bool per_object,
                                       const std::optional<PsfModel>& psf = std::nullopt,
                                       const std::string& what = "");
 

@@ -1,5 +1,5 @@
 // Fuzz target: the `stampede fit` command line (tools/fit_command: every option, --shard, --threads,
-// --set through io::apply_set, the cross-option refusals) and the --input-list file
+// --set through app::apply_set, the cross-option refusals) and the --input-list file
 // (app/input_list). The input is the argument vector, arguments separated by NUL bytes, then after a
 // 0x01 byte the list file's text. --config is dropped (the ini parser has fuzz_run_config), so the
 // run reads no path the input names. An accepted command line must hold what the parser promises
@@ -15,7 +15,7 @@
 #include "app/fit_run.hpp"
 #include "app/input_list.hpp"
 #include "fuzz/fuzz_file.hpp"
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 #include "tools/fit_command.hpp"
 
 namespace {
@@ -78,7 +78,7 @@ extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t siz
     if (!again || again->first != run.shard || again->second != run.shards) std::abort();
   }
   try {
-    stampede::io::validate(run.config);
+    stampede::app::validate(run.config);
   } catch (const stampede::io::ConfigError&) {
   }
   if (!command.input_list.empty() && split < bytes.size()) check_list(bytes.substr(split + 1), run.output);

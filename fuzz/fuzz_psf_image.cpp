@@ -6,9 +6,9 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t size) {
   const stampede::fuzz::FuzzFile input({data, size});
-  stampede::io::RunConfig config;
-  stampede::io::set_option(config, "psf_input", "image");
-  stampede::io::set_option(config, "psf_image", input.path());
+  stampede::app::RunConfig config;
+  stampede::app::set_option(config, "psf_input", "image");
+  stampede::app::set_option(config, "psf_image", input.path());
   stampede::FftPlanCache plans(stampede::FftPlanning::kEstimate);
   try {
     stampede::app::build_shared_psf(config, plans);

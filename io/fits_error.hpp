@@ -2,7 +2,7 @@
 // that turns a CFITSIO status into text for such messages.
 //
 // FitsFile's messages always name the file and HDU (and the keyword or column where relevant).
-// io/ also throws ConfigError (run_config.hpp) and CatalogError (catalog_writer.hpp); all three
+// io/ also throws ConfigError (config_error.hpp) and CatalogError (catalog_writer.hpp); all three
 // derive from stampede::Error (engine/common/error.hpp).
 #pragma once
 

@@ -7,7 +7,7 @@
 
 #include "engine/common/number_text.hpp"
 #include "io/psfex_file.hpp"
-#include "io/run_config.hpp"
+#include "io/config_error.hpp"
 
 namespace stampede::io {
 

@@ -22,7 +22,7 @@
 #include "io/catalog_reader.hpp"
 #include "io/fits_file.hpp"
 #include "io/output_check.hpp"
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 #include "tools/arguments.hpp"
 #include "tools/progress_printer.hpp"
 
@@ -33,10 +33,10 @@ using namespace stampede;
 // A configuration value in its canonical text, so that a header's number card ("3.0", "1E-06")
 // and the calibration's text ("3", "1e-06") compare equal; text that does not parse stays as it is.
 std::string canonical_option(const std::string& key, const std::string& text) {
-  io::RunConfig c;
+  app::RunConfig c;
   try {
-    io::set_option(c, key, text);
-    return io::get_option(c, key);
+    app::set_option(c, key, text);
+    return app::get_option(c, key);
   } catch (const io::ConfigError&) {
     return text;
   }
@@ -117,8 +117,8 @@ int run_build(int argc, char** argv) {
   o.threads = threads;
   o.resume = resume;
   o.overwrite = overwrite;
-  if (!config.empty()) io::load_ini(o.config, config);
-  for (const auto& s : sets) io::apply_set(o.config, s);
+  if (!config.empty()) app::load_ini(o.config, config);
+  for (const auto& s : sets) app::apply_set(o.config, s);
   app::CalibrationBuild build(o);
   if (!quiet) std::fprintf(stderr, "%s\n", build.PlanReport().c_str());
   tools::ProgressPrinter printer(stderr, isatty(fileno(stderr)));

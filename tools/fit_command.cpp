@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "app/fit_run.hpp"
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 #include "tools/progress_printer.hpp"
 
 namespace {
@@ -90,7 +90,7 @@ int parse_fit_arguments(int argc, char** argv, FitCommandLine* command, bool mes
       if (messages) print_help();
       return 0;
     } else if (s == "--help-config") {
-      if (messages) std::fputs(io::ini_template().c_str(), stdout);
+      if (messages) std::fputs(app::ini_template().c_str(), stdout);
       return 0;
     } else if (s == "-o" || s == "--output") {
       r.output = value();
@@ -160,8 +160,8 @@ int parse_fit_arguments(int argc, char** argv, FitCommandLine* command, bool mes
     return 2;
   }
 
-  if (!config.empty()) io::load_ini(r.config, config);
-  for (const auto& s : sets) io::apply_set(r.config, s);
+  if (!config.empty()) app::load_ini(r.config, config);
+  for (const auto& s : sets) app::apply_set(r.config, s);
   return -1;
 }
 

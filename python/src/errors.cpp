@@ -8,7 +8,7 @@
 #include "io/catalog_writer.hpp"
 #include "io/durable_file.hpp"
 #include "io/fits_error.hpp"
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 
 namespace py = pybind11;
 

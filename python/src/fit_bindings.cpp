@@ -78,19 +78,19 @@ int square_side(const DoubleArray& a, const char* what) {
 
 // A PSF or a noise level given two ways is refused, as the command line refuses --weight with
 // noise_sigma != 0 and psf_image with another psf_input.
-void check_psf_given_once(const io::RunConfig& cfg, const std::string& where) {
+void check_psf_given_once(const app::RunConfig& cfg, const std::string& where) {
   const auto set = cfg.explicitly_set.find("psf_input");
   if (set != cfg.explicitly_set.end() && cfg.psf_kind != PsfKind::kImage)
-    throw io::ConfigError(where + " (an image) and option 'psf_input' = " + io::get_option(cfg, "psf_input") +
+    throw io::ConfigError(where + " (an image) and option 'psf_input' = " + app::get_option(cfg, "psf_input") +
                           " both give the PSF; give one (leave psf_input out, or psf=None)");
   if (!cfg.psf_image.empty())
     throw io::ConfigError(where + " (an image) and option 'psf_image' = " +
                           quoted_value(cfg.psf_image, kQuotedPathMaxBytes) + " both give the PSF; give one");
 }
 
-void check_noise_given_once(const io::RunConfig& cfg, const std::string& where) {
+void check_noise_given_once(const app::RunConfig& cfg, const std::string& where) {
   if (cfg.fitter.noise_sigma != 0)
-    throw io::ConfigError("option 'noise_sigma' = " + io::get_option(cfg, "noise_sigma") + " and " + where +
+    throw io::ConfigError("option 'noise_sigma' = " + app::get_option(cfg, "noise_sigma") + " and " + where +
                           " both give the noise; give one (noise_sigma = 0 with weights)");
 }
 
@@ -105,7 +105,7 @@ class PyFitter {
     if (psf_oversampling < 1 || psf_oversampling > 1000)
       throw py::value_error(function + "(): psf_oversampling = " + std::to_string(psf_oversampling) +
                             ": must be in [1, 1000]");
-    const io::RunConfig cfg = config_from(options);
+    const app::RunConfig cfg = config_from(options);
     if (!psf.is_none()) check_psf_given_once(cfg, function + "(): psf");
     std::vector<PsfModel> psfs = psfs_from(psf, 1, static_cast<int>(stamp_size), static_cast<int>(psf_oversampling),
                                            psf_pixel_integrated);
@@ -139,7 +139,7 @@ class PyFitter {
 
  private:
   std::unique_ptr<app::SingleStampFitter> fitter_;
-  io::RunConfig config_;
+  app::RunConfig config_;
   bool metacal_ = false;
   std::mutex mutex_;
 };
@@ -158,7 +158,7 @@ py::array fit_stamps(py::args args, py::kwargs kwargs) {
   app::check_threads(threads, a.where("threads"));
   const int grid_nx = static_cast<int>(a.integer_in("grid_nx", 0, 0, INT_MAX));
   const std::int64_t first_id = a.integer("first_id", 0);
-  const io::RunConfig cfg = config_from(options);
+  const app::RunConfig cfg = config_from(options);
   if (!psf.is_none()) check_psf_given_once(cfg, "fit_stamps(): psf");
   if (w) check_noise_given_once(cfg, "fit_stamps(): weights");
   app::ArrayStamps in;

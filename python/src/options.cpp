@@ -29,24 +29,24 @@ std::string option_text(const std::string& key, py::handle value) {
   return py::str(value).cast<std::string>();
 }
 
-void set_from(io::RunConfig& cfg, py::handle mapping) {
+void set_from(app::RunConfig& cfg, py::handle mapping) {
   for (auto item : py::reinterpret_borrow<py::dict>(mapping)) {
     if (!py::isinstance<py::str>(item.first))
       throw py::type_error("option names are strings, not " + describe(item.first));
     const std::string key = item.first.cast<std::string>();
-    io::set_option(cfg, key, option_text(key, item.second));
+    app::set_option(cfg, key, option_text(key, item.second));
   }
 }
 
 }  // namespace
 
-io::RunConfig config_from(py::handle obj) {
-  if (obj.is_none()) return io::RunConfig{};
-  if (py::isinstance<io::RunConfig>(obj)) return obj.cast<io::RunConfig>();
+app::RunConfig config_from(py::handle obj) {
+  if (obj.is_none()) return app::RunConfig{};
+  if (py::isinstance<app::RunConfig>(obj)) return obj.cast<app::RunConfig>();
   if (py::isinstance<py::dict>(obj)) {
-    io::RunConfig cfg;
+    app::RunConfig cfg;
     set_from(cfg, obj);
-    io::validate(cfg);
+    app::validate(cfg);
     return cfg;
   }
   throw py::type_error("options must be a stampede.Options or a dict of option: value, not " +
@@ -54,7 +54,7 @@ io::RunConfig config_from(py::handle obj) {
 }
 
 void bind_options(py::module_& m) {
-  py::class_<io::RunConfig>(m, "Options", R"doc(
+  py::class_<app::RunConfig>(m, "Options", R"doc(
 A run configuration: every key of `stampede fit --help-config`, with the same names, values and
 validation. Options(dict) or Options(key=value, ...); values may be Python numbers, bools or
 strings. A bad key or value raises stampede.ConfigError (a ValueError) naming the key, value and rule.
@@ -75,14 +75,14 @@ strings. A bad key or value raises stampede.ConfigError (a ValueError) naming th
                mapping = options["options"];
                PyDict_DelItemString(options.ptr(), "options");
              }
-             io::RunConfig cfg;
+             app::RunConfig cfg;
              if (!mapping.is_none()) {
                if (!py::isinstance<py::dict>(mapping))
                  throw py::type_error("Options() takes a dict of option: value (or keywords), not " + describe(mapping));
                set_from(cfg, mapping);
              }
              set_from(cfg, options);
-             io::validate(cfg);
+             app::validate(cfg);
              return cfg;
            }),
            "Options(mapping=None, **options)")
@@ -96,37 +96,37 @@ strings. A bad key or value raises stampede.ConfigError (a ValueError) naming th
             const py::kwargs overrides = kwargs;
             const py::kwargs none;
             const std::string path = Arguments("Options.from_ini", args, none, {{"path", true}}).text("path");
-            io::RunConfig cfg;
-            io::load_ini(cfg, path);
+            app::RunConfig cfg;
+            app::load_ini(cfg, path);
             set_from(cfg, overrides);
-            io::validate(cfg);
+            app::validate(cfg);
             return cfg;
           },
           "from_ini(path, **overrides)\n\nReads an ini file (as `stampede fit --config`), then any keyword overrides.")
       .def("__getitem__",
-           [](const io::RunConfig& c, py::handle key) {
+           [](const app::RunConfig& c, py::handle key) {
              if (!py::isinstance<py::str>(key))
                throw py::type_error("Options[key]: option names are strings, not " + describe(key));
-             return io::get_option(c, key.cast<std::string>());
+             return app::get_option(c, key.cast<std::string>());
            })
       .def("__contains__",
-           [](const io::RunConfig&, py::handle key) {
+           [](const app::RunConfig&, py::handle key) {
              if (!py::isinstance<py::str>(key)) return false;
              const std::string name = key.cast<std::string>();
-             for (const io::OptionInfo& o : io::run_config_options())
+             for (const io::OptionInfo& o : app::run_config_options())
                if (o.name == name) return true;
              return false;
            })
       .def(
           "to_dict",
-          [](const io::RunConfig& c) {
+          [](const app::RunConfig& c) {
             py::dict out;
-            for (const auto& [k, v] : io::effective_options(c)) out[py::str(k)] = v;
+            for (const auto& [k, v] : app::effective_options(c)) out[py::str(k)] = v;
             return out;
           },
           "Every key with its value's canonical text, in documentation order.")
       .def(
-          "explicitly_set", [](const io::RunConfig& c) {
+          "explicitly_set", [](const app::RunConfig& c) {
             py::list out;
             for (const auto& [k, where] : c.explicitly_set) out.append(k);
             return out;
@@ -134,18 +134,18 @@ strings. A bad key or value raises stampede.ConfigError (a ValueError) naming th
           "The keys given explicitly (the rest are defaults).")
       .def(
           "replace",
-          [](const io::RunConfig& c, py::kwargs changes) {
-            io::RunConfig out = c;
+          [](const app::RunConfig& c, py::kwargs changes) {
+            app::RunConfig out = c;
             set_from(out, changes);
-            io::validate(out);
+            app::validate(out);
             return out;
           },
           "A copy with the given keys changed, validated.")
-      .def("__repr__", [](const io::RunConfig& c) {
+      .def("__repr__", [](const app::RunConfig& c) {
         std::string s = "stampede.Options(";
         bool first = true;
         for (const auto& [k, where] : c.explicitly_set) {
-          s += (first ? "" : ", ") + k + "=" + py::repr(py::str(io::get_option(c, k))).cast<std::string>();
+          s += (first ? "" : ", ") + k + "=" + py::repr(py::str(app::get_option(c, k))).cast<std::string>();
           first = false;
         }
         return s + ")";
@@ -155,7 +155,7 @@ strings. A bad key or value raises stampede.ConfigError (a ValueError) naming th
       "option_help",
       [] {
         py::dict out;
-        for (const io::OptionInfo& o : io::run_config_options())
+        for (const io::OptionInfo& o : app::run_config_options())
           out[py::str(o.name)] = py::make_tuple(o.default_value, o.help);
         return out;
       },

@@ -3,13 +3,13 @@
 
 #include <pybind11/pybind11.h>
 
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 
 namespace stampede::python {
 
 void bind_options(pybind11::module_& m);
 
 // `obj` (None, an Options, or a dict of key: value) as a validated configuration.
-io::RunConfig config_from(pybind11::handle obj);
+app::RunConfig config_from(pybind11::handle obj);
 
 }  // namespace stampede::python

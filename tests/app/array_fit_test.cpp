@@ -46,11 +46,11 @@ SmallSet small_set() {
   return s;
 }
 
-io::RunConfig cheap_config() {
-  io::RunConfig cfg;
+app::RunConfig cheap_config() {
+  app::RunConfig cfg;
   for (const char* s : {"psf_beta=3", "psf_fwhm=2.85", "psf_e2=0.05", "noise_sigma=1", "renderer=exact",
                         "minimizer_max_iterations=30", "batch_size=3"})
-    io::apply_set(cfg, s);
+    app::apply_set(cfg, s);
   return cfg;
 }
 
@@ -134,15 +134,15 @@ TEST(ArrayFit, APsfPerStampGoesThroughThePerObjectPathAndABadOneFlagsItsRow) {
   in.stamp_size = kStamp;
   in.pixels = {s.stamps.data(), 3 * kStamp * kStamp};
   in.psfs = {PsfModel::Moffat(m)};
-  io::RunConfig cfg = cheap_config();
+  app::RunConfig cfg = cheap_config();
   const std::vector<ObjectRecord> shared = app::fit_array_stamps(cfg, in, 1);
   const auto empty = std::make_shared<PsfImage>();
   empty->nx = empty->ny = 5;
   empty->pixels.assign(25, 0.0);  // cannot be normalised
   in.psfs = {PsfModel::Moffat(m), PsfModel::Image(empty), PsfModel::Moffat(m)};
-  io::apply_set(cfg, "renderer=upsampled");  // the exact renderer takes analytic PSFs only
-  io::apply_set(cfg, "upsampling=2");
-  io::apply_set(cfg, "n_central_pixels_to_upsample=1");
+  app::apply_set(cfg, "renderer=upsampled");  // the exact renderer takes analytic PSFs only
+  app::apply_set(cfg, "upsampling=2");
+  app::apply_set(cfg, "n_central_pixels_to_upsample=1");
   const std::vector<ObjectRecord> per = app::fit_array_stamps(cfg, in, 2);
   EXPECT_FALSE(per[0].flags & kFlagPsfFailure);
   EXPECT_TRUE(per[1].flags & kFlagPsfFailure);
@@ -156,7 +156,7 @@ TEST(ArrayFit, InconsistentArraysAndOptionsAreErrors) {
   in.count = 2;
   in.stamp_size = 9;
   in.pixels = {pixels.data(), 100};
-  const io::RunConfig cfg = cheap_config();
+  const app::RunConfig cfg = cheap_config();
   EXPECT_TRUE(Contains(error_of<std::invalid_argument>([&] { app::fit_array_stamps(cfg, in, 1); }),
                        "stamps hold 100 values, not 2 x 9^2"));
   in.pixels = pixels;
@@ -168,12 +168,12 @@ TEST(ArrayFit, InconsistentArraysAndOptionsAreErrors) {
   EXPECT_TRUE(Contains(error_of<std::invalid_argument>([&] { app::fit_array_stamps(cfg, in, 1); }),
                        "3 PSFs for 2 stamps"));
   in.psfs.clear();
-  io::RunConfig sized = cfg;
-  io::apply_set(sized, "stamp_size=39");
+  app::RunConfig sized = cfg;
+  app::apply_set(sized, "stamp_size=39");
   EXPECT_TRUE(Contains(error_of<io::ConfigError>([&] { app::fit_array_stamps(sized, in, 1); }),
                        "option 'stamp_size' = 39 but the stamps are 9 pixels square"));
-  io::RunConfig catalogue_psf = cfg;
-  io::apply_set(catalogue_psf, "psf_input=moffat_catalog");
+  app::RunConfig catalogue_psf = cfg;
+  app::apply_set(catalogue_psf, "psf_input=moffat_catalog");
   EXPECT_TRUE(Contains(error_of<io::ConfigError>([&] { app::fit_array_stamps(catalogue_psf, in, 1); }),
                        "needs a PSF per stamp"));
 }

@@ -20,7 +20,7 @@ TEST(CalibrationBuild, TheOutputIsLockedForTheBuildsLife) {
   const stampede::testing::ScratchDir scratch("stampede_calibration_build_");
   app::CalibrationBuildOptions o;
   o.output = scratch.path("cal.fits");
-  io::apply_set(o.config, "noise_sigma=1");
+  app::apply_set(o.config, "noise_sigma=1");
   {
     const app::CalibrationBuild first(o);
     EXPECT_TRUE(io::file_exists(io::OutputLock::path_for(o.output)));

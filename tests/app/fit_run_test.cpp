@@ -63,7 +63,7 @@ class FitRunTest : public ::testing::Test {
     o.input = input;
     o.output = output;
     o.threads = threads;
-    for (const auto& s : kSets) io::apply_set(o.config, s);
+    for (const auto& s : kSets) app::apply_set(o.config, s);
     return o;
   }
   stampede::testing::ScratchDir scratch{"stampede_fit_run_"};
@@ -155,8 +155,8 @@ TEST_F(FitRunTest, MetacalRunsAreIdenticalForAnyThreadCount) {
   const int threads[2] = {2, 1};
   for (int k = 0; k < 2; ++k) {
     app::FitRunOptions o = options(scratch.path("m" + std::to_string(threads[k]) + ".fits"), threads[k]);
-    io::apply_set(o.config, "renderer=exact");
-    io::apply_set(o.config, "metacal=true");
+    app::apply_set(o.config, "renderer=exact");
+    app::apply_set(o.config, "metacal=true");
     o.on_rows = [&, k](std::span<const ObjectRecord> batch) { rows[k].insert(rows[k].end(), batch.begin(), batch.end()); };
     app::FitRun(o).run();
   }
@@ -194,16 +194,16 @@ TEST_F(FitRunTest, MetacalRunsAreIdenticalForAnyThreadCount) {
 // an error before any fitting, not a table of PSF failures; the one used is in the header.
 TEST_F(FitRunTest, AMetacalReconvolutionPsfTooNarrowIsRefusedUpFront) {
   app::FitRunOptions o = options(scratch.path("narrow.fits"), 1);
-  io::apply_set(o.config, "metacal=true");
-  io::apply_set(o.config, "metacal_psf_dilation=1");
+  app::apply_set(o.config, "metacal=true");
+  app::apply_set(o.config, "metacal_psf_dilation=1");
   const std::string message = stampede::testing::error_of<io::ConfigError>([&] { app::FitRun(o).run(); });
   EXPECT_NE(message.find("metacal_psf_dilation = 1: metacal: the reconvolution PSF is not wider than the PSF"),
             std::string::npos)
       << message;
   EXPECT_FALSE(std::filesystem::exists(scratch.path("narrow.fits")));
   app::FitRunOptions ok = options(scratch.path("wide.fits"), 1);
-  io::apply_set(ok.config, "metacal=true");
-  io::apply_set(ok.config, "metacal_psf_dilation=1.2");
+  app::apply_set(ok.config, "metacal=true");
+  app::apply_set(ok.config, "metacal_psf_dilation=1.2");
   app::FitRun(ok).run();
   io::FitsFile f = io::FitsFile::open_read(scratch.path("wide.fits"));
   f.move_to("RESULTS");
@@ -213,8 +213,8 @@ TEST_F(FitRunTest, AMetacalReconvolutionPsfTooNarrowIsRefusedUpFront) {
 // metacal cannot deconvolve the Airy disc beyond its cut-off: refused before any fitting.
 TEST_F(FitRunTest, MetacalWithAnAiryPsfIsRefusedUpFront) {
   app::FitRunOptions o = options(scratch.path("airy.fits"), 1);
-  io::apply_set(o.config, "metacal=true");
-  io::apply_set(o.config, "psf_input=airy");
+  app::apply_set(o.config, "metacal=true");
+  app::apply_set(o.config, "psf_input=airy");
   const std::string message = stampede::testing::error_of<io::ConfigError>([&] { app::FitRun(o).run(); });
   EXPECT_NE(message.find("metacal = true needs psf_input = moffat, moffat_catalog or image"), std::string::npos) << message;
 }
@@ -234,7 +234,7 @@ TEST_F(FitRunTest, WarningsGoToTheCallback) {
   // The grid records the set's PSF (FWHM 2.85): a run with another FWHM is warned about through
   // on_warning, without the command's prefix, and the run goes on.
   app::FitRunOptions o = options(scratch.path("w.fits"), 1);
-  io::apply_set(o.config, "psf_fwhm=3");
+  app::apply_set(o.config, "psf_fwhm=3");
   std::vector<std::string> warnings;
   o.on_warning = [&](const std::string& w) { warnings.push_back(w); };
   const app::RunSummary s = app::FitRun(o).run();
@@ -278,7 +278,7 @@ TEST_F(FitRunTest, AStoppedRunKeepsItsPartialOutputsForResume) {
   // The reader may run a pool of batches (3 on one thread) ahead of the writer and reads one more
   // while it waits for the first to come back, so the stop is certain to cut the run only when it
   // has more than 4 batches: 6 of 2 here (with 3 of 5 it raced the writer thread).
-  io::apply_set(o.config, "batch_size=2");
+  app::apply_set(o.config, "batch_size=2");
   o.stop = &stop;
   o.on_rows = [&](std::span<const ObjectRecord>) { stop.store(true); };  // after the first committed batch
   const app::RunSummary s = app::FitRun(o).run();

@@ -5,7 +5,7 @@
 
 #include <fstream>
 
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 #include "support/error_assertions.hpp"
 #include "support/scratch_dir.hpp"
 

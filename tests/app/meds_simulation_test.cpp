@@ -43,7 +43,7 @@ void fit_tile(const std::string& tile, const std::string& out, const std::vector
   o.meds = {tile};
   o.output = out;
   o.overwrite = true;
-  for (const std::string& s : sets) io::apply_set(o.config, s);
+  for (const std::string& s : sets) app::apply_set(o.config, s);
   FitRun(o).run();
 }
 
@@ -143,8 +143,8 @@ TEST(MedsSimulation, SingleEpochIdentityJacobianRowsAreTheGridPathsBitwise) {
   r.input = dir.path("grid.fits");
   r.weight = dir.path("weight.fits");
   r.output = dir.path("grid_fit.fits");
-  for (const char* s : {"renderer=exact", "noise_sigma=0", "psf_input=image"}) io::apply_set(r.config, s);
-  io::apply_set(r.config, "psf_image=" + dir.path("psf.fits"));
+  for (const char* s : {"renderer=exact", "noise_sigma=0", "psf_input=image"}) app::apply_set(r.config, s);
+  app::apply_set(r.config, "psf_image=" + dir.path("psf.fits"));
   FitRun(r).run();
 
   int compared = 0;
@@ -223,9 +223,9 @@ TEST_P(MedsMetacal, SingleEpochIdentityJacobianRowsAreTheGridPathsBitwise) {
   r.input = dir.path("grid.fits");
   r.weight = dir.path("weight.fits");
   r.output = dir.path("grid_fit.fits");
-  for (const char* s : {"renderer=exact", "noise_sigma=0", "psf_input=image", "metacal=true"}) io::apply_set(r.config, s);
-  io::apply_set(r.config, model());
-  io::apply_set(r.config, "psf_image=" + dir.path("psf.fits"));
+  for (const char* s : {"renderer=exact", "noise_sigma=0", "psf_input=image", "metacal=true"}) app::apply_set(r.config, s);
+  app::apply_set(r.config, model());
+  app::apply_set(r.config, "psf_image=" + dir.path("psf.fits"));
   FitRun(r).run();
 
   int compared = 0;

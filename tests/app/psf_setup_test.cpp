@@ -4,21 +4,21 @@
 
 #include "app/psf_setup.hpp"
 #include "engine/render/exact_psf.hpp"
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 
 namespace stampede::app {
 namespace {
 
 TEST(PsfSetup, AutoIsExactForAMoffatAndUpsampledForAnAiryDisc) {
   FftPlanCache plans(FftPlanning::kEstimate);
-  io::RunConfig cfg;
+  app::RunConfig cfg;
   EXPECT_EQ(cfg.fitter.renderer, RendererKind::kAuto);
   const SharedPsf moffat = build_shared_psf(cfg, plans);
   EXPECT_EQ(moffat.kind, RendererKind::kExact);
   EXPECT_TRUE(moffat.auto_note.empty());
   EXPECT_NE(dynamic_cast<const ExactPsf*>(moffat.prepared.get()), nullptr);
 
-  io::set_option(cfg, "psf_input", "airy");
+  app::set_option(cfg, "psf_input", "airy");
   const SharedPsf airy = build_shared_psf(cfg, plans);
   EXPECT_EQ(airy.kind, RendererKind::kUpsampled);
   ASSERT_TRUE(airy.prepared);
@@ -27,10 +27,10 @@ TEST(PsfSetup, AutoIsExactForAMoffatAndUpsampledForAnAiryDisc) {
   EXPECT_NE(airy.auto_note.find("exact_period"), std::string::npos) << airy.auto_note;
 
   // Asked for by name, exact refuses the Airy disc as before.
-  io::set_option(cfg, "renderer", "exact");
+  app::set_option(cfg, "renderer", "exact");
   EXPECT_THROW(build_shared_psf(cfg, plans), std::runtime_error);
-  io::set_option(cfg, "renderer", "upsampled");
-  io::set_option(cfg, "psf_input", "moffat");
+  app::set_option(cfg, "renderer", "upsampled");
+  app::set_option(cfg, "psf_input", "moffat");
   EXPECT_EQ(build_shared_psf(cfg, plans).kind, RendererKind::kUpsampled);
 }
 

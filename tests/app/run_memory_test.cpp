@@ -10,7 +10,7 @@ namespace {
 using namespace stampede;
 
 TEST(RunMemory, EstimateIsThePoolOfBatchesAndAWorkSpacePerThread) {
-  io::RunConfig cfg;
+  app::RunConfig cfg;
   cfg.batch_size = 100;
   const app::RunMemoryEstimate one = app::estimate_fit_memory(cfg, 1, false), eight = app::estimate_fit_memory(cfg, 8, false);
   EXPECT_EQ(one.batches, 3);
@@ -28,7 +28,7 @@ TEST(RunMemory, EstimateIsThePoolOfBatchesAndAWorkSpacePerThread) {
 }
 
 TEST(RunMemory, CheckRefusesWhatTheMachineCannotHold) {
-  io::RunConfig cfg;
+  app::RunConfig cfg;
   const app::RunMemoryEstimate e = app::estimate_fit_memory(cfg, 64, false);
   app::check_fit_memory(e, e.total_bytes());
   const std::string msg = stampede::testing::error_of<io::ConfigError>([&] { app::check_fit_memory(e, e.total_bytes() / 2); });

@@ -51,7 +51,7 @@ class ShardMergeTest : public ::testing::Test {
     o.shards = shards;
     for (const char* s : {"psf_beta=3", "psf_fwhm=2.85", "psf_e2=0.05", "noise_sigma=1", "renderer=exact",
                           "minimizer_max_iterations=20", "batch_size=2"})
-      io::apply_set(o.config, s);
+      app::apply_set(o.config, s);
     return o;
   }
   std::vector<std::string> run_shards(int n, const std::string& prefix) const {
@@ -102,7 +102,7 @@ TEST_F(ShardMergeTest, MissingDuplicatedForeignAndNonShardTablesAreRefused) {
   EXPECT_TRUE(Contains(error_of<io::CatalogError>([&] { app::merge_shards(m); }), "s1.fits are both shard 1/3"));
 
   app::FitRunOptions other = options(scratch.path("other1.fits"), 1, 3);
-  io::apply_set(other.config, "psf_e2=0.04");
+  app::apply_set(other.config, "psf_e2=0.04");
   app::FitRun(other).run();
   m.shards = {shards[0], other.output, shards[2]};
   EXPECT_TRUE(Contains(error_of<io::CatalogError>([&] { app::merge_shards(m); }),

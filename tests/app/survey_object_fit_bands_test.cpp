@@ -23,7 +23,7 @@
 #include "app/shard_merge.hpp"
 #include "io/fits_error.hpp"
 #include "io/fits_file.hpp"
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 #include "support/error_assertions.hpp"
 #include "support/meds_edit.hpp"
 #include "support/scratch_dir.hpp"
@@ -168,7 +168,7 @@ TEST(MultiBandObjectFit, NoiseFreeMetacalAcrossBandsRecoversTheShear) {
     const std::string d = dir.path("set" + std::to_string(s)), out = d + "/fit.fits";
     simulate(d, bands, o);
     FitRunOptions r = run_of(d, bands, out);
-    for (const char* set : {"metacal=true", "metacal_fixnoise=false"}) io::apply_set(r.config, set);
+    for (const char* set : {"metacal=true", "metacal_fixnoise=false"}) app::apply_set(r.config, set);
     FitRun(r).run();
     std::vector<std::vector<double>> c;
     for (const char* name : {"e1", "e2", "R11", "R12", "R21", "R22", "flags", "status", "n_epochs_r", "gamma_fwhm", "flux_i"})
@@ -211,7 +211,7 @@ TEST(MultiBandObjectFit, ThreadsShardsMergeAndResumeGiveTheSameTable) {
   auto run = [&](const std::string& out, int threads, int shard = 0, int shards = 1) {
     FitRunOptions r = run_of(dir.path("t"), bands, out);
     r.threads = threads, r.shard = shard, r.shards = shards;
-    io::apply_set(r.config, "batch_size=2");
+    app::apply_set(r.config, "batch_size=2");
     return r;
   };
   FitRun(run(dir.path("one.fits"), 1)).run();

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <functional>
+#include <map>
 #include <string>
 #include <type_traits>
 
@@ -12,7 +13,7 @@
 #include "io/durable_file.hpp"
 #include "io/fits_error.hpp"
 #include "io/fits_file.hpp"
-#include "io/run_config.hpp"
+#include "io/option_registry.hpp"
 
 namespace stampede {
 namespace {
@@ -41,8 +42,13 @@ TEST(ErrorBase, EveryErrorTypeIsCaughtAsStampedeError) {
   EXPECT_NE(caught_as_error([] { io::FitsFile::open_read("/nonexistent/x.fits"); }).find("/nonexistent/x.fits"),
             std::string::npos);
   EXPECT_NE(caught_as_error([] {
-              io::RunConfig c;
-              io::set_option(c, "no_such_option", "1");
+              struct Tiny {
+                int n = 0;
+                std::map<std::string, std::string> explicitly_set;
+              } c;
+              const io::OptionRegistry<Tiny> options(
+                  {io::int_option<Tiny>("numbers", "n", "a number", [](auto& t) -> auto& { return t.n; })});
+              options.set(c, "no_such_option", "1");
             }).find("no_such_option"),
             std::string::npos);
   EXPECT_NE(caught_as_error([] { io::CatalogWriter::create(io::CatalogWriterOptions{}); }).find("empty"),

@@ -19,7 +19,7 @@
 #include "app/stamp_fitter_recipe.hpp"
 #include "engine/pipeline/stamp_fitter.hpp"
 #include "engine/render/psf_cache.hpp"
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 #include "tools/mpi/batch_messages.hpp"
 #include "tools/mpi/idle_wait.hpp"
 
@@ -149,7 +149,7 @@ app::FitDistributor rank0_distributor(int ranks, int threads) {
     // The effective options (stamp size and PSF as the input's header made them), one per line,
     // then the driver's own lines (not option keys): slots, and a survey run's tiles and bands.
     std::string text;
-    for (const auto& [k, v] : io::effective_options(run.config)) text += k + "=" + v + "\n";
+    for (const auto& [k, v] : app::effective_options(run.config)) text += k + "=" + v + "\n";
     text += "mpi_slots=" + std::to_string(threads) + "\n";
     for (const std::string& m : run.meds) text += "mpi_meds=" + m + "\n";
     for (const std::string& b : run.bands) text += "mpi_band=" + b + "\n";
@@ -178,7 +178,7 @@ void stop_workers(int ranks) {
 void run_worker(int /*threads*/) {
   const std::string text = receive_text();
   if (text.empty()) return;
-  io::RunConfig cfg;
+  app::RunConfig cfg;
   int slots = 1;
   std::vector<std::string> meds, bands;
   std::istringstream lines(text);
@@ -192,10 +192,10 @@ void run_worker(int /*threads*/) {
     } else if (key == "mpi_band") {
       bands.push_back(value);
     } else {
-      io::set_option(cfg, key, value);
+      app::set_option(cfg, key, value);
     }
   }
-  io::validate(cfg);
+  app::validate(cfg);
   // A survey run's batches carry their objects' cutouts and PSFs (stamp size 0); a grid's, stamps.
   const bool survey = !meds.empty();
   const int stamp_size = survey ? 0 : cfg.fitter.render.stamp_size;

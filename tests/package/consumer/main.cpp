@@ -19,9 +19,9 @@ int main() {
     for (int y = 0; y < o.stamp_size; ++y)
       for (int x = 0; x < o.stamp_size; ++x)
         stamps.push_back(set.image[((k / 2) * o.stamp_size + y) * set.width + (k % 2) * o.stamp_size + x]);
-  stampede::io::RunConfig cfg;
-  stampede::io::set_option(cfg, "renderer", "exact");
-  stampede::io::set_option(cfg, "psf_e2", "0.05");
+  stampede::app::RunConfig cfg;
+  stampede::app::set_option(cfg, "renderer", "exact");
+  stampede::app::set_option(cfg, "psf_e2", "0.05");
   stampede::app::ArrayStamps in;
   in.count = 4;
   in.stamp_size = o.stamp_size;

@@ -1,7 +1,7 @@
-// Tests for io/run_config: defaults equal the engine's struct defaults, every key round-trips
+// Tests for app/run_config (and io/option_registry beneath it): defaults equal the engine's struct defaults, every key round-trips
 // exactly and is documented, the ini reader's syntax, and that every bad input is a ConfigError
 // naming the file, line and key.
-#include "io/run_config.hpp"
+#include "app/run_config.hpp"
 
 #include <gtest/gtest.h>
 
@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-namespace stampede::io {
+namespace stampede::app {
 namespace {
 
 using stampede::testing::Contains;
@@ -123,7 +123,7 @@ TEST(RunConfigDefaults, ParameterSpecsEqualParameterSetDefaults) {
 TEST(RunConfigRegistry, ListsEveryKeyOnceWithItsDefaultAndHelp) {
   const auto& options = run_config_options();
   std::set<std::string> names;
-  for (const OptionInfo& o : options) {
+  for (const io::OptionInfo& o : options) {
     EXPECT_TRUE(names.insert(o.name).second) << "duplicate key " << o.name;
     EXPECT_EQ(o.default_value, get_option(RunConfig{}, o.name)) << o.name;
     EXPECT_FALSE(o.help.empty()) << o.name;
@@ -160,7 +160,7 @@ TEST(RunConfigRegistry, MedsOptionsParseAndValidate) {
   for (const char* bad : {"-1", "4294967296", "0x", "12abc", ""})
     EXPECT_TRUE(Contains(error_of<ConfigError>([&] { set_option(c, "meds_bmask_bits", bad); }), "meds_bmask_bits")) << bad;
   set_option(c, "meds_model", "BORD");
-  EXPECT_EQ(c.meds.model, MedsModel::kBulgeOrDisc);
+  EXPECT_EQ(c.meds.model, io::MedsModel::kBulgeOrDisc);
   EXPECT_TRUE(Contains(error_of<ConfigError>([&] { set_option(c, "meds_model", "sersic"); }), "expected bd or bord"));
   set_option(c, "meds_min_unmasked_fraction", "1.5");
   EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }), "meds_min_unmasked_fraction = 1.5: must be in [0, 1]"));
@@ -194,7 +194,7 @@ TEST(RunConfigRoundTrip, EveryKeyGetSetGetIsExact) {
       "0.30000000000000004", "1e-300", "-0", "123456789.123456789", "7", "-2", "true", "no",
       "inf", "-inf", "auto", "image", "moffat_catalog", "a path/with spaces.fits", "3, 17 ,42", ""};
   int accepted = 0;
-  for (const OptionInfo& o : run_config_options()) {
+  for (const io::OptionInfo& o : run_config_options()) {
     RunConfig c;
     const std::string first = get_option(c, o.name);
     set_option(c, o.name, first);
@@ -520,7 +520,7 @@ TEST(RunConfigOutput, EffectiveOptionsListEveryKeyOnceInRegistryOrder) {
 
 TEST_F(RunConfigFile, TemplateDocumentsEveryKeyAndLoadsAsTheDefaults) {
   const std::string text = ini_template();
-  for (const OptionInfo& o : run_config_options()) {
+  for (const io::OptionInfo& o : run_config_options()) {
     const std::string line = "#" + o.name + (o.default_value.empty() ? " =" : " = " + o.default_value);
     EXPECT_TRUE(Contains(text, "\n# " + o.help + "\n" + line + "\n"));
   }
@@ -543,4 +543,4 @@ TEST_F(RunConfigFile, TemplateDocumentsEveryKeyAndLoadsAsTheDefaults) {
 }
 
 }  // namespace
-}  // namespace stampede::io
+}  // namespace stampede::app

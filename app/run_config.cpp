@@ -1,5 +1,5 @@
-// The option registry behind run_config.hpp and the ini / --set readers built on it.
-#include "io/run_config.hpp"
+// The run recipe's keys (each one a field of RunConfig) and its validation; see run_config.hpp.
+#include "app/run_config.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -12,176 +12,48 @@
 
 #include "engine/common/quoted_value.hpp"
 #include "engine/model/psf_model.hpp"
-#include "io/text_lines.hpp"
 
-namespace stampede::io {
+
+namespace stampede::app {
 namespace {
 
-std::string trim(std::string_view s) {
-  const auto first = s.find_first_not_of(" \t\r\n\f\v");
-  if (first == std::string_view::npos) return "";
-  const auto last = s.find_last_not_of(" \t\r\n\f\v");
-  return std::string(s.substr(first, last - first + 1));
-}
+using io::DoubleKind;
+using io::format_double;
+using io::format_id_list;
+using io::format_bool;
+using io::parse_bool;
+using io::parse_double;
+using io::parse_integer;
+using io::HeaderValueType;
+using io::parse_id_list;
+
+using io::lower;
+using io::MedsModel;
+using io::MedsPsfSource;
+using io::trim;
 
 // psf_input's value for a catalogue source of Moffat PSFs (psf_kind_name names the kinds).
 constexpr const char* kMoffatCatalog = "moffat_catalog";
 
-std::string lower(std::string_view s) {
-  std::string out(s);
-  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return out;
-}
-
-// from_chars rejects a leading '+', a legitimate way to write a positive number.
-std::string_view strip_plus(std::string_view s) {
-  if (s.size() > 1 && s[0] == '+' && s[1] != '+' && s[1] != '-') s.remove_prefix(1);
-  return s;
-}
-
-// --- Value text: parsers return "" on success or why not; printers give the canonical form. ---
-
-template <class Int>
-std::string parse_integer(std::string_view text, Int* out) {
-  if (text.empty()) return "empty value, expected an integer";
-  const std::string_view s = strip_plus(text);
-  Int v{};
-  const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
-  if (ec == std::errc::result_out_of_range) return "out of range for an integer";
-  if (ec != std::errc() || ptr != s.data() + s.size()) return "expected an integer";
-  *out = v;
-  return "";
-}
-
-enum class DoubleKind {
-  kFinite,       // a finite number
-  kStart,        // finite or `auto` (NaN: from the image moments)
-  kBound,        // finite, inf, -inf or `auto` (NaN: derived from the stamp)
-};
-
-std::string parse_double(std::string_view text, DoubleKind kind, double* out) {
-  if (text.empty()) return "empty value, expected a number";
-  if (kind != DoubleKind::kFinite && lower(text) == "auto") {
-    *out = NAN;
-    return "";
-  }
-  const std::string_view s = strip_plus(text);
-  double v = 0;
-  const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
-  if (ec == std::errc::result_out_of_range) return "out of range for a double";
-  if (ec != std::errc() || ptr != s.data() + s.size()) return "expected a number";
-  // "nan" parses, but NaN is spelled `auto` where it means something, and is an error elsewhere.
-  if (std::isnan(v)) return kind == DoubleKind::kFinite ? "expected a finite number" : "expected a number or 'auto'";
-  if (std::isinf(v) && kind != DoubleKind::kBound) return "must be finite";
-  *out = v;
-  return "";
-}
-
-// Shortest text that parses back to exactly v (std::to_chars' guarantee), so header values read
-// "0.95" rather than %.17g's "0.94999999999999996" while still round-tripping bit for bit.
-std::string format_double(double v) {
-  if (std::isnan(v)) return "auto";
-  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-  char buf[64];
-  const auto [ptr, ec] = std::to_chars(buf, buf + sizeof(buf), v);
-  return ec == std::errc() ? std::string(buf, ptr) : std::string("?");
-}
-
-std::string parse_bool(std::string_view text, bool* out) {
-  const std::string s = lower(text);
-  if (s == "true" || s == "yes" || s == "1") {
-    *out = true;
-  } else if (s == "false" || s == "no" || s == "0") {
-    *out = false;
-  } else {
-    return "expected true/false, yes/no or 1/0";
-  }
-  return "";
-}
-
-std::string format_bool(bool v) { return v ? "true" : "false"; }
-
-// save_images: ids separated by commas, spaces around them allowed; "" = none.
-std::string parse_id_list(std::string_view text, std::vector<std::int64_t>* ids) {
-  ids->clear();
-  if (trim(text).empty()) return "";
-  std::size_t pos = 0;
-  while (true) {
-    const std::size_t comma = text.find(',', pos);
-    const std::string item = trim(text.substr(pos, comma == std::string_view::npos ? text.npos : comma - pos));
-    std::int64_t id = 0;
-    if (item.empty() || !parse_integer(item, &id).empty())
-      return "expected comma-separated integer object ids, got " + quoted_value(item);
-    ids->push_back(id);
-    if (comma == std::string_view::npos) return "";
-    pos = comma + 1;
-  }
-}
-
-std::string format_id_list(const std::vector<std::int64_t>& ids) {
-  std::string out;
-  for (std::size_t i = 0; i < ids.size(); ++i) {
-    if (i) out += ',';
-    out += std::to_string(ids[i]);  // appended apart: GCC 12 warns falsely (-Wrestrict) on "," + string
-  }
-  return out;
-}
-
 // --- The registry ---------------------------------------------------------------------------
 
-struct Entry {
-  std::string name;
-  std::string help;
-  std::string section;  // heading in the template
-  std::function<std::string(const RunConfig&)> get;
-  std::function<std::string(RunConfig&, const std::string&)> set;  // "" on success, else why not
-  HeaderValueType type = HeaderValueType::kText;
-};
+using Entry = io::OptionEntry<RunConfig>;
 
-// `access` is a generic lambda `[](auto& c) -> auto& { return c.field; }`, so one accessor serves
-// both the const getter and the setter.
 template <class Access>
 Entry int_entry(const char* section, const char* name, const char* help, Access access) {
-  return {name, help, section, [access](const RunConfig& c) { return std::to_string(access(c)); },
-          [access](RunConfig& c, const std::string& v) {
-            int x = 0;
-            std::string why = parse_integer(v, &x);
-            if (why.empty()) access(c) = x;
-            return why;
-          },
-          HeaderValueType::kInteger};
+  return io::int_option<RunConfig>(section, name, help, access);
 }
-
 template <class Access>
 Entry double_entry(const char* section, std::string name, std::string help, DoubleKind kind, Access access) {
-  return {std::move(name), std::move(help), section, [access](const RunConfig& c) { return format_double(access(c)); },
-          [access, kind](RunConfig& c, const std::string& v) {
-            double x = 0;
-            std::string why = parse_double(v, kind, &x);
-            if (why.empty()) access(c) = x;
-            return why;
-          },
-          HeaderValueType::kReal};
+  return io::double_option<RunConfig>(section, std::move(name), std::move(help), kind, access);
 }
-
 template <class Access>
 Entry bool_entry(const char* section, std::string name, std::string help, Access access) {
-  return {std::move(name), std::move(help), section, [access](const RunConfig& c) { return format_bool(access(c)); },
-          [access](RunConfig& c, const std::string& v) {
-            bool x = false;
-            std::string why = parse_bool(v, &x);
-            if (why.empty()) access(c) = x;
-            return why;
-          }};
+  return io::bool_option<RunConfig>(section, std::move(name), std::move(help), access);
 }
-
 template <class Access>
 Entry string_entry(const char* section, const char* name, const char* help, Access access) {
-  return {name, help, section, [access](const RunConfig& c) { return std::string(access(c)); },
-          [access](RunConfig& c, const std::string& v) {
-            access(c) = v;
-            return std::string();
-          }};
+  return io::string_option<RunConfig>(section, name, help, access);
 }
 
 // What each model parameter is, for the help of its four keys (Param order).
@@ -527,42 +399,9 @@ std::vector<Entry> make_registry() {
 }
 
 // Built once, then immutable (a thread-safe local static, not a cache).
-const std::vector<Entry>& registry() {
-  static const std::vector<Entry> entries = make_registry();
-  return entries;
-}
-
-const Entry* find_entry(const std::string& key) {
-  for (const Entry& e : registry())
-    if (e.name == key) return &e;
-  return nullptr;
-}
-
-std::size_t edit_distance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diag = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diag = up;
-    }
-  }
-  return row[b.size()];
-}
-
-ConfigError unknown_option(const std::string& key) {
-  std::string msg = "unknown option " + quoted_value(key);
-  const Entry* best = nullptr;
-  std::size_t best_d = 3;  // suggest only typos: at most two edits
-  for (const Entry& e : registry()) {
-    const std::size_t d = edit_distance(lower(key), lower(e.name));
-    if (d < best_d) best = &e, best_d = d;
-  }
-  if (best) msg += " (did you mean '" + best->name + "'?)";
-  return ConfigError(msg);
+const io::OptionRegistry<RunConfig>& registry() {
+  static const io::OptionRegistry<RunConfig> options(make_registry());
+  return options;
 }
 
 // Throws `why`, prefixed by the file and line that set KEY when it starts with a key from an ini
@@ -583,73 +422,20 @@ std::string psf_input_value(const RunConfig& config) {
   return config.psf_from_catalogue ? kMoffatCatalog : psf_kind_name(config.psf_kind);
 }
 
-const std::vector<OptionInfo>& run_config_options() {
-  static const std::vector<OptionInfo> options = [] {
-    const RunConfig defaults;
-    std::vector<OptionInfo> out;
-    for (const Entry& e : registry()) out.push_back({e.name, e.get(defaults), e.help, e.type});
-    return out;
-  }();
+const std::vector<io::OptionInfo>& run_config_options() {
+  static const std::vector<io::OptionInfo> options = registry().options();
   return options;
 }
 
 void set_option(RunConfig& config, const std::string& key, const std::string& value) {
-  const Entry* e = find_entry(key);
-  if (!e) throw unknown_option(key);
-  const std::string why = e->set(config, value);
-  if (!why.empty()) throw ConfigError("option " + quoted_value(key) + " = " + quoted_value(value) + ": " + why);
-  config.explicitly_set[key] = "";
+  registry().set(config, key, value);
 }
 
-std::string get_option(const RunConfig& config, const std::string& key) {
-  const Entry* e = find_entry(key);
-  if (!e) throw unknown_option(key);
-  return e->get(config);
-}
+std::string get_option(const RunConfig& config, const std::string& key) { return registry().get(config, key); }
 
-void load_ini(RunConfig& config, const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError("cannot read config file '" + path + "'");
-  RunConfig updated = config;  // all or nothing
-  std::map<std::string, int> line_of;  // key -> line that set it, to reject repeats
-  std::string line;
-  for (int number = 1;; ++number) {
-    const TextLine read = read_text_line(in, &line);
-    if (read == TextLine::kEnd) break;
-    const std::string where = path + ":" + std::to_string(number);
-    if (read == TextLine::kTooLong)
-      throw ConfigError(where + ": a line longer than " + std::to_string(kMaxTextLine) + " bytes: not a configuration file");
-    if (number == 1 && line.starts_with("\xEF\xBB\xBF")) line.erase(0, 3);  // UTF-8 byte-order mark
-    const std::string text = trim(std::string_view(line).substr(0, line.find('#')));
-    if (text.empty() || (text.front() == '[' && text.back() == ']')) continue;
-    const std::size_t eq = text.find('=');
-    const std::string key = eq == std::string::npos ? "" : trim(std::string_view(text).substr(0, eq));
-    if (key.empty()) throw ConfigError(where + ": expected 'key = value'");
-    if (auto [it, fresh] = line_of.emplace(key, number); !fresh)
-      throw ConfigError(where + ": option " + quoted_value(key) + " is set twice (first on line " + std::to_string(it->second) +
-                        ")");
-    try {
-      set_option(updated, key, trim(std::string_view(text).substr(eq + 1)));
-    } catch (const ConfigError& e) {
-      throw ConfigError(where + ": " + e.what());
-    }
-    updated.explicitly_set[key] = where;
-  }
-  if (in.bad()) throw ConfigError("cannot read config file '" + path + "'");  // e.g. a directory
-  config = std::move(updated);
-}
+void load_ini(RunConfig& config, const std::string& path) { registry().load_ini(config, path); }
 
-void apply_set(RunConfig& config, const std::string& assignment) {
-  const std::size_t eq = assignment.find('=');
-  const std::string key = eq == std::string::npos ? "" : trim(std::string_view(assignment).substr(0, eq));
-  if (key.empty()) throw ConfigError("--set " + quoted_value(assignment) + ": expected key=value");
-  try {
-    set_option(config, key, trim(std::string_view(assignment).substr(eq + 1)));
-  } catch (const ConfigError& e) {
-    throw ConfigError("--set " + quoted_value(assignment) + ": " + e.what());
-  }
-  config.explicitly_set[key] = "--set";
-}
+void apply_set(RunConfig& config, const std::string& assignment) { registry().apply_set(config, assignment); }
 
 void validate(const RunConfig& config) {
   std::string why;
@@ -717,29 +503,15 @@ void validate(const RunConfig& config) {
 }
 
 std::vector<std::pair<std::string, std::string>> effective_options(const RunConfig& config) {
-  std::vector<std::pair<std::string, std::string>> out;
-  out.reserve(registry().size());
-  for (const Entry& e : registry()) out.emplace_back(e.name, e.get(config));
-  return out;
+  return registry().effective(config);
 }
 
 std::string ini_template() {
-  std::string out =
+  return registry().ini_template(
       "# stampede fit: run configuration (im3shape-style ini).\n"
       "# `key = value` per line; '#' starts a comment; [section] lines are ignored.\n"
       "# Every option is listed with its default, commented out: uncomment a line to change it.\n"
-      "# Any key can also be given on the command line: --set key=value (after the file).\n";
-  const RunConfig defaults;
-  std::string section;
-  for (const Entry& e : registry()) {
-    if (e.section != section) {
-      section = e.section;
-      out += "\n# --- " + section + " ---\n";
-    }
-    const std::string value = e.get(defaults);
-    out += "# " + e.help + "\n#" + e.name + (value.empty() ? " =" : " = " + value) + "\n";
-  }
-  return out;
+      "# Any key can also be given on the command line: --set key=value (after the file).\n");
 }
 
 std::vector<std::int64_t> save_image_ids(const RunConfig& config) {
@@ -749,4 +521,4 @@ std::vector<std::int64_t> save_image_ids(const RunConfig& config) {
   return ids;
 }
 
-}  // namespace stampede::io
+}  // namespace stampede::app

@@ -1,17 +1,14 @@
-// The run configuration of `stampede fit`: every engine and run option, read from an im3shape-style
-// ini file plus `--set key=value` overrides, validated once before any fitting, and written back
-// out (the output header, `--show-config`, `--help-config`).
+// The run's recipe: every engine and run option of `stampede fit` as typed values, read from an
+// im3shape-style ini file plus `--set key=value` overrides, validated once before any fitting, and
+// written back out (the output header, `--show-config`, `--help-config`).
 //
-// Each key is one entry of an option registry (run_config.cpp) holding its name, help, parser and
-// printer, so defaults, parsing, documentation and the header cannot disagree. Values print in a
-// canonical form that parses back to the identical value: doubles as the shortest text that
-// round-trips exactly, NaN starts and bounds as `auto`, infinite bounds as `inf` / `-inf`,
-// booleans as `true` / `false`.
-//
-// Ini syntax: `key = value` per line; `#` starts a comment (whole line or trailing, so values cannot
-// contain '#'); blank lines allowed; surrounding whitespace trimmed; `[section]` lines ignored (the
-// keys are global); a key given twice in one file is an error. Keys are case-sensitive (im3shape's
-// `levmar_LM_INIT_MU`); enum and boolean values are not.
+// The text side is io/'s option registry (io/option_registry.hpp: parsing, printing, the ini
+// syntax); this file says which keys there are and which field each sets (run_config.cpp), so
+// defaults, parsing, documentation and the header cannot disagree. Values print in a canonical
+// form that parses back to the identical value: doubles as the shortest text that round-trips
+// exactly, NaN starts and bounds as `auto`, infinite bounds as `inf` / `-inf`, booleans as
+// `true` / `false`. Keys are case-sensitive (im3shape's `levmar_LM_INIT_MU`); enum and boolean
+// values are not.
 #pragma once
 
 #include <cstdint>
@@ -25,23 +22,20 @@
 #include "engine/fit/fitter.hpp"
 #include "engine/metacal/metacal_options.hpp"
 #include "engine/model/psf_model.hpp"
+#include "io/config_error.hpp"
 #include "io/header_value.hpp"
 #include "io/meds_options.hpp"
+#include "io/option_registry.hpp"
 #include "kernels/psf_profile.hpp"
 
-namespace stampede::io {
+namespace stampede::app {
 
-// Every configuration problem: an unknown key, a value that does not parse, an unreadable file or
-// an invalid combination. The message names the key and, where known, the file and line.
-class ConfigError : public Error {
- public:
-  using Error::Error;
-};
+using io::ConfigError;
 
 struct RunConfig {
   FitterOptions fitter;  // render, model, lm, params, noise_sigma (defaults as in those structs)
   MetacalOptions metacal;  // metacal, metacal_step, metacal_psf_dilation, metacal_fixnoise, metacal_seed
-  MedsOptions meds;        // meds_*: survey input (`stampede fit --meds`)
+  io::MedsOptions meds;    // meds_*: survey input (`stampede fit --meds`)
   // psf_input = moffat | airy | image names the kind of the run's one PSF (from the psf_* keys, the
   // airy_* keys or psf_image); psf_input = moffat_catalog is not a kind but a source: a Moffat per
   // object from the catalog_psf_* columns (psf_kind is then kMoffat; see psf_input_value).
@@ -69,18 +63,11 @@ struct RunConfig {
   std::map<std::string, std::string> explicitly_set;
 };
 
-struct OptionInfo {
-  std::string name;
-  std::string default_value;  // canonical text, as get_option(RunConfig{}, name)
-  std::string help;
-  HeaderValueType type = HeaderValueType::kText;  // the value's type as a header card
-};
-
 // The text of psf_input: "moffat_catalog" for a catalogue source, else psf_kind_name(psf_kind).
 std::string psf_input_value(const RunConfig& config);
 
 // Every key, in documentation order (the order of the template and of effective_options).
-const std::vector<OptionInfo>& run_config_options();
+const std::vector<io::OptionInfo>& run_config_options();
 
 // Sets one key from text and records it in explicitly_set. Throws ConfigError
 // "option 'KEY' = 'VALUE': <why>" for a value that does not parse (not a number, trailing junk, out
@@ -93,7 +80,7 @@ void set_option(RunConfig& config, const std::string& key, const std::string& va
 // Throws ConfigError for an unknown key.
 std::string get_option(const RunConfig& config, const std::string& key);
 
-// Reads an ini file (syntax above) into config. Errors name the file and line:
+// Reads an ini file (io/option_registry.hpp) into config. Errors name the file and line:
 // "run.ini:12: unknown option 'foo'", "run.ini:3: expected 'key = value'",
 // "run.ini:7: option 'padding' = 'x': ...", "cannot read config file 'x.ini'".
 // All or nothing: on error the config is unchanged.
@@ -120,4 +107,4 @@ std::string ini_template();
 // The ids listed in save_images, in the given order. Throws ConfigError if it does not parse.
 std::vector<std::int64_t> save_image_ids(const RunConfig& config);
 
-}  // namespace stampede::io
+}  // namespace stampede::app
