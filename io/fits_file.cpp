@@ -728,7 +728,8 @@ void FitsFile::write_image(long nx, long ny, std::span<const double> pixels,
   long naxes[2] = {nx, ny};
   int status = 0;
   // Appended at the end and made current; CFITSIO converts the doubles to BITPIX on writing.
-  fits_create_img(f, type == PixelType::kFloat32 ? FLOAT_IMG : DOUBLE_IMG, 2, naxes, &status);
+  fits_create_img(f, type == PixelType::kFloat32 ? FLOAT_IMG : type == PixelType::kInt32 ? LONG_IMG : DOUBLE_IMG, 2, naxes,
+                  &status);
   if (status != 0) fail_status(status, "cannot append an image HDU");
   auto_image_ = false;
   if (!extname.empty()) write_key("EXTNAME", extname, "extension name");

@@ -127,7 +127,8 @@ class FitsFile {
   void read_image_range(long long first, std::span<double> out);
   // Appends an image HDU (BITPIX -64) of nx * ny pixels (row-major) and makes it current; the
   // first one in a new file becomes the primary. A non-empty `extname` is written as EXTNAME.
-  enum class PixelType { kFloat64, kFloat32 };  // BITPIX -64 or -32 on disk
+  // BITPIX -64, -32 or 32 on disk (kInt32: values rounded to the nearest integer, as a bit mask's).
+  enum class PixelType { kFloat64, kFloat32, kInt32 };
   void write_image(long nx, long ny, std::span<const double> pixels, const std::string& extname = "",
                    PixelType type = PixelType::kFloat64);
   // Appends a header-only image HDU (NAXIS = 0): a primary that carries keywords only.

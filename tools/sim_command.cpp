@@ -18,6 +18,7 @@
 #include "io/great08_writer.hpp"
 #include "io/output_check.hpp"
 #include "tools/arguments.hpp"
+#include "tools/sim_cells_command.hpp"
 #include "tools/sim_meds_command.hpp"
 
 namespace {
@@ -29,6 +30,7 @@ void print_help() {
   std::printf(
       "usage: stampede sim great08 --out DIR [options]\n"
       "       stampede sim meds --out DIR [options]   (multi-epoch MEDS tiles: sim meds --help)\n"
+      "       stampede sim cells --out DIR [options]  (metadetection test cells: sim cells --help)\n"
       "\n"
       "Writes GREAT08-like constant-shear sets K = first .. first + sets - 1 in the layout of\n"
       "shared/data/galsim-great08-mini: DIR/set_K.fits (float32 grid of stamps, PSF and noise keys),\n"
@@ -94,8 +96,9 @@ int run_sim_command(int argc, char** argv) {
     return argc < 2 ? 2 : 0;
   }
   if (!std::strcmp(argv[1], "meds")) return run_sim_meds_command(argc, argv);
+  if (!std::strcmp(argv[1], "cells")) return run_sim_cells_command(argc, argv);
   if (std::strcmp(argv[1], "great08") != 0)
-    throw std::invalid_argument("unknown simulation " + tools::quoted_value(argv[1]) + " (available: great08, meds)");
+    throw std::invalid_argument("unknown simulation " + tools::quoted_value(argv[1]) + " (available: great08, meds, cells)");
   using tools::number_value;
   Great08SimOptions o;
   std::string out;

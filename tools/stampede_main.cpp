@@ -28,7 +28,8 @@ void print_usage(std::FILE* out) {
                "  metrics  shear biases m, c and the GREAT08 Q from fit tables and truth files\n"
                "  demo     fit the bundled noise-free GREAT08-like set and print true vs recovered e\n"
                "  ring     noise-free ring-test studies of the im3shape paper (figures 2, 4, 5, 6)\n"
-               "  sim      GREAT08-like simulated sets (sim great08) in the GalSim-mini file layout\n"
+               "  sim      simulations: GREAT08-like sets (sim great08), MEDS tiles (sim meds),\n"
+               "           metadetection test cells (sim cells)\n"
                "  calibrate  noise-bias calibration: build a table from simulations, apply it to a catalogue\n"
                "\n"
                "Run 'stampede <command> --help' for a command's options.\n");

@@ -114,6 +114,33 @@ SimRenderer::SimRenderer(const PsfModel& psf, const Options& options) : psf_(psf
     // wrapped by a shorter period lift the stamp by ~1e-5 of the peak (1.4e-6 at this period).
     psf_tail_radius_ = psf_alpha_ * std::cbrt(8.0 / (std::pow(kPi, 4) * 1e-6));
   }
+  build_sersic_tables(options);
+}
+
+bool SimGaussianPsf::IsValid(std::string* why) const {
+  std::ostringstream msg;
+  if (!(fwhm > 0 && fwhm <= 1000)) msg << "Gaussian PSF fwhm = " << fwhm << ": must be in (0, 1000] pixels";
+  if (!(std::hypot(e1, e2) < 0.9)) msg << "Gaussian PSF |e| = " << std::hypot(e1, e2) << ": must be < 0.9";
+  if (msg.str().empty()) return true;
+  if (why) *why = msg.str();
+  return false;
+}
+
+SimRenderer::SimRenderer(const SimGaussianPsf& psf, const Options& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument("SimRenderer: " + why);
+  if (!psf.IsValid(&why)) throw std::invalid_argument("SimRenderer PSF: " + why);
+  gaussian_sigma_ = psf.fwhm / (2 * std::sqrt(2 * std::log(2.0)));
+  // exp(-x^2 / 2) = 1e-12 at x = sqrt(2 ln 1e12); light below 1e-7 of the peak beyond sqrt(2 ln 1e7).
+  k_limit_ = std::sqrt(2 * std::log(1.0 / kPsfTransformFloor)) / gaussian_sigma_;
+  shear_matrix(psf.e1, psf.e2, psf_shear_);
+  const double e = std::hypot(psf.e1, psf.e2);
+  psf_stretch_ = std::sqrt((1 + e) / (1 - e));
+  psf_tail_radius_ = gaussian_sigma_ * std::sqrt(2 * std::log(1e7)) * psf_stretch_;
+  build_sersic_tables(options);
+}
+
+void SimRenderer::build_sersic_tables(const Options& options) {
   // Sérsic tables out to the largest q met where the PSF still passes light.
   const double max_stretch = std::sqrt((1 + options.max_e) / (1 - options.max_e));
   const double q_max = std::max(10.0, 1.2 * k_limit_ * psf_stretch_ * max_stretch * options.max_half_light_radius);
@@ -138,13 +165,17 @@ const kernels::LogTable* SimRenderer::table_for(double n) const {
 }
 
 double SimRenderer::psf_round_transform(double k) const {
+  if (gaussian_sigma_ > 0) {
+    const double x = k * gaussian_sigma_;
+    return std::exp(-0.5 * x * x);
+  }
   if (psf_.kind == PsfKind::kAiry) return kernels::airy_fourier(k * psf_alpha_ / (2 * kPi));
   const double x = k * psf_alpha_;
   return x > moffat_table_.q_max() ? 0.0 : moffat_table_(x);
 }
 
 double SimRenderer::psf_transform(double kx, double ky) const {
-  if (psf_.kind == PsfKind::kAiry) return psf_round_transform(std::hypot(kx, ky));
+  if (gaussian_sigma_ == 0 && psf_.kind == PsfKind::kAiry) return psf_round_transform(std::hypot(kx, ky));
   const double sx = psf_shear_[0] * kx + psf_shear_[1] * ky, sy = psf_shear_[1] * kx + psf_shear_[2] * ky;
   return psf_round_transform(std::sqrt(sx * sx + sy * sy));  // no overflow to guard against here
 }

@@ -63,6 +63,14 @@ class SimWorkspace {
   std::vector<std::complex<double>> phase_x_, phase_y_;
 };
 
+// A Gaussian PSF, drawn by the simulator alone (the fitting renderers take PsfModel's kinds; the
+// metadetection shear test's cells use a Gaussian). FWHM in pixels; reduced-shear ellipticity.
+struct SimGaussianPsf {
+  double fwhm = 0;
+  double e1 = 0, e2 = 0;
+  bool IsValid(std::string* why) const;
+};
+
 class SimRenderer {
  public:
   struct Options {
@@ -76,6 +84,8 @@ class SimRenderer {
 
   // Throws std::invalid_argument for an image PSF, an obscured Airy disc, or invalid options.
   SimRenderer(const PsfModel& psf, const Options& options);
+  // The same with a Gaussian PSF: its transform exp(-k^2 sigma^2 / 2) through the PSF's shear.
+  SimRenderer(const SimGaussianPsf& psf, const Options& options);
 
   // size x size pixel integrals (flux per pixel) of the sum of `components` convolved with the PSF.
   // Components must use one of the tabulated indices.
@@ -90,6 +100,9 @@ class SimRenderer {
   double round_fwhm(std::span<const SimComponent> components) const;
   // Largest |k| (radians / pixel) at which the round PSF transform exceeds 1e-12.
   double psf_k_limit() const { return k_limit_; }
+  // Radius (pixels, along the PSF's major axis) beyond which its surface brightness is below 1e-7
+  // of its peak (an Airy disc: 1e-6 of its r^-3 envelope): how far a drawn profile spreads.
+  double psf_tail_radius() const { return psf_tail_radius_; }
 
  private:
   double psf_transform(double kx, double ky) const;  // sheared
@@ -98,11 +111,13 @@ class SimRenderer {
   static double sersic_transform(const kernels::LogTable* table, double q);
   // The table for index n (null for n = 1); throws when n was not tabulated.
   const kernels::LogTable* table_for(double n) const;
+  void build_sersic_tables(const Options& options);  // after the PSF's k_limit_ and stretch are set
   void draw(std::span<const SimComponent> components, bool with_psf_only, int size, double step, double cx,
             double cy, bool with_pixel, double tail_radius, std::span<double> out, SimWorkspace& ws) const;
 
   PsfModel psf_;
   double psf_alpha_ = 1.0;        // Moffat alpha, or lambda / D for Airy
+  double gaussian_sigma_ = 0.0;   // > 0: the Gaussian PSF (psf_ is then unused)
   double psf_shear_[3] = {1, 0, 1};  // symmetric S: k -> (s00 kx + s01 ky, s01 kx + s11 ky)
   double psf_stretch_ = 1.0;      // largest |S^-1 k| / |k|
   double k_limit_ = 0.0;

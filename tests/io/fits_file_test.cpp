@@ -307,6 +307,20 @@ TEST_F(FitsFileTmp, TablesFloat32ImagesAndHeaderOnlyPrimary) {
   EXPECT_TRUE(Contains(msg, "column 'b' has 1 rows, column 'a' 2"));
 }
 
+TEST_F(FitsFileTmp, Int32ImagesHoldBitMasks) {
+  const std::string path = tmp("int32.fits");
+  const std::vector<double> bits = {0, 1, 536870912, 1073741824, 3, 0};  // 2^29, 2^30: the MEDS edge bits
+  {
+    FitsFile f = FitsFile::create(path, false);
+    f.write_image(3, 2, bits, "BMASK", FitsFile::PixelType::kInt32);
+    f.close();
+  }
+  FitsFile f = FitsFile::open_read(path);
+  EXPECT_EQ(f.key_long("BITPIX"), 32);
+  EXPECT_EQ(f.key_string("EXTNAME"), "BMASK");
+  EXPECT_EQ(f.read_image(), bits);
+}
+
 TEST_F(FitsFileTmp, CreateRespectsOverwrite) {
   const std::string path = tmp("exists.fits");
   const std::vector<double> one = {1.0};

@@ -175,5 +175,45 @@ TEST(SimRenderer, RejectsWhatItCannotDraw) {
   EXPECT_THROW(r.render(std::vector<SimComponent>{{1.0, 1.0, 1.0, 0, 0, 12, 12}}, 24, image, ws), std::invalid_argument);
 }
 
+// A Gaussian PSF's pixel integrals are products of erf differences: the image against them, round
+// and off-centre, to 1e-10 of the peak; an elliptical one keeps unit flux.
+TEST(SimRendererGaussian, PsfImageIsThePixelIntegratedGaussian) {
+  const double fwhm = 3.6, sigma = fwhm / (2 * std::sqrt(2 * std::log(2.0)));
+  SimRenderer::Options so;
+  so.sersic_indices = {1.0};
+  const SimRenderer r(SimGaussianPsf{fwhm, 0, 0}, so);
+  SimWorkspace ws;
+  constexpr int n = 25;
+  const double cx = 12.3, cy = 11.8;
+  std::vector<double> img(n * n);
+  r.render_psf(n, 1.0, cx, cy, true, img, ws);
+  auto cell = [&](int i, double c) {
+    return 0.5 * (std::erf((i + 0.5 - c) / (sigma * std::sqrt(2.0))) - std::erf((i - 0.5 - c) / (sigma * std::sqrt(2.0))));
+  };
+  double worst = 0, peak = 0, total = 0;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const double expect = cell(x, cx) * cell(y, cy);
+      worst = std::max(worst, std::abs(img[y * n + x] - expect));
+      peak = std::max(peak, expect);
+      total += img[y * n + x];
+    }
+  EXPECT_LT(worst, 1e-10 * peak);
+  EXPECT_NEAR(total, 1.0, 1e-10);
+  // An elliptical Gaussian keeps its flux; a bad one is refused naming the field.
+  const SimRenderer e(SimGaussianPsf{fwhm, 0.1, -0.05}, so);
+  e.render_psf(n, 1.0, 12, 12, true, img, ws);
+  total = 0;
+  for (double v : img) total += v;
+  EXPECT_NEAR(total, 1.0, 1e-10);
+  try {
+    SimRenderer bad(SimGaussianPsf{-1, 0, 0}, so);
+    ADD_FAILURE() << "a negative FWHM was accepted";
+  } catch (const std::invalid_argument& ex) {
+    EXPECT_NE(std::string(ex.what()).find("Gaussian PSF fwhm = -1"), std::string::npos) << ex.what();
+  }
+  EXPECT_NEAR(r.psf_tail_radius(), sigma * std::sqrt(2 * std::log(1e7)), 1e-12);
+}
+
 }  // namespace
 }  // namespace stampede

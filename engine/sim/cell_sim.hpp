@@ -1,0 +1,137 @@
+// Test cells for metadetection (`stampede sim cells`; the shear test's simulation in
+// ../shared/reference/metadetection.md): square cells of galaxies on a grid or at Poisson random
+// positions (so that blends occur), one constant lensing shear, a Gaussian or Moffat PSF per band,
+// white noise set by a per-object S/N, in one or several bands. A shear pair is the same cell
+// drawn under -g: the same galaxies, positions and noise.
+//
+// Each galaxy is drawn by SimRenderer (exact PSF-convolved pixel integrals) into a stamp of its
+// own, its radius the one holding all but 1e-5 of each component's light (cell_light_radius) plus
+// the PSF's reach (SimRenderer::psf_tail_radius), capped at 255 pixels (a de Vaucouleurs bulge of
+// 2 px loses ~3e-4 of its light to the cap), and added into the cell: pixel values do not depend
+// on where a stamp lies, so overlapping stamps sum to the exact blend.
+// Numerics only, no I/O (io/cell_image_writer writes the files, app/cell_simulation runs them).
+//
+// Every random number comes from a stream keyed by (seed, purpose, cell[, object or band]):
+// a cell is the same whatever the thread count, the other cells and the sign of the shear.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "engine/sim/sim_renderer.hpp"
+
+namespace stampede {
+
+enum class CellLayout {
+  kGrid,    // grid x grid objects evenly inside the buffer, each shifted by U(-shift, shift) px per axis
+  kRandom,  // a Poisson number (density per arcmin^2 x the cell's area) at uniform positions over the cell
+};
+enum class CellGalaxyModel {
+  kExponential,  // "exp": an exponential disc
+  kBulgeDisc,    // "bd": co-elliptical de Vaucouleurs bulge + exponential disc, one radius and centre
+};
+enum class CellPsfKind { kGaussian, kMoffat };
+const char* cell_layout_name(CellLayout v);
+const char* cell_galaxy_model_name(CellGalaxyModel v);
+const char* cell_psf_kind_name(CellPsfKind v);
+bool parse_cell_layout(const std::string& name, CellLayout* out);
+bool parse_cell_galaxy_model(const std::string& name, CellGalaxyModel* out);
+bool parse_cell_psf_kind(const std::string& name, CellPsfKind* out);
+
+// Defaults: the metadetection shear test's cell.
+struct CellSimOptions {
+  int size = 251;             // pixels per side
+  double pixel_scale = 0.25;  // arcsec per pixel
+  int buffer = 34;            // pixels at each edge where detections are dropped (the grid stays inside)
+  CellLayout layout = CellLayout::kGrid;
+  int grid = 7;               // kGrid: objects per side
+  double grid_shift = 1.0;    // kGrid: each position shifted by U(-shift, shift) pixels per axis
+  double density = 100;       // kRandom: mean objects per arcmin^2
+  CellGalaxyModel model = CellGalaxyModel::kExponential;
+  double hlr = 0.5;           // half-light radius sqrt(ab), arcsec (both components of bd)
+  double flux = 1000;         // each galaxy's total flux in the first band (counts)
+  double bulge_fraction_max = 0.5;  // bd: bulge flux fraction ~ U[0, max]
+  double shape_noise = 0.2;   // intrinsic e per component ~ N(0, shape_noise), redrawn until |e| < e_max; 0: round
+  double e_max = 0.8;
+  CellPsfKind psf = CellPsfKind::kGaussian;
+  double psf_fwhm = 0.9;      // arcsec, the first band's
+  double psf_beta = 2.5;      // kMoffat
+  int psf_size = 51;          // the PSF image's side (odd), pixels
+  double g1 = 0.02, g2 = 0.0; // the shear (reduced), applied to every galaxy's intrinsic shape
+  // The per-object S/N: noise sigma = sqrt(sum_bands sum_pixels I^2) / snr for the reference
+  // galaxy (round, the model's mean bulge fraction, drawn alone with each band's PSF): one sigma for
+  // every band, so the S/N over all bands is snr.
+  double snr = 20;
+  bool noise_free = false;    // noise sigma 1e-6 of the S/N's: a noiseless cell with consistent weights
+  int bands = 1;              // band b of B: flux x (0.8 + 0.4 b / (B - 1)), PSF FWHM x (1 - 0.1 b / (B - 1)),
+                              // bd bulge fraction x (0.5 + b / (B - 1)) (capped at 1)
+  std::uint64_t seed = 42;
+  // Message names the option as on the command line (--size, --snr, ...), its value and the rule.
+  bool IsValid(std::string* why) const;
+};
+
+// One galaxy (the truth).
+struct CellObject {
+  long long id = 0;          // index within its cell
+  double x = 0, y = 0;       // centre in the cell, pixels, 0-based (pixel centres at integers)
+  double flux = 0;           // in the first band; band b's is flux x bands()[b].flux_scale
+  double hlr = 0;            // arcsec
+  double bulge_frac = 0;     // in the first band (0 for exp)
+  double e1_int = 0, e2_int = 0, e1_obs = 0, e2_obs = 0;
+  double snr = 0;            // sqrt(sum_bands sum I^2) / noise sigma of the galaxy drawn alone
+};
+
+struct CellBandImage {
+  std::vector<double> image;  // size^2 row-major (x fastest): galaxies + noise
+  std::vector<double> noise;  // size^2: an independent noise field of the same sigma
+};
+
+struct SimCell {
+  int index = 0;
+  double g1 = 0, g2 = 0;            // the shear this cell was drawn with
+  std::vector<CellObject> objects;
+  std::vector<CellBandImage> bands;
+};
+
+// Band-level constants (the same for every cell).
+struct CellBand {
+  double psf_fwhm = 0;       // pixels
+  double flux_scale = 1;     // the band's flux over the first band's
+  double bulge_scale = 1;    // bd: the band's bulge fraction over the first band's (before the cap at 1)
+  double noise_sigma = 0;    // per pixel
+  std::vector<double> psf;   // psf_size^2 pixel-integrated samples centred on the middle one (unit sum of the profile)
+};
+
+class CellSimulator {
+ public:
+  explicit CellSimulator(const CellSimOptions& options);  // validates (std::invalid_argument)
+  ~CellSimulator();
+  const CellSimOptions& options() const { return options_; }
+  const std::vector<CellBand>& bands() const { return bands_; }
+  // Per-thread scratch: the renderers' FFT plans and buffers, one galaxy's stamp.
+  struct Workspace {
+    SimWorkspace sim;
+    std::vector<double> stamp;
+  };
+  std::unique_ptr<Workspace> make_workspace() const;
+  // The galaxies of cell `cell` (positions, shapes, fluxes; snr left 0): what simulate draws.
+  std::vector<CellObject> objects(int cell, double g1, double g2) const;
+  // Cell `cell` under the shear (g1, g2) (the options' or its negative for a shear pair).
+  // Thread-safe given a workspace per thread.
+  SimCell simulate(int cell, double g1, double g2, Workspace& ws) const;
+  SimCell simulate(int cell, Workspace& ws) const { return simulate(cell, options_.g1, options_.g2, ws); }
+
+ private:
+  CellSimOptions options_;
+  std::vector<CellBand> bands_;
+  std::vector<std::unique_ptr<SimRenderer>> renderers_;  // per band
+};
+
+// The radius (pixels) holding all but `epsilon` of a Sérsic component's light (n with 2n an
+// integer: exponential, de Vaucouleurs), along the major axis of ellipticity |e|: the enclosed
+// fraction is P(2n, b_n (r / r_e)^(1/n)), solved by bisection.
+double cell_light_radius(double sersic_n, double hlr, double e, double epsilon);
+
+}  // namespace stampede
