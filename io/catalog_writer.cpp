@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <bit>
 #include <cctype>
+#include <cerrno>
 #include <charconv>
 #include <cstdint>
 #include <map>
@@ -228,6 +229,9 @@ struct CatalogWriter::State {
   long long text_bytes = 0;  // committed size of the text partial
   bool failed = false;
   bool finished = false;
+  // A write failed after rows were committed: abandon() keeps the partials and the checkpoint,
+  // which still describe those rows, so the run resumes once room is made.
+  bool keep_for_resume = false;
 
   // Per-chunk column buffers, reused across appends.
   std::vector<double> f64;
@@ -269,11 +273,16 @@ struct CatalogWriter::State {
 
   bool has_text() const { return !text_partial.empty(); }
 
-  [[noreturn]] void fits_fail(int status, const std::string& what) {
-    fail("cannot " + what + " '" + fits_partial + "': " + cfitsio_status_text(status));
+  // `error`: errno just after the failed CFITSIO call (CFITSIO's file driver leaves the failed
+  // write's there). For a write, what ran out (space_exhausted_reason) is named first.
+  [[noreturn]] void fits_fail(int status, const std::string& what, int error = 0) {
+    const std::string reason = status == WRITE_ERROR ? space_exhausted_reason(fits_partial, error) : "";
+    if (reason.empty()) fail("cannot " + what + " '" + fits_partial + "': " + cfitsio_status_text(status));
+    fits_clear_errmsg();
+    fail("cannot " + what + " '" + fits_partial + "': " + reason + " (CFITSIO status " + std::to_string(status) + ")");
   }
-  void check(int status, const std::string& what) {
-    if (status != 0) fits_fail(status, what);
+  void check(int status, const std::string& what, int error = 0) {
+    if (status != 0) fits_fail(status, what, error);
   }
 
   void write_checkpoint(long long new_rows, long long new_text_bytes) {
@@ -342,8 +351,9 @@ struct CatalogWriter::State {
   // Brings the on-disk state of both partials up to the present and records it in the checkpoint.
   void commit(long long new_rows, long long new_text_bytes) {
     int status = 0;
+    errno = 0;
     fits_flush_file(fits, &status);  // also rewrites NAXIS2 and the data fill
-    check(status, "flush");
+    check(status, "write", errno);
     fits_file.sync();
     if (has_text()) text_file.sync();
     write_checkpoint(new_rows, new_text_bytes);
@@ -355,6 +365,7 @@ struct CatalogWriter::State {
   long long write_chunk(std::span<const ObjectRecord> chunk, long long first) {
     const auto n = static_cast<LONGLONG>(chunk.size());
     int status = 0;
+    errno = 0;
     for (std::size_t c = 0; c < columns.size(); ++c) {
       const ResultColumn& col = columns[c];
       const int colnum = static_cast<int>(c) + 1;
@@ -380,7 +391,7 @@ struct CatalogWriter::State {
           fits_write_col(fits, TUINT, colnum, first + 1, 1, n, u32.data(), &status);
           break;
       }
-      if (status != 0) fits_fail(status, std::string("write column '") + col.name + "' of");
+      if (status != 0) fits_fail(status, std::string("write column '") + col.name + "' of", errno);
     }
     if (!has_text()) return 0;
     text.clear();
@@ -524,6 +535,7 @@ CatalogWriter::~CatalogWriter() = default;
 
 std::unique_ptr<CatalogWriter> CatalogWriter::create(const CatalogWriterOptions& options) {
   validate(options);
+  ignore_file_size_signal();  // a write past `ulimit -f` fails (EFBIG, reported) instead of killing the process
   StringKeys header;
   std::string why;
   if (!normalise_string_keys(options.header, &header, &why)) fail(why);
@@ -571,7 +583,11 @@ std::unique_ptr<CatalogWriter> CatalogWriter::create(const CatalogWriterOptions&
 std::unique_ptr<CatalogWriter> CatalogWriter::resume(const CatalogWriterOptions& options,
                                                      long long* rows_committed) {
   validate(options);
+  ignore_file_size_signal();
   auto s = std::make_unique<State>(options);
+  if (!file_exists(s->checkpoint) && !file_exists(s->fits_partial) && file_exists(options.path))
+    fail("nothing to resume at " + options.path + ": it is complete (finished, so it has no '" + s->checkpoint +
+         "'); refit it with --overwrite to replace it");
   for (const std::string& p : {s->checkpoint, s->fits_partial, s->text_partial}) {
     if (!p.empty() && !file_exists(p)) {
       fail("nothing to resume at " + options.path + ": '" + p + "' does not exist");
@@ -614,6 +630,12 @@ void CatalogWriter::append(std::span<const ObjectRecord> rows) {
       }
       s.commit(written, text_bytes);
     });
+  } catch (const CatalogError& e) {
+    s.failed = true;
+    if (s.rows == 0) throw;
+    s.keep_for_resume = true;
+    throw CatalogError(std::string(e.what()) + "; the " + std::to_string(s.rows) + " rows committed before it are kept in '" +
+                       s.fits_partial + "' (with '" + s.checkpoint + "'): make room, then resume the run (stampede fit --resume)");
   } catch (...) {
     s.failed = true;
     throw;
@@ -626,9 +648,11 @@ void CatalogWriter::finish() {
   try {
     catalog_errors([&] {
       int status = 0;
+      errno = 0;
       fits_close_file(s.fits, &status);
+      const int error = errno;
       s.fits = nullptr;
-      s.check(status, "close");
+      s.check(status, "close", error);
       s.fits_file.sync();
       s.close_quietly();
       // The text first: once the FITS file has its final name the run counts as done.
@@ -642,6 +666,13 @@ void CatalogWriter::finish() {
       sync_directory_of(s.options.path);
       s.finished = true;
     });
+  } catch (const CatalogError& e) {
+    s.failed = true;
+    // Until the FITS partial is renamed the run is resumable at its last commit; after, it is done.
+    if (s.rows == 0 || !file_exists(s.fits_partial)) throw;
+    s.keep_for_resume = true;
+    throw CatalogError(std::string(e.what()) + "; the " + std::to_string(s.rows) + " committed rows are kept in '" +
+                       s.fits_partial + "' (with '" + s.checkpoint + "'): resume the run (stampede fit --resume)");
   } catch (...) {
     s.failed = true;
     throw;
@@ -653,7 +684,9 @@ void CatalogWriter::abandon() noexcept {
   s.close_quietly();
   s.failed = true;
   std::error_code ignored;
-  for (const std::string& p : {s.checkpoint, s.checkpoint_tmp, s.fits_partial, s.text_partial})
+  std::filesystem::remove(s.checkpoint_tmp, ignored);
+  if (s.keep_for_resume) return;  // a failed write: the committed rows stay resumable
+  for (const std::string& p : {s.checkpoint, s.fits_partial, s.text_partial})
     if (!p.empty()) std::filesystem::remove(p, ignored);
 }
 

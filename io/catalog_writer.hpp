@@ -76,7 +76,8 @@ class CatalogWriter {
   // Continues an interrupted run: reopens the partials, cuts them back to the rows recorded in the
   // checkpoint and stores that count in *rows_committed (if not null); the caller then appends
   // from that row on. Throws CatalogError:
-  //   "nothing to resume at PATH: ..."  no checkpoint or no partial output;
+  //   "nothing to resume at PATH: it is complete ..."  PATH is there, with no partial or checkpoint;
+//   "nothing to resume at PATH: ..."  no checkpoint or no partial output;
   //   "PATH.checkpoint was written by a different run (input or configuration changed): it records
   //    'LINE', this run has 'LINE'" (the first fingerprint line that differs);
   //   "... is corrupt: ..."  the checkpoint or a partial cannot be what this writer left there.
@@ -91,7 +92,9 @@ class CatalogWriter {
 
   // Appends `rows` after those already written and commits them (see the file comment). Memory
   // use is bounded by a fixed chunk, not by the batch or the table. After a throw the writer is
-  // unusable (every later call throws); the outputs stay resumable at the last commit.
+  // unusable (every later call throws); the outputs stay resumable at the last commit. A write
+  // that fails (a full disk, `ulimit -f`, a quota, an I/O error) says what ran out where it can
+  // tell (space_exhausted_reason) and, when rows were committed before it, that they are kept.
   void append(std::span<const ObjectRecord> rows);
 
   // Closes the outputs, renames the partials to PATH (and TEXT_PATH), replacing existing files,
@@ -99,7 +102,9 @@ class CatalogWriter {
   void finish();
 
   // For a run that failed (an error, not a kill): closes and removes the partials and the checkpoint,
-  // so that nothing is left that looks resumable. Never throws; the writer is unusable after it.
+  // so that nothing is left that looks resumable; except after a failed append() or finish() with
+  // rows committed, whose partials and checkpoint are kept for resume() (the failure was the
+  // writer's own: the rows before it are good). Never throws; the writer is unusable after it.
   void abandon() noexcept;
 
   // Committed rows.

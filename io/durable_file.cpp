@@ -2,7 +2,10 @@
 #include "io/durable_file.hpp"
 
 #include <fcntl.h>
+#include <signal.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -18,7 +21,51 @@ std::string errno_text(int e) { return std::generic_category().message(e); }
   throw FileError(what + ": " + errno_text(errno));
 }
 
+// A failed write or sync of `path`: the errno text, and what ran out when something did.
+[[noreturn]] void fail_write(const std::string& what, const std::string& path) {
+  const int e = errno;
+  const std::string reason = space_exhausted_reason(path, e);
+  throw FileError(what + ": " + errno_text(e) + (reason.empty() ? "" : " (" + reason + ")"));
+}
+
+std::string bytes_text(unsigned long long n) { return std::to_string(n) + " bytes"; }
+
 }  // namespace
+
+std::string space_exhausted_reason(const std::string& path, int error) {
+  rlimit limit{};
+  const bool limited = ::getrlimit(RLIMIT_FSIZE, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY;
+  struct stat st {};
+  const bool sized = ::stat(path.c_str(), &st) == 0;
+  if (error == EFBIG || (error == 0 && limited && sized && static_cast<unsigned long long>(st.st_size) >= limit.rlim_cur)) {
+    if (limited)
+      return "the file-size limit of this process (RLIMIT_FSIZE, `ulimit -f`) of " + bytes_text(limit.rlim_cur) +
+             " is reached" + (sized ? ": the file has " + bytes_text(static_cast<unsigned long long>(st.st_size)) : "");
+    return "the file is larger than its filesystem allows";
+  }
+  const std::string dir = directory_of(path);
+  struct statvfs fs {};
+  const bool have_fs = ::statvfs(dir.c_str(), &fs) == 0;
+  const unsigned long long available =
+      have_fs ? static_cast<unsigned long long>(fs.f_bavail) * static_cast<unsigned long long>(fs.f_frsize) : 0;
+  if (error == EDQUOT)
+    return "the disk quota for '" + dir + "' is exceeded" + (have_fs ? " (the filesystem has " + bytes_text(available) +
+                                                                           " available)" : "");
+  if (error == ENOSPC || (error == 0 && have_fs && fs.f_bavail == 0))
+    return "the filesystem holding '" + dir + "' is full" + (have_fs ? " (" + bytes_text(available) + " available)" : "");
+  return "";
+}
+
+void ignore_file_size_signal() {
+  struct sigaction current {};
+  if (::sigaction(SIGXFSZ, nullptr, &current) == 0 && current.sa_handler == SIG_DFL &&
+      !(current.sa_flags & SA_SIGINFO)) {
+    struct sigaction ignore {};
+    ignore.sa_handler = SIG_IGN;
+    sigemptyset(&ignore.sa_mask);
+    ::sigaction(SIGXFSZ, &ignore, nullptr);
+  }
+}
 
 DurableFile DurableFile::open(const std::string& path, Mode mode) {
   const int flags = (mode == Mode::kRead ? O_RDONLY : O_RDWR) | O_CLOEXEC;
@@ -57,14 +104,14 @@ void DurableFile::write_all(std::string_view bytes) {
     const ssize_t n = ::write(fd_, bytes.data(), bytes.size());
     if (n < 0) {
       if (errno == EINTR) continue;
-      fail_errno("cannot write '" + path_ + "'");
+      fail_write("cannot write '" + path_ + "'", path_);
     }
     bytes.remove_prefix(static_cast<std::size_t>(n));
   }
 }
 
 void DurableFile::sync() {
-  if (::fsync(fd_) != 0) fail_errno("cannot sync '" + path_ + "' to disk");
+  if (::fsync(fd_) != 0) fail_write("cannot sync '" + path_ + "' to disk", path_);
 }
 
 long long DurableFile::size() {

@@ -15,7 +15,8 @@
 // and sync per record; resuming it is DurableFile::open(kReadWrite), truncate to the last whole
 // record and seek_to_end.
 //
-// Every failure throws FileError naming the path and the system's reason (errno text).
+// Every failure throws FileError naming the path and the system's reason (errno text; for a write
+// that ran out of room, what ran out: space_exhausted_reason).
 #pragma once
 
 #include <span>
@@ -87,5 +88,17 @@ void replace_durably(const std::string& path, std::string_view bytes);
 // Renames `from` to `to`, replacing `to`; durable once sync_directory_of(to) returns (callers
 // with several changes in one directory sync it once, after the last).
 void rename_file(const std::string& from, const std::string& to);
+
+// What ran out when a write to `path` failed with errno `error` (0 when the caller does not know
+// it, e.g. behind CFITSIO's "status 106"): "the file-size limit (RLIMIT_FSIZE, `ulimit -f`) of N
+// bytes is reached", "the filesystem holding 'DIR' is full (N bytes available)", "the disk quota
+// of ... is exceeded". Without errno the limits themselves are checked: the file at or past the
+// process's RLIMIT_FSIZE, no block available on its filesystem (statvfs). "" when none explains it.
+std::string space_exhausted_reason(const std::string& path, int error);
+
+// Makes SIGXFSZ ignored when it has its default action (which kills the process with no message
+// when a write passes RLIMIT_FSIZE): the write then fails with EFBIG, which the writers report. A
+// handler the program installed is left alone. Idempotent; called by every output path.
+void ignore_file_size_signal();
 
 }  // namespace stampede::io

@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -65,7 +66,8 @@ void print_help() {
       "  --input-list L  fit every grid named in L (one path per line, # comments), each to\n"
       "                DIR/<name>_fit.fits, -o naming the directory (created if missing); with\n"
       "                --resume, complete outputs are skipped and interrupted ones resumed\n"
-      "  --resume      continue an interrupted run (same input and options) from its last batch\n"
+      "  --resume      continue an interrupted run (same input and options) from its last batch; an\n"
+      "                output this run already completed is left as it is (exit 0)\n"
       "  --overwrite   replace existing outputs (default: refuse); an output is never an input\n"
       "  --quiet       no progress or summary on stderr\n"
       "  --help-config print every option with its default as an ini file\n"
@@ -83,9 +85,19 @@ int parse_fit_arguments(int argc, char** argv, FitCommandLine* command, bool mes
   app::FitRunOptions& r = command->run;
   std::string config;
   std::vector<std::string> sets;
+  bool bands_given = false;
+  std::string bands_text;
+  std::set<std::string> given_once;
   for (int i = 1; i < argc; ++i) {
     const std::string s = argv[i];
     auto value = [&] { return tools::option_value(argc, argv, &i); };
+    // An option that takes one value, given twice: the last would silently win over the first.
+    if (s == "-o" || s == "--output" || s == "--config" || s == "--threads" || s == "--catalog" || s == "--weight" ||
+        s == "--text" || s == "--shard" || s == "--input-list") {
+      const std::string name = s == "--output" ? "-o" : s;
+      if (!given_once.insert(name).second)
+        throw std::invalid_argument(name + " is given twice: give it once (see stampede fit --help)");
+    }
     if (s == "--help" || s == "-h") {
       if (messages) print_help();
       return 0;
@@ -116,6 +128,12 @@ int parse_fit_arguments(int argc, char** argv, FitCommandLine* command, bool mes
       r.meds.push_back(value());
     } else if (s == "--bands") {
       const std::string v = value();
+      // Given twice, the last would silently win over the first: say so instead.
+      if (bands_given)
+        throw std::invalid_argument("--bands " + tools::quoted_value(v) + ": --bands is given twice (first " +
+                                    tools::quoted_value(bands_text) + "); give the bands once, in the tiles' order");
+      bands_given = true;
+      bands_text = v;
       r.bands.clear();
       std::size_t begin = 0;
       while (true) {
@@ -192,7 +210,12 @@ int run_fit_with_reports(app::FitRunOptions& r) {
 int run_fit_command(int argc, char** argv) {
   FitCommandLine command;
   if (const int exit_code = parse_fit_arguments(argc, argv, &command); exit_code >= 0) return exit_code;
-  if (command.input_list.empty()) return run_fit_with_reports(command.run);
+  // --resume of an output that is already complete: this run's table is left as it is (exit 0),
+  // another run's is refused (app::FitRunOptions::skip_if_complete).
+  if (command.input_list.empty()) {
+    command.run.skip_if_complete = command.run.resume;
+    return run_fit_with_reports(command.run);
+  }
   for (const app::ListedInput& input : listed_inputs(command))
     if (const int code = run_listed_input(command, input); code != 0) return code;
   return 0;

@@ -4,8 +4,10 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <limits>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -64,7 +66,60 @@ struct Cuts {
   double min_snr = -INFINITY, min_radius = -INFINITY;
   double min_size_ratio = -INFINITY;  // metacal: radius / Gamma's FWHM
   bool selection_response = true;     // metacal: false leaves R_S out (to measure the bias it removes)
+
+  // The cuts as given on the command line, e.g. "--cut-snr 25 --cut-radius 1"; "no cut" without.
+  std::string text() const {
+    std::string out;
+    auto add = [&](const char* option, double v) {
+      if (!std::isfinite(v)) return;
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%s%s %.17g", out.empty() ? "" : " ", option, v);
+      out += buf;
+    };
+    add("--cut-snr", min_snr);
+    add("--cut-radius", min_radius);
+    add("--cut-size-ratio", min_size_ratio);
+    return out.empty() ? "no cut" : out;
+  }
 };
+
+// A number as printf's `format` prints it, or "n/a" (width kept) when it is not finite: an error
+// that could not be computed is shown as missing, never as a number.
+std::string number_or_na(const char* format, double v, int width = 0) {
+  char buf[64];
+  if (std::isfinite(v))
+    std::snprintf(buf, sizeof buf, format, v);
+  else
+    std::snprintf(buf, sizeof buf, "%*s", width, "n/a");
+  return buf;
+}
+
+// JSON has no NaN or infinity: a value not computed is null.
+std::string json_number(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.17g", v);  // reads back bitwise; c ~ 1e-4 keeps its digits
+  return buf;
+}
+
+// A path as a JSON string: quotes, backslashes and control characters escaped.
+std::string json_string(const std::string& text) {
+  std::string out = "\"";
+  for (const char ch : text) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += ch;
+    } else if (c < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      out += buf;
+    } else {
+      out += ch;
+    }
+  }
+  return out + "\"";
+}
 
 // A set's estimate, and what pairing it with its shear-pair partner needs.
 struct SetData {
@@ -156,6 +211,15 @@ SetData read_set(const std::string& fit_path, const std::string& truth_path, con
     }
     const MetacalRows rows{e1, e2, {r11, r12, r21, r22}, selected, pair, step};
     const MetacalSetShear m = estimate_metacal_set_shear(rows, g1, g2, bootstrap, seed);
+    if (const int empty = m.empty_selection(); empty >= 0 && m.selected_units[0] > 0) {
+      std::string names;
+      for (int t = 1; t < 5; ++t)
+        if (m.selected_units[t] == 0) names += std::string(names.empty() ? "" : ", ") + kMetacalSelectionNames[t];
+      throw std::runtime_error(fit.describe() + ": " + cuts.text() + " keeps " + std::to_string(m.selected_units[0]) +
+                               " ring pairs (or lone objects) on the noshear image but none on the " + names +
+                               " image's quantities, so <e> over that selection and R_S are undefined: loosen the cut "
+                               "(or measure without R_S: --no-selection-response)");
+    }
     if (units) out.units = make_metacal_units(rows);
     std::printf("%s: <R> = [[%+.4f %+.4f] [%+.4f %+.4f]]  R_S = [[%+.4f %+.4f] [%+.4f %+.4f]]  <e> = (%+.6f, %+.6f)\n",
                 fit_path.c_str(), m.r[0], m.r[1], m.r[2], m.r[3], m.r_sel[0], m.r_sel[1], m.r_sel[2], m.r_sel[3],
@@ -172,8 +236,7 @@ SetData read_set(const std::string& fit_path, const std::string& truth_path, con
   if (set.used == 0)
     throw std::runtime_error(fit.describe() + ": all " + std::to_string(id.size()) +
                              " rows are excluded (status not ok, flags 4/16/32/65536/131072/262144, e not finite, or "
-                             "cut), so the "
-                             "set has no shear estimate");
+                             "cut: " + cuts.text() + "), so the set has no shear estimate");
   return out;
 }
 
@@ -210,14 +273,28 @@ int run_metrics_command(int argc, char** argv) {
   std::uint64_t seed = 1;
   Cuts cuts;
   bool shear_pairs = false;
+  std::set<std::string> given_once;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&] { return tools::option_value(argc, argv, &i); };
+    // An option that takes one value, given twice: the last would silently win over the first.
+    if ((a == "--json" || a == "--e-columns" || a == "--cut-snr" || a == "--cut-radius" || a == "--cut-size-ratio" ||
+         a == "--bootstrap" || a == "--seed") &&
+        !given_once.insert(a).second)
+      throw std::invalid_argument(a + " is given twice: give it once (see stampede metrics --help)");
     if (a == "--help" || a == "-h") {
       print_help();
       return 0;
     } else if (a == "--fit") {
       fits.push_back(value());
+      // The same table twice would count its sets twice (and its errors as independent).
+      for (std::size_t k = 0; k + 1 < fits.size(); ++k) {
+        std::error_code ec;
+        if (fits[k] == fits.back() || std::filesystem::equivalent(fits[k], fits.back(), ec))
+          throw std::invalid_argument("--fit " + tools::quoted_value(fits.back(), kQuotedPathMaxBytes) +
+                                      " is given twice (as --fit " + tools::quoted_value(fits[k], kQuotedPathMaxBytes) +
+                                      " too): give each set's table once");
+      }
     } else if (a == "--truth") {
       truths.push_back(value());
     } else if (a == "--json") {
@@ -271,16 +348,32 @@ int run_metrics_command(int argc, char** argv) {
   const ShearMetrics m = combine_sets(sets, psf_e1, psf_e2);
   std::printf("%-4s %10s %10s %10s %9s %10s %10s %9s %6s %8s\n", "set", "g1_true", "g1", "g1-g1_t", "err1", "g2_true", "g2",
               "err2", "used", "excluded");
+  std::vector<std::string> without_errors;  // sets whose bootstrap gave no error, and why
   for (std::size_t k = 0; k < m.sets.size(); ++k) {
     const SetShear& s = m.sets[k];
-    std::printf("%-4zu %+10.6f %+10.6f %+10.2e %9.2e %+10.6f %+10.6f %9.2e %6lld %8lld\n", k, s.g1_true, s.g1,
-                s.g1 - s.g1_true, s.err1, s.g2_true, s.g2, s.err2, s.used, s.excluded);
+    std::printf("%-4zu %+10.6f %+10.6f %+10.2e %s %+10.6f %+10.6f %s %6lld %8lld\n", k, s.g1_true, s.g1,
+                s.g1 - s.g1_true, number_or_na("%9.2e", s.err1, 9).c_str(), s.g2_true, s.g2,
+                number_or_na("%9.2e", s.err2, 9).c_str(), s.used, s.excluded);
+    if (!std::isfinite(s.err1) || !std::isfinite(s.err2))
+      without_errors.push_back("set " + std::to_string(k) + ": " +
+                               (bootstrap < 2 ? "--bootstrap " + std::to_string(bootstrap) + " (errors need 2 or more)"
+                                              : std::to_string(s.units) + " usable ring pair" + (s.units == 1 ? "" : "s") +
+                                                    " (a bootstrap error needs 2 or more)"));
   }
+  for (const std::string& why : without_errors) std::printf("err n/a: %s\n", why.c_str());
   if (m.sets.size() >= 2) {
-    std::printf("m1 = %+.3e +- %.1e   c1 = %+.3e +- %.1e\n", m.component[0].m, m.component[0].m_err, m.component[0].c,
-                m.component[0].c_err);
-    std::printf("m2 = %+.3e +- %.1e   c2 = %+.3e +- %.1e\n", m.component[1].m, m.component[1].m_err, m.component[1].c,
-                m.component[1].c_err);
+    for (int c = 0; c < 2; ++c)
+      std::printf("m%d = %+.3e +- %s   c%d = %+.3e +- %s\n", c + 1, m.component[c].m,
+                  number_or_na("%.1e", m.component[c].m_err).c_str(), c + 1, m.component[c].c,
+                  number_or_na("%.1e", m.component[c].c_err).c_str());
+    if (!std::isfinite(m.component[0].m_err) || !std::isfinite(m.component[1].m_err))
+      std::printf("m, c errors n/a: %s\n",
+                  without_errors.empty()
+                      ? "the sets' errors are not finite"
+                      : (std::to_string(m.sets.size()) + " sets, not all with a bootstrap error (err n/a above): "
+                         "the fit is then unweighted, its errors from the scatter about the line, which needs 3 "
+                         "sets or more")
+                            .c_str());
     std::printf("PSF frame (e = %.3f, %.3f): c+ = %+.3e  cx = %+.3e\n", psf_e1, psf_e2, m.c_plus, m.c_cross);
   } else {
     std::printf("m, c: need at least two sets with different shears\n");
@@ -292,27 +385,29 @@ int run_metrics_command(int argc, char** argv) {
                 "err", "g2_true", "(g+-g-)/2", "err", "(g++g-)/2", "err");
     for (std::size_t j = 0; j < pair_estimates.size(); ++j) {
       const ShearPairEstimate& p = pair_estimates[j];
-      std::printf("%-4zu %+10.6f %+12.6f %9.2e %+12.2e %9.2e %+10.6f %+12.6f %9.2e %+12.2e %9.2e\n", j, p.g1_true,
-                  p.half_difference[0], p.half_difference_err[0], p.half_sum[0], p.half_sum_err[0], p.g2_true,
-                  p.half_difference[1], p.half_difference_err[1], p.half_sum[1], p.half_sum_err[1]);
+      auto err = [](double v) { return number_or_na("%9.2e", v, 9); };
+      std::printf("%-4zu %+10.6f %+12.6f %s %+12.2e %s %+10.6f %+12.6f %s %+12.2e %s\n", j, p.g1_true,
+                  p.half_difference[0], err(p.half_difference_err[0]).c_str(), p.half_sum[0],
+                  err(p.half_sum_err[0]).c_str(), p.g2_true, p.half_difference[1], err(p.half_difference_err[1]).c_str(),
+                  p.half_sum[1], err(p.half_sum_err[1]).c_str());
     }
-    std::printf("paired m1 = %+.3e +- %.1e   c1 = %+.3e +- %.1e\n", paired.component[0].m, paired.component[0].m_err,
-                paired.component[0].c, paired.component[0].c_err);
-    std::printf("paired m2 = %+.3e +- %.1e   c2 = %+.3e +- %.1e\n", paired.component[1].m, paired.component[1].m_err,
-                paired.component[1].c, paired.component[1].c_err);
+    for (int c = 0; c < 2; ++c)
+      std::printf("paired m%d = %+.3e +- %s   c%d = %+.3e +- %s\n", c + 1, paired.component[c].m,
+                  number_or_na("%.1e", paired.component[c].m_err).c_str(), c + 1, paired.component[c].c,
+                  number_or_na("%.1e", paired.component[c].c_err).c_str());
     std::printf("paired PSF frame: c+ = %+.3e  cx = %+.3e\n", paired.c_plus, paired.c_cross);
   }
   if (!json.empty()) {
     std::ofstream out(json);
     if (!out) throw std::runtime_error("cannot write '" + json + "'");
-    out.precision(17);
     out << "{\n  \"sets\": [\n";
     for (std::size_t k = 0; k < m.sets.size(); ++k) {
       const SetShear& s = m.sets[k];
-      out << "    {\"fit\": \"" << fits[k] << "\", \"g1_true\": " << s.g1_true << ", \"g2_true\": " << s.g2_true
-          << ", \"g1\": " << s.g1 << ", \"g2\": " << s.g2 << ", \"err1\": " << s.err1 << ", \"err2\": " << s.err2
-          << ", \"used\": " << s.used << ", \"excluded\": " << s.excluded << "}" << (k + 1 < m.sets.size() ? "," : "")
-          << "\n";
+      out << "    {\"fit\": " << json_string(fits[k]) << ", \"g1_true\": " << json_number(s.g1_true)
+          << ", \"g2_true\": " << json_number(s.g2_true) << ", \"g1\": " << json_number(s.g1) << ", \"g2\": "
+          << json_number(s.g2) << ", \"err1\": " << json_number(s.err1) << ", \"err2\": " << json_number(s.err2)
+          << ", \"used\": " << s.used << ", \"excluded\": " << s.excluded << ", \"units\": " << s.units << "}"
+          << (k + 1 < m.sets.size() ? "," : "") << "\n";
     }
     auto num = [](double v) {
       if (!std::isfinite(v)) return std::string("null");

@@ -23,7 +23,7 @@ struct Unit {
 
 struct Estimate {
   double g1 = NAN, g2 = NAN, raw1 = NAN, raw2 = NAN;
-  std::array<double, 4> r{}, r_sel{};
+  std::array<double, 4> r{NAN, NAN, NAN, NAN}, r_sel{NAN, NAN, NAN, NAN};
 };
 
 // The estimate from units[i] taken count[i] times.
@@ -105,6 +105,12 @@ class MetacalUnits final : public UnitShearEstimator {
     return {e.g1, e.g2};
   }
   Estimate full_estimate(std::span<const int> count) const { return estimate_from_units(units_, count, step_); }
+  std::array<long long, 5> selected_units() const {
+    std::array<long long, 5> n{};
+    for (const Unit& u : units_)
+      for (int s = 0; s < 5; ++s) n[s] += u.selected >> s & 1;
+    return n;
+  }
   long long used() const { return used_; }
   long long excluded() const { return excluded_; }
 
@@ -137,8 +143,11 @@ MetacalSetShear estimate_metacal_set_shear(const MetacalRows& rows, double g1_tr
   out.r_sel = all.r_sel;
   out.g1_raw = all.raw1;
   out.g2_raw = all.raw2;
+  out.selected_units = units.selected_units();
+  out.shear.units = out.selected_units[0];
   const std::size_t n_units = count.size();
-  if (bootstrap > 1 && n_units > 1 && std::isfinite(all.g1)) {
+  // One selected unit resamples to itself every time: no error (NaN), not a zero one.
+  if (bootstrap > 1 && out.shear.units > 1 && std::isfinite(all.g1)) {
     std::uint64_t state = seed;
     double a1 = 0, a2 = 0, q1 = 0, q2 = 0;
     int done = 0;

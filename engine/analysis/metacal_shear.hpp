@@ -26,11 +26,23 @@ struct MetacalRows {
   double step = 0.01;
 };
 
+// The five selections of MetacalRows::selected, by bit: "noshear", "1p", "1m", "2p", "2m".
+inline constexpr const char* kMetacalSelectionNames[5] = {"noshear", "1p", "1m", "2p", "2m"};
+
 struct MetacalSetShear {
   SetShear shear;                 // g1, g2 calibrated, with bootstrap errors
   std::array<double, 4> r{};      // <R> (R11 R12 R21 R22)
   std::array<double, 4> r_sel{};  // R_S
   double g1_raw = 0, g2_raw = 0;  // <e>, uncalibrated
+  // Units (ring pairs, lone objects) passing each selection (kMetacalSelectionNames). One that is
+  // 0 leaves <e> over it undefined: g, <R>, R_S and <e> are then NaN (empty_selection() says which).
+  std::array<long long, 5> selected_units{};
+  // The first selection no unit passes (its index into kMetacalSelectionNames), or -1.
+  int empty_selection() const {
+    for (int s = 0; s < 5; ++s)
+      if (selected_units[s] == 0) return s;
+    return -1;
+  }
 };
 
 MetacalSetShear estimate_metacal_set_shear(const MetacalRows& rows, double g1_true, double g2_true, int bootstrap,

@@ -42,6 +42,9 @@ class ShearUnits final : public UnitShearEstimator {
   }
 
   std::span<const long long> labels() const override { return labels_.labels(); }
+  long long usable_units() const {
+    return std::count_if(units_.begin(), units_.end(), [](const Unit& u) { return !u.bad; });
+  }
 
   std::array<double, 2> estimate(std::span<const int> count) const override {
     double n = 0, m1 = 0, m2 = 0;
@@ -85,17 +88,16 @@ SetShear estimate_set_shear(std::span<const double> e1, std::span<const double> 
   s.g2_true = g2_true;
   s.used = units.used();
   s.excluded = units.excluded();
+  s.units = units.usable_units();
   const std::size_t n = units.labels().size();
   std::vector<int> count(n, 1);
   const auto g = units.estimate(count);
   s.g1 = g[0];
   s.g2 = g[1];
-  if (!std::isfinite(s.g1)) {
-    s.err1 = s.err2 = NAN;
-    return s;
-  }
+  if (!std::isfinite(s.g1)) return s;
   // Bootstrap over units; splitmix64 is identical on every platform, so errors are reproducible.
-  if (bootstrap > 1 && n > 1) {
+  // One usable unit resamples to itself every time: no error (NaN), not a zero one.
+  if (bootstrap > 1 && s.units > 1) {
     std::uint64_t state = seed;
     double a1 = 0, a2 = 0, q1 = 0, q2 = 0;
     int done = 0;
@@ -141,7 +143,7 @@ BiasFit fit_linear_bias(std::span<const double> x, std::span<const double> y, st
     // Errors from the scatter about the line (unit weights).
     double chi2 = 0;
     for (std::size_t i = 0; i < n; ++i) chi2 += std::pow(y[i] - slope * x[i] - intercept, 2);
-    const double s2 = n > 2 ? chi2 / (n - 2) : 0.0;
+    const double s2 = n > 2 ? chi2 / static_cast<double>(n - 2) : NAN;
     var_slope *= s2;
     var_intercept *= s2;
   }

@@ -7,6 +7,7 @@
 //    every set and both components.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -19,9 +20,13 @@ namespace stampede {
 struct SetShear {
   double g1_true = 0, g2_true = 0;
   double g1 = 0, g2 = 0;        // estimates
-  double err1 = 0, err2 = 0;    // bootstrap standard errors
+  // Bootstrap standard errors; NaN when not computed: fewer than two units (a bootstrap over one
+  // ring pair has no spread, not a zero error), fewer than two resamples (bootstrap < 2) or fewer
+  // than two resamples with an estimate.
+  double err1 = NAN, err2 = NAN;
   long long used = 0;           // objects in the estimate
   long long excluded = 0;       // flagged objects (and the partners of flagged ring members)
+  long long units = 0;          // ring pairs (and lone objects) in the estimate: what the bootstrap draws
 };
 
 // e1, e2: fitted ellipticities; usable: 0 excludes an object; pair: ring-pair label per object
@@ -33,8 +38,10 @@ SetShear estimate_set_shear(std::span<const double> e1, std::span<const double> 
 struct BiasFit {
   double m = 0, m_err = 0, c = 0, c_err = 0;
 };
-// Weighted least squares of y = (1 + m) x + c (weights 1/err^2; all errors zero: unweighted, with
-// errors from the scatter). Needs two distinct x.
+// Weighted least squares of y = (1 + m) x + c (weights 1/err^2). When any error is missing (NaN,
+// or not positive) the fit is unweighted, its errors from the scatter about the line: that needs
+// three sets or more, else m_err and c_err are NaN (two points fit any line exactly; their zero
+// scatter is no error). Needs two distinct x.
 BiasFit fit_linear_bias(std::span<const double> g_true, std::span<const double> g_est, std::span<const double> err);
 
 struct ShearMetrics {

@@ -1,6 +1,7 @@
 // numpy conversions; see numpy_arrays.hpp.
 #include "numpy_arrays.hpp"
 
+#include <cmath>
 #include <cstring>
 
 namespace py = pybind11;
@@ -34,6 +35,46 @@ DoubleArray as_float64(py::handle obj, std::initializer_list<int> ndims, const c
     PyErr_Clear();
     throw py::type_error(std::string(what) + ": dtype " + py::str(a.dtype()).cast<std::string>() +
                          " could not be converted to float64");
+  }
+  return out;
+}
+
+std::vector<long long> integer_values(py::handle obj, const std::string& what, long long lo, long long hi,
+                                      bool booleans) {
+  py::array a = py::array::ensure(obj);
+  if (!a) a = py::module_::import("numpy").attr("asarray")(obj);
+  const char kind = a.dtype().kind();
+  const std::string dtype = py::str(a.dtype()).cast<std::string>();
+  if (a.ndim() != 1)
+    throw py::value_error(what + " must be a 1-D array, not " + std::to_string(a.ndim()) + "-D");
+  if (kind == 'b' && !booleans)
+    throw py::type_error(what + " must hold integers " + std::to_string(lo) + ".." + std::to_string(hi) +
+                         ", not booleans");
+  if (kind != 'b' && kind != 'i' && kind != 'u' && kind != 'f')
+    throw py::type_error(what + " must hold integers, not dtype " + dtype);
+  // Floats are checked as float64 (whole numbers, the bounds' side) and never cast before that (a
+  // cast of NaN is undefined); integers and booleans are read as int64, which holds them exactly
+  // (a uint64 beyond it is caught by its float64 value).
+  const bool floating = kind == 'f';
+  const auto real = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+  py::array_t<long long, py::array::c_style | py::array::forcecast> exact;
+  if (!floating) exact = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(a);
+  if (!real || (!floating && !exact)) {
+    PyErr_Clear();
+    throw py::type_error(what + ": dtype " + dtype + " could not be read as integers");
+  }
+  std::vector<long long> out(static_cast<std::size_t>(a.size()));
+  for (py::ssize_t i = 0; i < a.size(); ++i) {
+    const double v = real.data()[i];
+    auto at = [&] { return what + "[" + std::to_string(i) + "] = " + py::str(a.attr("item")(i)).cast<std::string>(); };
+    if (floating && !(std::isfinite(v) && v == std::trunc(v)))
+      throw py::value_error(at() + ": not a whole number");
+    // The bounds on the double first: a value beyond int64 is refused before any conversion.
+    if (v < static_cast<double>(lo) || v > static_cast<double>(hi) ||
+        (!floating && (exact.data()[i] < lo || exact.data()[i] > hi)))
+      throw py::value_error(at() + ": must be " + (booleans && lo == 0 && hi == 1 ? "0 or 1 (or a boolean)"
+                                                                                 : std::to_string(lo) + ".." + std::to_string(hi)));
+    out[static_cast<std::size_t>(i)] = floating ? static_cast<long long>(v) : exact.data()[i];
   }
   return out;
 }

@@ -23,6 +23,14 @@ using DoubleArray = pybind11::array_t<double, pybind11::array::c_style>;
 // the wrong number of dimensions or an empty array; `what` names the argument in the message.
 DoubleArray as_float64(pybind11::handle obj, std::initializer_list<int> ndims, const char* what);
 
+// `obj` (a 1-D array or sequence) as integers, each in [lo, hi]: integer dtypes, floats only where
+// every value is a whole number (so 0.9 is refused, not truncated to 0, and NaN is refused), and
+// booleans (as 0 and 1) only when `booleans`. Never converted modulo the type's range (256 is not
+// 0, -1 not 255). Raises TypeError for another dtype and ValueError naming `what`, the index and
+// the value otherwise.
+std::vector<long long> integer_values(pybind11::handle obj, const std::string& what, long long lo, long long hi,
+                                      bool booleans);
+
 inline std::span<const double> values(const DoubleArray& a) {
   return {a.data(), static_cast<std::size_t>(a.size())};
 }

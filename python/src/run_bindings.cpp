@@ -31,6 +31,7 @@ py::dict summary_dict(const app::RunSummary& s) {
   py::dict out;
   out["objects"] = s.objects;
   out["resumed"] = s.resumed;
+  out["skipped"] = s.skipped;
   out["batches"] = s.batches;
   out["threads"] = s.threads;
   out["status"] = statuses;
@@ -135,10 +136,17 @@ void bind_run(py::module_& m) {
         a.input = in.text("input");
         // One tile (a path), or one per band (a list, in the order of `bands`).
         const py::object meds = in.object("meds");
-        if (py::isinstance<py::list>(meds) || py::isinstance<py::tuple>(meds))
+        if (py::isinstance<py::list>(meds) || py::isinstance<py::tuple>(meds)) {
+          if (py::len(meds) == 0)
+            throw py::value_error(in.where("meds") + " is an empty list: give a MEDS tile's path, or one tile per band");
           a.meds = in.texts("meds");
-        else if (!meds.is_none())
-          a.meds = {in.text("meds")};
+          for (std::size_t k = 0; k < a.meds.size(); ++k)
+            if (a.meds[k].empty())
+              throw py::value_error(in.where("meds") + "[" + std::to_string(k) + "] is an empty path: give each band's tile");
+        } else if (!meds.is_none()) {
+          const std::string tile = in.text("meds");
+          if (!tile.empty()) a.meds = {tile};  // "" is the default: no tile
+        }
         if (!in.object("bands").is_none()) a.bands = in.names("bands");
         if (!a.bands.empty() && a.meds.empty())
           throw py::value_error(in.where("bands") + " names the bands of the meds tiles: give meds");
@@ -151,6 +159,7 @@ void bind_run(py::module_& m) {
         app::check_threads(threads, in.where("threads"));
         a.threads = static_cast<int>(threads);
         a.resume = in.flag("resume", false);
+        a.skip_if_complete = a.resume;  // as `stampede fit --resume`: this run's complete output is left as it is
         a.overwrite = in.flag("overwrite", false);
         const py::object progress = in.object("progress");
         if (!progress.is_none() && !PyCallable_Check(progress.ptr()))
@@ -185,8 +194,9 @@ records another PSF) arrive as UserWarning. `shard=(i, N)` fits shard i of N, as
 --shard i/N` (join them with merge_shards). Ctrl-C (or an exception raised by `progress`) stops the
 run as the CLI's SIGINT does: the batches in flight are written, the output stays partial
 (OUTPUT.partial and its checkpoint) and run_fit(..., resume=True) continues it; the exception is
-raised once the run has stopped. Returns the run summary as a dict (objects, status counts, phase
-times, objects_per_second, report).
+raised once the run has stopped. With resume=True an output this run already completed is left as
+it is ('skipped' True in the summary; another run's complete output is refused). Returns the run
+summary as a dict (objects, status counts, phase times, objects_per_second, report, skipped).
 )doc");
 
   m.def(

@@ -132,6 +132,9 @@ py::dict simulate(int set, int grid, int stamp_size, double snr, double noise_si
   return out;
 }
 
+// Ring-pair labels are any integers of this size (|label| < 2^62: exact as a float64 too).
+constexpr long long kMaxPairLabel = 1LL << 62;
+
 py::dict set_shear_dict(const SetShear& s) {
   py::dict d;
   d["g1_true"] = s.g1_true;
@@ -142,6 +145,7 @@ py::dict set_shear_dict(const SetShear& s) {
   d["err2"] = s.err2;
   d["used"] = s.used;
   d["excluded"] = s.excluded;
+  d["units"] = s.units;
   return d;
 }
 
@@ -189,20 +193,19 @@ Returns {'image': 2-D array, 'stamps': (grid^2, S, S) in grid order, 'truth': st
         const int bootstrap = static_cast<int>(in.integer_in("bootstrap", 200, 1, 1000000));
         const auto seed = static_cast<std::uint64_t>(in.integer_in("seed", 1, 0, LLONG_MAX));
         const DoubleArray a = as_float64(e1, {1}, "e1"), b = as_float64(e2, {1}, "e2");
-        const auto u = py::array_t<int, py::array::c_style | py::array::forcecast>::ensure(usable);
-        const auto p = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(pair);
-        if (!u || !p) {
-          PyErr_Clear();
-          throw py::type_error("set_shear(): usable and pair must be integer arrays");
-        }
-        if (b.size() != a.size() || u.size() != a.size() || p.size() != a.size())
+        const std::vector<long long> u = integer_values(usable, "set_shear(): usable", 0, 1, true);
+        const std::vector<long long> p = integer_values(pair, "set_shear(): pair", -kMaxPairLabel, kMaxPairLabel, false);
+        if (b.size() != a.size() || static_cast<py::ssize_t>(u.size()) != a.size() ||
+            static_cast<py::ssize_t>(p.size()) != a.size())
           throw py::value_error("e1, e2, usable and pair must have one value per object");
-        const std::size_t n = static_cast<std::size_t>(a.size());
-        const SetShear s = estimate_set_shear(values(a), values(b), {u.data(), n}, {p.data(), n}, g1_true, g2_true,
-                                              bootstrap, seed);
+        const std::vector<int> usable_int(u.begin(), u.end());
+        const SetShear s = estimate_set_shear(values(a), values(b), usable_int, p, g1_true, g2_true, bootstrap, seed);
         return set_shear_dict(s);
       },
-      "set_shear(e1, e2, usable, pair, g1_true, g2_true, bootstrap=200, seed=1)\n\nOne set's shear estimate (ring pairs averaged first; bootstrap errors), as `stampede metrics` per set.");
+      "set_shear(e1, e2, usable, pair, g1_true, g2_true, bootstrap=200, seed=1)\n\nOne set's shear estimate (ring pairs averaged first; bootstrap errors), as `stampede metrics` per set.\n"
+      "usable: 0/1 or booleans per object; pair: integer ring-pair labels (-1: none); a value that is not a whole\n"
+      "number (0.9, NaN) or out of range is refused, never truncated. err1, err2 are NaN when they cannot be\n"
+      "computed: fewer than two usable ring pairs ('units' in the dict) or bootstrap < 2.");
 
   m.def(
       "metacal_set_shear",
@@ -218,24 +221,27 @@ Returns {'image': 2-D array, 'stamps': (grid^2, S, S) in grid order, 'truth': st
         const DoubleArray e1 = as_float64(in.object("e1"), {1}, "e1"), e2 = as_float64(in.object("e2"), {1}, "e2");
         const DoubleArray r11 = as_float64(in.object("r11"), {1}, "r11"), r12 = as_float64(in.object("r12"), {1}, "r12");
         const DoubleArray r21 = as_float64(in.object("r21"), {1}, "r21"), r22 = as_float64(in.object("r22"), {1}, "r22");
-        const auto sel = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>::ensure(in.object("selected"));
-        const auto p = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(in.object("pair"));
-        if (!sel || !p) {
-          PyErr_Clear();
-          throw py::type_error("metacal_set_shear(): selected and pair must be integer arrays");
-        }
+        // A bit field, so booleans are refused: True would be bit 0 alone (selected on the noshear
+        // image only), leaving the sheared selections empty.
+        const std::vector<long long> selected = integer_values(in.object("selected"), "metacal_set_shear(): selected",
+                                                               0, 0x1f, false);
+        const std::vector<long long> p =
+            integer_values(in.object("pair"), "metacal_set_shear(): pair", -kMaxPairLabel, kMaxPairLabel, false);
         const auto n = e1.size();
         for (const DoubleArray* a : {&e2, &r11, &r12, &r21, &r22})
           if (a->size() != n) throw py::value_error("e1, e2, r11, r12, r21, r22, selected and pair must have one value per object");
-        if (sel.size() != n || p.size() != n)
+        if (static_cast<py::ssize_t>(selected.size()) != n || static_cast<py::ssize_t>(p.size()) != n)
           throw py::value_error("e1, e2, r11, r12, r21, r22, selected and pair must have one value per object");
-        const std::size_t count = static_cast<std::size_t>(n);
-        const MetacalRows rows{values(e1), values(e2), {values(r11), values(r12), values(r21), values(r22)},
-                               {sel.data(), count}, {p.data(), count}, step};
+        const std::vector<std::uint8_t> sel(selected.begin(), selected.end());
+        const MetacalRows rows{values(e1), values(e2), {values(r11), values(r12), values(r21), values(r22)}, sel, p,
+                               step};
         const MetacalSetShear m = estimate_metacal_set_shear(rows, g1_true, g2_true, bootstrap, seed);
         py::dict d = set_shear_dict(m.shear);
         d["R"] = py::make_tuple(m.r[0], m.r[1], m.r[2], m.r[3]);
         d["R_S"] = py::make_tuple(m.r_sel[0], m.r_sel[1], m.r_sel[2], m.r_sel[3]);
+        py::dict selected_units;
+        for (int k = 0; k < 5; ++k) selected_units[kMetacalSelectionNames[k]] = m.selected_units[k];
+        d["selected_units"] = selected_units;
         d["g1_raw"] = m.g1_raw;
         d["g2_raw"] = m.g2_raw;
         return d;
@@ -243,8 +249,10 @@ Returns {'image': 2-D array, 'stamps': (grid^2, S, S) in grid order, 'truth': st
       "metacal_set_shear(e1, e2, r11, r12, r21, r22, selected, pair, g1_true, g2_true, step=0.01, bootstrap=200, seed=1)\n\n"
       "One set's metacalibrated shear, as `stampede metrics --metacal` per set: g = (<R> + R_S)^-1 <e>, ring pairs\n"
       "averaged first, bootstrap errors. selected: per object, bit 0 passes the selection on the noshear\n"
-      "quantities, bits 1-4 on the 1p 1m 2p 2m images' (0x1f for every usable object without cuts; 0 excludes).\n"
-      "Returns set_shear()'s dict with 'R' and 'R_S' (R11 R12 R21 R22), 'g1_raw', 'g2_raw'.");
+      "quantities, bits 1-4 on the 1p 1m 2p 2m images' (0x1f for every usable object without cuts; 0 excludes):\n"
+      "integers 0..31 (booleans, fractions, NaN and values out of range are refused). Returns set_shear()'s dict with\n"
+      "'R' and 'R_S' (R11 R12 R21 R22), 'g1_raw', 'g2_raw' and 'selected_units' (ring pairs passing each selection,\n"
+      "by name: noshear 1p 1m 2p 2m; one at 0 leaves g, R and R_S NaN).");
   // The flags that exclude a row from every shear estimate (`stampede metrics`' rule).
   m.attr("shear_excluding_flags") = static_cast<unsigned long long>(kShearExcludingFlags);
 

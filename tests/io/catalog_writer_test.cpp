@@ -11,6 +11,7 @@
 
 #include "support/error_assertions.hpp"
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -27,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "io/durable_file.hpp"
 #include "io/fits_file.hpp"
 #include "support/result_records.hpp"
 #include "support/scratch_dir.hpp"
@@ -670,6 +672,89 @@ TEST_F(CatalogWriterTest, SurvivesSigkillMidBatch) {
   expect_table(options("kill0").path, records, PositionColumns::kGrid);
   // The third batch takes milliseconds, so at least the immediate kill lands inside it.
   EXPECT_GT(interrupted_mid_batch, 0);
+}
+
+// A write that fails for want of room (here the process's file-size limit, RLIMIT_FSIZE, in a
+// child) names what ran out, and the rows committed before it survive abandon(): the run resumes
+// once the limit is raised and ends byte for byte as an uninterrupted run. SIGXFSZ, which would
+// kill the child silently, is ignored by the writer. (Before: "cannot flush ...: CFITSIO status
+// 106" and abandon() deleted the partials and the checkpoint.)
+TEST_F(CatalogWriterTest, AWriteFailureNamesTheLimitAndKeepsTheCommittedRows) {
+  const auto records = make_records(3000, PositionColumns::kGrid);
+  const auto [ref_fits, ref_text] = reference(records);
+  const CatalogWriterOptions o = options("limited");
+  constexpr rlim_t kLimit = 200000;  // bytes: some hundreds of rows of either file, not all 3000
+  int pipe_fds[2];
+  ASSERT_EQ(::pipe(pipe_fds), 0);
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    ::close(pipe_fds[0]);
+    rlimit limit{};
+    ::getrlimit(RLIMIT_FSIZE, &limit);
+    limit.rlim_cur = kLimit;
+    if (::setrlimit(RLIMIT_FSIZE, &limit) != 0) ::_exit(3);
+    std::string message = "no failure";
+    try {
+      auto w = CatalogWriter::create(o);
+      try {
+        for (std::size_t first = 0; first < records.size(); first += 100)
+          w->append(std::span(records).subspan(first, 100));
+      } catch (const CatalogError& e) {
+        message = e.what();
+      }
+      w->abandon();
+    } catch (const std::exception& e) {
+      message = std::string("create: ") + e.what();
+    }
+    const bool sent = ::write(pipe_fds[1], message.data(), message.size()) == static_cast<ssize_t>(message.size());
+    ::_exit(sent ? 0 : 4);
+  }
+  ::close(pipe_fds[1]);
+  std::string message;
+  char buf[512];
+  for (ssize_t n; (n = ::read(pipe_fds[0], buf, sizeof buf)) > 0;) message.append(buf, static_cast<std::size_t>(n));
+  ::close(pipe_fds[0]);
+  int wstatus = 0;
+  ASSERT_EQ(::waitpid(pid, &wstatus, 0), pid);
+  ASSERT_TRUE(WIFEXITED(wstatus) && WEXITSTATUS(wstatus) == 0) << "child status " << wstatus << ": " << message;
+  EXPECT_TRUE(Contains(message, "the file-size limit of this process (RLIMIT_FSIZE, `ulimit -f`) of 200000 bytes is reached"))
+      << message;
+  EXPECT_TRUE(Contains(message, "rows committed before it are kept in '" + o.path + ".partial'")) << message;
+  EXPECT_TRUE(Contains(message, "resume the run")) << message;
+  ASSERT_TRUE(fs::exists(o.path + ".partial") && fs::exists(o.path + ".checkpoint") && fs::exists(o.text_path + ".partial"));
+  EXPECT_FALSE(fs::exists(o.path));
+
+  long long committed = -1;
+  auto w = CatalogWriter::resume(o, &committed);
+  EXPECT_GT(committed, 0);
+  EXPECT_LT(committed, 3000);
+  EXPECT_EQ(committed % 100, 0);
+  append_batches(*w, records, committed, {3000 - committed});
+  w->finish();
+  EXPECT_TRUE(read_bytes(o.path) == ref_fits) << "FITS differs from the uninterrupted run";
+  EXPECT_EQ(read_bytes(o.text_path), ref_text);
+}
+
+// A failure before any row is committed leaves nothing (a fresh run loses nothing), and a plain
+// abandon() (an error elsewhere in the run) still removes everything.
+TEST_F(CatalogWriterTest, AbandonRemovesTheOutputsUnlessAWriteFailedAfterACommit) {
+  const auto records = make_records(10, PositionColumns::kGrid);
+  const CatalogWriterOptions o = options("abandoned");
+  auto w = CatalogWriter::create(o);
+  w->append(records);
+  w->abandon();
+  for (const std::string& p : {o.path + ".partial", o.path + ".checkpoint", o.text_path + ".partial"})
+    EXPECT_FALSE(fs::exists(p)) << p;
+}
+
+// What ran out, from the errno of a failed write: /dev/full fails every write with ENOSPC.
+TEST(SpaceExhaustedReason, NamesTheFullFilesystemAndTheFileSizeLimit) {
+  DurableFile full = DurableFile::create("/dev/full");
+  const std::string e = error_of<FileError>([&] { full.write_all("x"); });
+  EXPECT_TRUE(Contains(e, "cannot write '/dev/full': No space left on device (the filesystem holding '/dev' is full (")) << e;
+  EXPECT_TRUE(Contains(space_exhausted_reason("/some/where/f.fits", EDQUOT), "the disk quota for '/some/where' is exceeded"));
+  EXPECT_EQ(space_exhausted_reason("/nonexistent/x.fits", EIO), "");
 }
 
 }  // namespace

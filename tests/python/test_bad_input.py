@@ -1,5 +1,6 @@
 """Must-show 3: bad arrays are a Python exception or a flagged row, never a crash."""
 
+import math
 import os
 
 import numpy as np
@@ -198,3 +199,59 @@ def test_the_psf_or_the_noise_given_two_ways_is_refused(stamps):
         stampede.Options(psf_input="airy", psf_image="p.fits")
     # One way each is fine: the image PSF with the default psf_input, weights with noise_sigma 0.
     assert len(stampede.fit_stamps(stamps, psf=psf, weights=w, options=OPTS)) == 4
+
+
+def test_selections_usable_flags_and_pairs_are_whole_numbers_in_range():
+    """metacal_set_shear(selected=...) and set_shear(usable=..., pair=...) refuse what a cast would
+    silently change (0.9 -> 0, 256 -> 0, -1 -> 255, NaN -> anything) and name the value; in-range
+    whole numbers are taken as they are."""
+    n = 4
+    e = np.array([0.1, -0.1, 0.2, -0.2])
+    one, zero = np.ones(n), np.zeros(n)
+    pair = np.array([0, 0, 1, 1])
+
+    def metacal(selected, pair=pair):
+        return stampede.metacal_set_shear(e, e, one, zero, zero, one, selected, pair, 0.0, 0.0, bootstrap=10)
+
+    for bad, text in [(np.array([0x1f, 0x1f, 0.9, 0x1f]), r"selected\[2\] = 0.9: not a whole number"),
+                      (np.array([0x1f, 256, 0x1f, 0x1f]), r"selected\[1\] = 256: must be 0..31"),
+                      (np.array([-1, 0x1f, 0x1f, 0x1f]), r"selected\[0\] = -1: must be 0..31"),
+                      (np.array([0x1f, 0x1f, 0x1f, np.nan]), r"selected\[3\] = nan: not a whole number")]:
+        with pytest.raises(ValueError, match=text):
+            metacal(bad)
+    with pytest.raises(TypeError, match="selected must hold integers 0..31, not booleans"):
+        metacal(np.ones(n, dtype=bool))
+    with pytest.raises(ValueError, match=r"pair\[1\] = nan: not a whole number"):
+        metacal(np.full(n, 0x1f), pair=np.array([0.0, np.nan, 1.0, 1.0]))
+    whole = metacal(np.array([31.0, 31.0, 31.0, 31.0]))  # floats holding whole numbers are fine
+    assert whole == metacal(np.full(n, 0x1f, dtype=np.uint8)) and whole["used"] == 4
+    assert whole["selected_units"] == {"noshear": 2, "1p": 2, "1m": 2, "2p": 2, "2m": 2}
+    # set_shear: usable 0/1 or booleans.
+    for bad, text in [(np.array([1, 1, 0.5, 1]), r"usable\[2\] = 0.5: not a whole number"),
+                      (np.array([1, 2, 1, 1]), r"usable\[1\] = 2: must be 0 or 1"),
+                      (np.array([1, 1, 1, np.nan]), r"usable\[3\] = nan: not a whole number")]:
+        with pytest.raises(ValueError, match=text):
+            stampede.set_shear(e, e, bad, pair, 0.0, 0.0)
+    with pytest.raises(ValueError, match=r"pair\[0\] = 0.5: not a whole number"):
+        stampede.set_shear(e, e, np.ones(n, dtype=bool), np.array([0.5, 0, 1, 1]), 0.0, 0.0)
+    assert stampede.set_shear(e, e, np.ones(n, dtype=bool), pair, 0.0, 0.0)["used"] == 4
+
+
+def test_an_error_from_fewer_than_two_ring_pairs_is_nan_not_zero():
+    """One usable ring pair: the bootstrap resamples it to itself, so it has no error to give (NaN,
+    'units' says why), never 0; a line through two such sets has no error either."""
+    e = np.array([0.1, -0.05, 0.3, -0.3])
+    pair = np.array([0, 0, 1, 1])
+    one_pair = np.array([1, 1, 0, 0])
+    s = stampede.set_shear(e, e, one_pair, pair, 0.01, -0.01)
+    assert s["units"] == 1 and s["used"] == 2
+    assert math.isnan(s["err1"]) and math.isnan(s["err2"])
+    both = stampede.set_shear(e, e, np.ones(4, dtype=int), pair, 0.01, 0.0)
+    assert both["units"] == 2 and both["err1"] > 0
+    one, zero = np.ones(4), np.zeros(4)
+    sel = np.where(one_pair == 1, 0x1f, 0)
+    mc = stampede.metacal_set_shear(e, e, one, zero, zero, one, sel, pair, 0.01, 0.0)
+    assert mc["units"] == 1 and math.isnan(mc["err1"]) and math.isnan(mc["err2"])
+    sets = [dict(s), dict(stampede.set_shear(e + 0.02, e, one_pair, pair, 0.03, -0.03))]
+    m = stampede.shear_metrics(sets)
+    assert math.isfinite(m["m1"]) and math.isnan(m["m1_err"]) and math.isnan(m["c1_err"])

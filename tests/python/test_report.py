@@ -145,3 +145,107 @@ def test_metacal_tables_give_the_metacal_numbers_of_metrics(run):
     assert len(lines) == 2 + 5
     for line in lines:
         assert line in section, line
+
+
+def snapshot(directory):
+    """{name: bytes} of the files in `directory` (not recursive)."""
+    return {name: (directory / name).read_bytes() for name in os.listdir(directory) if (directory / name).is_file()}
+
+
+def test_overwrite_replaces_only_the_reports_own_files(run, tmp_path):
+    """A directory holding anything besides a report's files (the input table, notes) is refused by
+    name with --overwrite too, and left exactly as it was; so is `-o .` there. A directory holding
+    only an earlier report is updated in place: its figures and page replaced, a figure the new
+    report lacks removed, nothing left behind in it or beside it."""
+    mixed = tmp_path / "mixed"
+    mixed.mkdir()
+    assert report(run["fits"][0], "-o", mixed).returncode == 0
+    table = mixed / "fit_0.fits"
+    table.write_bytes(run["fits"][0].read_bytes())
+    (mixed / "notes.txt").write_text("mine\n")
+    before = snapshot(mixed)
+    r = report(table, "-o", mixed, "--overwrite")
+    assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
+    assert "fit_0.fits" in r.stderr and "notes.txt" in r.stderr and "not a report's" in r.stderr
+    assert snapshot(mixed) == before
+    # `-o .` inside it: refused the same way, nothing left in the parent.
+    r = subprocess.run([sys.executable, "-m", "stampede.report", "fit_0.fits", "-o", ".", "--overwrite"],
+                       capture_output=True, text=True, cwd=mixed)
+    assert r.returncode == 1 and "Traceback" not in r.stderr and "notes.txt" in r.stderr, r.stderr
+    assert snapshot(mixed) == before
+    assert sorted(os.listdir(tmp_path)) == ["mixed"]
+    # A directory holding only a report (with a figure the next report does not draw): replaced in
+    # place, through `-o .`.
+    only = tmp_path / "only"
+    assert report(run["fits"][0], "-o", only).returncode == 0
+    (only / "metacal_R.png").write_bytes((only / "status.png").read_bytes())
+    r = subprocess.run([sys.executable, "-m", "stampede.report", str(run["fits"][1]), "-o", ".", "--overwrite"],
+                       capture_output=True, text=True, cwd=only)
+    assert r.returncode == 0, r.stderr
+    assert "fit_1.fits" in (only / "report.html").read_text(encoding="utf-8")
+    assert set(os.listdir(only)) == {"report.html", "status.png", "distributions.png", "psf_leakage.png"}
+    assert sorted(os.listdir(tmp_path)) == ["mixed", "only"]
+
+
+def survey_table(tmp_path):
+    """A small survey (MEDS) fit: 4 simulated objects."""
+    sim = tmp_path / "meds"
+    run_cli("sim", "meds", "--out", str(sim), "--objects", "4", "--epochs", "2", "--snr", "30")
+    out = tmp_path / "survey.fits"
+    run_cli("fit", "--meds", str(sim / "meds.fits"), "-o", str(out), "--threads", "2", "--quiet")
+    return out
+
+
+def test_a_table_given_twice_or_grid_with_survey_tables_is_refused(run, tmp_path):
+    # The same file twice: by the same path, by another spelling of it, and through a hard link.
+    refused(run, "twice", [run["fits"][0], run["fits"][1], run["fits"][0]], run["fits"][0], "given twice")
+    other_spelling = f"{run['dir']}/./{run['fits'][0].name}"
+    refused(run, "spelling", [run["fits"][0], other_spelling], "given twice")
+    link = tmp_path / "link.fits"
+    os.link(run["fits"][1], link)
+    refused(run, "hard_link", [run["fits"][1], link], link, "given twice")
+    # A grid table with a survey table: pixels and arcsec, chi2/dof and chi2.
+    survey = survey_table(tmp_path)
+    refused(run, "grid_survey", [run["fits"][0], survey], survey, run["fits"][0], "survey (MEDS)", "separately")
+    refused(run, "survey_grid", [survey, run["fits"][0]], survey, run["fits"][0], "survey (MEDS)")
+
+
+def with_column(source, path, name, value):
+    """A copy of the result table `source` with every row's double column `name` set to `value`."""
+    import struct
+    data = bytearray(source.read_bytes())
+    start = data.index(b"XTENSION")
+    cards = {}
+    at = start
+    while True:
+        card = data[at:at + 80].decode()
+        at += 80
+        if card.startswith("END "):
+            break
+        if card[8:10] == "= ":
+            cards[card[:8].strip()] = card[10:].split("/")[0].strip().strip("'").strip()
+    data_start = (at + 2879) // 2880 * 2880
+    widths = {"D": 8, "K": 8, "J": 4, "V": 4, "E": 4, "I": 2}
+    offset, column = 0, None
+    for k in range(1, int(cards["TFIELDS"]) + 1):
+        if cards[f"TTYPE{k}"] == name:
+            assert cards[f"TFORM{k}"] == "1D"
+            column = offset
+        offset += widths[cards[f"TFORM{k}"][-1]]
+    assert column is not None and offset == int(cards["NAXIS1"])
+    for row in range(int(cards["NAXIS2"])):
+        data[data_start + row * offset + column:data_start + row * offset + column + 8] = struct.pack(">d", value)
+    path.write_bytes(bytes(data))
+    return path
+
+
+def test_huge_fluxes_give_a_report_not_a_traceback(run, tmp_path):
+    """Fluxes near 1e162 (finite; their squares are not): the report is written and says them."""
+    table = run["fits"][2]
+    for name in ("flux", "bulge_flux"):
+        table = with_column(table, tmp_path / f"huge_{name}.fits", name, 1.5e162)
+    out = tmp_path / "huge"
+    r = report(table, "-o", out)
+    assert r.returncode == 0 and "Traceback" not in r.stderr and "Warning" not in r.stderr, r.stderr
+    text = html.unescape((out / "report.html").read_text(encoding="utf-8"))
+    assert "1.5e+162" in text

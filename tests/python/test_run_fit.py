@@ -168,3 +168,27 @@ def test_bord_rows_hold_the_losing_models_likelihood(tmp_path):
     assert np.isfinite(rows["other_likelihood"]).all()
     assert (rows["likelihood"] >= rows["other_likelihood"]).all()
     assert (rows["likelihood"] != rows["other_likelihood"]).any()
+
+
+def test_an_empty_list_of_tiles_is_refused_by_name(tmp_path):
+    """meds=[] used to end in "cannot open FITS file ''"; an empty path in the list likewise."""
+    out = tmp_path / "o.fits"
+    with pytest.raises(ValueError, match=r"run_fit\(\): meds is an empty list: give a MEDS tile's path"):
+        stampede.run_fit(meds=[], output=out)
+    with pytest.raises(ValueError, match=r"run_fit\(\): meds\[1\] is an empty path"):
+        stampede.run_fit(meds=[os.path.join(DATA, "meds-sample", "meds.fits"), ""], output=out)
+    assert not out.exists() and not os.path.exists(str(out) + ".partial")
+
+
+def test_resuming_a_complete_output_leaves_it_as_it_is(tmp_path):
+    """resume=True on an output this run finished: 'skipped', the file untouched (it used to raise
+    "'OUT.checkpoint' does not exist"); another run's complete output is refused."""
+    out = tmp_path / "done.fits"
+    opts = dict(MINI_PSF, renderer="exact")
+    assert stampede.run_fit(SET0, output=out, options=opts, shard=(0, 8))["skipped"] is False
+    before = (out.read_bytes(), os.stat(out).st_mtime_ns)
+    again = stampede.run_fit(SET0, output=out, options=opts, shard=(0, 8), resume=True)
+    assert again["skipped"] is True and again["objects"] == 0
+    assert (out.read_bytes(), os.stat(out).st_mtime_ns) == before
+    with pytest.raises(stampede.ConfigError, match="is complete but was written by another run"):
+        stampede.run_fit(SET0, output=out, options=dict(opts, minimizer_max_iterations=3), shard=(0, 8), resume=True)

@@ -19,14 +19,22 @@ struct RunResult {
   std::string err;
 };
 
+// file_size_limit >= 0: the child's RLIMIT_FSIZE (`ulimit -f`, bytes), set after its stderr and
+// stdout files are opened.
 pid_t spawn(const std::vector<std::string>& args, const std::string& err_path, const std::string& command = "fit",
-            const std::string& out_path = "/dev/null") {
+            const std::string& out_path = "/dev/null", long long file_size_limit = -1) {
   const pid_t pid = fork();
   if (pid == 0) {
     FILE* e = std::fopen(err_path.c_str(), "w");
     if (e) dup2(fileno(e), 2);
     FILE* o = std::fopen(out_path.c_str(), "w");
     if (o) dup2(fileno(o), 1);
+    if (file_size_limit >= 0) {
+      rlimit limit{};
+      getrlimit(RLIMIT_FSIZE, &limit);
+      limit.rlim_cur = static_cast<rlim_t>(file_size_limit);
+      if (setrlimit(RLIMIT_FSIZE, &limit) != 0) _exit(126);
+    }
     std::vector<char*> argv;
     std::string bin = STAMPEDE_BINARY;
     argv.push_back(bin.data());

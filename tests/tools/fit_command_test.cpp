@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -569,6 +570,72 @@ TEST_F(FitCommand, ErrorsQuoteABadValueShortAndEscaped) {
   EXPECT_NE(ini.err.find("' (5000000 bytes): expected a number"), std::string::npos) << ini.err.substr(0, 500);
   EXPECT_LT(ini.err.size(), 600u);
   EXPECT_EQ(ini.err.find('\x1b'), std::string::npos) << "no raw escape byte reaches the terminal";
+}
+
+// A run that hits the file-size limit (`ulimit -f`) says so, exits non-zero and keeps its committed
+// rows: --resume after raising the limit gives the table of an uninterrupted run. (Before: "cannot
+// flush ...: CFITSIO status 106", and the partial and checkpoint were deleted.)
+TEST_F(FitCommand, AFileSizeLimitKeepsTheCommittedRowsForResume) {
+  const std::string in = data("galsim-great08-mini/nf/set_0.fits");
+  const std::vector<std::string> opts =
+      kCheap + kGreat08Psf + std::vector<std::string>{"--set", "batch_size=20", "--threads", "2", "--quiet"};
+  ASSERT_EQ(run(std::vector<std::string>{in, "-o", path("full.fits")} + opts).exit_code, 0);
+  const std::string out = path("limited.fits");
+  // About a third of the table's rows fit under 60000 bytes (a row is ~210 bytes, the header ~20 KB).
+  const RunResult limited = finish(spawn(std::vector<std::string>{in, "-o", out} + opts, path("limited_err.txt"), "fit",
+                                         "/dev/null", 60000),
+                                   path("limited_err.txt"));
+  EXPECT_EQ(limited.exit_code, 1) << limited.err;
+  EXPECT_NE(limited.err.find("the file-size limit of this process (RLIMIT_FSIZE, `ulimit -f`) of 60000 bytes is reached"),
+            std::string::npos) << limited.err;
+  EXPECT_NE(limited.err.find("rows committed before it are kept in '" + out + ".partial'"), std::string::npos)
+      << limited.err;
+  ASSERT_TRUE(fs::exists(out + ".partial") && fs::exists(out + ".checkpoint")) << limited.err;
+  ASSERT_FALSE(fs::exists(out));
+  const RunResult resumed = run(std::vector<std::string>{in, "-o", out, "--resume"} + opts);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  expect_tables_equal(path("full.fits"), out);
+}
+
+// --resume of an output the run already finished: says it is complete, exits 0 and leaves it
+// untouched (it used to fail with "'OUT.checkpoint' does not exist"); another run's complete output
+// is refused.
+TEST_F(FitCommand, ResumingACompleteOutputLeavesItAsItIs) {
+  const std::string in = data("galsim-great08-mini/nf/set_0.fits");
+  const std::vector<std::string> opts = kCheap + kGreat08Psf + std::vector<std::string>{"--threads", "2"};
+  const std::string out = path("done.fits");
+  ASSERT_EQ(run(std::vector<std::string>{in, "-o", out, "--quiet"} + opts).exit_code, 0);
+  const auto before = fs::last_write_time(out);
+  std::ifstream a(out, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(a)), std::istreambuf_iterator<char>());
+  const RunResult again = run(std::vector<std::string>{in, "-o", out, "--resume"} + opts);
+  EXPECT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_NE(again.err.find(out + " is complete, skipped"), std::string::npos) << again.err;
+  EXPECT_EQ(fs::last_write_time(out), before);
+  std::ifstream b(out, std::ios::binary);
+  EXPECT_TRUE(std::string((std::istreambuf_iterator<char>(b)), std::istreambuf_iterator<char>()) == bytes);
+  EXPECT_FALSE(fs::exists(out + ".partial") || fs::exists(out + ".checkpoint"));
+  const RunResult other = run(std::vector<std::string>{in, "-o", out, "--resume"} + opts +
+                              std::vector<std::string>{"--set", "minimizer_max_iterations=3"});
+  EXPECT_EQ(other.exit_code, 1);
+  EXPECT_NE(other.err.find("is complete but was written by another run"), std::string::npos) << other.err;
+}
+
+// --bands (or another one-value option) given twice: the last used to win silently; refused before
+// any work.
+TEST_F(FitCommand, OptionsGivenTwiceAreRefused) {
+  const RunResult r = run({"--meds", path("g.fits"), "--meds", path("r.fits"), "--bands", "g,r", "--bands", "r,g", "-o",
+                           path("o.fits")});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--bands 'r,g': --bands is given twice (first 'g,r')"), std::string::npos) << r.err;
+  const std::string grid = data("galsim-great08-mini/nf/set_0.fits");
+  const RunResult o = run({grid, "-o", path("a.fits"), "--output", path("b.fits")});
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_NE(o.err.find("-o is given twice"), std::string::npos) << o.err;
+  const RunResult t = run({grid, "-o", path("a.fits"), "--threads", "1", "--threads", "2"});
+  EXPECT_EQ(t.exit_code, 1);
+  EXPECT_NE(t.err.find("--threads is given twice"), std::string::npos) << t.err;
+  for (const char* name : {"a.fits", "b.fits", "a.fits.partial", "o.fits"}) EXPECT_FALSE(fs::exists(path(name))) << name;
 }
 
 }  // namespace

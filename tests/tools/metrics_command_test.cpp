@@ -3,6 +3,7 @@
 // set whose rows are all excluded (it used to give NaN m and c beside a finite Q).
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -150,6 +151,71 @@ TEST_F(MetricsCommand, NoSelectionResponseLeavesRsOut) {
   const RunResult plain = metrics({"--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--no-selection-response"});
   EXPECT_EQ(plain.exit_code, 1);
   EXPECT_TRUE(Contains(plain.err, "--no-selection-response leaves metacal's R_S out")) << plain.err;
+}
+
+// A metacal cut that keeps objects on the noshear image but none on the sheared ones used to print
+// <R> = 0, g = nan, m, c = NaN and Q = 0.0, write bare nan into the JSON and exit 0: now an error
+// naming the cut and the empty selections.
+TEST_F(MetricsCommand, AMetacalCutLeavingAShearedSelectionEmptyIsAnError) {
+  write_metacal_table();  // noshear snr 20..30, every sheared image's 20
+  const RunResult r = metrics({"--metacal", "--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--cut-snr",
+                               "25", "--json", path("m.json")});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_TRUE(Contains(r.err, "mcal.fits[HDU 1 'RESULTS']: --cut-snr 25 keeps")) << r.err;
+  EXPECT_TRUE(Contains(r.err, "but none on the 1p, 1m, 2p, 2m image's quantities")) << r.err;
+  // Without R_S the sheared selections are the noshear one: a result.
+  EXPECT_EQ(metrics({"--metacal", "--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--cut-snr", "25",
+                     "--no-selection-response"})
+                .exit_code,
+            0);
+}
+
+// Sets with one usable ring pair each: the bootstrap has nothing to resample, so the errors are
+// n/a (JSON null), and so are m's and c's from a line through two such sets; they used to read
+// "+- 0.0e+00".
+TEST_F(MetricsCommand, ErrorsFromOneRingPairAreNotAvailable) {
+  auto write_fit = [&](const std::string& file, double offset) {
+    std::vector<double> id, e, st, zero(400, 0.0), psf(400, 0.05);
+    for (int i = 0; i < 400; ++i) {
+      id.push_back(i);
+      e.push_back(offset + 0.01 * (i % 7));
+      st.push_back(i < 2 ? 0 : 3);  // only the ring pair (0, 1) is usable
+    }
+    FitsFile f = FitsFile::create(file, true);
+    f.write_empty_image();
+    f.write_table("RESULTS", {{"id", true, id}, {"e1", false, e}, {"e2", false, e}, {"status", true, st},
+                              {"flags", true, zero}, {"psf_e1", false, zero}, {"psf_e2", false, psf}});
+  };
+  write_fit(path("a.fits"), 0.0);
+  write_fit(path("b.fits"), 0.01);
+  const RunResult r = metrics({"--fit", path("a.fits"), "--truth", data("truth_0.fits"), "--fit", path("b.fits"),
+                               "--truth", data("truth_1.fits"), "--json", path("m.json")});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string out = text_of(path("report.txt")), json = text_of(path("m.json"));
+  EXPECT_TRUE(Contains(out, "err n/a: set 0: 1 usable ring pair (a bootstrap error needs 2 or more)")) << out;
+  EXPECT_TRUE(Contains(out, "m1 = ")) << out;
+  EXPECT_FALSE(Contains(out, "+- 0.0e+00")) << out;
+  EXPECT_TRUE(Contains(out, "+- n/a   c1 = ")) << out;
+  EXPECT_TRUE(Contains(out, "m, c errors n/a: 2 sets, not all with a bootstrap error")) << out;
+  EXPECT_TRUE(Contains(json, "\"err1\": null")) << json;
+  EXPECT_TRUE(Contains(json, "\"m1_err\": null")) << json;
+  EXPECT_FALSE(Contains(json, "nan")) << json;
+}
+
+// The same table given twice (the same path, or another name of the same file) would count its
+// set twice: refused.
+TEST_F(MetricsCommand, ARepeatedFitIsRefused) {
+  write_metacal_table();
+  const std::vector<std::string> twice = {"--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--fit",
+                                          path("mcal.fits"), "--truth", data("truth_1.fits")};
+  const RunResult r = metrics(twice);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_TRUE(Contains(r.err, "--fit '" + path("mcal.fits") + "' is given twice")) << r.err;
+  std::filesystem::create_hard_link(path("mcal.fits"), path("again.fits"));
+  const RunResult linked = metrics({"--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--fit",
+                                    path("again.fits"), "--truth", data("truth_1.fits")});
+  EXPECT_EQ(linked.exit_code, 1);
+  EXPECT_TRUE(Contains(linked.err, "--fit '" + path("again.fits") + "' is given twice")) << linked.err;
 }
 
 }  // namespace

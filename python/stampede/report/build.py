@@ -10,7 +10,7 @@ import tempfile
 import numpy as np
 
 from . import figures
-from .inputs import ReportError, ResultTable, SavedImages, match_truth
+from .inputs import ReportError, ResultTable, SavedImages, check_tables, match_truth
 from .page import Page, note, number, pre, table
 from .shear import METRICS_SET_HEADER, ShearAgainstTruth, metrics_lines, metrics_set_line
 from .statistics import BinnedMean, Histogram, Histogram2D, StatusCounts, usable_for_shear
@@ -126,27 +126,47 @@ def bin_labels(edges, hist):
         [math.sqrt(max(1e-12, finite[i]) * max(1e-12, finite[i + 1])) for i in range(len(edges) - 1)]
 
 
+# The files a report writes: only these are ever replaced or removed in an existing directory.
+REPORT_FILES = frozenset({"report.html", "status.png", "distributions.png", "psf_leakage.png", "sky.png",
+                          "e_vs_truth.png", "bias_bins.png", "metacal_R.png", "residuals.png"})
+
+
 def check_output(out_dir, overwrite):
-    if os.path.exists(out_dir):
-        if not os.path.isdir(out_dir):
-            raise ReportError(f"-o {out_dir}: exists and is not a directory")
-        entries = os.listdir(out_dir)
-        if entries and not overwrite:
-            raise ReportError(f"-o {out_dir}: the directory exists and is not empty (--overwrite replaces a report)")
-        if entries and "report.html" not in entries:
-            raise ReportError(f"-o {out_dir}: the directory holds files other than a report; not replacing it")
+    """Refuses an output that is not a directory, or that holds anything but a report's own files
+    (named, so nothing of the user's is touched), or a report without --overwrite."""
+    if os.path.lexists(out_dir) and not os.path.isdir(out_dir):
+        raise ReportError(f"-o {out_dir}: exists and is not a directory")
+    if not os.path.isdir(out_dir):
+        return
+    entries = sorted(os.listdir(out_dir))
+    foreign = [e for e in entries if e not in REPORT_FILES or not os.path.isfile(os.path.join(out_dir, e))
+               or os.path.islink(os.path.join(out_dir, e))]
+    if foreign:
+        shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
+        raise ReportError(f"-o {out_dir}: the directory holds files that are not a report's ({shown}); a report "
+                          "replaces only its own files (report.html and its figures): give an empty or new directory")
+    if entries and not overwrite:
+        raise ReportError(f"-o {out_dir}: the directory holds a report (--overwrite replaces it)")
 
 
 def install(tmp, out_dir):
-    """Moves the finished report directory into place: a rename, so a reader sees the old report
-    or the new one, never half of one."""
-    if os.path.isdir(out_dir):
-        old = tempfile.mkdtemp(prefix=".old-report-", dir=os.path.dirname(os.path.abspath(out_dir)))
-        os.rename(out_dir, os.path.join(old, "report"))
+    """Puts the finished report in place. A new directory is renamed into place whole (a reader
+    sees no report or all of it). In an existing directory (holding at most an earlier report, see
+    check_output) each file is renamed over its old version, the figures first and the page last,
+    then the old report's figures the new one does not have are removed: nothing else in the
+    directory is touched, and the directory itself (its permissions, a symbolic link to it, `-o .`)
+    stays."""
+    if not os.path.isdir(out_dir):
         os.rename(tmp, out_dir)
-        shutil.rmtree(old, ignore_errors=True)
-    else:
-        os.rename(tmp, out_dir)
+        return
+    new = sorted(os.listdir(tmp), key=lambda name: name == "report.html")
+    for name in new:
+        os.replace(os.path.join(tmp, name), os.path.join(out_dir, name))
+    for name in REPORT_FILES.difference(new):
+        path = os.path.join(out_dir, name)
+        if os.path.isfile(path) and not os.path.islink(path):
+            os.remove(path)
+    os.rmdir(tmp)
 
 
 def build_report(table_paths, out_dir, truth=None, images=None, overwrite=False, progress=None):
@@ -156,10 +176,13 @@ def build_report(table_paths, out_dir, truth=None, images=None, overwrite=False,
         raise ReportError("give at least one result table")
     out_dir = os.path.normpath(str(out_dir))
     check_output(out_dir, overwrite)
-    tables = [ResultTable(p) for p in table_paths]
+    tables = check_tables([ResultTable(p) for p in table_paths])
     truths = match_truth(tables, str(truth)) if truth else None
     saved = SavedImages(images, tables) if images else None
-    parent = os.path.dirname(os.path.abspath(out_dir))
+    # The temporary lies beside the new directory, or inside the existing one: the same filesystem
+    # as the report's files either way, so every rename is atomic.
+    existing = os.path.isdir(out_dir)
+    parent = out_dir if existing else os.path.dirname(os.path.abspath(out_dir))
     os.makedirs(parent, exist_ok=True)
     tmp = tempfile.mkdtemp(prefix=".report-", dir=parent)
     try:

@@ -106,6 +106,26 @@ class ResultTable:
         return None if self.survey or not isinstance(size, int) else size * size
 
 
+def check_tables(tables):
+    """The tables pooled into one report: each file once (by its resolved path and its identity on
+    disk, so a link or a second name of one file counts too), and of one kind of input: a survey
+    (MEDS) table's radii are arcsec and its chi2 has no pixel count, a grid or catalogue table's are
+    pixels and chi2/dof, so the two are never pooled into one histogram."""
+    seen = {}
+    for t in tables:
+        st = os.stat(t.path)
+        for key in (("path", os.path.realpath(t.path)), ("inode", st.st_dev, st.st_ino)):
+            if key in seen:
+                raise ReportError(f"{t.path} is given twice (as {seen[key].path} too): each table is pooled once")
+            seen[key] = t
+    survey = [t for t in tables if t.survey]
+    if survey and len(survey) != len(tables):
+        other = next(t for t in tables if not t.survey)
+        raise ReportError(f"{survey[0].path} is a survey (MEDS) table (radius in arcsec, no pixel count for chi2/dof) "
+                          f"but {other.path} is a {other.positions} table (radius in pixels): report them separately")
+    return tables
+
+
 class Truth:
     """A simulated set's truth (GREAT08-mini layout): SHEAR1 SHEAR2 in the primary header and a
     TRUTH table with index and pair."""

@@ -21,9 +21,16 @@ FIT_COLUMNS = ("id", "e1", "e2", "status", "flags", "snr", "radius", "psf_e1", "
 METACAL_COLUMNS = ("R11", "R12", "R21", "R22")
 
 
+def error_text(v, spec, width=0):
+    """An error as `stampede metrics` prints it: 'n/a' (right-aligned in `width`) when it could not
+    be computed (NaN: fewer than two ring pairs, or a line through two sets without errors)."""
+    return format(v, spec) if math.isfinite(v) else f"{'n/a':>{width}s}"
+
+
 def metrics_set_line(k, s):
-    return (f"{k:<4d} {s['g1_true']:+10.6f} {s['g1']:+10.6f} {s['g1'] - s['g1_true']:+10.2e} {s['err1']:9.2e} "
-            f"{s['g2_true']:+10.6f} {s['g2']:+10.6f} {s['err2']:9.2e} {s['used']:6d} {s['excluded']:8d}")
+    return (f"{k:<4d} {s['g1_true']:+10.6f} {s['g1']:+10.6f} {s['g1'] - s['g1_true']:+10.2e} "
+            f"{error_text(s['err1'], '9.2e', 9)} {s['g2_true']:+10.6f} {s['g2']:+10.6f} "
+            f"{error_text(s['err2'], '9.2e', 9)} {s['used']:6d} {s['excluded']:8d}")
 
 
 METRICS_SET_HEADER = (f"{'set':<4s} {'g1_true':>10s} {'g1':>10s} {'g1-g1_t':>10s} {'err1':>9s} {'g2_true':>10s} "
@@ -32,10 +39,11 @@ METRICS_SET_HEADER = (f"{'set':<4s} {'g1_true':>10s} {'g1':>10s} {'g1-g1_t':>10s
 
 def metrics_lines(m, psf_e):
     """The lines `stampede metrics` prints for m, c and the PSF frame (printf %+.3e, %.1e)."""
-    return [f"m1 = {m['m1']:+.3e} +- {m['m1_err']:.1e}   c1 = {m['c1']:+.3e} +- {m['c1_err']:.1e}",
-            f"m2 = {m['m2']:+.3e} +- {m['m2_err']:.1e}   c2 = {m['c2']:+.3e} +- {m['c2_err']:.1e}",
+    return [f"m{c} = {m[f'm{c}']:+.3e} +- {error_text(m[f'm{c}_err'], '.1e')}   "
+            f"c{c} = {m[f'c{c}']:+.3e} +- {error_text(m[f'c{c}_err'], '.1e')}" for c in (1, 2)] + [
             f"PSF frame (e = {psf_e[0]:.3f}, {psf_e[1]:.3f}): c+ = {m['c_plus']:+.3e}  cx = {m['c_cross']:+.3e}",
             f"Q = {m['q']:.1f}  (1e-4 / mean over sets and components of (g_est - g_true)^2)"]
+
 
 
 def units_of(pair):

@@ -30,7 +30,11 @@ class Histogram:
         self.asinh_scale, self.integer = asinh_scale, integer
         self.counts = np.zeros(bins + 2, dtype=np.int64)  # [below, bins..., above]
         self.nan = 0
+        # The moments are sums of x / scale and (x / scale)^2, scale the largest |x| so far (rescaled
+        # when it grows): no overflow for any finite x (a flux of 1e162 squares to beyond the
+        # largest double).
         self.total = self.sum = self.sum2 = 0.0
+        self.scale = 0.0
         self.min, self.max = math.inf, -math.inf
 
     def forward(self, x):
@@ -47,8 +51,17 @@ class Histogram:
         if x.size == 0:
             return
         self.total += x.size
-        self.sum += float(x.sum())
-        self.sum2 += float(np.dot(x, x))
+        scale = max(self.scale, float(np.abs(x).max()))
+        if scale > self.scale:
+            if self.scale > 0:
+                ratio = self.scale / scale
+                self.sum *= ratio
+                self.sum2 *= ratio * ratio
+            self.scale = scale
+        if self.scale > 0:
+            y = x / self.scale
+            self.sum += float(y.sum())
+            self.sum2 += float(np.dot(y, y))
         self.min, self.max = min(self.min, float(x.min())), max(self.max, float(x.max()))
         t = (self.forward(x) - self.lo) * (self.bins / (self.hi - self.lo))
         index = np.clip(np.floor(t), -1, self.bins).astype(np.int64) + 1
@@ -59,12 +72,13 @@ class Histogram:
         return int(self.total)
 
     def mean(self):
-        return self.sum / self.total if self.total else math.nan
+        return self.scale * (self.sum / self.total) if self.total else math.nan
 
     def std(self):
         if self.total < 2:
             return math.nan
-        return math.sqrt(max(0.0, self.sum2 / self.total - self.mean() ** 2))
+        m = self.sum / self.total
+        return self.scale * math.sqrt(max(0.0, self.sum2 / self.total - m * m))
 
     def fine_edges(self):
         return np.linspace(self.lo, self.hi, self.bins + 1)

@@ -67,5 +67,33 @@ TEST(MetacalShear, ANonFiniteRowDropsItsPair) {
   EXPECT_NEAR(s.shear.g1, 0.0, 1e-15);
 }
 
+// A cut that no unit passes on one sheared image leaves <e> over that selection, R_S and g
+// undefined: NaN (never a zero <R>), with the empty selection named by its units' count.
+TEST(MetacalShear, AnEmptyShearedSelectionIsNamedAndGivesNaN) {
+  const std::vector<double> e1 = {0.1, -0.1, 0.2, -0.2}, e2(4, 0.0), one(4, 1.0), zero(4, 0.0);
+  const std::vector<std::uint8_t> sel(4, 0x1f & ~0x4);  // every object fails on the 1m image
+  const std::vector<long long> pair = {0, 0, 1, 1};
+  MetacalRows rows{e1, e2, {one, zero, zero, one}, sel, pair, 0.01};
+  const MetacalSetShear s = estimate_metacal_set_shear(rows, 0, 0, 100, 1);
+  EXPECT_EQ(s.empty_selection(), 2);
+  EXPECT_STREQ(kMetacalSelectionNames[s.empty_selection()], "1m");
+  EXPECT_EQ(s.selected_units, (std::array<long long, 5>{2, 2, 0, 2, 2}));
+  EXPECT_TRUE(std::isnan(s.shear.g1) && std::isnan(s.r[0]) && std::isnan(s.r_sel[0])) << s.r[0];
+  EXPECT_TRUE(std::isnan(s.shear.err1));
+}
+
+// One selected ring pair: no bootstrap error (NaN), not 0.
+TEST(MetacalShear, OneSelectedRingPairHasNoError) {
+  const std::vector<double> e1 = {0.1, -0.1, 0.2, -0.2}, e2(4, 0.0), one(4, 1.0), zero(4, 0.0);
+  const std::vector<std::uint8_t> sel = {0x1f, 0x1f, 0, 0x1f};
+  const std::vector<long long> pair = {0, 0, 1, 1};
+  MetacalRows rows{e1, e2, {one, zero, zero, one}, sel, pair, 0.01};
+  const MetacalSetShear s = estimate_metacal_set_shear(rows, 0, 0, 100, 1);
+  EXPECT_EQ(s.shear.units, 1);
+  EXPECT_NEAR(s.shear.g1, 0.0, 1e-15);
+  EXPECT_TRUE(std::isnan(s.shear.err1) && std::isnan(s.shear.err2)) << s.shear.err1;
+  EXPECT_EQ(s.empty_selection(), -1);
+}
+
 }  // namespace
 }  // namespace stampede

@@ -93,5 +93,36 @@ TEST(ShearMetrics, BootstrapIsDeterministicPerSeed) {
   EXPECT_EQ(x.err2, y.err2);
 }
 
+// One usable ring pair: every bootstrap resample is that pair, so its spread (0) is no error: the
+// errors are NaN, and a line through two such sets has NaN m and c errors too (two points leave no
+// scatter); three sets give errors from the scatter.
+TEST(ShearMetrics, AnErrorFromFewerThanTwoRingPairsIsNotComputed) {
+  auto one_pair_set = [](double g1, double offset) {
+    const std::vector<double> e1 = {g1 + 0.2 + offset, g1 - 0.2 + offset, 0.5, -0.1}, e2 = {0.1, -0.1, 0.3, 0.2};
+    const std::vector<int> usable = {1, 1, 0, 1};  // pair 1 has an unusable member
+    const std::vector<long long> pair = {0, 0, 1, 1};
+    return estimate_set_shear(e1, e2, usable, pair, g1, -g1, 200, 3);
+  };
+  const SetShear a = one_pair_set(0.01, 0.0), b = one_pair_set(0.03, 1e-3), c = one_pair_set(-0.02, -1e-3);
+  EXPECT_EQ(a.units, 1);
+  EXPECT_EQ(a.used, 2);
+  EXPECT_NEAR(a.g1, 0.01, 1e-15);
+  EXPECT_TRUE(std::isnan(a.err1)) << a.err1;
+  EXPECT_TRUE(std::isnan(a.err2)) << a.err2;
+  const ShearMetrics two = combine_sets({a, b}, 0.0, 0.0);
+  EXPECT_NEAR(two.component[0].m, 0.05, 1e-12);  // through both points exactly
+  EXPECT_TRUE(std::isnan(two.component[0].m_err)) << two.component[0].m_err;
+  EXPECT_TRUE(std::isnan(two.component[0].c_err)) << two.component[0].c_err;
+  const ShearMetrics three = combine_sets({a, b, c}, 0.0, 0.0);
+  EXPECT_GT(three.component[0].m_err, 0.0);
+  EXPECT_TRUE(std::isfinite(three.component[0].m_err));
+  // Two usable pairs have a bootstrap error; --bootstrap 1 (or 0) computes none.
+  const std::vector<double> e = {0.2, -0.2, 0.3, -0.25};
+  const std::vector<int> all(4, 1);
+  const std::vector<long long> pair = {0, 0, 1, 1};
+  EXPECT_GT(estimate_set_shear(e, e, all, pair, 0, 0, 200, 3).err1, 0.0);
+  EXPECT_TRUE(std::isnan(estimate_set_shear(e, e, all, pair, 0, 0, 1, 3).err1));
+}
+
 }  // namespace
 }  // namespace stampede
