@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "engine/analysis/bootstrap.hpp"
 #include "engine/common/random_stream.hpp"
 
 namespace stampede {
@@ -145,25 +146,13 @@ MetacalSetShear estimate_metacal_set_shear(const MetacalRows& rows, double g1_tr
   out.g2_raw = all.raw2;
   out.selected_units = units.selected_units();
   out.shear.units = out.selected_units[0];
-  const std::size_t n_units = count.size();
   // One selected unit resamples to itself every time: no error (NaN), not a zero one.
   if (bootstrap > 1 && out.shear.units > 1 && std::isfinite(all.g1)) {
-    std::uint64_t state = seed;
-    double a1 = 0, a2 = 0, q1 = 0, q2 = 0;
-    int done = 0;
-    for (int b = 0; b < bootstrap; ++b) {
-      std::fill(count.begin(), count.end(), 0);
-      for (std::size_t k = 0; k < n_units; ++k) ++count[splitmix64(state) % n_units];
-      const Estimate e = units.full_estimate(count);
-      if (!std::isfinite(e.g1) || !std::isfinite(e.g2)) continue;
-      a1 += e.g1, a2 += e.g2, q1 += e.g1 * e.g1, q2 += e.g2 * e.g2;
-      ++done;
-    }
-    if (done > 1) {
-      a1 /= done, a2 /= done;
-      out.shear.err1 = std::sqrt(std::max(0.0, q1 / done - a1 * a1));
-      out.shear.err2 = std::sqrt(std::max(0.0, q2 / done - a2 * a2));
-    }
+    const auto err = bootstrap_errors<2>(&count, bootstrap, seed, [&](const std::vector<int>& c) {
+      const Estimate e = units.full_estimate(c);
+      return std::array<double, 2>{e.g1, e.g2};
+    });
+    out.shear.err1 = err[0], out.shear.err2 = err[1];
   }
   return out;
 }

@@ -6,6 +6,7 @@
 #include <map>
 #include <stdexcept>
 
+#include "engine/analysis/bootstrap.hpp"
 #include "engine/common/random_stream.hpp"
 
 namespace stampede {
@@ -95,25 +96,13 @@ SetShear estimate_set_shear(std::span<const double> e1, std::span<const double> 
   s.g1 = g[0];
   s.g2 = g[1];
   if (!std::isfinite(s.g1)) return s;
-  // Bootstrap over units; splitmix64 is identical on every platform, so errors are reproducible.
   // One usable unit resamples to itself every time: no error (NaN), not a zero one.
   if (bootstrap > 1 && s.units > 1) {
-    std::uint64_t state = seed;
-    double a1 = 0, a2 = 0, q1 = 0, q2 = 0;
-    int done = 0;
-    for (int b = 0; b < bootstrap; ++b) {
-      std::fill(count.begin(), count.end(), 0);
-      for (std::size_t k = 0; k < n; ++k) ++count[splitmix64(state) % n];
-      const auto e = units.estimate(count);
-      if (!std::isfinite(e[0]) || !std::isfinite(e[1])) continue;
-      a1 += e[0], a2 += e[1], q1 += e[0] * e[0], q2 += e[1] * e[1];
-      ++done;
-    }
-    if (done > 1) {
-      a1 /= done, a2 /= done;
-      s.err1 = std::sqrt(std::max(0.0, q1 / done - a1 * a1));
-      s.err2 = std::sqrt(std::max(0.0, q2 / done - a2 * a2));
-    }
+    const auto err = bootstrap_errors<2>(&count, bootstrap, seed, [&](const std::vector<int>& c) {
+      const auto e = units.estimate(c);
+      return std::array<double, 2>{e[0], e[1]};
+    });
+    s.err1 = err[0], s.err2 = err[1];
   }
   return s;
 }

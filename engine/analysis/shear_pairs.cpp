@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "engine/analysis/bootstrap.hpp"
 #include "engine/common/random_stream.hpp"
 
 namespace stampede {
@@ -81,23 +82,12 @@ ShearPairEstimate estimate_shear_pair(const UnitShearEstimator& plus, const Unit
   out.half_sum = all.sum;
   out.half_difference_err = out.half_sum_err = {NAN, NAN};
   if (bootstrap > 1 && labels.size() > 1) {
-    std::uint64_t state = seed;
-    std::array<double, 4> s{}, s2{};
-    int done = 0;
-    for (int b = 0; b < bootstrap; ++b) {
-      std::fill(count.begin(), count.end(), 0);
-      for (std::size_t k = 0; k < labels.size(); ++k) ++count[splitmix64(state) % labels.size()];
-      const PairValues v = combine(plus.estimate(count), minus.estimate(count));
-      const std::array<double, 4> q = {v.difference[0], v.difference[1], v.sum[0], v.sum[1]};
-      if (!std::ranges::all_of(q, [](double x) { return std::isfinite(x); })) continue;
-      for (int i = 0; i < 4; ++i) s[i] += q[i], s2[i] += q[i] * q[i];
-      ++done;
-    }
-    if (done > 1) {
-      auto sd = [&](int i) { return std::sqrt(std::max(0.0, s2[i] / done - std::pow(s[i] / done, 2))); };
-      out.half_difference_err = {sd(0), sd(1)};
-      out.half_sum_err = {sd(2), sd(3)};
-    }
+    const auto err = bootstrap_errors<4>(&count, bootstrap, seed, [&](const std::vector<int>& c) {
+      const PairValues v = combine(plus.estimate(c), minus.estimate(c));
+      return std::array<double, 4>{v.difference[0], v.difference[1], v.sum[0], v.sum[1]};
+    });
+    out.half_difference_err = {err[0], err[1]};
+    out.half_sum_err = {err[2], err[3]};
   }
   return out;
 }
