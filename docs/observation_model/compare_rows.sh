@@ -123,7 +123,7 @@ descendants() {
 }
 
 # mpi_kill_resume CASE FIT_ARGS...: NEW's 2-rank run killed by kill -9 (mpirun's process group and
-# every rank under it) KILL_AFTER (1.5) s after its checkpoint first commits rows, finished with --resume, compared
+# every rank under it) KILL_AFTER (1) s after its checkpoint first commits rows, finished with --resume, compared
 # with NEW's uninterrupted single-process run of the same arguments (written to new/CASE.single.fits).
 mpi_kill_resume() {
   local name=$1; shift
@@ -134,7 +134,7 @@ mpi_kill_resume() {
   t0=$SECONDS
   while kill -0 "$pid" 2>/dev/null && (($(committed "$out") == 0)) && ((SECONDS - t0 < 120)); do sleep 0.2; done
   if kill -0 "$pid" 2>/dev/null; then
-    sleep "${KILL_AFTER:-1.5}"
+    sleep "${KILL_AFTER:-1}"
     tk=$((SECONDS - t0))
     pids=$(descendants "$pid")
     kill -9 -- "-$pid" 2>/dev/null
@@ -229,10 +229,10 @@ fit_both meds-3band-mc noisy "${B3[@]}" "${MC[@]}"
 
 # --- 5. MPI (NEW only): 2 ranks = one process; kill -9 then --resume = uninterrupted
 mpi_vs mpi-grid new/grid-s20.fits in/s20/set_0.fits
-mpi_kill_resume mpi-grid-resume "$GS/snr40/set_0.fits" "${BD[@]}"
+mpi_kill_resume mpi-grid-resume "$GS/snr40/set_0.fits" "${BD[@]}" --set batch_size=8
 mpi_vs mpi-meds-1band new/meds-noisy.fits --meds in/meds-noisy/meds.fits
 mpi_vs mpi-meds-3band new/meds-3band.fits "${B3[@]}"
-mpi_kill_resume mpi-meds-resume --meds in/meds-big/meds.fits
+mpi_kill_resume mpi-meds-resume --meds in/meds-big/meds.fits --set batch_size=8
 
 echo "compare_rows: REF $REF vs NEW $NEW, $((SECONDS - start)) s, logs and tables in $WORK"
 PYTHONPATH="$REF/python" "$PY" "$here/compare_rows.py" report "$RESULTS"
