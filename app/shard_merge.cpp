@@ -148,6 +148,7 @@ ShardMergeSummary merge_shards(const ShardMergeOptions& o) {
     if (info.type != io::HeaderValueType::kText) wo.header_types[info.name] = info.type;
   wo.header_types["metacal_gamma_fwhm"] = io::HeaderValueType::kReal;
   wo.fingerprint = "stampede merge of " + std::to_string(by_index.size()) + " shards\n";
+  wo.keep_on_write_failure = false;  // a merge has no --resume: a failed one is redone whole
   auto writer = io::CatalogWriter::create(wo);
   ShardMergeSummary summary;
   summary.shards = static_cast<int>(by_index.size());

@@ -632,7 +632,7 @@ void CatalogWriter::append(std::span<const ObjectRecord> rows) {
     });
   } catch (const CatalogError& e) {
     s.failed = true;
-    if (s.rows == 0) throw;
+    if (s.rows == 0 || !s.options.keep_on_write_failure) throw;
     s.keep_for_resume = true;
     throw CatalogError(std::string(e.what()) + "; the " + std::to_string(s.rows) + " rows committed before it are kept in '" +
                        s.fits_partial + "' (with '" + s.checkpoint + "'): make room, then resume the run (stampede fit --resume)");
@@ -669,7 +669,7 @@ void CatalogWriter::finish() {
   } catch (const CatalogError& e) {
     s.failed = true;
     // Until the FITS partial is renamed the run is resumable at its last commit; after, it is done.
-    if (s.rows == 0 || !file_exists(s.fits_partial)) throw;
+    if (s.rows == 0 || !s.options.keep_on_write_failure || !file_exists(s.fits_partial)) throw;
     s.keep_for_resume = true;
     throw CatalogError(std::string(e.what()) + "; the " + std::to_string(s.rows) + " committed rows are kept in '" +
                        s.fits_partial + "' (with '" + s.checkpoint + "'): resume the run (stampede fit --resume)");

@@ -64,6 +64,10 @@ struct CatalogWriterOptions {
   // resume() refuses a checkpoint written with a different fingerprint, positions layout or text
   // output, quoting the first line that differs.
   std::string fingerprint;
+  // A failed append()/finish() after committed rows keeps the partials and the checkpoint through
+  // abandon(), for resume(). False for a writer whose caller cannot resume (a merge, redone whole):
+  // abandon() then removes everything, as after any other error.
+  bool keep_on_write_failure = true;
 };
 
 class CatalogWriter {

@@ -15,6 +15,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -674,32 +675,26 @@ TEST_F(CatalogWriterTest, SurvivesSigkillMidBatch) {
   EXPECT_GT(interrupted_mid_batch, 0);
 }
 
-// A write that fails for want of room (here the process's file-size limit, RLIMIT_FSIZE, in a
-// child) names what ran out, and the rows committed before it survive abandon(): the run resumes
-// once the limit is raised and ends byte for byte as an uninterrupted run. SIGXFSZ, which would
-// kill the child silently, is ignored by the writer. (Before: "cannot flush ...: CFITSIO status
-// 106" and abandon() deleted the partials and the checkpoint.)
-TEST_F(CatalogWriterTest, AWriteFailureNamesTheLimitAndKeepsTheCommittedRows) {
-  const auto records = make_records(3000, PositionColumns::kGrid);
-  const auto [ref_fits, ref_text] = reference(records);
-  const CatalogWriterOptions o = options("limited");
-  constexpr rlim_t kLimit = 200000;  // bytes: some hundreds of rows of either file, not all 3000
+// In a child process whose file-size limit (RLIMIT_FSIZE) is `limit` bytes: creates the writer,
+// appends `records` 100 at a time until an append fails, then abandon()s it. Returns the error
+// message ("no failure" when none; "child ..." when the child itself went wrong).
+std::string write_until_the_limit(const CatalogWriterOptions& o, const std::vector<ObjectRecord>& records, rlim_t limit) {
   int pipe_fds[2];
-  ASSERT_EQ(::pipe(pipe_fds), 0);
+  if (::pipe(pipe_fds) != 0) return "child: no pipe";
   const pid_t pid = ::fork();
-  ASSERT_GE(pid, 0);
+  if (pid < 0) return "child: no fork";
   if (pid == 0) {
     ::close(pipe_fds[0]);
-    rlimit limit{};
-    ::getrlimit(RLIMIT_FSIZE, &limit);
-    limit.rlim_cur = kLimit;
-    if (::setrlimit(RLIMIT_FSIZE, &limit) != 0) ::_exit(3);
+    rlimit l{};
+    ::getrlimit(RLIMIT_FSIZE, &l);
+    l.rlim_cur = limit;
+    if (::setrlimit(RLIMIT_FSIZE, &l) != 0) ::_exit(3);
     std::string message = "no failure";
     try {
       auto w = CatalogWriter::create(o);
       try {
         for (std::size_t first = 0; first < records.size(); first += 100)
-          w->append(std::span(records).subspan(first, 100));
+          w->append(std::span(records).subspan(first, std::min<std::size_t>(100, records.size() - first)));
       } catch (const CatalogError& e) {
         message = e.what();
       }
@@ -716,8 +711,22 @@ TEST_F(CatalogWriterTest, AWriteFailureNamesTheLimitAndKeepsTheCommittedRows) {
   for (ssize_t n; (n = ::read(pipe_fds[0], buf, sizeof buf)) > 0;) message.append(buf, static_cast<std::size_t>(n));
   ::close(pipe_fds[0]);
   int wstatus = 0;
-  ASSERT_EQ(::waitpid(pid, &wstatus, 0), pid);
-  ASSERT_TRUE(WIFEXITED(wstatus) && WEXITSTATUS(wstatus) == 0) << "child status " << wstatus << ": " << message;
+  ::waitpid(pid, &wstatus, 0);
+  if (!WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0) return "child status " + std::to_string(wstatus) + ": " + message;
+  return message;
+}
+
+// A write that fails for want of room (here the process's file-size limit, RLIMIT_FSIZE, in a
+// child) names what ran out, and the rows committed before it survive abandon(): the run resumes
+// once the limit is raised and ends byte for byte as an uninterrupted run. SIGXFSZ, which would
+// kill the child silently, is ignored by the writer. (Before: "cannot flush ...: CFITSIO status
+// 106" and abandon() deleted the partials and the checkpoint.)
+TEST_F(CatalogWriterTest, AWriteFailureNamesTheLimitAndKeepsTheCommittedRows) {
+  const auto records = make_records(3000, PositionColumns::kGrid);
+  const auto [ref_fits, ref_text] = reference(records);
+  const CatalogWriterOptions o = options("limited");
+  // 200000 bytes: some hundreds of rows of either file, not all 3000.
+  const std::string message = write_until_the_limit(o, records, 200000);
   EXPECT_TRUE(Contains(message, "the file-size limit of this process (RLIMIT_FSIZE, `ulimit -f`) of 200000 bytes is reached"))
       << message;
   EXPECT_TRUE(Contains(message, "rows committed before it are kept in '" + o.path + ".partial'")) << message;
@@ -736,15 +745,22 @@ TEST_F(CatalogWriterTest, AWriteFailureNamesTheLimitAndKeepsTheCommittedRows) {
   EXPECT_EQ(read_bytes(o.text_path), ref_text);
 }
 
-// A failure before any row is committed leaves nothing (a fresh run loses nothing), and a plain
-// abandon() (an error elsewhere in the run) still removes everything.
+// A plain abandon() (an error elsewhere in the run) still removes everything, and so does one
+// after a failed write when the caller cannot resume (keep_on_write_failure = false: a merge).
 TEST_F(CatalogWriterTest, AbandonRemovesTheOutputsUnlessAWriteFailedAfterACommit) {
-  const auto records = make_records(10, PositionColumns::kGrid);
+  const auto records = make_records(3000, PositionColumns::kGrid);
   const CatalogWriterOptions o = options("abandoned");
   auto w = CatalogWriter::create(o);
-  w->append(records);
+  w->append(std::span(records).subspan(0, 10));
   w->abandon();
   for (const std::string& p : {o.path + ".partial", o.path + ".checkpoint", o.text_path + ".partial"})
+    EXPECT_FALSE(fs::exists(p)) << p;
+  CatalogWriterOptions merge = options("merge");
+  merge.keep_on_write_failure = false;
+  const std::string message = write_until_the_limit(merge, records, 200000);
+  EXPECT_TRUE(Contains(message, "the file-size limit of this process")) << message;
+  EXPECT_FALSE(Contains(message, "kept")) << message;
+  for (const std::string& p : {merge.path + ".partial", merge.path + ".checkpoint", merge.text_path + ".partial"})
     EXPECT_FALSE(fs::exists(p)) << p;
 }
 

@@ -216,6 +216,11 @@ TEST_F(MetricsCommand, ARepeatedFitIsRefused) {
                                     path("again.fits"), "--truth", data("truth_1.fits")});
   EXPECT_EQ(linked.exit_code, 1);
   EXPECT_TRUE(Contains(linked.err, "--fit '" + path("again.fits") + "' is given twice")) << linked.err;
+  // A one-value option given twice: the last used to win silently.
+  const RunResult seeds = metrics({"--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--seed", "1", "--seed",
+                                   "2"});
+  EXPECT_EQ(seeds.exit_code, 1);
+  EXPECT_TRUE(Contains(seeds.err, "--seed is given twice")) << seeds.err;
 }
 
 }  // namespace
