@@ -64,12 +64,15 @@ int run(int argc, char** argv, int rank, int ranks) {
   tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism,
                                   static_cast<std::size_t>(ranks) * threads + 1);
   if (!command.input_list.empty()) {  // whole files to ranks
+    // Outside the try: a failing rank 0 must not destroy a joinable thread (std::terminate, and the
+    // error's message lost) before it reports and aborts the job.
+    std::thread server;
     try {
       options.threads = threads;
       const auto inputs = listed_inputs(command);  // every rank reads the list (a shared file system)
-      std::thread server;
       if (rank == 0)
-        server = std::thread([&] { stampede::mpi_driver::serve_file_indices(ranks, static_cast<int>(inputs.size())); });
+        server = std::thread(
+            [ranks, n = static_cast<int>(inputs.size())] { stampede::mpi_driver::serve_file_indices(ranks, n); });
       for (int k; (k = stampede::mpi_driver::next_file_index()) >= 0;)
         if (const int code = run_listed_input(command, inputs[static_cast<std::size_t>(k)]); code != 0)
           throw std::runtime_error("fitting '" + inputs[static_cast<std::size_t>(k)].input + "' failed");
@@ -78,6 +81,7 @@ int run(int argc, char** argv, int rank, int ranks) {
     } catch (const std::exception& e) {
       std::fprintf(stderr, "stampede-mpi fit: error (rank %d): %s\n", rank, e.what());
       std::fflush(stderr);
+      if (server.joinable()) server.detach();  // MPI_Abort ends it with the job
       MPI_Abort(MPI_COMM_WORLD, 1);
       return 1;
     }
