@@ -564,7 +564,8 @@ RunSummary run_input(const FitRunOptions& a, RunInput& in, Clock::time_point sta
   summary.text_output = a.text_output;
   std::unique_ptr<io::CatalogWriter> writer = open_writer(a, in, &summary);
   if (summary.skipped) return summary;
-  // A run that fails with an error leaves no partial output (a killed one leaves it for --resume).
+  // A run that fails with an error leaves no partial output, unless a write ran out of room after
+  // rows were committed (the writer keeps them for --resume); a killed one leaves it for --resume.
   const std::string images_path = images_path_for(a.output);
   ProblemReporter problems(a);
   try {

@@ -8,8 +8,9 @@
 //
 // Outputs are checked before anything is read (io/output_check.hpp: not a directory, not an input,
 // not an existing file unless overwrite or resume) and locked for the run's life
-// (io/output_lock.hpp). A run that fails with an error removes its partial outputs; a killed one
-// leaves them for resume, whose fingerprint covers the inputs' contents (app/run_fingerprint.hpp).
+// (io/output_lock.hpp). A run that fails with an error removes its partial outputs, unless a write
+// ran out of room after rows were committed (they are kept for resume); a killed one leaves them
+// for resume, whose fingerprint covers the inputs' contents (app/run_fingerprint.hpp).
 #pragma once
 
 #include <atomic>
