@@ -6,10 +6,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <deque>
 #include <filesystem>
 #include <memory>
-#include <mutex>
 #include <map>
 #include <optional>
 #include <set>

@@ -63,8 +63,6 @@ class SurveyObjectFitter {
   ~SurveyObjectFitter();
   // Object `object` of the arena (object_data row `row`, identity in `identity`).
   MedsObjectResult fit(const ObservationArena& arena, int object, long long row, const ObjectRecord& identity);
-  // The last fit's cutouts, their PSFs prepared, in the arena's order (for tests).
-  const std::vector<Observation>& last_observations() const { return epochs_; }
 
  private:
   // Band b's usable cutouts appended to epochs_ (their PSFs prepared) and *out's reading figures;

@@ -94,15 +94,12 @@ class ObservationArena {
     return {weights_.data() + o.offset, static_cast<std::size_t>(o.box_size) * o.box_size};
   }
   std::size_t pixels_used() const { return used_; }
-  // For a transport (the MPI driver): the raw arrays, sized by reserve_pixels() before filling.
+  // For a transport (the MPI driver): the raw arrays of pixels_used() values, the observations
+  // having been added in the sender's order (add() lays them out alike).
   double* pixel_data() { return pixels_.data(); }
   double* weight_data() { return weights_.data(); }
   const double* pixel_data() const { return pixels_.data(); }
   const double* weight_data() const { return weights_.data(); }
-  void set_pixels_used(std::size_t n) {
-    if (pixels_.size() < n) pixels_.resize(n), weights_.resize(n);
-    used_ = n;
-  }
 
  private:
   std::vector<ArenaObservation> observations_;
