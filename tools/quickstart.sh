@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Quick start, step 1: install the Debian 12 packages (clang: the fuzz targets; pybind11 and numpy:
+# Quick start, step 1: install the Debian 12 packages (libsep-dev: metadetection's detection; clang: the fuzz targets; pybind11 and numpy:
 # the Python module; matplotlib: its diagnostics report; OpenMPI: the MPI driver), build in
 # Release, run the demo fit.
 set -euo pipefail
@@ -8,7 +8,7 @@ SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 $SUDO apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
-  g++ cmake make pkg-config libtbb-dev libfftw3-dev libeigen3-dev libxsimd-dev libcfitsio-dev zlib1g-dev \
+  g++ cmake make pkg-config libtbb-dev libfftw3-dev libeigen3-dev libxsimd-dev libcfitsio-dev zlib1g-dev libsep-dev \
   libgtest-dev googletest libbenchmark-dev clang libclang-rt-14-dev \
   pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib libopenmpi-dev openmpi-bin >/dev/null
 # Debian's interpreter, the one python3-numpy serves (a pyenv or venv python3 earlier on PATH has not).

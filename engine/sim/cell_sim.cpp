@@ -1,6 +1,8 @@
 // Metadetection test cells; see cell_sim.hpp.
 #include "engine/sim/cell_sim.hpp"
 
+#include <array>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -207,6 +209,13 @@ std::vector<CellObject> CellSimulator::objects(int cell, double g1, double g2) c
     const std::complex<double> es(obj.e1_int, obj.e2_int);
     const std::complex<double> eo = (es + gs) / (1.0 + std::conj(gs) * es);
     obj.e1_obs = eo.real(), obj.e2_obs = eo.imag();
+    // The lens shears the whole scene, positions too (about the cell's centre): a blend's geometry
+    // responds to the shear as metacal's sheared images of the cell make it respond.
+    const double c = 0.5 * (o.size - 1), dx = obj.x - c, dy = obj.y - c;
+    // The unit-determinant matrix of reduced shear g (g1 > 0 stretches along x).
+    const double n = 1.0 / std::sqrt(1.0 - g1 * g1 - g2 * g2);
+    obj.x = c + n * ((1 + g1) * dx + g2 * dy);
+    obj.y = c + n * (g2 * dx + (1 - g1) * dy);
   }
   return out;
 }

@@ -1,8 +1,9 @@
 // Test cells for metadetection (`stampede sim cells`; the shear test's simulation in
 // ../shared/reference/metadetection.md): square cells of galaxies on a grid or at Poisson random
-// positions (so that blends occur), one constant lensing shear, a Gaussian or Moffat PSF per band,
+// positions (so that blends occur), one constant lensing shear (of the shapes and of the positions,
+// about the cell's centre), a Gaussian or Moffat PSF per band,
 // white noise set by a per-object S/N, in one or several bands. A shear pair is the same cell
-// drawn under -g: the same galaxies, positions and noise.
+// drawn under -g: the same galaxies and noise, the scene (positions too) sheared the other way.
 //
 // Each galaxy is drawn by SimRenderer (exact PSF-convolved pixel integrals) into a stamp of its
 // own, its radius the one holding all but 1e-5 of each component's light (cell_light_radius) plus

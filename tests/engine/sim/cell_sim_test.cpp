@@ -1,6 +1,6 @@
 // Metadetection test cells (engine/sim/cell_sim): the light drawn is the galaxies' analytic flux,
 // each galaxy sits at its truth position, the noise has its stated sigma, a shear pair shares its
-// galaxies, positions and noise, and bad options are refused naming the option.
+// galaxies and noise (its positions sheared with the scene), and bad options are refused naming the option.
 #include "engine/sim/cell_sim.hpp"
 
 #include <gtest/gtest.h>
@@ -86,9 +86,9 @@ TEST(CellSim, GridGalaxiesSitAtTheirTruthPositions) {
     worst = std::max({worst, std::abs(m.x + x0 - obj.x), std::abs(m.y + y0 - obj.y)});
   }
   EXPECT_LT(worst, 0.05);
-  // The grid: 7 x 7 inside the 34 px buffer, each within 1 px of its node.
+  // The unsheared scene's grid: 7 x 7 inside the 34 px buffer, each within 1 px of its node.
   const double step = (251.0 - 68.0) / 7;
-  for (const CellObject& obj : cell.objects) {
+  for (const CellObject& obj : sim.objects(3, 0.0, 0.0)) {
     const double ix = (obj.x - 33.5) / step - 0.5, iy = (obj.y - 33.5) / step - 0.5;
     EXPECT_LE(std::abs(ix - std::round(ix)) * step, 1.0);
     EXPECT_LE(std::abs(iy - std::round(iy)) * step, 1.0);
@@ -127,7 +127,7 @@ TEST(CellSim, NoiseHasTheStatedSigma) {
   }
 }
 
-TEST(CellSim, ShearPairSharesGalaxiesPositionsAndNoise) {
+TEST(CellSim, ShearPairSharesGalaxiesAndNoiseAndShearsThePositions) {
   CellSimOptions o;
   o.layout = CellLayout::kRandom;  // blends included
   const CellSimulator sim(o);
@@ -138,10 +138,16 @@ TEST(CellSim, ShearPairSharesGalaxiesPositionsAndNoise) {
   EXPECT_EQ(minus.g2, -plus.g2);
   ASSERT_EQ(plus.objects.size(), minus.objects.size());
   ASSERT_GT(plus.objects.size(), 60u);  // ~109 expected at 100 per arcmin^2
+  const std::vector<CellObject> unsheared = sim.objects(2, 0.0, 0.0);
+  ASSERT_EQ(unsheared.size(), plus.objects.size());
+  const double c = 0.5 * (o.size - 1), n = 1 / std::sqrt(1 - 0.02 * 0.02);
   for (std::size_t k = 0; k < plus.objects.size(); ++k) {
-    const CellObject &p = plus.objects[k], &m = minus.objects[k];
-    EXPECT_EQ(p.x, m.x);
-    EXPECT_EQ(p.y, m.y);
+    const CellObject &p = plus.objects[k], &m = minus.objects[k], &u = unsheared[k];
+    // The scene is sheared about the cell's centre: x' - c = A(g) (x - c), A = [[1 + g1, 0], [0, 1 - g1]] / sqrt(1 - g1^2).
+    EXPECT_NEAR(p.x - c, n * 1.02 * (u.x - c), 1e-9);
+    EXPECT_NEAR(p.y - c, n * 0.98 * (u.y - c), 1e-9);
+    EXPECT_NEAR(m.x - c, n * 0.98 * (u.x - c), 1e-9);
+    EXPECT_NEAR(m.y - c, n * 1.02 * (u.y - c), 1e-9);
     EXPECT_EQ(p.e1_int, m.e1_int);
     EXPECT_EQ(p.e2_int, m.e2_int);
     EXPECT_EQ(p.flux, m.flux);
@@ -173,7 +179,7 @@ TEST(CellSim, RandomLayoutHasThePoissonDensity) {
   double total = 0;
   constexpr int kCells = 40;
   for (int k = 0; k < kCells; ++k) {
-    const std::vector<CellObject> objs = sim.objects(k, o.g1, o.g2);
+    const std::vector<CellObject> objs = sim.objects(k, 0.0, 0.0);  // the unsheared scene fills the cell
     total += static_cast<double>(objs.size());
     for (const CellObject& obj : objs) {
       EXPECT_GE(obj.x, -0.5);

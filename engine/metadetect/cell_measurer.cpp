@@ -1,0 +1,163 @@
+// Metadetection of one cell; see cell_measurer.hpp.
+#include "engine/metadetect/cell_measurer.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "engine/common/random_stream.hpp"
+#include "engine/metacal/metacal_options.hpp"
+#include "engine/metacal/metacal_type.hpp"
+#include "engine/metacal/reconvolution_psf.hpp"
+#include "kernels/weighted_moments.hpp"
+
+namespace stampede {
+namespace {
+
+constexpr double kFwhmPerSigma = 2.3548200450309493;
+
+// The reconvolution PSF convolved with the pixel (what a point source is in the metacal images),
+// sampled n x n about the middle pixel: each pixel the mean of sub x sub point values.
+std::vector<double> pixelated_psf_image(const PsfModel& psf, int n, int sub) {
+  std::vector<double> out(static_cast<std::size_t>(n) * n);
+  const double c = 0.5 * (n - 1);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      double sum = 0;
+      for (int j = 0; j < sub; ++j)
+        for (int i = 0; i < sub; ++i)
+          sum += psf.x_value(x - c - 0.5 + (i + 0.5) / sub, y - c - 0.5 + (j + 0.5) / sub);
+      out[static_cast<std::size_t>(y) * n + x] = sum / (sub * sub);
+    }
+  return out;
+}
+
+}  // namespace
+
+CellMeasurer::CellMeasurer(const MetadetectOptions& options, FftPlanning planning)
+    : options_(options), planning_(planning), filter_(detection_filter(options.detection)) {}
+
+bool CellMeasurer::prepare_psf(const PsfModel& psf, double pixel_scale, std::string* problem) {
+  if (have_psf_ && psf == psf_ && pixel_scale == psf_scale_) return filters_ != nullptr;
+  have_psf_ = true;
+  psf_ = psf;
+  psf_scale_ = pixel_scale;
+  MetacalOptions metacal;
+  metacal.enabled = true;
+  metacal.step = options_.step;
+  metacal.psf_dilation = options_.psf_dilation;
+  std::string why;
+  filters_ = reconvolution_filters(psf, metacal, images_set_->period(), &why);
+  if (!filters_) {
+    *problem = "no metacal reconvolution PSF serves this PSF: " + why;
+    return false;
+  }
+  weight_fwhm_px_ = options_.weight_fwhm / pixel_scale;
+  // The point source's T under the same weight, as the detections' T is measured.
+  const int n = 2 * static_cast<int>(std::ceil(4 * weight_fwhm_px_)) + 1;
+  const std::vector<double> image = pixelated_psf_image(filters_->reconvolution(), n, 5);
+  std::vector<double> scratch(2 * static_cast<std::size_t>(n));
+  const kernels::WeightedMoments m = kernels::weighted_moments(image, n, weight_fwhm_px_, 0.0, scratch);
+  if (!m.valid) {
+    filters_.reset();
+    *problem = "the reconvolution PSF's weighted moments are not valid";
+    return false;
+  }
+  psf_t_ = m.t;
+  return true;
+}
+
+bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow>* rows, std::string* problem) {
+  auto fail = [&](const std::string& why) {
+    MetadetectRow r;
+    r.cell = cell.index;
+    r.shear_type = static_cast<int>(MetacalType::kNoshear);
+    r.flags = kMetadetectCellFailed;
+    rows->push_back(r);
+    *problem = why;
+    return false;
+  };
+  if (!images_set_ || images_set_->stamp_size() != cell.size)
+    images_set_ = std::make_unique<MetacalImageSet>(cell.size, planning_), have_psf_ = false;
+  if (!cell.psf) return fail("no PSF");
+  if (!prepare_psf(*cell.psf, cell.pixel_scale, problem)) return fail(*problem);
+  const std::size_t npix = static_cast<std::size_t>(cell.size) * cell.size;
+  images_.resize(kNumMetacalTypes * npix);
+  MetacalOptions metacal;
+  metacal.enabled = true;
+  metacal.step = options_.step;
+  metacal.fixnoise = options_.fixnoise;
+  double variance = 0;
+  images_set_->make(cell.pixels, cell.weight, WeightKind::kInverseVariance, 0.0, *filters_, metacal,
+                    RandomStream({options_.seed, static_cast<std::uint64_t>(cell.index), kFixnoisePurpose}), images_,
+                    &variance);
+  if (!(variance > 0) || !std::isfinite(variance)) return fail("the cell's weights give no positive finite noise variance");
+  image_f_.resize(npix);
+  for (int t = 0; t < kNumMetacalTypes; ++t) {
+    const std::span<const double> image(images_.data() + t * npix, npix);
+    std::transform(image.begin(), image.end(), image_f_.begin(), [](double v) { return static_cast<float>(v); });
+    std::string why;
+    if (!detect_objects(image_f_, cell.size, cell.size, std::sqrt(variance), options_.detection, filter_, &detections_,
+                        &why))
+      return fail(std::string(metacal_type_name(kMetacalTypes[t])) + " image: " + why);
+    measure_image(cell, t, image, variance, rows);
+  }
+  return true;
+}
+
+void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::span<const double> image, double variance,
+                                 std::vector<MetadetectRow>* rows) {
+  const DetectionStampOptions& so = options_.stamp;
+  const int s = cell.size;
+  int id = 0;
+  for (const Detection& d : detections_) {
+    if (!(d.x >= cell.keep_x0 && d.x < cell.keep_x1 && d.y >= cell.keep_y0 && d.y < cell.keep_y1)) continue;
+    MetadetectRow r;
+    r.cell = cell.index;
+    r.shear_type = type;
+    r.id = id++;
+    r.isophotal_area = d.isophotal_area;
+    r.sep_flags = d.sep_flags;
+    const double radius =
+        std::max(so.radius_min, so.radius_factor * std::sqrt(d.isophotal_area / 3.141592653589793)) + so.padding;
+    const int half = std::clamp(static_cast<int>(std::ceil(radius)), (so.box_min - 1) / 2, (so.box_max - 1) / 2);
+    const int box = 2 * half + 1;
+    r.box_size = box;
+    const int x0 = static_cast<int>(std::lround(d.x)) - half, y0 = static_cast<int>(std::lround(d.y)) - half;
+    stamp_.assign(static_cast<std::size_t>(box) * box, 0.0);
+    long long masked = 0;
+    for (int j = 0; j < box; ++j) {
+      const int y = y0 + j;
+      for (int i = 0; i < box; ++i) {
+        const int x = x0 + i;
+        if (x < 0 || y < 0 || x >= s || y >= s) {
+          r.flags |= kMetadetectEdge;
+          ++masked;
+          continue;
+        }
+        const std::size_t p = static_cast<std::size_t>(y) * s + x;
+        if (!cell.weight.empty() && !(cell.weight[p] > 0)) ++masked;
+        stamp_[static_cast<std::size_t>(j) * box + i] = image[p];
+      }
+    }
+    r.mfrac = static_cast<double>(masked) / (static_cast<double>(box) * box);
+    if (masked > 0 && !(r.flags & kMetadetectEdge)) r.flags |= kMetadetectMasked;
+    scratch_.resize(2 * static_cast<std::size_t>(box));
+    const kernels::WeightedMoments m = kernels::weighted_moments(stamp_, box, weight_fwhm_px_, variance, scratch_);
+    const double scale2 = cell.pixel_scale * cell.pixel_scale;
+    r.psf_t = psf_t_ * scale2;
+    if (!m.valid) {
+      r.flags |= kMetadetectMomentsFailed;
+      r.x = cell.origin_x + d.x, r.y = cell.origin_y + d.y;
+    } else {
+      r.x = cell.origin_x + x0 + m.x, r.y = cell.origin_y + y0 + m.y;
+      r.e1 = m.e1, r.e2 = m.e2, r.e1_err = m.e1_err, r.e2_err = m.e2_err;
+      r.t = m.t * scale2;
+      r.t_ratio = m.t / psf_t_;
+      r.flux = m.flux, r.snr = m.snr;
+    }
+    r.u = r.x * cell.pixel_scale, r.v = r.y * cell.pixel_scale;
+    rows->push_back(r);
+  }
+}
+
+}  // namespace stampede

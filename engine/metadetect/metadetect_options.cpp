@@ -1,0 +1,46 @@
+// Validation of MetadetectOptions; see metadetect_options.hpp.
+#include "engine/metadetect/metadetect_options.hpp"
+
+#include <cmath>
+#include <sstream>
+
+namespace stampede {
+namespace {
+
+template <class T>
+bool refuse(std::string* why, const char* option, T value, const char* rule) {
+  if (why) {
+    std::ostringstream s;
+    s << option << " = " << value << ": " << rule;
+    *why = s.str();
+  }
+  return false;
+}
+
+}  // namespace
+
+bool MetadetectOptions::IsValid(std::string* why) const {
+  if (cell_size < 16 || cell_size > 4096) return refuse(why, "--cell-size", cell_size, "must be in [16, 4096] pixels");
+  if (cell_buffer < 0 || 2 * cell_buffer >= cell_size)
+    return refuse(why, "--cell-buffer", cell_buffer, "must be >= 0 and less than half the cell size");
+  if (!(step >= 1e-3 && step <= 0.1)) return refuse(why, "--step", step, "must be in [0.001, 0.1]");
+  if (!(psf_dilation == 0 || (psf_dilation >= 1 && psf_dilation <= 3)))
+    return refuse(why, "--psf-dilation", psf_dilation, "must be 0 (automatic) or in [1, 3]");
+  if (!(weight_fwhm > 0 && std::isfinite(weight_fwhm))) return refuse(why, "--weight-fwhm", weight_fwhm, "must be > 0 arcsec");
+  if (!(detection.threshold > 0 && std::isfinite(detection.threshold)))
+    return refuse(why, "--detect-threshold", detection.threshold, "must be > 0 (sigma)");
+  if (detection.min_area < 1) return refuse(why, "--detect-min-area", detection.min_area, "must be >= 1 pixel");
+  if (!(detection.deblend_contrast >= 0 && detection.deblend_contrast <= 1))
+    return refuse(why, "--deblend-contrast", detection.deblend_contrast, "must be in [0, 1]");
+  if (detection.deblend_thresholds < 1 || detection.deblend_thresholds > 256)
+    return refuse(why, "--deblend-thresholds", detection.deblend_thresholds, "must be in [1, 256]");
+  if (!(detection.filter_fwhm >= 0 && detection.filter_fwhm <= 20))
+    return refuse(why, "--filter-fwhm", detection.filter_fwhm, "must be in [0, 20] pixels (0: no filter)");
+  if (detection.filter_size < 3 || detection.filter_size > 31 || detection.filter_size % 2 == 0)
+    return refuse(why, "--filter-size", detection.filter_size, "must be odd, in [3, 31]");
+  if (stamp.box_min < 9 || stamp.box_min % 2 == 0 || stamp.box_max < stamp.box_min || stamp.box_max % 2 == 0)
+    return refuse(why, "--box-min/--box-max", stamp.box_min, "must be odd, box_min >= 9 and box_max >= box_min");
+  return true;
+}
+
+}  // namespace stampede

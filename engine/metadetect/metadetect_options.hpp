@@ -1,0 +1,47 @@
+// What a metadetection run chooses (`stampede metadetect`; docs/metadetect.md). The defaults are
+// the reference package's settings as DES runs it (../shared/reference/metadetection.md).
+#pragma once
+#include <cstdint>
+#include <string>
+
+namespace stampede {
+
+// SEP's extraction ("sxdes" settings): a threshold in units of the image's noise sigma, on the image
+// convolved with a normalised Gaussian filter.
+struct DetectionOptions {
+  double threshold = 0.8;       // sigma
+  int min_area = 4;             // pixels above the threshold
+  double deblend_contrast = 1e-5;
+  int deblend_thresholds = 32;
+  double filter_fwhm = 3.0;     // pixels; 0: no filter
+  int filter_size = 7;          // odd side of the filter kernel
+  bool clean = true;
+  double clean_param = 1.0;
+};
+
+// The stamp cut around each detection ("iso_radius" sizing): radius = max(radius_min,
+// radius_factor x sqrt(isophotal area / pi)) + padding, side 2 radius + 1 between box_min and box_max.
+struct DetectionStampOptions {
+  double radius_factor = 2.0;
+  double radius_min = 4.0;
+  double padding = 2.0;
+  int box_min = 33;
+  int box_max = 255;
+};
+
+struct MetadetectOptions {
+  int cell_size = 251;    // pixels: an image larger than a cell is cut into cells of this side
+  int cell_buffer = 34;   // pixels at each cell edge whose detections another cell (or none) keeps
+  double step = 0.01;     // metacal shear
+  double psf_dilation = 0.0;  // reconvolution PSF FWHM over the PSF's (0: the narrowest bounded)
+  bool fixnoise = true;
+  std::uint64_t seed = 20170101;  // keys each cell's fixnoise field with the cell's index
+  double weight_fwhm = 1.2;       // arcsec: wmom's round Gaussian weight
+  DetectionOptions detection;
+  DetectionStampOptions stamp;
+  int inner_size() const { return cell_size - 2 * cell_buffer; }
+  // Message names the option as on the command line, its value and the rule.
+  bool IsValid(std::string* why) const;
+};
+
+}  // namespace stampede

@@ -1,0 +1,34 @@
+// One row of a metadetection catalogue: a detection on one of a cell's five metacal images, measured
+// on that image. Objects are never matched between images (each image's catalogue stands alone).
+#pragma once
+#include <cmath>
+#include <cstdint>
+
+namespace stampede {
+
+enum MetadetectFlag : std::uint32_t {
+  kMetadetectMomentsFailed = 1u << 0,  // the weighted moments are not valid (no positive flux or size, |e| >= 1)
+  kMetadetectEdge = 1u << 1,           // the detection's stamp reaches beyond the cell
+  kMetadetectMasked = 1u << 2,         // the stamp holds masked pixels (mfrac > 0)
+  kMetadetectCellFailed = 1u << 3,     // nothing could be detected in the cell: a row with id -1 says why
+};
+
+struct MetadetectRow {
+  std::int64_t cell = 0;
+  std::int32_t shear_type = 0;  // MetacalType
+  std::int32_t id = -1;         // the detection's number in its cell and image; -1: the cell failed
+  double x = NAN, y = NAN;      // 0-based pixels of the input image (the weighted centroid)
+  double u = NAN, v = NAN;      // arcsec from the input image's pixel (0, 0) along x and y
+  double e1 = NAN, e2 = NAN, e1_err = NAN, e2_err = NAN;
+  double t = NAN;               // weighted moments' T = Mxx + Myy, arcsec^2
+  double t_ratio = NAN;         // T over the reconvolved PSF's T (the same weight)
+  double psf_t = NAN;
+  double flux = NAN, snr = NAN;
+  double mfrac = 0;             // masked fraction of the stamp
+  std::int32_t box_size = 0;
+  std::int32_t isophotal_area = 0;
+  std::int32_t sep_flags = 0;
+  std::uint32_t flags = 0;      // MetadetectFlag
+};
+
+}  // namespace stampede

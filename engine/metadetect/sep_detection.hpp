@@ -1,0 +1,38 @@
+// Object detection on one image with SEP (the C library of Source Extractor's algorithms, Debian's
+// libsep-dev): thresholding of the filtered image, deblending, cleaning. SEP >= 1.2 keeps its
+// working state per thread, so independent images may be detected concurrently; its pixel-stack
+// size is global (set_detection_pixel_stack, once, before threads start).
+#pragma once
+#include <span>
+#include <string>
+#include <vector>
+
+#include "engine/metadetect/metadetect_options.hpp"
+
+namespace stampede {
+
+struct Detection {
+  double x = 0, y = 0;  // barycentre, 0-based pixels (pixel centres at integers)
+  int isophotal_area = 0;  // pixels above the threshold (unfiltered)
+  int xmin = 0, xmax = 0, ymin = 0, ymax = 0;
+  double flux = 0;      // sum of the isophotal pixels
+  int sep_flags = 0;    // SEP_OBJ_* (merged by deblending, truncated at the edge, ...)
+};
+
+// The normalised filter_size^2 Gaussian of FWHM filter_fwhm pixels SEP convolves with; empty for
+// filter_fwhm 0 (no filtering).
+std::vector<float> detection_filter(const DetectionOptions& options);
+
+// SEP's pixel stack must hold every pixel of an image above the threshold: at least `pixels`.
+// Global in SEP: call before detections run on other threads.
+void set_detection_pixel_stack(long long pixels);
+
+// Detects on `image` (width x height, row-major, x fastest) whose noise has standard deviation
+// `noise_sigma` per pixel (the threshold is options.threshold x noise_sigma); `filter` from
+// detection_filter. False, with *error from SEP's message, when SEP fails (e.g. the pixel stack is
+// full); `out` is replaced.
+bool detect_objects(std::span<const float> image, int width, int height, double noise_sigma,
+                    const DetectionOptions& options, std::span<const float> filter, std::vector<Detection>* out,
+                    std::string* error);
+
+}  // namespace stampede
