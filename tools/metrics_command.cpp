@@ -1,6 +1,7 @@
 // `stampede metrics`; see metrics_command.hpp.
 #include "tools/arguments.hpp"
 #include "tools/metrics_command.hpp"
+#include "tools/metadetect_metrics_command.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -266,6 +267,8 @@ ShearPairMetrics pair_sets(const std::vector<SetData>& sets, const std::vector<s
 }  // namespace
 
 int run_metrics_command(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--metadetect") return run_metadetect_metrics_command(argc, argv);
   std::vector<std::string> fits, truths;
   std::string json, e1_column = io::column_name(io::ResultField::kE1),
                     e2_column = io::column_name(io::ResultField::kE2);

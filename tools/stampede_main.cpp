@@ -10,6 +10,7 @@
 #include "tools/ring_command.hpp"
 #include "tools/fit_command.hpp"
 #include "tools/merge_command.hpp"
+#include "tools/metadetect_command.hpp"
 #include "tools/metrics_command.hpp"
 #include "tools/sim_command.hpp"
 #include "tools/calibrate_command.hpp"
@@ -26,6 +27,7 @@ void print_usage(std::FILE* out) {
                "commands:\n"
                "  fit      fit every object of a stamp grid or image + catalogue; write a FITS table\n"
                "  merge    join the tables of a job array's `fit --shard I/N` runs into one\n"
+               "  metadetect  metadetection of images: detect and measure on each metacal image of each cell\n"
                "  metrics  shear biases m, c and the GREAT08 Q from fit tables and truth files\n"
                "  demo     fit the bundled noise-free GREAT08-like set and print true vs recovered e\n"
                "  ring     noise-free ring-test studies of the im3shape paper (figures 2, 4, 5, 6)\n"
@@ -55,6 +57,7 @@ int main(int argc, char** argv) {
   try {
     if (command == "fit") return run_fit_command(argc - 1, argv + 1);
     if (command == "merge") return run_merge_command(argc - 1, argv + 1);
+    if (command == "metadetect") return run_metadetect_command(argc - 1, argv + 1);
     if (command == "metrics") return run_metrics_command(argc - 1, argv + 1);
     if (command == "demo") return run_demo_command(argc - 1, argv + 1);
     if (command == "ring") return run_ring_command(argc - 1, argv + 1);

@@ -21,8 +21,8 @@ void add_rotated_back(std::span<const double> in, std::span<double> out, int s) 
 
 }  // namespace
 
-MetacalImageSet::MetacalImageSet(int stamp_size, FftPlanning planning)
-    : s_(stamp_size), imager_(stamp_size, MetacalImager::padded_size(stamp_size), planning) {
+MetacalImageSet::MetacalImageSet(int stamp_size, FftPlanning planning, int period)
+    : s_(stamp_size), imager_(stamp_size, period > 0 ? period : MetacalImager::padded_size(stamp_size), planning) {
   const std::size_t npix = static_cast<std::size_t>(s_) * s_;
   noise_.resize(npix);
   rotated_.resize(npix);

@@ -22,7 +22,8 @@ inline constexpr std::uint64_t kFixnoisePurpose = 0x6669786e6f697365ull;  // "fi
 
 class MetacalImageSet {
  public:
-  MetacalImageSet(int stamp_size, FftPlanning planning);
+  // period: the grid's (MetacalImager::padded_size); 0: padded_size(stamp_size).
+  MetacalImageSet(int stamp_size, FftPlanning planning, int period = 0);
 
   int stamp_size() const { return s_; }
   int period() const { return imager_.period(); }

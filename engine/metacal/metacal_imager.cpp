@@ -27,8 +27,11 @@ unsigned plan_flags(FftPlanning p) { return p == FftPlanning::kMeasure ? FFTW_ME
 
 }  // namespace
 
-int MetacalImager::padded_size(int stamp_size) {
-  int n = 2 * std::max(stamp_size, 2);
+int MetacalImager::padded_size(int stamp_size) { return padded_size(std::max(stamp_size, 2), std::max(stamp_size, 2) / 2); }
+
+int MetacalImager::padded_size(int stamp_size, int margin) {
+  int n = stamp_size + 2 * margin;
+  n += n % 2;
   while (!fft_friendly(n)) n += 2;
   return n;
 }

@@ -31,6 +31,10 @@ class MetacalImager {
   // The smallest FFT-friendly even period >= 2 * stamp_size (the padding keeps the deconvolved
   // light from wrapping onto the stamp).
   static int padded_size(int stamp_size);
+  // The smallest FFT-friendly even period >= stamp_size + 2 margin: a whole image (a metadetection
+  // cell) whose edge pixels are not measured needs only the filters' reach between its light and
+  // its wrapped copy, not a second image's width.
+  static int padded_size(int stamp_size, int margin);
 
   MetacalImager(int stamp_size, int period, FftPlanning planning);
   ~MetacalImager();

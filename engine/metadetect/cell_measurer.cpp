@@ -13,7 +13,12 @@
 namespace stampede {
 namespace {
 
-constexpr double kFwhmPerSigma = 2.3548200450309493;
+// Pixels of zeros on each side of a cell on the metacal grid. The operations are periodic: a
+// galaxy's light at one edge reaches the opposite edge's pixels through the filters' real-space
+// kernel (about the reconvolution PSF's width), here >= 32 pixels of padding plus the buffer away
+// from any measured pixel; the 2x padding a postage stamp needs (its own light must not wrap onto
+// it) would cost 2.5x more at a cell's size (docs/metadetect.md).
+constexpr int kCellMargin = 16;
 
 // The reconvolution PSF convolved with the pixel (what a point source is in the metacal images),
 // sampled n x n about the middle pixel: each pixel the mean of sub x sub point values.
@@ -36,8 +41,24 @@ std::vector<double> pixelated_psf_image(const PsfModel& psf, int n, int sub) {
 CellMeasurer::CellMeasurer(const MetadetectOptions& options, FftPlanning planning)
     : options_(options), planning_(planning), filter_(detection_filter(options.detection)) {}
 
+namespace {
+
+// Image PSFs compare by their samples: every file of a run may carry its own copy of one PSF, and
+// the filters cost as much as a cell's images.
+bool same_psf(const PsfModel& a, const PsfModel& b) {
+  if (a == b) return true;
+  if (a.kind != PsfKind::kImage || b.kind != PsfKind::kImage || !a.image || !b.image) return false;
+  const PsfImage &p = *a.image, &q = *b.image;
+  return p.nx == q.nx && p.ny == q.ny && p.pixels == q.pixels && p.oversampling == q.oversampling &&
+         p.pixel_integrated == q.pixel_integrated &&
+         (p.centre_x == q.centre_x || (std::isnan(p.centre_x) && std::isnan(q.centre_x))) &&
+         (p.centre_y == q.centre_y || (std::isnan(p.centre_y) && std::isnan(q.centre_y)));
+}
+
+}  // namespace
+
 bool CellMeasurer::prepare_psf(const PsfModel& psf, double pixel_scale, std::string* problem) {
-  if (have_psf_ && psf == psf_ && pixel_scale == psf_scale_) return filters_ != nullptr;
+  if (have_psf_ && same_psf(psf, psf_) && pixel_scale == psf_scale_) return filters_ != nullptr;
   have_psf_ = true;
   psf_ = psf;
   psf_scale_ = pixel_scale;
@@ -77,7 +98,9 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
     return false;
   };
   if (!images_set_ || images_set_->stamp_size() != cell.size)
-    images_set_ = std::make_unique<MetacalImageSet>(cell.size, planning_), have_psf_ = false;
+    images_set_ = std::make_unique<MetacalImageSet>(cell.size, planning_,
+                                                    MetacalImager::padded_size(cell.size, kCellMargin)),
+    have_psf_ = false;
   if (!cell.psf) return fail("no PSF");
   if (!prepare_psf(*cell.psf, cell.pixel_scale, problem)) return fail(*problem);
   const std::size_t npix = static_cast<std::size_t>(cell.size) * cell.size;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,15 @@
 #include "engine/pipeline/observation_arena.hpp"
 
 namespace stampede {
+
+// What a kind of run carries in a batch beyond the objects' stamps and rows: a metadetection
+// batch's cells and the variable number of rows each yields. The run's source creates it in a batch
+// the first time it fills that batch and reuses it after (the pool is fixed); its fitter and its
+// sink, which know the concrete type, fill and read it. The pipeline only carries it.
+class BatchExtension {
+ public:
+  virtual ~BatchExtension() = default;
+};
 
 struct StampBatch {
   long long sequence = 0;      // batch number in input order
@@ -31,6 +41,7 @@ struct StampBatch {
   // Survey objects: each one's first problem (why cutouts or the object were not used), "" none;
   // the run reports them in input order.
   std::vector<std::string> problems;
+  std::unique_ptr<BatchExtension> extension;  // runs whose task yields other rows (metadetection)
   StampBatch* next = nullptr;         // intrusive link for the writer hand-off
 
   StampBatch(int capacity, int stamp, bool per_object_psf)

@@ -1,0 +1,271 @@
+// A metadetection run; see metadetect_run.hpp.
+#include "app/metadetect_run.hpp"
+
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <memory>
+#include <sstream>
+
+#include "app/version.hpp"
+#include "engine/metadetect/cell_layout.hpp"
+#include "engine/metadetect/cell_measurer.hpp"
+#include "engine/pipeline/pipeline.hpp"
+#include "io/cell_image_reader.hpp"
+#include "io/config_error.hpp"
+#include "io/file_digest.hpp"
+#include "io/metadetect_writer.hpp"
+#include "io/output_check.hpp"
+#include "io/output_lock.hpp"
+
+namespace stampede::app {
+namespace {
+
+constexpr int kMaxProblems = 100;
+
+// A batch's cells (what the source read) and the rows they yield (what the fit stage measured).
+struct CellBatch : BatchExtension {
+  struct Cell {
+    int file = 0;
+    CellPlacement place;
+    double pixel_scale = 0;
+  };
+  std::vector<Cell> cells;
+  std::vector<MetadetectRow> rows;
+  std::vector<std::string> problems;  // per cell, "" none
+};
+
+CellBatch& cell_batch(StampBatch& b) {
+  if (!b.extension) b.extension = std::make_unique<CellBatch>();
+  return static_cast<CellBatch&>(*b.extension);
+}
+const CellBatch& cell_batch(const StampBatch& b) { return static_cast<const CellBatch&>(*b.extension); }
+
+// The serial reader: every file's cells in order, a file read whole when its first cell is due.
+class CellSource : public StampSource {
+ public:
+  CellSource(const std::vector<std::string>& inputs, const MetadetectOptions& options) : inputs_(inputs), options_(options) {
+    for (const std::string& path : inputs_) {
+      const io::CellImageShape shape = io::read_cell_image_shape(path);
+      std::string why;
+      layouts_.push_back(cell_layout(shape.width, shape.height, options.cell_size, options.cell_buffer, &why));
+      if (layouts_.back().empty()) throw io::ConfigError(path + ": " + why);
+      total_ += static_cast<long long>(layouts_.back().size());
+    }
+  }
+  long long total_objects() const override { return total_; }
+  void skip_to(long long index) override {
+    next_ = index;
+    file_ = 0;
+    while (file_ < static_cast<int>(layouts_.size()) && index >= static_cast<long long>(layouts_[file_].size()))
+      index -= static_cast<long long>(layouts_[file_].size()), ++file_;
+    in_file_ = index;
+  }
+  const std::string& input(int file) const { return inputs_[file]; }
+  bool fill(StampBatch& batch) override {
+    CellBatch& data = cell_batch(batch);
+    data.cells.clear();
+    batch.observations.clear();
+    batch.first_object = next_;
+    batch.count = 0;
+    while (batch.count < batch.capacity() && file_ < static_cast<int>(layouts_.size())) {
+      if (in_file_ >= static_cast<long long>(layouts_[file_].size())) {
+        ++file_, in_file_ = 0;
+        continue;
+      }
+      if (loaded_ != file_) {
+        image_ = io::read_cell_image(inputs_[file_]);
+        psf_ = PsfModel::Image(image_.psf);
+        loaded_ = file_;
+      }
+      const CellPlacement& place = layouts_[file_][in_file_];
+      const int s = options_.cell_size;
+      batch.observations.begin_object(1);
+      std::span<double> pixels, weights;
+      ArenaObservation& o = batch.observations.add(s, &pixels, &weights);
+      o.psf = psf_;
+      for (int y = 0; y < s; ++y) {
+        const std::size_t from = static_cast<std::size_t>(place.y0 + y) * image_.width + place.x0;
+        std::copy_n(image_.pixels.begin() + from, s, pixels.begin() + static_cast<std::size_t>(y) * s);
+        std::copy_n(image_.weight.begin() + from, s, weights.begin() + static_cast<std::size_t>(y) * s);
+      }
+      data.cells.push_back({file_, place, image_.pixel_scale});
+      batch.records[batch.count].id = next_;
+      ++batch.count, ++in_file_, ++next_;
+    }
+    return batch.count > 0;
+  }
+
+ private:
+  std::vector<std::string> inputs_;
+  MetadetectOptions options_;
+  std::vector<std::vector<CellPlacement>> layouts_;
+  long long total_ = 0, next_ = 0, in_file_ = 0;
+  int file_ = 0, loaded_ = -1;
+  io::CellImage image_;
+  PsfModel psf_;
+};
+
+class CellFitter : public BatchFitter {
+ public:
+  explicit CellFitter(const MetadetectOptions& options) : measurer_(options) {}
+  void fit(StampBatch& batch) override {
+    CellBatch& data = cell_batch(batch);
+    data.rows.clear();
+    data.problems.assign(static_cast<std::size_t>(batch.count), "");
+    for (int k = 0; k < batch.count; ++k) {
+      const ArenaObservation& o = batch.observations[k];
+      const CellBatch::Cell& c = data.cells[static_cast<std::size_t>(k)];
+      MetadetectCell cell;
+      cell.index = batch.records[k].id;
+      cell.size = o.box_size;
+      cell.pixels = batch.observations.pixels(o);
+      cell.weight = batch.observations.weights(o);
+      cell.origin_x = c.place.x0, cell.origin_y = c.place.y0;
+      cell.pixel_scale = c.pixel_scale;
+      cell.psf = &o.psf;
+      cell.keep_x0 = c.place.keep_x0, cell.keep_x1 = c.place.keep_x1;
+      cell.keep_y0 = c.place.keep_y0, cell.keep_y1 = c.place.keep_y1;
+      measurer_.measure(cell, &data.rows, &data.problems[static_cast<std::size_t>(k)]);
+    }
+  }
+
+ private:
+  CellMeasurer measurer_;
+};
+
+class CellSink : public BatchSink {
+ public:
+  CellSink(io::MetadetectWriter& writer, const CellSource& source, MetadetectRunSummary* summary)
+      : writer_(writer), source_(source), summary_(summary) {}
+  void write(const StampBatch& batch) override {
+    const CellBatch& data = cell_batch(batch);
+    writer_.append(data.rows, batch.count);
+    summary_->cells += batch.count;
+    summary_->rows += static_cast<long long>(data.rows.size());
+    for (int k = 0; k < batch.count; ++k) {
+      const std::string& p = data.problems[static_cast<std::size_t>(k)];
+      if (p.empty()) continue;
+      ++summary_->cells_failed;
+      if (summary_->problems.size() < kMaxProblems)
+        summary_->problems.push_back(source_.input(data.cells[static_cast<std::size_t>(k)].file) + " cell " +
+                                     std::to_string(batch.records[k].id) + ": " + p);
+    }
+  }
+
+ private:
+  io::MetadetectWriter& writer_;
+  const CellSource& source_;
+  MetadetectRunSummary* summary_;
+};
+
+std::string number_text(double v) {
+  std::ostringstream s;
+  s.precision(17);
+  s << v;
+  return s.str();
+}
+
+// The options as header keys and fingerprint lines (one list: what identifies the run is what the
+// header records).
+std::vector<std::pair<std::string, std::string>> option_keys(const MetadetectOptions& o) {
+  const DetectionOptions& d = o.detection;
+  const DetectionStampOptions& s = o.stamp;
+  return {{"CELLSIZE", std::to_string(o.cell_size)},
+          {"CELLBUF", std::to_string(o.cell_buffer)},
+          {"MCSTEP", number_text(o.step)},
+          {"MCPSFDIL", number_text(o.psf_dilation)},
+          {"FIXNOISE", o.fixnoise ? "T" : "F"},
+          {"MCSEED", std::to_string(o.seed)},
+          {"WFWHM", number_text(o.weight_fwhm)},
+          {"DETTHR", number_text(d.threshold)},
+          {"DETMINA", std::to_string(d.min_area)},
+          {"DBLCONT", number_text(d.deblend_contrast)},
+          {"DBLNTHR", std::to_string(d.deblend_thresholds)},
+          {"FILTFWHM", number_text(d.filter_fwhm)},
+          {"FILTSIZE", std::to_string(d.filter_size)},
+          {"CLEAN", d.clean ? "T" : "F"},
+          {"CLEANPAR", number_text(d.clean_param)},
+          {"BOXRFAC", number_text(s.radius_factor)},
+          {"BOXRMIN", number_text(s.radius_min)},
+          {"BOXPAD", number_text(s.padding)},
+          {"BOXMIN", std::to_string(s.box_min)},
+          {"BOXMAX", std::to_string(s.box_max)}};
+}
+
+}  // namespace
+
+MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
+                                    const std::function<void(const MetadetectProgress&)>& progress) {
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point start = Clock::now();
+  std::string why;
+  if (!options.metadetect.IsValid(&why)) throw io::ConfigError(why);
+  if (options.inputs.empty()) throw io::ConfigError("no input image: give IMAGE.fits or --input-list");
+  if (options.output.empty()) throw io::ConfigError("no output: give -o OUT.fits");
+  if (options.cells_per_batch < 1) throw io::ConfigError("cells per batch must be >= 1");
+  for (const std::string& in : options.inputs)
+    if (io::same_file(in, options.output)) throw io::ConfigError("the output '" + options.output + "' is the input");
+  const io::OutputLock lock = io::OutputLock::acquire(options.output);
+  if (!options.resume) io::refuse_to_replace(options.output, options.overwrite);
+
+  CellSource source(options.inputs, options.metadetect);
+  io::MetadetectWriterOptions wo;
+  wo.path = options.output;
+  std::string fingerprint = "stampede " + std::string(program_version()) + " metadetect\n";
+  for (const auto& [key, value] : option_keys(options.metadetect)) {
+    wo.header.emplace_back(key, value);
+    fingerprint += key + "=" + value + "\n";
+  }
+  for (std::size_t i = 0; i < options.inputs.size(); ++i) {
+    const io::FileDigest d = io::digest_file(options.inputs[i]);
+    const std::string n = std::to_string(i + 1);
+    wo.header.emplace_back("INPUT" + n, options.inputs[i]);
+    wo.header.emplace_back("DIGEST" + n, d.text());
+    fingerprint += "input " + options.inputs[i] + " " + d.text() + "\n";
+  }
+  wo.header.emplace_back("NCELLS", std::to_string(source.total_objects()));
+  wo.header_types = {{"CELLSIZE", io::HeaderValueType::kInteger}, {"CELLBUF", io::HeaderValueType::kInteger},
+                     {"MCSTEP", io::HeaderValueType::kReal},      {"MCPSFDIL", io::HeaderValueType::kReal},
+                     {"WFWHM", io::HeaderValueType::kReal},       {"DETTHR", io::HeaderValueType::kReal},
+                     {"DETMINA", io::HeaderValueType::kInteger},  {"DBLCONT", io::HeaderValueType::kReal},
+                     {"DBLNTHR", io::HeaderValueType::kInteger},  {"FILTFWHM", io::HeaderValueType::kReal},
+                     {"FILTSIZE", io::HeaderValueType::kInteger}, {"NCELLS", io::HeaderValueType::kInteger}};
+  wo.fingerprint = fingerprint;
+
+  MetadetectRunSummary summary;
+  std::unique_ptr<io::MetadetectWriter> writer;
+  if (options.resume) {
+    writer = io::MetadetectWriter::resume(wo, &summary.cells_resumed);
+    source.skip_to(summary.cells_resumed);
+  } else {
+    writer = io::MetadetectWriter::create(wo);
+  }
+  try {
+    // SEP's pixel stack is global: sized for a whole cell above the threshold before threads start.
+    set_detection_pixel_stack(static_cast<long long>(options.metadetect.cell_size) * options.metadetect.cell_size);
+    CellSink sink(*writer, source, &summary);
+    PipelineOptions po;
+    po.threads = options.threads;
+    po.batch_size = options.cells_per_batch;
+    po.stamp_size = 0;  // the cells travel in the batches' arenas
+    po.stop = options.stop;
+    const long long total = source.total_objects(), resumed = summary.cells_resumed;
+    const PipelineSummary ran = run_pipeline(
+        source, sink, [&] { return std::make_unique<CellFitter>(options.metadetect); }, po,
+        [&](const PipelineProgress& p) {
+          if (progress) progress({resumed + p.objects_done, total, p.seconds});
+        });
+    summary.threads = ran.threads;
+    summary.stopped = ran.stopped;
+    if (!ran.stopped) writer->finish();
+  } catch (...) {
+    writer->abandon();
+    throw;
+  }
+  summary.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return summary;
+}
+
+}  // namespace stampede::app

@@ -1,0 +1,99 @@
+// Reading an image for metadetection; see cell_image_reader.hpp.
+#include "io/cell_image_reader.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "io/fits_file.hpp"
+
+namespace stampede::io {
+namespace {
+
+[[noreturn]] void fail(FitsFile& f, const std::string& what) { throw FitsError(f.describe() + ": " + what); }
+
+CellImageShape primary_shape(FitsFile& f) {
+  f.move_to(0);
+  if (f.hdu_kind() != FitsFile::HduKind::kImage) fail(f, "HDU 0 must hold the image (a 2-D image HDU)");
+  const FitsFile::ImageShape s = f.image_shape();
+  return {s.nx, s.ny};
+}
+
+// Arcsec per pixel: SCALE, else the WCS's sqrt|det CD| (or |CDELT1| with |CDELT2| equal).
+double pixel_scale(FitsFile& f) {
+  if (auto scale = f.read_key_double("SCALE")) {
+    if (!(*scale > 0) || !std::isfinite(*scale)) fail(f, "keyword 'SCALE' must be a positive number of arcsec per pixel");
+    return *scale;
+  }
+  auto cd11 = f.read_key_double("CD1_1"), cd12 = f.read_key_double("CD1_2"), cd21 = f.read_key_double("CD2_1"),
+       cd22 = f.read_key_double("CD2_2");
+  if (cd11 && cd22) {
+    const double det = *cd11 * *cd22 - cd12.value_or(0) * cd21.value_or(0);
+    if (!(std::abs(det) > 0) || !std::isfinite(det)) fail(f, "the WCS CD matrix is singular");
+    return std::sqrt(std::abs(det)) * 3600.0;
+  }
+  auto d1 = f.read_key_double("CDELT1"), d2 = f.read_key_double("CDELT2");
+  if (d1 && d2) {
+    if (!(std::abs(*d1) > 0) || std::abs(std::abs(*d1) / std::abs(*d2) - 1) > 1e-6)
+      fail(f, "CDELT1 and CDELT2 must be non-zero and of equal size (square pixels)");
+    return std::abs(*d1) * 3600.0;
+  }
+  fail(f, "no pixel scale: header keyword 'SCALE' (arcsec per pixel) or a WCS (CD1_1..CD2_2 or CDELT1, CDELT2)");
+}
+
+std::vector<double> plane(FitsFile& f, const CellImageShape& shape) {
+  const FitsFile::ImageShape s = f.image_shape();
+  if (s.nx != shape.width || s.ny != shape.height) {
+    std::ostringstream m;
+    m << "is " << s.nx << " x " << s.ny << " pixels, the image " << shape.width << " x " << shape.height;
+    fail(f, m.str());
+  }
+  return f.read_image();
+}
+
+}  // namespace
+
+CellImageShape read_cell_image_shape(const std::string& path) {
+  FitsFile f = FitsFile::open_read(path);
+  return primary_shape(f);
+}
+
+CellImage read_cell_image(const std::string& path) {
+  FitsFile f = FitsFile::open_read(path);
+  CellImage out;
+  const CellImageShape shape = primary_shape(f);
+  out.width = shape.width, out.height = shape.height;
+  out.pixel_scale = pixel_scale(f);
+  out.pixels = f.read_image();
+  if (!f.move_to_if_present("WEIGHT"))
+    fail(f, "no WEIGHT HDU (inverse variance): detection needs the noise level");
+  out.weight = plane(f, shape);
+  for (double w : out.weight)
+    if (w < 0) fail(f, "negative weights: the WEIGHT HDU must hold inverse variances (0 masks)");
+  if (f.move_to_if_present("BMASK")) {
+    const std::vector<double> mask = plane(f, shape);
+    for (std::size_t i = 0; i < mask.size(); ++i)
+      if (mask[i] != 0) out.weight[i] = 0;
+  }
+  for (std::size_t i = 0; i < out.pixels.size(); ++i) {
+    if (!std::isfinite(out.pixels[i]) || !std::isfinite(out.weight[i])) out.weight[i] = 0;
+    if (out.weight[i] == 0) out.pixels[i] = 0, ++out.masked;
+  }
+  if (!f.move_to_if_present("PSF")) fail(f, "no PSF HDU (a centred PSF image at the image's pixel scale)");
+  if (auto scale = f.read_key_double("SCALE"); scale && std::abs(*scale / out.pixel_scale - 1) > 1e-6) {
+    std::ostringstream m;
+    m << "the PSF's SCALE " << *scale << " arcsec/px differs from the image's " << out.pixel_scale
+      << ": the PSF must be sampled at the image's pixel scale";
+    fail(f, m.str());
+  }
+  const FitsFile::ImageShape ps = f.image_shape();
+  auto psf = std::make_shared<PsfImage>();
+  psf->nx = static_cast<int>(ps.nx), psf->ny = static_cast<int>(ps.ny);
+  psf->pixels = f.read_image();
+  double sum = 0;
+  for (double v : psf->pixels) sum += v;
+  if (!(sum > 0) || !std::isfinite(sum)) fail(f, "the PSF image's sum is not positive and finite");
+  out.psf = std::move(psf);
+  return out;
+}
+
+}  // namespace stampede::io

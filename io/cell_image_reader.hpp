@@ -1,0 +1,35 @@
+// Reads an image for metadetection (`stampede metadetect IMAGE.fits`): HDU 0 the image, with the
+// pixel scale in header keyword SCALE (arcsec per pixel) or a WCS (CD matrix or CDELT, degrees);
+// extensions found by EXTNAME: WEIGHT (inverse variance, required: detection thresholds on the
+// noise), BMASK (non-zero masks a pixel), PSF (a centred PSF image at the image's pixel scale,
+// required; a SCALE keyword there must equal the image's). NaN or infinite pixels and weights are
+// masked (weight 0). What `stampede sim cells` writes (io/cell_image_writer) reads back.
+//
+// Every failure throws FitsError naming the file, the HDU and the keyword or the rule.
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "engine/model/psf_model.hpp"
+
+namespace stampede::io {
+
+struct CellImageShape {
+  long width = 0, height = 0;
+};
+
+struct CellImage {
+  long width = 0, height = 0;
+  double pixel_scale = 0;  // arcsec per pixel
+  std::vector<double> pixels, weight;  // width x height, row-major; weight 0 masks
+  std::shared_ptr<const PsfImage> psf;
+  long long masked = 0;  // pixels masked (weight 0, BMASK, non-finite)
+};
+
+// HDU 0's size alone (cheap: the run lays out its cells before reading pixels).
+CellImageShape read_cell_image_shape(const std::string& path);
+
+CellImage read_cell_image(const std::string& path);
+
+}  // namespace stampede::io

@@ -1,0 +1,43 @@
+// Reading a metadetection catalogue; see metadetect_reader.hpp.
+#include "io/metadetect_reader.hpp"
+
+#include <algorithm>
+
+#include "engine/metacal/metacal_type.hpp"
+#include "io/fits_file.hpp"
+
+namespace stampede::io {
+
+MetadetectTable read_metadetect_table(const std::string& path) {
+  FitsFile f = FitsFile::open_read(path);
+  if (!f.move_to_if_present("METADETECT"))
+    throw FitsError(path + ": no METADETECT table (is it a `stampede metadetect` catalogue?)");
+  MetadetectTable t;
+  t.step = f.key_double("MCSTEP");
+  t.first_input = f.read_key_string("INPUT1").value_or("");
+  const long long n = f.table_rows();
+  auto doubles = [&](const char* name) { return f.read_column(name); };
+  auto integers = [&](const char* name) {
+    std::vector<long long> v(static_cast<std::size_t>(n));
+    if (n > 0) f.read_column_rows(name, 0, std::span<long long>(v));
+    return v;
+  };
+  t.cell = integers("cell");
+  t.flags = integers("flags");
+  t.e1 = doubles("e1");
+  t.e2 = doubles("e2");
+  t.snr = doubles("snr");
+  t.t_ratio = doubles("T_ratio");
+  t.shear_type.resize(static_cast<std::size_t>(n));
+  for (long long i = 0; i < n; ++i) {
+    const std::string s = f.read_string("shear_type", i);
+    int type = -1;
+    for (MetacalType m : kMetacalTypes)
+      if (s == metacal_type_name(m)) type = static_cast<int>(m);
+    if (type < 0) throw FitsError(f.describe() + ": row " + std::to_string(i + 1) + " has shear_type '" + s + "'");
+    t.shear_type[static_cast<std::size_t>(i)] = type;
+  }
+  return t;
+}
+
+}  // namespace stampede::io

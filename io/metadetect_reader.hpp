@@ -1,0 +1,20 @@
+// Reads back what io/metadetect_writer wrote: the columns `stampede metrics --metadetect` needs and
+// the run's metacal step (header key MCSTEP) and first input (INPUT1). Throws FitsError naming the
+// file, HDU and column.
+#pragma once
+#include <string>
+#include <vector>
+
+namespace stampede::io {
+
+struct MetadetectTable {
+  std::vector<long long> cell, flags;
+  std::vector<int> shear_type;  // MetacalType
+  std::vector<double> e1, e2, snr, t_ratio;
+  double step = 0;
+  std::string first_input;  // "" when not recorded
+};
+
+MetadetectTable read_metadetect_table(const std::string& path);
+
+}  // namespace stampede::io

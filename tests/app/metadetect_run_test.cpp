@@ -1,0 +1,186 @@
+// A metadetection run (app/metadetect_run): the table is byte-identical for one and two threads,
+// a stopped run resumes to the uninterrupted table, an image larger than a cell keeps each galaxy
+// once, and bad input is a clear error naming the file and HDU, or a flagged cell.
+#include "app/metadetect_run.hpp"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "app/cell_simulation.hpp"
+#include "engine/metadetect/metadetect_row.hpp"
+#include "engine/sim/cell_sim.hpp"
+#include "io/durable_file.hpp"
+#include "io/fits_file.hpp"
+#include "io/metadetect_reader.hpp"
+#include "support/scratch_dir.hpp"
+
+namespace stampede::app {
+namespace {
+
+std::string bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// n cells of the shear test (nearly noise-free) in dir; their paths.
+std::vector<std::string> sim_cells(const std::string& dir, int n, CellSimOptions o = {}) {
+  o.snr = 1e4;
+  CellOutputOptions out;
+  out.cells = n;
+  write_cell_simulation(o, out, dir);
+  std::vector<std::string> paths;
+  for (int k = 0; k < n; ++k) {
+    char name[32];
+    std::snprintf(name, sizeof name, "/cell_%04d.fits", k);
+    paths.push_back(dir + name);
+  }
+  return paths;
+}
+
+TEST(MetadetectRun, TableIsTheSameForOneAndTwoThreads) {
+  testing::ScratchDir scratch("stampede_mdet_threads_");
+  MetadetectRunOptions o;
+  o.inputs = sim_cells(scratch.path("sims"), 4);
+  o.output = scratch.path("one.fits");
+  o.threads = 1;
+  o.cells_per_batch = 1;
+  const MetadetectRunSummary one = run_metadetect(o);
+  EXPECT_EQ(one.cells, 4);
+  EXPECT_EQ(one.cells_failed, 0);
+  EXPECT_EQ(one.rows, 4 * 5 * 49);
+  o.output = scratch.path("two.fits");
+  o.threads = 2;
+  run_metadetect(o);
+  EXPECT_EQ(bytes(scratch.path("one.fits")), bytes(scratch.path("two.fits")));
+}
+
+TEST(MetadetectRun, StoppedRunResumesToTheUninterruptedTable) {
+  testing::ScratchDir scratch("stampede_mdet_resume_");
+  MetadetectRunOptions o;
+  o.inputs = sim_cells(scratch.path("sims"), 5);
+  o.output = scratch.path("whole.fits");
+  o.threads = 1;
+  o.cells_per_batch = 1;
+  run_metadetect(o);
+  o.output = scratch.path("resumed.fits");
+  std::atomic<bool> stop{false};
+  o.stop = &stop;
+  const MetadetectRunSummary first = run_metadetect(o, [&](const MetadetectProgress& p) {
+    if (p.cells_done >= 1) stop = true;
+  });
+  ASSERT_TRUE(first.stopped);
+  ASSERT_LT(first.cells, 5);
+  EXPECT_TRUE(io::file_exists(o.output + ".partial"));
+  EXPECT_FALSE(io::file_exists(o.output));
+  stop = false;
+  o.stop = nullptr;
+  o.resume = true;
+  const MetadetectRunSummary second = run_metadetect(o);
+  EXPECT_EQ(second.cells_resumed, first.cells);
+  EXPECT_EQ(second.cells_resumed + second.cells, 5);
+  EXPECT_EQ(bytes(scratch.path("whole.fits")), bytes(scratch.path("resumed.fits")));
+  // A complete output has nothing to resume; another run's checkpoint is refused.
+  EXPECT_THROW(run_metadetect(o), Error);
+}
+
+TEST(MetadetectRun, ImageLargerThanACellKeepsEachGalaxyOnce) {
+  testing::ScratchDir scratch("stampede_mdet_cells_");
+  CellSimOptions so;
+  so.size = 400;  // cut into 2 x 2 cells of 251 with a 34 px buffer
+  so.grid = 12;
+  const std::vector<std::string> in = sim_cells(scratch.path("sims"), 1, so);
+  MetadetectRunOptions o;
+  o.inputs = in;
+  o.output = scratch.path("out.fits");
+  const MetadetectRunSummary r = run_metadetect(o);
+  EXPECT_EQ(r.cells, 4);
+  io::FitsFile f = io::FitsFile::open_read(o.output);
+  f.move_to("METADETECT");
+  const std::vector<double> x = f.read_column("x"), y = f.read_column("y"), cell = f.read_column("cell");
+  const io::MetadetectTable t = io::read_metadetect_table(o.output);
+  const CellSimulator sim(so);
+  const std::vector<CellObject> truth = sim.objects(0, so.g1, so.g2);
+  for (const CellObject& obj : truth) {
+    int found = 0;
+    for (std::size_t i = 0; i < x.size(); ++i)
+      if (t.shear_type[i] == 0 && std::hypot(x[i] - obj.x, y[i] - obj.y) < 0.5) ++found;
+    EXPECT_EQ(found, 1) << "object " << obj.id << " at (" << obj.x << ", " << obj.y << ")";
+  }
+  EXPECT_EQ(static_cast<int>(std::count(t.shear_type.begin(), t.shear_type.end(), 0)), static_cast<int>(truth.size()));
+}
+
+// A cell image written by hand: `extnames` of WEIGHT, BMASK, PSF to include; PSF SCALE psf_scale.
+std::string write_image(const std::string& path, int size, const std::vector<std::string>& extnames, double weight = 1.0,
+                        double psf_scale = 0.25, double pixel = 0.0) {
+  io::FitsFile f = io::FitsFile::create(path, true);
+  std::vector<double> image(static_cast<std::size_t>(size) * size, pixel);
+  f.write_image(size, size, image);
+  f.write_key("SCALE", 0.25, "arcsec per pixel");
+  for (const std::string& e : extnames) {
+    if (e == "PSF") {
+      std::vector<double> psf(25 * 25);
+      for (int y = 0; y < 25; ++y)
+        for (int x = 0; x < 25; ++x) psf[y * 25 + x] = std::exp(-((x - 12) * (x - 12) + (y - 12) * (y - 12)) / 8.0);
+      f.write_image(25, 25, psf, "PSF");
+      f.write_key("SCALE", psf_scale, "arcsec per pixel");
+    } else {
+      f.write_image(size, size, std::vector<double>(image.size(), e == "WEIGHT" ? weight : 0.0), e);
+    }
+  }
+  f.close();
+  return path;
+}
+
+TEST(MetadetectRun, BadInputIsAClearErrorOrAFlaggedCell) {
+  testing::ScratchDir scratch("stampede_mdet_bad_");
+  MetadetectRunOptions o;
+  o.output = scratch.path("out.fits");
+  auto error_of = [&](const std::string& input) {
+    o.inputs = {input};
+    try {
+      run_metadetect(o);
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string no_psf = error_of(write_image(scratch.path("nopsf.fits"), 251, {"WEIGHT"}));
+  EXPECT_NE(no_psf.find("nopsf.fits"), std::string::npos) << no_psf;
+  EXPECT_NE(no_psf.find("no PSF HDU"), std::string::npos) << no_psf;
+  const std::string no_weight = error_of(write_image(scratch.path("noweight.fits"), 251, {"PSF"}));
+  EXPECT_NE(no_weight.find("no WEIGHT HDU"), std::string::npos) << no_weight;
+  const std::string small = error_of(write_image(scratch.path("small.fits"), 60, {"WEIGHT", "PSF"}));
+  EXPECT_NE(small.find("small.fits"), std::string::npos) << small;
+  EXPECT_NE(small.find("smaller than one cell"), std::string::npos) << small;
+  const std::string scale = error_of(write_image(scratch.path("scale.fits"), 251, {"WEIGHT", "PSF"}, 1.0, 0.2));
+  EXPECT_NE(scale.find("'PSF'"), std::string::npos) << scale;
+  EXPECT_NE(scale.find("pixel scale"), std::string::npos) << scale;
+  o.metadetect.cell_buffer = 130;
+  const std::string buffer = error_of(write_image(scratch.path("ok.fits"), 251, {"WEIGHT", "PSF"}));
+  EXPECT_NE(buffer.find("--cell-buffer"), std::string::npos) << buffer;
+  o.metadetect.cell_buffer = 34;
+  // Every pixel masked (zero weights), or NaN: one flagged row for the cell, not an empty table.
+  for (const std::string name : {"zero.fits", "nan.fits"}) {
+    o.inputs = {name == std::string("zero.fits") ? write_image(scratch.path(name), 251, {"WEIGHT", "PSF"}, 0.0)
+                                                 : write_image(scratch.path(name), 251, {"WEIGHT", "PSF"}, 1.0, 0.25, NAN)};
+    o.overwrite = true;
+    const MetadetectRunSummary r = run_metadetect(o);
+    EXPECT_EQ(r.cells, 1) << name;
+    EXPECT_EQ(r.cells_failed, 1) << name;
+    EXPECT_EQ(r.rows, 1) << name;
+    ASSERT_EQ(r.problems.size(), 1u) << name;
+    EXPECT_NE(r.problems[0].find(name), std::string::npos) << r.problems[0];
+    const io::MetadetectTable t = io::read_metadetect_table(o.output);
+    ASSERT_EQ(t.flags.size(), 1u);
+    EXPECT_EQ(t.flags[0], kMetadetectCellFailed);
+  }
+}
+
+}  // namespace
+}  // namespace stampede::app

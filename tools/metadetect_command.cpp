@@ -1,0 +1,177 @@
+// `stampede metadetect IMAGE.fits ... -o OUT.fits`; see print_help.
+#include "tools/metadetect_command.hpp"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "app/metadetect_run.hpp"
+#include "tools/arguments.hpp"
+#include "tools/progress_printer.hpp"
+
+namespace {
+
+using namespace stampede;
+
+void print_help() {
+  const MetadetectOptions d;
+  std::printf(
+      "usage: stampede metadetect IMAGE.fits [IMAGE.fits ...] -o OUT.fits [options]\n"
+      "       stampede metadetect --input-list LIST -o OUT.fits [options]\n"
+      "\n"
+      "Metadetection (Sheldon et al. 2020, 2023): each cell's five metacal images (noshear, 1p, 1m,\n"
+      "2p, 2m, with fixnoise) are made, objects are detected anew on each with SEP, and each detection\n"
+      "is measured on the image it was found on with weighted moments under a round Gaussian weight\n"
+      "(wmom). An image larger than a cell is cut into cells overlapping by twice the buffer; a\n"
+      "detection is kept by the one cell whose inner region holds it. `stampede metrics --metadetect`\n"
+      "turns the table into a response and a shear.\n"
+      "\n"
+      "input: IMAGE.fits holds the image in HDU 0 with its pixel scale (keyword SCALE, arcsec/px, or\n"
+      "a WCS), and extensions WEIGHT (inverse variance, required), BMASK (optional, non-zero masks) and\n"
+      "PSF (a centred PSF image at the image's pixel scale, required). `stampede sim cells` writes such\n"
+      "files. LIST: one image path per line (# comments).\n"
+      "\n"
+      "output: OUT.fits, table METADETECT, a row per (cell, shear type, detection): cell shear_type id\n"
+      "x y (0-based pixels of the input image) u v (arcsec) e1 e2 e1_err e2_err T (arcsec^2) T_ratio\n"
+      "psf_T flux snr mfrac box_size isophotal_area sep_flags flags; a cell that cannot be measured is\n"
+      "one row with id -1 and flags 8. The options and the inputs' digests are in the header.\n"
+      "Written through OUT.fits.partial and a checkpoint: a killed run continues with --resume.\n"
+      "\n"
+      "options:\n"
+      "  -o, --output PATH          output table (required)\n"
+      "  --input-list LIST          read the image paths from LIST (after any given as arguments)\n"
+      "  --cell-size N              cell side, pixels (%d)\n"
+      "  --cell-buffer N            pixels at each cell edge whose detections are not the cell's (%d)\n"
+      "  --step S                   metacal shear step (%g)\n"
+      "  --psf-dilation F           reconvolution PSF FWHM over the PSF's; 0: the narrowest bounded (%g)\n"
+      "  --no-fixnoise              do not add the rotated noise field\n"
+      "  --seed N                   keys each cell's fixnoise field with the cell's number (%llu)\n"
+      "  --weight-fwhm F            wmom weight FWHM, arcsec (%g)\n"
+      "  --detect-threshold T       detection threshold, noise sigma (%g)\n"
+      "  --detect-min-area N        minimum pixels above the threshold (%d)\n"
+      "  --deblend-contrast C       SEP minimum deblending contrast (%g)\n"
+      "  --deblend-thresholds N     SEP deblending levels (%d)\n"
+      "  --filter-fwhm F            Gaussian detection filter FWHM, pixels; 0: none (%g)\n"
+      "  --filter-size N            the filter's odd side, pixels (%d)\n"
+      "  --no-clean                 do not clean spurious detections near bright objects\n"
+      "  --box-min N, --box-max N   odd bounds of a detection's stamp side, pixels (%d, %d)\n"
+      "  --threads N                worker threads (default: all cores)\n"
+      "  --resume                   continue an interrupted run of the same inputs and options\n"
+      "  --overwrite                replace an existing OUT.fits\n"
+      "  --quiet                    no progress line\n",
+      d.cell_size, d.cell_buffer, d.step, d.psf_dilation, static_cast<unsigned long long>(d.seed), d.weight_fwhm,
+      d.detection.threshold, d.detection.min_area, d.detection.deblend_contrast, d.detection.deblend_thresholds,
+      d.detection.filter_fwhm, d.detection.filter_size, d.stamp.box_min, d.stamp.box_max);
+}
+
+std::vector<std::string> read_list(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument("option --input-list: cannot read " + tools::quoted_value(path));
+  std::vector<std::string> out;
+  for (std::string line; std::getline(in, line);) {
+    const std::size_t a = line.find_first_not_of(" \t\r");
+    if (a == std::string::npos || line[a] == '#') continue;
+    const std::size_t b = line.find_last_not_of(" \t\r");
+    out.push_back(line.substr(a, b - a + 1));
+  }
+  if (out.empty()) throw std::invalid_argument("option --input-list: " + tools::quoted_value(path) + " lists no image");
+  return out;
+}
+
+}  // namespace
+
+int run_metadetect_command(int argc, char** argv) {
+  using namespace stampede;
+  app::MetadetectRunOptions o;
+  MetadetectOptions& m = o.metadetect;
+  bool quiet = false;
+  std::set<std::string> seen;  // one-value options given twice are refused
+  for (int i = 1; i < argc; ++i) {
+    const std::string s = argv[i];
+    auto value = [&] { return tools::option_value(argc, argv, &i); };
+    auto number = [&] { return tools::number_value(argc, argv, &i); };
+    auto integer = [&](long long lo, long long hi) { return static_cast<int>(tools::integer_in(argc, argv, &i, lo, hi)); };
+    if (s.starts_with("-") && s != "--help" && s != "-h" && !seen.insert(s == "-o" ? "--output" : s).second)
+      throw std::invalid_argument("option " + s + " is given twice");
+    if (s == "--help" || s == "-h") {
+      print_help();
+      return 0;
+    } else if (s == "-o" || s == "--output") {
+      o.output = value();
+    } else if (s == "--input-list") {
+      for (std::string& p : read_list(value())) o.inputs.push_back(std::move(p));
+    } else if (s == "--cell-size") {
+      m.cell_size = integer(16, 4096);
+    } else if (s == "--cell-buffer") {
+      m.cell_buffer = integer(0, 2048);
+    } else if (s == "--step") {
+      m.step = number();
+    } else if (s == "--psf-dilation") {
+      m.psf_dilation = number();
+    } else if (s == "--no-fixnoise") {
+      m.fixnoise = false;
+    } else if (s == "--seed") {
+      m.seed = static_cast<std::uint64_t>(tools::integer_in(argc, argv, &i, 0, (1LL << 62)));
+    } else if (s == "--weight-fwhm") {
+      m.weight_fwhm = number();
+    } else if (s == "--detect-threshold") {
+      m.detection.threshold = number();
+    } else if (s == "--detect-min-area") {
+      m.detection.min_area = integer(1, 1000000);
+    } else if (s == "--deblend-contrast") {
+      m.detection.deblend_contrast = number();
+    } else if (s == "--deblend-thresholds") {
+      m.detection.deblend_thresholds = integer(1, 256);
+    } else if (s == "--filter-fwhm") {
+      m.detection.filter_fwhm = number();
+    } else if (s == "--filter-size") {
+      m.detection.filter_size = integer(3, 31);
+    } else if (s == "--no-clean") {
+      m.detection.clean = false;
+    } else if (s == "--box-min") {
+      m.stamp.box_min = integer(9, 4095);
+    } else if (s == "--box-max") {
+      m.stamp.box_max = integer(9, 4095);
+    } else if (s == "--threads") {
+      o.threads = integer(1, 4096);
+    } else if (s == "--resume") {
+      o.resume = true;
+    } else if (s == "--overwrite") {
+      o.overwrite = true;
+    } else if (s == "--quiet") {
+      quiet = true;
+    } else if (s.starts_with("-")) {
+      throw std::invalid_argument("unknown option " + tools::quoted_value(s) + " (see stampede metadetect --help)");
+    } else {
+      o.inputs.push_back(s);
+    }
+  }
+  if (o.output.empty()) throw std::invalid_argument("-o OUT.fits is required (see stampede metadetect --help)");
+  if (o.inputs.empty()) throw std::invalid_argument("no input image (see stampede metadetect --help)");
+  if (o.resume && o.overwrite) throw std::invalid_argument("--resume and --overwrite exclude each other");
+  tools::ProgressPrinter printer(stderr, isatty(STDERR_FILENO) != 0);
+  double last = -1;
+  const app::MetadetectRunSummary r = app::run_metadetect(o, [&](const app::MetadetectProgress& p) {
+    if (quiet || p.seconds - last < 0.5) return;
+    last = p.seconds;
+    char line[160];
+    std::snprintf(line, sizeof line, "stampede metadetect: %lld/%lld cells, %.1f s", p.cells_done, p.cells_total,
+                  p.seconds);
+    printer.update(p.seconds, line);
+  });
+  printer.finish();
+  for (const std::string& p : r.problems) std::fprintf(stderr, "stampede metadetect: warning: %s\n", p.c_str());
+  if (r.cells_failed > static_cast<long long>(r.problems.size()))
+    std::fprintf(stderr, "stampede metadetect: warning: %lld more cells failed\n",
+                 r.cells_failed - static_cast<long long>(r.problems.size()));
+  std::fprintf(stderr, "stampede metadetect: %lld cells (%lld resumed, %lld failed), %lld rows, %.2f s on %d threads%s -> %s\n",
+               r.cells + r.cells_resumed, r.cells_resumed, r.cells_failed, r.rows, r.seconds, r.threads,
+               r.stopped ? " (stopped)" : "", o.output.c_str());
+  return r.stopped ? 1 : 0;
+}
