@@ -177,6 +177,7 @@ std::vector<std::pair<std::string, std::string>> option_keys(const MetadetectOpt
           {"MCSTEP", number_text(o.step)},
           {"MCPSFDIL", number_text(o.psf_dilation)},
           {"FIXNOISE", o.fixnoise ? "T" : "F"},
+          {"PEROBJMC", o.per_object_metacal ? "T" : "F"},
           {"MCSEED", std::to_string(o.seed)},
           {"WFWHM", number_text(o.weight_fwhm)},
           {"DETTHR", number_text(d.threshold)},

@@ -30,6 +30,7 @@ void write_settings(FitsFile& f, const CellSimulator& simulator) {
   f.write_key("SNR", o.snr, "S/N of the reference galaxy over all bands");
   f.write_key("NOISEFRE", o.noise_free ? 1LL : 0LL, "1: noise sigma 1e-6 of the S/N's");
   f.write_key("SEED", static_cast<long long>(o.seed), "random seed");
+  f.write_key("ROTATED", static_cast<long long>(o.rotate ? 1 : 0), "1: the scene turned by 90 degrees");
 }
 
 void write_partial_then_rename(const std::string& path, bool overwrite, const std::function<void(FitsFile&)>& body) {

@@ -51,6 +51,8 @@ void print_help() {
       "  --step S                   metacal shear step (%g)\n"
       "  --psf-dilation F           reconvolution PSF FWHM over the PSF's; 0: the narrowest bounded (%g)\n"
       "  --no-fixnoise              do not add the rotated noise field\n"
+      "  --per-object-metacal       not metadetection, for comparison: per-object metacal at the\n"
+      "                             positions detected on the noshear image (each a 49 px stamp)\n"
       "  --seed N                   keys each cell's fixnoise field with the cell's number (%llu)\n"
       "  --weight-fwhm F            wmom weight FWHM, arcsec (%g)\n"
       "  --detect-threshold T       detection threshold, noise sigma (%g)\n"
@@ -114,6 +116,8 @@ int run_metadetect_command(int argc, char** argv) {
       m.step = number();
     } else if (s == "--psf-dilation") {
       m.psf_dilation = number();
+    } else if (s == "--per-object-metacal") {
+      m.per_object_metacal = true;
     } else if (s == "--no-fixnoise") {
       m.fixnoise = false;
     } else if (s == "--seed") {

@@ -31,6 +31,9 @@ void print_help() {
       "\n"
       "options:\n"
       "  --minus PATH          the shear pair's other catalogue\n"
+      "  --rotated PATH        the catalogue of the same cells' scenes turned by 90 degrees (`sim\n"
+      "                        cells --rotate`), and --rotated-minus PATH its pair: each joins its cell\n"
+      "                        (intrinsic shapes cancel, as in ring pairs)\n"
       "  --shear G1,G2         the true shear of TABLE (default: keywords G1, G2 of its first input,\n"
       "                        as `sim cells` writes them)\n"
       "  --cut-snr X           keep rows with snr > X (%g)\n"
@@ -51,7 +54,7 @@ std::string number(double v) {
 }  // namespace
 
 int run_metadetect_metrics_command(int argc, char** argv) {
-  std::string plus_path, minus_path, json;
+  std::string plus_path, minus_path, rotated_path, rotated_minus_path, json;
   std::optional<std::array<double, 2>> shear;
   MetadetectCuts cuts;
   int resamples = 200;
@@ -69,6 +72,10 @@ int run_metadetect_metrics_command(int argc, char** argv) {
       plus_path = value();
     } else if (a == "--minus") {
       minus_path = value();
+    } else if (a == "--rotated") {
+      rotated_path = value();
+    } else if (a == "--rotated-minus") {
+      rotated_minus_path = value();
     } else if (a == "--shear") {
       shear = tools::number_pair(a, value(), "two numbers G1,G2");
     } else if (a == "--cut-snr") {
@@ -89,7 +96,15 @@ int run_metadetect_metrics_command(int argc, char** argv) {
   auto sums = [&](const io::MetadetectTable& t) {
     return sum_metadetect_cells(t.cell, t.shear_type, t.e1, t.e2, t.flags, t.snr, t.t_ratio, cuts);
   };
-  const MetadetectCellSums ps = sums(plus);
+  if (rotated_path.empty() != rotated_minus_path.empty() && !minus_path.empty())
+    throw std::invalid_argument("--rotated and --rotated-minus go together with --minus");
+  MetadetectCellSums ps = sums(plus);
+  auto add_rotated = [&](const std::string& path, const io::MetadetectTable& of, MetadetectCellSums* into) {
+    const io::MetadetectTable t = io::read_metadetect_table(path);
+    if (t.step != of.step) throw std::invalid_argument(path + " was run with another metacal step");
+    add_cell_sums(sums(t), into);
+  };
+  if (!rotated_path.empty()) add_rotated(rotated_path, plus, &ps);
   const MetadetectShear s = metadetect_shear(ps, plus.step, resamples, seed);
   std::printf("%s: %lld cells, %.0f noshear rows kept (snr > %g, T_ratio > %g, flags 0)\n", plus_path.c_str(), s.cells,
               s.kept_noshear, cuts.min_snr, cuts.min_t_ratio);
@@ -107,7 +122,9 @@ int run_metadetect_metrics_command(int argc, char** argv) {
       io::FitsFile in = io::FitsFile::open_read(plus.first_input);
       shear = std::array<double, 2>{in.key_double("G1"), in.key_double("G2")};
     }
-    const MetadetectBias b = metadetect_pair_bias(ps, sums(minus), (*shear)[0], (*shear)[1], plus.step, resamples, seed);
+    MetadetectCellSums ms = sums(minus);
+    if (!rotated_minus_path.empty()) add_rotated(rotated_minus_path, minus, &ms);
+    const MetadetectBias b = metadetect_pair_bias(ps, ms, (*shear)[0], (*shear)[1], plus.step, resamples, seed);
     std::printf("shear pair with %s, g = (%g, %g), %lld pairs of cells:\n", minus_path.c_str(), (*shear)[0], (*shear)[1], b.pairs);
     if (std::isfinite(b.m1)) std::printf("  m1 = %+.3e +- %.1e   c2 = %+.3e +- %.1e\n", b.m1, b.m1_err, b.c2, b.c2_err);
     if (std::isfinite(b.m2)) std::printf("  m2 = %+.3e +- %.1e   c1 = %+.3e +- %.1e\n", b.m2, b.m2_err, b.c1, b.c1_err);

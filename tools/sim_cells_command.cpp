@@ -65,6 +65,11 @@ void print_help() {
       "  --psf-size N           PSF image side, odd (%d)\n"
       "  --snr X                per-object S/N: noise sigma = sqrt(sum I^2) / X for a round reference\n"
       "                         galaxy drawn alone, summed over bands (one sigma for all bands) (%g)\n"
+      "  --keep-clear PX        random: no object within PX px of the buffer's inner edge (objects\n"
+      "                         there cross it under the shear: noise in a one-cell test) (0)\n"
+      "  --rotate               the scene turned by 90 degrees about each cell's centre (intrinsic\n"
+      "                         shapes negated, positions rotated, the same noise): with the unrotated\n"
+      "                         cells it cancels shape noise in a shear test (metrics --rotated)\n"
       "  --noise-free           noise sigma 1e-6 of --snr's: essentially noiseless, with NOISE and\n"
       "                         WEIGHT consistent with it\n"
       "  --bands B1,B2,...      one image per band of the same galaxies (up to 8), in DIR/<band>: band\n"
@@ -155,6 +160,10 @@ int run_sim_cells_command(int argc, char** argv) {
       o.psf_size = integer(5, 255);
     } else if (s == "--snr") {
       o.snr = number();
+    } else if (s == "--keep-clear") {
+      o.keep_clear = number();
+    } else if (s == "--rotate") {
+      o.rotate = true;
     } else if (s == "--noise-free") {
       o.noise_free = true;
     } else if (s == "--bands") {

@@ -54,6 +54,16 @@ MetadetectCellSums sum_metadetect_cells(const std::vector<long long>& cell, cons
   return out;
 }
 
+void add_cell_sums(const MetadetectCellSums& more, MetadetectCellSums* into) {
+  if (more.cells != into->cells) throw std::invalid_argument("the catalogues do not hold the same cells");
+  for (std::size_t k = 0; k < more.sums.size(); ++k)
+    for (int t = 0; t < 5; ++t) {
+      into->sums[k][t].n += more.sums[k][t].n;
+      into->sums[k][t].e1 += more.sums[k][t].e1;
+      into->sums[k][t].e2 += more.sums[k][t].e2;
+    }
+}
+
 MetadetectShear metadetect_shear(const MetadetectCellSums& s, double step, int resamples, std::uint64_t seed) {
   MetadetectShear out;
   const std::array<Sums, 5> p = pooled(s, {});

@@ -35,6 +35,10 @@ MetadetectCellSums sum_metadetect_cells(const std::vector<long long>& cell, cons
                                         const std::vector<long long>& flags, const std::vector<double>& snr,
                                         const std::vector<double>& t_ratio, const MetadetectCuts& cuts);
 
+// Adds `more`'s sums to `into`'s cells of the same numbers (the rotated scene of each cell joins its
+// cell: one bootstrap unit). Throws std::invalid_argument when the cells differ.
+void add_cell_sums(const MetadetectCellSums& more, MetadetectCellSums* into);
+
 struct MetadetectShear {
   double r11 = 0, r22 = 0, g1 = 0, g2 = 0;
   double r11_err = 0, r22_err = 0, g1_err = 0, g2_err = 0;

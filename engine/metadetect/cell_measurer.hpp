@@ -1,6 +1,7 @@
 // Metadetection of one cell (Sheldon et al. 2020): its five metacal images (noshear, 1p, 1m, 2p,
 // 2m; fixnoise), detection on each with SEP, and each detection measured on the image it was found
-// on with weighted moments under a round Gaussian weight (wmom). One per thread: it owns the FFT
+// on with weighted moments under a round Gaussian weight (wmom); or, for comparison, per-object
+// metacal at the positions detected on the noshear image (per_object_metacal). One per thread: it owns the FFT
 // plans and every buffer, so a run of cells of one size allocates nothing but SEP's own work.
 #pragma once
 #include <memory>
@@ -26,8 +27,9 @@ struct MetadetectCell {
   double origin_x = 0, origin_y = 0;  // the input image's pixel of the cell's (0, 0)
   double pixel_scale = 0;             // arcsec per pixel
   const PsfModel* psf = nullptr;      // in the cell's pixels
-  // Detections kept: barycentre in [keep_x0, keep_x1) x [keep_y0, keep_y1) (cell pixels); the rest
-  // belong to a neighbouring cell or to the image's buffer.
+  // Detections kept: barycentre, carried back through the image's metacal shear to the unsheared
+  // cell, in [keep_x0, keep_x1) x [keep_y0, keep_y1) (cell pixels); the rest belong to a
+  // neighbouring cell or to the image's buffer.
   double keep_x0 = 0, keep_x1 = 0, keep_y0 = 0, keep_y1 = 0;
 };
 
@@ -45,6 +47,13 @@ class CellMeasurer {
   bool prepare_psf(const PsfModel& psf, double pixel_scale, std::string* problem);
   void measure_image(const MetadetectCell& cell, int type, std::span<const double> image, double variance,
                      std::vector<MetadetectRow>* rows);
+  // Whether the cell keeps detection d of image `type` (its unsheared position in the keep region).
+  bool owns(const MetadetectCell& cell, int type, const Detection& d) const;
+  // The weighted moments of a box x box stamp whose pixel (0, 0) is the cell's (x0, y0) into *r.
+  void fill_moments(const MetadetectCell& cell, std::span<const double> stamp, int box, int x0, int y0,
+                    double variance, const Detection& d, MetadetectRow* r);
+  // options.per_object_metacal: each noshear detection's metacal stamps, five rows each.
+  void per_object_rows(const MetadetectCell& cell, std::vector<MetadetectRow>* rows);
 
   MetadetectOptions options_;
   FftPlanning planning_;
@@ -55,6 +64,9 @@ class CellMeasurer {
   double psf_scale_ = 0, psf_t_ = 0, weight_fwhm_px_ = 0;
   std::vector<float> filter_, image_f_;
   std::vector<double> images_, stamp_, scratch_;
+  std::unique_ptr<MetacalImageSet> stamp_set_;  // per_object_metacal
+  std::shared_ptr<const MetacalFilters> stamp_filters_;
+  std::vector<double> stamp_images_, stamp_pixels_, stamp_weight_;
   std::vector<Detection> detections_;
 };
 

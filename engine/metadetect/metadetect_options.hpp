@@ -37,6 +37,10 @@ struct MetadetectOptions {
   bool fixnoise = true;
   std::uint64_t seed = 20170101;  // keys each cell's fixnoise field with the cell's index
   double weight_fwhm = 1.2;       // arcsec: wmom's round Gaussian weight
+  // Not metadetection: per-object metacal at the positions detected on the noshear image (each
+  // detection's own 49 px stamp cut from the cell, its five metacal images, wmom), the estimator
+  // metadetection replaces, kept to measure the bias it leaves in blends (docs/metadetect.md).
+  bool per_object_metacal = false;
   DetectionOptions detection;
   DetectionStampOptions stamp;
   int inner_size() const { return cell_size - 2 * cell_buffer; }

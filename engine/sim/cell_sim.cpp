@@ -77,6 +77,7 @@ bool CellSimOptions::IsValid(std::string* why) const {
   if (!(bulge_fraction_max >= 0 && bulge_fraction_max <= 1))
     return fail("--bulge-fraction-max " + text(bulge_fraction_max) + ": must be in [0, 1]");
   if (!(shape_noise >= 0 && shape_noise <= 1)) return fail("--shape-noise " + text(shape_noise) + ": must be in [0, 1]");
+  if (!(keep_clear >= 0 && keep_clear <= buffer)) return fail("--keep-clear " + text(keep_clear) + ": must be in [0, --buffer]");
   if (!(e_max > 0 && e_max <= 0.9)) return fail("--e-max " + text(e_max) + ": must be in (0, 0.9]");
   if (!(psf_fwhm > 0 && psf_fwhm / pixel_scale >= 1 && psf_fwhm / pixel_scale <= 50))
     return fail("--psf-fwhm " + text(psf_fwhm) + ": must be between 1 and 50 pixels (" + text(pixel_scale) + " arcsec each)");
@@ -186,6 +187,9 @@ std::vector<CellObject> CellSimulator::objects(int cell, double g1, double g2) c
       CellObject obj;
       obj.x = layout.uniform(-0.5, o.size - 0.5);
       obj.y = layout.uniform(-0.5, o.size - 0.5);
+      const double lo = o.buffer - 0.5, hi = o.size - o.buffer - 0.5;
+      if (std::min({std::abs(obj.x - lo), std::abs(obj.x - hi), std::abs(obj.y - lo), std::abs(obj.y - hi)}) < o.keep_clear)
+        continue;
       out.push_back(obj);
     }
   }
@@ -199,6 +203,13 @@ std::vector<CellObject> CellSimulator::objects(int cell, double g1, double g2) c
         obj.e1_int = o.shape_noise * gal.normal();
         obj.e2_int = o.shape_noise * gal.normal();
       } while (std::hypot(obj.e1_int, obj.e2_int) >= o.e_max);
+    }
+    if (o.rotate) {
+      // The scene turned by 90 degrees about the cell's centre: every intrinsic shape's e negated
+      // (spin 2), positions rotated; the shear is applied after.
+      const double c = 0.5 * (o.size - 1), dx = obj.x - c, dy = obj.y - c;
+      obj.x = c - dy, obj.y = c + dx;
+      obj.e1_int = -obj.e1_int, obj.e2_int = -obj.e2_int;
     }
     const double bulge = gal.uniform(0, o.bulge_fraction_max);  // drawn for every model: streams stay aligned
     obj.bulge_frac = o.model == CellGalaxyModel::kBulgeDisc ? bulge * bands_[0].bulge_scale : 0.0;

@@ -50,6 +50,10 @@ struct CellSimOptions {
   int grid = 7;               // kGrid: objects per side
   double grid_shift = 1.0;    // kGrid: each position shifted by U(-shift, shift) pixels per axis
   double density = 100;       // kRandom: mean objects per arcmin^2
+  // kRandom: no object within keep_clear px of the lines of the buffer's inner edge. An object there
+  // moves in or out of the region a cell keeps under the shear: a single-cell test (no neighbouring
+  // cell to take it) reads that as noise in <e>; a band of a few pixels removes it.
+  double keep_clear = 0;
   CellGalaxyModel model = CellGalaxyModel::kExponential;
   double hlr = 0.5;           // half-light radius sqrt(ab), arcsec (both components of bd)
   double flux = 1000;         // each galaxy's total flux in the first band (counts)
@@ -65,6 +69,10 @@ struct CellSimOptions {
   // galaxy (round, the model's mean bulge fraction, drawn alone with each band's PSF): one sigma for
   // every band, so the S/N over all bands is snr.
   double snr = 20;
+  // The scene turned by 90 degrees about the cell's centre (intrinsic shapes negated, positions
+  // rotated; noise unchanged): with the unrotated scene it cancels the intrinsic shapes' share of a
+  // shear test's variance, blends and objects at the cells' edges included, as ring pairs do.
+  bool rotate = false;
   bool noise_free = false;    // noise sigma 1e-6 of the S/N's: a noiseless cell with consistent weights
   int bands = 1;              // band b of B: flux x (0.8 + 0.4 b / (B - 1)), PSF FWHM x (1 - 0.1 b / (B - 1)),
                               // bd bulge fraction x (0.5 + b / (B - 1)) (capped at 1)

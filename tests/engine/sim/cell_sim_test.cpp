@@ -258,3 +258,26 @@ TEST(CellSim, BadOptionsNameTheOption) {
 
 }  // namespace
 }  // namespace stampede
+
+namespace stampede {
+namespace {
+
+TEST(CellSim, RotatedSceneTurnsPositionsAndNegatesShapes) {
+  CellSimOptions o;
+  o.layout = CellLayout::kRandom;
+  CellSimOptions r = o;
+  r.rotate = true;
+  const std::vector<CellObject> a = CellSimulator(o).objects(4, 0.0, 0.0), b = CellSimulator(r).objects(4, 0.0, 0.0);
+  ASSERT_EQ(a.size(), b.size());
+  const double c = 0.5 * (o.size - 1);
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_NEAR(b[k].x - c, -(a[k].y - c), 1e-12);
+    EXPECT_NEAR(b[k].y - c, a[k].x - c, 1e-12);
+    EXPECT_EQ(b[k].e1_int, -a[k].e1_int);
+    EXPECT_EQ(b[k].e2_int, -a[k].e2_int);
+    EXPECT_EQ(b[k].flux, a[k].flux);
+  }
+}
+
+}  // namespace
+}  // namespace stampede
