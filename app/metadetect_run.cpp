@@ -48,11 +48,13 @@ class CellSource : public StampSource {
   CellSource(const std::vector<std::string>& inputs, const MetadetectOptions& options) : inputs_(inputs), options_(options) {
     for (const std::string& path : inputs_) {
       const io::CellImageShape shape = io::read_cell_image_shape(path);
-      std::string why;
-      layouts_.push_back(cell_layout(shape.width, shape.height, options.cell_size, options.cell_buffer, &why));
-      if (layouts_.back().empty()) throw io::ConfigError(path + ": " + why);
-      total_ += static_cast<long long>(layouts_.back().size());
+      add_layout(shape.width, shape.height, path + ": ");
     }
+  }
+  // One image in memory (not copied: it must outlive the source).
+  CellSource(const io::CellImage& image, const MetadetectOptions& options)
+      : inputs_{"image"}, options_(options), memory_(&image) {
+    add_layout(image.width, image.height, "");
   }
   long long total_objects() const override { return total_; }
   void skip_to(long long index) override {
@@ -75,8 +77,8 @@ class CellSource : public StampSource {
         continue;
       }
       if (loaded_ != file_) {
-        image_ = io::read_cell_image(inputs_[file_]);
-        psf_ = PsfModel::Image(image_.psf);
+        if (!memory_) image_ = io::read_cell_image(inputs_[file_]);
+        psf_ = PsfModel::Image(image().psf);
         loaded_ = file_;
       }
       const CellPlacement& place = layouts_[file_][in_file_];
@@ -86,11 +88,11 @@ class CellSource : public StampSource {
       ArenaObservation& o = batch.observations.add(s, &pixels, &weights);
       o.psf = psf_;
       for (int y = 0; y < s; ++y) {
-        const std::size_t from = static_cast<std::size_t>(place.y0 + y) * image_.width + place.x0;
-        std::copy_n(image_.pixels.begin() + from, s, pixels.begin() + static_cast<std::size_t>(y) * s);
-        std::copy_n(image_.weight.begin() + from, s, weights.begin() + static_cast<std::size_t>(y) * s);
+        const std::size_t from = static_cast<std::size_t>(place.y0 + y) * image().width + place.x0;
+        std::copy_n(image().pixels.begin() + from, s, pixels.begin() + static_cast<std::size_t>(y) * s);
+        std::copy_n(image().weight.begin() + from, s, weights.begin() + static_cast<std::size_t>(y) * s);
       }
-      data.cells.push_back({file_, place, image_.pixel_scale});
+      data.cells.push_back({file_, place, image().pixel_scale});
       batch.records[batch.count].id = next_;
       ++batch.count, ++in_file_, ++next_;
     }
@@ -98,8 +100,17 @@ class CellSource : public StampSource {
   }
 
  private:
+  void add_layout(long width, long height, const std::string& where) {
+    std::string why;
+    layouts_.push_back(cell_layout(width, height, options_.cell_size, options_.cell_buffer, &why));
+    if (layouts_.back().empty()) throw io::ConfigError(where + why);
+    total_ += static_cast<long long>(layouts_.back().size());
+  }
+  const io::CellImage& image() const { return memory_ ? *memory_ : image_; }
+
   std::vector<std::string> inputs_;
   MetadetectOptions options_;
+  const io::CellImage* memory_ = nullptr;
   std::vector<std::vector<CellPlacement>> layouts_;
   long long total_ = 0, next_ = 0, in_file_ = 0;
   int file_ = 0, loaded_ = -1;
@@ -160,6 +171,18 @@ class CellSink : public BatchSink {
   MetadetectRunSummary* summary_;
 };
 
+// Python's: the rows kept in memory.
+class CollectingSink : public BatchSink {
+ public:
+  void write(const StampBatch& batch) override {
+    const CellBatch& data = cell_batch(batch);
+    rows.insert(rows.end(), data.rows.begin(), data.rows.end());
+    for (const std::string& p : data.problems) failed += !p.empty();
+  }
+  std::vector<MetadetectRow> rows;
+  long long failed = 0;
+};
+
 std::string number_text(double v) {
   std::ostringstream s;
   s.precision(17);
@@ -196,6 +219,22 @@ std::vector<std::pair<std::string, std::string>> option_keys(const MetadetectOpt
 }
 
 }  // namespace
+
+std::vector<MetadetectRow> metadetect_image(const io::CellImage& image, const MetadetectOptions& options, int threads,
+                                            long long* cells_failed) {
+  std::string why;
+  if (!options.IsValid(&why)) throw io::ConfigError(why);
+  CellSource source(image, options);
+  CollectingSink sink;
+  set_detection_pixel_stack(static_cast<long long>(options.cell_size) * options.cell_size);
+  PipelineOptions po;
+  po.threads = threads;
+  po.batch_size = 2;
+  po.stamp_size = 0;
+  run_pipeline(source, sink, [&] { return std::make_unique<CellFitter>(options); }, po);
+  if (cells_failed) *cells_failed = sink.failed;
+  return std::move(sink.rows);
+}
 
 MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
                                     const std::function<void(const MetadetectProgress&)>& progress) {

@@ -11,6 +11,8 @@
 #include <vector>
 
 #include "engine/metadetect/metadetect_options.hpp"
+#include "engine/metadetect/metadetect_row.hpp"
+#include "io/cell_image_reader.hpp"
 
 namespace stampede::app {
 
@@ -38,6 +40,12 @@ struct MetadetectRunSummary {
   bool stopped = false;
   std::vector<std::string> problems;  // "FILE cell K: why" for each failed cell (first 100)
 };
+
+// An image in memory (Python's numpy arrays) cut into cells and measured on `threads` threads (0:
+// all cores) through the same pipeline; the rows in cell order, as a file run writes them (cells
+// numbered from 0). Throws io::ConfigError for bad options or an image smaller than a cell.
+std::vector<MetadetectRow> metadetect_image(const io::CellImage& image, const MetadetectOptions& options, int threads,
+                                            long long* cells_failed = nullptr);
 
 // Throws stampede::Error subclasses (io::FitsError, io::CatalogError, ConfigError) naming the file,
 // HDU, key or option.

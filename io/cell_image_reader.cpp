@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <sstream>
+#include <stdexcept>
 
 #include "io/fits_file.hpp"
 
@@ -52,6 +53,17 @@ std::vector<double> plane(FitsFile& f, const CellImageShape& shape) {
 
 }  // namespace
 
+void apply_cell_masks(std::span<const double> bmask, CellImage* image) {
+  for (double w : image->weight)
+    if (w < 0) throw std::invalid_argument("negative weights: the weights must be inverse variances (0 masks)");
+  image->masked = 0;
+  for (std::size_t i = 0; i < image->pixels.size(); ++i) {
+    if (!bmask.empty() && bmask[i] != 0) image->weight[i] = 0;
+    if (!std::isfinite(image->pixels[i]) || !std::isfinite(image->weight[i])) image->weight[i] = 0;
+    if (image->weight[i] == 0) image->pixels[i] = 0, ++image->masked;
+  }
+}
+
 CellImageShape read_cell_image_shape(const std::string& path) {
   FitsFile f = FitsFile::open_read(path);
   return primary_shape(f);
@@ -67,16 +79,13 @@ CellImage read_cell_image(const std::string& path) {
   if (!f.move_to_if_present("WEIGHT"))
     fail(f, "no WEIGHT HDU (inverse variance): detection needs the noise level");
   out.weight = plane(f, shape);
-  for (double w : out.weight)
-    if (w < 0) fail(f, "negative weights: the WEIGHT HDU must hold inverse variances (0 masks)");
-  if (f.move_to_if_present("BMASK")) {
-    const std::vector<double> mask = plane(f, shape);
-    for (std::size_t i = 0; i < mask.size(); ++i)
-      if (mask[i] != 0) out.weight[i] = 0;
-  }
-  for (std::size_t i = 0; i < out.pixels.size(); ++i) {
-    if (!std::isfinite(out.pixels[i]) || !std::isfinite(out.weight[i])) out.weight[i] = 0;
-    if (out.weight[i] == 0) out.pixels[i] = 0, ++out.masked;
+  std::vector<double> mask;
+  if (f.move_to_if_present("BMASK")) mask = plane(f, shape);
+  f.move_to("WEIGHT");
+  try {
+    apply_cell_masks(mask, &out);
+  } catch (const std::invalid_argument& e) {
+    fail(f, e.what());
   }
   if (!f.move_to_if_present("PSF")) fail(f, "no PSF HDU (a centred PSF image at the image's pixel scale)");
   if (auto scale = f.read_key_double("SCALE"); scale && std::abs(*scale / out.pixel_scale - 1) > 1e-6) {

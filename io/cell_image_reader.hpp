@@ -8,6 +8,7 @@
 // Every failure throws FitsError naming the file, the HDU and the keyword or the rule.
 #pragma once
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,11 @@ struct CellImage {
   std::shared_ptr<const PsfImage> psf;
   long long masked = 0;  // pixels masked (weight 0, BMASK, non-finite)
 };
+
+// The masking rules a read applies, for an image built in memory (Python): a non-zero bmask value
+// (bmask empty: none), a non-finite pixel or weight, or a zero weight masks the pixel: its weight
+// and value become 0, and `masked` counts it. Throws std::invalid_argument for a negative weight.
+void apply_cell_masks(std::span<const double> bmask, CellImage* image);
 
 // HDU 0's size alone (cheap: the run lays out its cells before reading pixels).
 CellImageShape read_cell_image_shape(const std::string& path);

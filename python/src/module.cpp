@@ -13,6 +13,7 @@ void bind_fit(py::module_& m);
 void bind_run(py::module_& m);
 void bind_sim(py::module_& m);
 void bind_io(py::module_& m);
+void bind_metadetect(py::module_& m);
 }  // namespace stampede::python
 
 PYBIND11_MODULE(_stampede, m) {
@@ -23,5 +24,6 @@ PYBIND11_MODULE(_stampede, m) {
   stampede::python::bind_run(m);
   stampede::python::bind_sim(m);
   stampede::python::bind_io(m);
+  stampede::python::bind_metadetect(m);
   m.attr("__version__") = std::string(stampede::app::program_version());
 }

@@ -28,6 +28,7 @@ from ._stampede import (  # noqa: F401
     fits_header,
     merge_shards,
     metacal_set_shear,
+    metadetect,
     option_help,
     read_image,
     read_results,
@@ -41,6 +42,6 @@ from ._stampede import (  # noqa: F401
 
 __all__ = [
     "CatalogError", "ConfigError", "Error", "FileError", "FitsError", "Fitter", "Options",
-    "fit_stamp", "fit_stamps", "fit_status_names", "fits_hdus", "fits_header", "merge_shards", "metacal_set_shear", "option_help", "read_image", "read_results", "read_table", "run_fit", "set_shear", "shear_excluding_flags", "shear_metrics",
+    "fit_stamp", "fit_stamps", "fit_status_names", "fits_hdus", "fits_header", "merge_shards", "metacal_set_shear", "metadetect", "option_help", "read_image", "read_results", "read_table", "run_fit", "set_shear", "shear_excluding_flags", "shear_metrics",
     "simulate_great08",
 ]

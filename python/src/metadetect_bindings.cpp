@@ -1,0 +1,152 @@
+// stampede.metadetect(): metadetection of an image held in numpy arrays (app/metadetect_run), the
+// GIL released; the rows as a structured array with the METADETECT table's columns.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "app/metadetect_run.hpp"
+#include "arguments.hpp"
+#include "engine/metacal/metacal_type.hpp"
+#include "io/cell_image_reader.hpp"
+#include "io/config_error.hpp"
+#include "numpy_arrays.hpp"
+
+namespace py = pybind11;
+
+namespace stampede::python {
+namespace {
+
+template <class T, class Get>
+py::array_t<T> column(const std::vector<MetadetectRow>& rows, Get get) {
+  py::array_t<T> a(static_cast<py::ssize_t>(rows.size()));
+  T* p = a.mutable_data();
+  for (std::size_t i = 0; i < rows.size(); ++i) p[i] = static_cast<T>(get(rows[i]));
+  return a;
+}
+
+py::object rows_array(const std::vector<MetadetectRow>& rows) {
+  const py::module_ np = py::module_::import("numpy");
+  py::list fields;
+  auto add = [&](const char* name, const char* format) { fields.append(py::make_tuple(name, format)); };
+  add("cell", "i8"), add("shear_type", "U7"), add("id", "i4");
+  for (const char* n : {"x", "y", "u", "v", "e1", "e2", "e1_err", "e2_err", "T", "T_ratio", "psf_T", "flux", "snr", "mfrac"})
+    add(n, "f8");
+  add("box_size", "i4"), add("isophotal_area", "i4"), add("sep_flags", "i4"), add("flags", "u4");
+  py::object out = np.attr("zeros")(rows.size(), np.attr("dtype")(fields));
+  out[py::str("cell")] = column<long long>(rows, [](const MetadetectRow& r) { return r.cell; });
+  py::list types;
+  for (const MetadetectRow& r : rows) types.append(metacal_type_name(static_cast<MetacalType>(r.shear_type)));
+  out[py::str("shear_type")] = np.attr("array")(types, "U7");
+  out[py::str("id")] = column<int>(rows, [](const MetadetectRow& r) { return r.id; });
+  out[py::str("x")] = column<double>(rows, [](const MetadetectRow& r) { return r.x; });
+  out[py::str("y")] = column<double>(rows, [](const MetadetectRow& r) { return r.y; });
+  out[py::str("u")] = column<double>(rows, [](const MetadetectRow& r) { return r.u; });
+  out[py::str("v")] = column<double>(rows, [](const MetadetectRow& r) { return r.v; });
+  out[py::str("e1")] = column<double>(rows, [](const MetadetectRow& r) { return r.e1; });
+  out[py::str("e2")] = column<double>(rows, [](const MetadetectRow& r) { return r.e2; });
+  out[py::str("e1_err")] = column<double>(rows, [](const MetadetectRow& r) { return r.e1_err; });
+  out[py::str("e2_err")] = column<double>(rows, [](const MetadetectRow& r) { return r.e2_err; });
+  out[py::str("T")] = column<double>(rows, [](const MetadetectRow& r) { return r.t; });
+  out[py::str("T_ratio")] = column<double>(rows, [](const MetadetectRow& r) { return r.t_ratio; });
+  out[py::str("psf_T")] = column<double>(rows, [](const MetadetectRow& r) { return r.psf_t; });
+  out[py::str("flux")] = column<double>(rows, [](const MetadetectRow& r) { return r.flux; });
+  out[py::str("snr")] = column<double>(rows, [](const MetadetectRow& r) { return r.snr; });
+  out[py::str("mfrac")] = column<double>(rows, [](const MetadetectRow& r) { return r.mfrac; });
+  out[py::str("box_size")] = column<int>(rows, [](const MetadetectRow& r) { return r.box_size; });
+  out[py::str("isophotal_area")] = column<int>(rows, [](const MetadetectRow& r) { return r.isophotal_area; });
+  out[py::str("sep_flags")] = column<int>(rows, [](const MetadetectRow& r) { return r.sep_flags; });
+  out[py::str("flags")] = column<unsigned>(rows, [](const MetadetectRow& r) { return r.flags; });
+  return out;
+}
+
+py::object metadetect(py::args args, py::kwargs kwargs) {
+  const Arguments a("metadetect", args, kwargs,
+                    {{"image", true}, {"weight", true}, {"psf", true}, {"pixel_scale", true}, {"bmask"}, {"threads"},
+                     {"cell_size", false, true}, {"cell_buffer", false, true}, {"step", false, true},
+                     {"psf_dilation", false, true}, {"fixnoise", false, true}, {"seed", false, true},
+                     {"weight_fwhm", false, true}, {"detect_threshold", false, true}, {"detect_min_area", false, true},
+                     {"deblend_contrast", false, true}, {"deblend_thresholds", false, true},
+                     {"filter_fwhm", false, true}, {"filter_size", false, true}, {"clean", false, true},
+                     {"box_min", false, true}, {"box_max", false, true}, {"per_object_metacal", false, true}});
+  const DoubleArray image = as_float64(a.object("image"), {2}, "image");
+  const DoubleArray weight = as_float64(a.object("weight"), {2}, "weight");
+  const DoubleArray psf = as_float64(a.object("psf"), {2}, "psf");
+  if (weight.shape(0) != image.shape(0) || weight.shape(1) != image.shape(1))
+    throw py::value_error(a.where("weight") + ": shape differs from the image's");
+  MetadetectOptions o;
+  o.cell_size = static_cast<int>(a.integer("cell_size", o.cell_size));
+  o.cell_buffer = static_cast<int>(a.integer("cell_buffer", o.cell_buffer));
+  o.step = a.real("step", o.step);
+  o.psf_dilation = a.real("psf_dilation", o.psf_dilation);
+  o.fixnoise = a.flag("fixnoise", o.fixnoise);
+  o.seed = static_cast<std::uint64_t>(a.integer_in("seed", static_cast<long long>(o.seed), 0, 1LL << 62));
+  o.weight_fwhm = a.real("weight_fwhm", o.weight_fwhm);
+  o.detection.threshold = a.real("detect_threshold", o.detection.threshold);
+  o.detection.min_area = static_cast<int>(a.integer("detect_min_area", o.detection.min_area));
+  o.detection.deblend_contrast = a.real("deblend_contrast", o.detection.deblend_contrast);
+  o.detection.deblend_thresholds = static_cast<int>(a.integer("deblend_thresholds", o.detection.deblend_thresholds));
+  o.detection.filter_fwhm = a.real("filter_fwhm", o.detection.filter_fwhm);
+  o.detection.filter_size = static_cast<int>(a.integer("filter_size", o.detection.filter_size));
+  o.detection.clean = a.flag("clean", o.detection.clean);
+  o.stamp.box_min = static_cast<int>(a.integer("box_min", o.stamp.box_min));
+  o.stamp.box_max = static_cast<int>(a.integer("box_max", o.stamp.box_max));
+  o.per_object_metacal = a.flag("per_object_metacal", false);
+  const double scale = a.real("pixel_scale", 0);
+  if (!(scale > 0)) throw py::value_error(a.where("pixel_scale") + ": must be > 0 (arcsec per pixel)");
+  const int threads = static_cast<int>(a.integer_in("threads", 0, 0, 4096));
+  io::CellImage im;
+  im.width = static_cast<long>(image.shape(1)), im.height = static_cast<long>(image.shape(0));
+  im.pixel_scale = scale;
+  im.pixels.assign(image.data(), image.data() + image.size());
+  im.weight.assign(weight.data(), weight.data() + weight.size());
+  auto p = std::make_shared<PsfImage>();
+  p->nx = static_cast<int>(psf.shape(1)), p->ny = static_cast<int>(psf.shape(0));
+  p->pixels.assign(psf.data(), psf.data() + psf.size());
+  double sum = 0;
+  for (double v : p->pixels) sum += v;
+  if (!(sum > 0) || !std::isfinite(sum)) throw py::value_error(a.where("psf") + ": its sum is not positive and finite");
+  im.psf = p;
+  std::vector<double> mask;
+  if (a.given("bmask")) {
+    const DoubleArray m = as_float64(py::module_::import("numpy").attr("asarray")(a.object("bmask"), "float64"), {2}, "bmask");
+    if (m.shape(0) != image.shape(0) || m.shape(1) != image.shape(1))
+      throw py::value_error(a.where("bmask") + ": shape differs from the image's");
+    mask.assign(m.data(), m.data() + m.size());
+  }
+  try {
+    io::apply_cell_masks(mask, &im);
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(a.where("weight") + ": " + e.what());
+  }
+  std::vector<MetadetectRow> rows;
+  {
+    py::gil_scoped_release release;
+    rows = app::metadetect_image(im, o, threads);
+  }
+  return rows_array(rows);
+}
+
+}  // namespace
+
+void bind_metadetect(py::module_& m) {
+  m.def("metadetect", &metadetect, R"doc(metadetect(image, weight, psf, pixel_scale, bmask=None, threads=0, *,
+           cell_size=251, cell_buffer=34, step=0.01, psf_dilation=0, fixnoise=True, seed=20170101,
+           weight_fwhm=1.2, detect_threshold=0.8, detect_min_area=4, deblend_contrast=1e-5,
+           deblend_thresholds=32, filter_fwhm=3, filter_size=7, clean=True, box_min=33, box_max=255,
+           per_object_metacal=False)
+
+Metadetection (Sheldon et al. 2020) of one image as `stampede metadetect` does it: the image
+(2-D, at least one cell) is cut into cells; each cell's five metacal images (noshear, 1p, 1m,
+2p, 2m, fixnoise) are detected anew with SEP and every detection is measured with weighted moments
+(a round Gaussian weight of weight_fwhm arcsec). `weight`: inverse variances (0 masks); `psf`: a
+centred PSF image at the image's pixel scale; `pixel_scale`: arcsec per pixel; `bmask`: non-zero
+masks. Returns a structured array with the METADETECT table's columns (shear_type a string; x, y
+0-based pixels of the image), rows in cell order; a cell that cannot be measured is one row with
+id -1 and flags 8. The rows equal `stampede metadetect`'s for the same image and options.
+)doc");
+}
+
+}  // namespace stampede::python

@@ -1,0 +1,56 @@
+"""stampede.metadetect on numpy arrays: the rows equal `stampede metadetect`'s on the same image, a
+cell of a grid finds every galaxy once per image, and bad arguments are errors naming them."""
+
+import os
+
+import numpy as np
+import pytest
+
+import stampede
+from conftest import run_cli
+
+
+@pytest.fixture(scope="module")
+def cell(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cells")
+    run_cli("sim", "cells", "--out", str(d), "--cells", "1", "--snr", "1e4")
+    path = os.path.join(str(d), "cell_0000.fits")
+    return path, stampede.read_image(path, 0), stampede.read_image(path, "WEIGHT"), stampede.read_image(path, "PSF")
+
+
+def test_rows_equal_the_command_line_run(cell, tmp_path):
+    path, image, weight, psf = cell
+    rows = stampede.metadetect(image, weight, psf, 0.25, threads=2)
+    assert len(rows) == 5 * 49
+    assert sorted(set(rows["shear_type"])) == ["1m", "1p", "2m", "2p", "noshear"]
+    assert np.all(rows["flags"] == 0)
+    out = str(tmp_path / "out.fits")
+    run_cli("metadetect", path, "-o", out, "--quiet")
+    columns = ["cell", "id", "x", "y", "e1", "e2", "T", "T_ratio", "snr", "flux", "flags"]
+    table = stampede.read_table(out, "METADETECT", columns)
+    for name in columns:
+        assert np.array_equal(np.asarray(rows[name], dtype=table[name].dtype), table[name]), name
+
+
+def test_bad_arguments_name_themselves(cell):
+    _, image, weight, psf = cell
+    with pytest.raises(ValueError, match="weight"):
+        stampede.metadetect(image, weight[:10], psf, 0.25)
+    with pytest.raises(ValueError, match="pixel_scale"):
+        stampede.metadetect(image, weight, psf, 0.0)
+    with pytest.raises(ValueError, match="psf"):
+        stampede.metadetect(image, weight, np.zeros((5, 5)), 0.25)
+    with pytest.raises(stampede.ConfigError, match="smaller than one cell"):
+        stampede.metadetect(image[:100, :100], weight[:100, :100], psf, 0.25)
+    with pytest.raises(stampede.ConfigError, match="--cell-buffer"):
+        stampede.metadetect(image, weight, psf, 0.25, cell_buffer=200)
+    with pytest.raises(TypeError, match="unknown_option"):
+        stampede.metadetect(image, weight, psf, 0.25, unknown_option=1)
+
+
+def test_masked_cell_is_one_flagged_row(cell):
+    _, image, weight, psf = cell
+    rows = stampede.metadetect(image, np.zeros_like(weight), psf, 0.25)
+    assert len(rows) == 1
+    assert rows["id"][0] == -1
+    assert rows["flags"][0] == 8
