@@ -120,9 +120,10 @@ void BM_MetadetectDetect(benchmark::State& state) {
   std::vector<float> image(cells.cells[0].bands[0].image.begin(), cells.cells[0].bands[0].image.end());
   const double sigma = 1 / std::sqrt(cells.weight[0]);
   std::vector<Detection> found;
+  DetectionScratch scratch;
   std::string error;
   for (auto _ : state)
-    for (int t = 0; t < 5; ++t) detect_objects(image, s, s, sigma, o.detection, filter, &found, &error);
+    for (int t = 0; t < 5; ++t) detect_objects(image, s, s, sigma, o.detection, filter, &scratch, &found, &error);
   state.counters["detections"] = static_cast<double>(found.size());
 }
 BENCHMARK(BM_MetadetectDetect)->Unit(benchmark::kMillisecond);

@@ -75,6 +75,7 @@ MetacalImager::MetacalImager(int stamp_size, int period, FftPlanning planning)
   phasors_.resize(h_count_);
   scratch_.resize(static_cast<std::size_t>(m_) * s_);
   scratch_t_.resize(static_cast<std::size_t>(m_) * s_);
+  if (s_ >= kChirpMinStamp) chirp_ = std::make_unique<ChirpResampler>(m_, s_, planning);
 }
 
 MetacalImager::~MetacalImager() {
@@ -159,6 +160,15 @@ void MetacalImager::scaled(double b0, double b1, double cx, double cy, double* o
   // Rows: every padded row at the stamp's columns, stretched about cx (the r2c keeps its input).
   fftw_execute_dft_r2c(static_cast<fftw_plan>(rows_forward_), static_cast<double*>(h_.data()),
                        reinterpret_cast<fftw_complex*>(rows));
+  const auto* spectra = reinterpret_cast<const std::complex<double>*>(rows);
+  if (chirp_) {
+    chirp_->resample(spectra, m_, cx + b0 * (offset_ - cx), b0, scratch_.data(), s_);
+    transpose(scratch_.data(), grid, m_, s_);
+    fftw_execute_dft_r2c(static_cast<fftw_plan>(rows_forward_), grid, reinterpret_cast<fftw_complex*>(rows));
+    chirp_->resample(spectra, s_, cy + b1 * (offset_ - cy), b1, scratch_t_.data(), s_);
+    transpose(scratch_t_.data(), out, s_, s_);
+    return;
+  }
   for (int j = 0; j < s_; ++j) positions_[j] = cx + b0 * (offset_ + j - cx);
   Eigen::Map<RowMatrix> by_row(scratch_.data(), m_, s_);
   by_row.noalias() = Eigen::Map<const RowMatrix>(rows, m_, two_h) * Eigen::Map<const RowMatrix>(weights_for(positions_), two_h, s_);

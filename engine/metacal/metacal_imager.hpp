@@ -4,7 +4,8 @@
 // The stamp is zero-padded to the filters' M x M grid, transformed once, and per type multiplied
 // by f_T and transformed back to H_T. The image is H_T(c + A_T^-1 (x - c)) at the stamp's pixel
 // centres, with c the shear centre, evaluated as the trigonometric polynomial H_T is:
-//   1p, 1m (A^-1 diagonal): exactly, one axis at a time (a dense DFT per row, then per column);
+//   1p, 1m (A^-1 diagonal): exactly, one axis at a time (a dense DFT per row, then per column; for
+//     stamps of 128 px or more Bluestein's chirp-z transform, ChirpResampler);
 //   2p, 2m (A^-1 = X(s) Y(c) X(s), three one-axis shears): each a phase ramp on a row's or
 //     column's 1D transform, exact for each pass; the passes' intermediate images are not band
 //     limited, which costs only where H_T's spectrum reaches the Nyquist edge.
@@ -17,10 +18,12 @@
 
 #include <array>
 #include <complex>
+#include <memory>
 #include <span>
 #include <vector>
 
 #include "engine/common/fftw_support.hpp"
+#include "engine/metacal/chirp_resampler.hpp"
 #include "engine/metacal/metacal_filters.hpp"
 #include "engine/render/fft_plans.hpp"
 
@@ -91,6 +94,11 @@ class MetacalImager {
   unsigned long long clock_ = 0;
   std::vector<double> positions_, scratch_, scratch_t_;
   std::vector<std::complex<double>> phasors_;  // dft_weights' scratch
+  // Stamps of kChirpMinStamp pixels or more (metadetection cells) stretch by Bluestein's transform:
+  // the dense sums cost O(M S) per row, this O(M log M); smaller stamps keep the dense sums, whose
+  // rows (metacal's fits) are unchanged by it.
+  static constexpr int kChirpMinStamp = 128;
+  std::unique_ptr<ChirpResampler> chirp_;
 };
 
 }  // namespace stampede

@@ -135,8 +135,8 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
     const std::span<const double> image(images_.data() + t * npix, npix);
     std::transform(image.begin(), image.end(), image_f_.begin(), [](double v) { return static_cast<float>(v); });
     std::string why;
-    if (!detect_objects(image_f_, cell.size, cell.size, std::sqrt(variance), options_.detection, filter_, &detections_,
-                        &why))
+    if (!detect_objects(image_f_, cell.size, cell.size, std::sqrt(variance), options_.detection, filter_, &detection_scratch_,
+                        &detections_, &why))
       return fail(std::string(metacal_type_name(kMetacalTypes[t])) + " image: " + why);
     if (options_.per_object_metacal)
       per_object_rows(cell, rows);

@@ -63,6 +63,7 @@ class CellMeasurer {
   bool have_psf_ = false;
   double psf_scale_ = 0, psf_t_ = 0, weight_fwhm_px_ = 0;
   std::vector<float> filter_, image_f_;
+  DetectionScratch detection_scratch_;
   std::vector<double> images_, stamp_, scratch_;
   std::unique_ptr<MetacalImageSet> stamp_set_;  // per_object_metacal
   std::shared_ptr<const MetacalFilters> stamp_filters_;

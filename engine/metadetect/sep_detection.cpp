@@ -15,18 +15,47 @@ namespace stampede {
 std::vector<float> detection_filter(const DetectionOptions& options) {
   if (options.filter_fwhm <= 0) return {};
   const int n = options.filter_size;
-  const double sigma = options.filter_fwhm / 2.3548200450309493;
-  std::vector<float> f(static_cast<std::size_t>(n) * n);
-  const double c = 0.5 * (n - 1);
+  const double sigma = options.filter_fwhm / 2.3548200450309493, c = 0.5 * (n - 1);
+  std::vector<double> g(static_cast<std::size_t>(n));
   double sum = 0;
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x) sum += std::exp(-((x - c) * (x - c) + (y - c) * (y - c)) / (2 * sigma * sigma));
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x)
-      f[static_cast<std::size_t>(y) * n + x] =
-          static_cast<float>(std::exp(-((x - c) * (x - c) + (y - c) * (y - c)) / (2 * sigma * sigma)) / sum);
+  for (int i = 0; i < n; ++i) sum += g[i] = std::exp(-(i - c) * (i - c) / (2 * sigma * sigma));
+  std::vector<float> f(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) f[i] = static_cast<float>(g[i] / sum);
   return f;
 }
+
+namespace {
+
+// out = image convolved with filter (x) filter, zero outside the image.
+void filter_image(std::span<const float> image, int width, int height, std::span<const float> filter,
+                  std::vector<float>* out, std::vector<float>* rows) {
+  const int n = static_cast<int>(filter.size()), h = n / 2;
+  rows->assign(image.size(), 0.0f);
+  out->assign(image.size(), 0.0f);
+  float* r = rows->data();
+  for (int y = 0; y < height; ++y) {
+    const float* in = image.data() + static_cast<std::size_t>(y) * width;
+    float* o = r + static_cast<std::size_t>(y) * width;
+    for (int k = 0; k < n; ++k) {
+      const float w = filter[k];
+      const int shift = k - h;
+      const int lo = std::max(0, -shift), hi = std::min(width, width - shift);
+      for (int x = lo; x < hi; ++x) o[x] += w * in[x + shift];
+    }
+  }
+  float* o = out->data();
+  for (int k = 0; k < n; ++k) {
+    const float w = filter[k];
+    const int shift = k - h;
+    for (int y = std::max(0, -shift); y < std::min(height, height - shift); ++y) {
+      const float* in = r + static_cast<std::size_t>(y + shift) * width;
+      float* dst = o + static_cast<std::size_t>(y) * width;
+      for (int x = 0; x < width; ++x) dst[x] += w * in[x];
+    }
+  }
+}
+
+}  // namespace
 
 void set_detection_pixel_stack(long long pixels) {
   const auto want = static_cast<std::size_t>(std::max<long long>(pixels, 300000));
@@ -34,8 +63,8 @@ void set_detection_pixel_stack(long long pixels) {
 }
 
 bool detect_objects(std::span<const float> image, int width, int height, double noise_sigma,
-                    const DetectionOptions& options, std::span<const float> filter, std::vector<Detection>* out,
-                    std::string* error) {
+                    const DetectionOptions& options, std::span<const float> filter, DetectionScratch* scratch,
+                    std::vector<Detection>* out, std::string* error) {
   out->clear();
   if (image.size() != static_cast<std::size_t>(width) * height)
     throw std::invalid_argument("detect_objects: image size does not match width x height");
@@ -43,8 +72,9 @@ bool detect_objects(std::span<const float> image, int width, int height, double 
     *error = "the image's noise sigma is not positive and finite";
     return false;
   }
+  if (!filter.empty()) filter_image(image, width, height, filter, &scratch->filtered, &scratch->rows);
   sep_image im{};
-  im.data = image.data();
+  im.data = filter.empty() ? image.data() : scratch->filtered.data();
   im.dtype = SEP_TFLOAT;
   im.w = width;
   im.h = height;
@@ -53,11 +83,9 @@ bool detect_objects(std::span<const float> image, int width, int height, double 
   im.gain = 0;
   im.maskthresh = 0;
   sep_catalog* catalog = nullptr;
-  const int n = options.filter_size;
-  const int status = sep_extract(&im, static_cast<float>(options.threshold), SEP_THRESH_REL, options.min_area,
-                                 filter.empty() ? nullptr : filter.data(), filter.empty() ? 0 : n,
-                                 filter.empty() ? 0 : n, SEP_FILTER_CONV, options.deblend_thresholds,
-                                 options.deblend_contrast, options.clean ? 1 : 0, options.clean_param, &catalog);
+  const int status = sep_extract(&im, static_cast<float>(options.threshold), SEP_THRESH_REL, options.min_area, nullptr,
+                                 0, 0, SEP_FILTER_CONV, options.deblend_thresholds, options.deblend_contrast,
+                                 options.clean ? 1 : 0, options.clean_param, &catalog);
   if (status != 0) {
     char message[128] = {0};
     sep_get_errmsg(status, message);
@@ -71,9 +99,24 @@ bool detect_objects(std::span<const float> image, int width, int height, double 
     d.x = catalog->x[i];
     d.y = catalog->y[i];
     d.isophotal_area = catalog->tnpix[i];
+    if (!filter.empty()) {
+      // SEP measured the filtered pixels: its barycentre, flux and area of the unfiltered ones.
+      const double thresh = options.threshold * noise_sigma;
+      double sum = 0, sx = 0, sy = 0;
+      int above = 0;
+      for (int k = 0; k < catalog->npix[i]; ++k) {
+        const int p = catalog->pix[i][k];
+        const double v = image[static_cast<std::size_t>(p)];
+        sum += v, sx += v * (p % width), sy += v * (p / width);
+        above += v > thresh;
+      }
+      if (sum > 0) d.x = sx / sum, d.y = sy / sum;
+      d.isophotal_area = above;
+      d.flux = sum;
+    }
     d.xmin = catalog->xmin[i], d.xmax = catalog->xmax[i];
     d.ymin = catalog->ymin[i], d.ymax = catalog->ymax[i];
-    d.flux = catalog->flux[i];
+    if (filter.empty()) d.flux = catalog->flux[i];
     d.sep_flags = catalog->flag[i];
   }
   sep_catalog_free(catalog);
