@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 #include <memory>
 #include <sstream>
 
@@ -57,6 +58,7 @@ class CellSource : public StampSource {
     add_layout(image.width, image.height, "");
   }
   long long total_objects() const override { return total_; }
+  void set_end(long long end) override { end_ = end; }
   void skip_to(long long index) override {
     next_ = index;
     file_ = 0;
@@ -71,7 +73,7 @@ class CellSource : public StampSource {
     batch.observations.clear();
     batch.first_object = next_;
     batch.count = 0;
-    while (batch.count < batch.capacity() && file_ < static_cast<int>(layouts_.size())) {
+    while (batch.count < batch.capacity() && file_ < static_cast<int>(layouts_.size()) && next_ < end_) {
       if (in_file_ >= static_cast<long long>(layouts_[file_].size())) {
         ++file_, in_file_ = 0;
         continue;
@@ -112,7 +114,7 @@ class CellSource : public StampSource {
   MetadetectOptions options_;
   const io::CellImage* memory_ = nullptr;
   std::vector<std::vector<CellPlacement>> layouts_;
-  long long total_ = 0, next_ = 0, in_file_ = 0;
+  long long total_ = 0, next_ = 0, in_file_ = 0, end_ = std::numeric_limits<long long>::max();
   int file_ = 0, loaded_ = -1;
   io::CellImage image_;
   PsfModel psf_;
@@ -245,6 +247,9 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
   if (options.inputs.empty()) throw io::ConfigError("no input image: give IMAGE.fits or --input-list");
   if (options.output.empty()) throw io::ConfigError("no output: give -o OUT.fits");
   if (options.cells_per_batch < 1) throw io::ConfigError("cells per batch must be >= 1");
+  if (options.shards < 1 || options.shard < 0 || options.shard >= options.shards)
+    throw io::ConfigError("--shard " + std::to_string(options.shard) + "/" + std::to_string(options.shards) +
+                          ": must be I/N with 0 <= I < N");
   for (const std::string& in : options.inputs)
     if (io::same_file(in, options.output)) throw io::ConfigError("the output '" + options.output + "' is the input");
   const io::OutputLock lock = io::OutputLock::acquire(options.output);
@@ -266,6 +271,13 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
     fingerprint += "input " + options.inputs[i] + " " + d.text() + "\n";
   }
   wo.header.emplace_back("NCELLS", std::to_string(source.total_objects()));
+  const long long total = source.total_objects();
+  const long long begin = total * options.shard / options.shards, end = total * (options.shard + 1) / options.shards;
+  if (options.shards > 1) {
+    const std::string shard = std::to_string(options.shard) + "/" + std::to_string(options.shards);
+    wo.header.emplace_back("SHARD", shard);
+    fingerprint += "shard " + shard + "\n";
+  }
   wo.header_types = {{"CELLSIZE", io::HeaderValueType::kInteger}, {"CELLBUF", io::HeaderValueType::kInteger},
                      {"MCSTEP", io::HeaderValueType::kReal},      {"MCPSFDIL", io::HeaderValueType::kReal},
                      {"WFWHM", io::HeaderValueType::kReal},       {"DETTHR", io::HeaderValueType::kReal},
@@ -278,10 +290,11 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
   std::unique_ptr<io::MetadetectWriter> writer;
   if (options.resume) {
     writer = io::MetadetectWriter::resume(wo, &summary.cells_resumed);
-    source.skip_to(summary.cells_resumed);
   } else {
     writer = io::MetadetectWriter::create(wo);
   }
+  source.skip_to(begin + summary.cells_resumed);
+  source.set_end(end);
   try {
     // SEP's pixel stack is global: sized for a whole cell above the threshold before threads start.
     set_detection_pixel_stack(static_cast<long long>(options.metadetect.cell_size) * options.metadetect.cell_size);
@@ -291,11 +304,11 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
     po.batch_size = options.cells_per_batch;
     po.stamp_size = 0;  // the cells travel in the batches' arenas
     po.stop = options.stop;
-    const long long total = source.total_objects(), resumed = summary.cells_resumed;
+    const long long resumed = summary.cells_resumed;
     const PipelineSummary ran = run_pipeline(
         source, sink, [&] { return std::make_unique<CellFitter>(options.metadetect); }, po,
         [&](const PipelineProgress& p) {
-          if (progress) progress({resumed + p.objects_done, total, p.seconds});
+          if (progress) progress({resumed + p.objects_done, end - begin, p.seconds});
         });
     summary.threads = ran.threads;
     summary.stopped = ran.stopped;

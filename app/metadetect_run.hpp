@@ -22,6 +22,10 @@ struct MetadetectRunOptions {
   MetadetectOptions metadetect;
   int threads = 0;     // 0: all cores
   int cells_per_batch = 2;
+  // Job-array shard `shard` of `shards` (`--shard i/N`): the contiguous cells [T i / N, T (i + 1) /
+  // N) of the run's T, numbered as in the whole run (their rows are the whole run's); header key
+  // SHARD "i/N". app/metadetect_merge joins the shards' tables.
+  int shard = 0, shards = 1;
   bool resume = false;
   bool overwrite = false;
   const std::atomic<bool>* stop = nullptr;

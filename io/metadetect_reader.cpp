@@ -2,6 +2,7 @@
 #include "io/metadetect_reader.hpp"
 
 #include <algorithm>
+#include <type_traits>
 
 #include "engine/metacal/metacal_type.hpp"
 #include "io/fits_file.hpp"
@@ -38,6 +39,44 @@ MetadetectTable read_metadetect_table(const std::string& path) {
     t.shear_type[static_cast<std::size_t>(i)] = type;
   }
   return t;
+}
+
+std::vector<MetadetectRow> read_metadetect_rows(const std::string& path) {
+  const MetadetectTable t = read_metadetect_table(path);
+  FitsFile f = FitsFile::open_read(path);
+  f.move_to("METADETECT");
+  const std::size_t n = t.cell.size();
+  std::vector<MetadetectRow> rows(n);
+  auto doubles = [&](const char* name, double MetadetectRow::*field) {
+    const std::vector<double> v = f.read_column(name);
+    for (std::size_t i = 0; i < n; ++i) rows[i].*field = v[i];
+  };
+  auto integers = [&](const char* name, auto MetadetectRow::*field) {
+    std::vector<long long> v(n);
+    if (n > 0) f.read_column_rows(name, 0, std::span<long long>(v));
+    for (std::size_t i = 0; i < n; ++i) rows[i].*field = static_cast<std::remove_reference_t<decltype(rows[i].*field)>>(v[i]);
+  };
+  for (std::size_t i = 0; i < n; ++i) rows[i].cell = t.cell[i], rows[i].shear_type = t.shear_type[i];
+  integers("id", &MetadetectRow::id);
+  doubles("x", &MetadetectRow::x);
+  doubles("y", &MetadetectRow::y);
+  doubles("u", &MetadetectRow::u);
+  doubles("v", &MetadetectRow::v);
+  doubles("e1", &MetadetectRow::e1);
+  doubles("e2", &MetadetectRow::e2);
+  doubles("e1_err", &MetadetectRow::e1_err);
+  doubles("e2_err", &MetadetectRow::e2_err);
+  doubles("T", &MetadetectRow::t);
+  doubles("T_ratio", &MetadetectRow::t_ratio);
+  doubles("psf_T", &MetadetectRow::psf_t);
+  doubles("flux", &MetadetectRow::flux);
+  doubles("snr", &MetadetectRow::snr);
+  doubles("mfrac", &MetadetectRow::mfrac);
+  integers("box_size", &MetadetectRow::box_size);
+  integers("isophotal_area", &MetadetectRow::isophotal_area);
+  integers("sep_flags", &MetadetectRow::sep_flags);
+  integers("flags", &MetadetectRow::flags);
+  return rows;
 }
 
 }  // namespace stampede::io

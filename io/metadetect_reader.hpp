@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "engine/metadetect/metadetect_row.hpp"
+
 namespace stampede::io {
 
 struct MetadetectTable {
@@ -16,5 +18,8 @@ struct MetadetectTable {
 };
 
 MetadetectTable read_metadetect_table(const std::string& path);
+
+// Every row with every column (a shard's, for a merge).
+std::vector<MetadetectRow> read_metadetect_rows(const std::string& path);
 
 }  // namespace stampede::io

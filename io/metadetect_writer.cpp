@@ -311,6 +311,10 @@ void MetadetectWriter::finish() {
   try {
     int status = 0;
     errno = 0;
+    // The cells whose rows the table holds: a merge checks a shard against its range with it (a cell
+    // may yield no rows).
+    fits_update_key_lng(s.fits, "NCELLSW", s.cells, "cells whose rows this table holds", &status);
+    s.check(status, "write key NCELLSW to");
     fits_close_file(s.fits, &status);
     const int error = errno;
     s.fits = nullptr;

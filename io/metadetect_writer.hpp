@@ -5,7 +5,7 @@
 // The commit protocol is the fit catalogue's (catalog_writer.hpp): rows written to PATH.partial,
 // flushed and fsync'd, then PATH.checkpoint replaced atomically with the committed row count and
 // *cell* count (a cell yields any number of rows, so the run resumes at the next cell, not row);
-// finish() renames the partial to PATH. resume() refuses a checkpoint of another run (the
+// finish() records the cells in header key NCELLSW and renames the partial to PATH. resume() refuses a checkpoint of another run (the
 // fingerprint: inputs' digests, options, version).
 //
 // Columns (TUNITn, TCOMMn in the header): cell shear_type id x y u v e1 e2 e1_err e2_err T T_ratio

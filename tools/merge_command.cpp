@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "app/metadetect_merge.hpp"
 #include "app/shard_merge.hpp"
 #include "tools/arguments.hpp"
 #include "tools/progress_printer.hpp"
@@ -24,7 +25,8 @@ void print_help() {
       "the table one `stampede fit` run writes: rows in input order, every column but time_us equal.\n"
       "The shards may be given in any order. Refused, naming the file: a table that is not a shard, a\n"
       "missing or duplicated shard, shards of another run (input, options or N differ), and a shard\n"
-      "with fewer or more rows than its range (an unfinished job: resume it first).\n"
+      "with fewer or more rows than its range (an unfinished job: resume it first). The shards of\n"
+      "`stampede metadetect --shard I/N` are joined the same way (rows in cell order).\n"
       "\n"
       "  -o OUT.fits   the joined table (written as OUT.fits.partial, renamed when complete)\n"
       "  --overwrite   replace an existing OUT.fits\n"
@@ -57,6 +59,14 @@ int run_merge_command(int argc, char** argv) {
   if (o.output.empty() || o.shards.empty()) {
     std::fputs(kUsage, stderr);
     return 2;
+  }
+  if (stampede::app::is_metadetect_table(o.shards.front())) {
+    const stampede::app::MetadetectMergeSummary s =
+        stampede::app::merge_metadetect_shards({o.shards, o.output, o.overwrite});
+    if (!quiet)
+      std::fprintf(stderr, "stampede merge: %d metadetect shards, %lld cells, %lld rows; wrote %s\n", s.shards, s.cells,
+                   s.rows, o.output.c_str());
+    return 0;
   }
   stampede::tools::ProgressPrinter printer(stderr, isatty(fileno(stderr)));
   const auto start = std::chrono::steady_clock::now();

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "app/fit_run.hpp"
 #include "app/metadetect_run.hpp"
 #include "tools/arguments.hpp"
 #include "tools/progress_printer.hpp"
@@ -64,6 +65,8 @@ void print_help() {
       "  --no-clean                 do not clean spurious detections near bright objects\n"
       "  --box-min N, --box-max N   odd bounds of a detection's stamp side, pixels (%d, %d)\n"
       "  --threads N                worker threads (default: all cores)\n"
+      "  --shard I/N                only shard I of N (0 <= I < N): a contiguous 1/N of the cells,\n"
+      "                             numbered as in the whole run; `stampede merge` joins the shards\n"
       "  --resume                   continue an interrupted run of the same inputs and options\n"
       "  --overwrite                replace an existing OUT.fits\n"
       "  --quiet                    no progress line\n",
@@ -88,11 +91,11 @@ std::vector<std::string> read_list(const std::string& path) {
 
 }  // namespace
 
-int run_metadetect_command(int argc, char** argv) {
+int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* command, bool print) {
   using namespace stampede;
-  app::MetadetectRunOptions o;
+  app::MetadetectRunOptions& o = command->run;
   MetadetectOptions& m = o.metadetect;
-  bool quiet = false;
+  bool& quiet = command->quiet;
   std::set<std::string> seen;  // one-value options given twice are refused
   for (int i = 1; i < argc; ++i) {
     const std::string s = argv[i];
@@ -102,7 +105,7 @@ int run_metadetect_command(int argc, char** argv) {
     if (s.starts_with("-") && s != "--help" && s != "-h" && !seen.insert(s == "-o" ? "--output" : s).second)
       throw std::invalid_argument("option " + s + " is given twice");
     if (s == "--help" || s == "-h") {
-      print_help();
+      if (print) print_help();
       return 0;
     } else if (s == "-o" || s == "--output") {
       o.output = value();
@@ -144,6 +147,11 @@ int run_metadetect_command(int argc, char** argv) {
       m.stamp.box_max = integer(9, 4095);
     } else if (s == "--threads") {
       o.threads = integer(1, 4096);
+    } else if (s == "--shard") {
+      const std::string v = value();
+      const auto shard = app::parse_shard(v);
+      if (!shard) throw std::invalid_argument("--shard " + tools::quoted_value(v) + ": must be I/N with 0 <= I < N <= 1000000");
+      o.shard = shard->first, o.shards = shard->second;
     } else if (s == "--resume") {
       o.resume = true;
     } else if (s == "--overwrite") {
@@ -159,6 +167,13 @@ int run_metadetect_command(int argc, char** argv) {
   if (o.output.empty()) throw std::invalid_argument("-o OUT.fits is required (see stampede metadetect --help)");
   if (o.inputs.empty()) throw std::invalid_argument("no input image (see stampede metadetect --help)");
   if (o.resume && o.overwrite) throw std::invalid_argument("--resume and --overwrite exclude each other");
+  return -1;
+}
+
+int run_metadetect_with_reports(const MetadetectCommandLine& command) {
+  using namespace stampede;
+  const app::MetadetectRunOptions& o = command.run;
+  const bool quiet = command.quiet;
   tools::ProgressPrinter printer(stderr, isatty(STDERR_FILENO) != 0);
   double last = -1;
   const app::MetadetectRunSummary r = app::run_metadetect(o, [&](const app::MetadetectProgress& p) {
@@ -178,4 +193,10 @@ int run_metadetect_command(int argc, char** argv) {
                r.cells + r.cells_resumed, r.cells_resumed, r.cells_failed, r.rows, r.seconds, r.threads,
                r.stopped ? " (stopped)" : "", o.output.c_str());
   return r.stopped ? 1 : 0;
+}
+
+int run_metadetect_command(int argc, char** argv) {
+  MetadetectCommandLine command;
+  if (const int code = parse_metadetect_arguments(argc, argv, &command, true); code >= 0) return code;
+  return run_metadetect_with_reports(command);
 }

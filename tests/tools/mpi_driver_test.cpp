@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -36,8 +37,8 @@ const std::vector<std::string> kOptions = {"--set", "renderer=exact", "--set", "
                                            "--set", "psf_e2=0.05",   "--set", "noise_sigma=1", "--set",  "batch_size=4",
                                            "--threads", "1", "--quiet"};
 
-// `mpirun -n RANKS stampede-mpi fit ARGS...`, stderr to err_path.
-pid_t spawn_mpi(int ranks, std::vector<std::string> args, const std::string& err_path) {
+// `mpirun -n RANKS stampede-mpi COMMAND ARGS...`, stderr to err_path.
+pid_t spawn_mpi(int ranks, std::vector<std::string> args, const std::string& err_path, const std::string& command = "fit") {
   const pid_t pid = fork();
   if (pid == 0) {
     FILE* e = std::fopen(err_path.c_str(), "w");
@@ -45,7 +46,7 @@ pid_t spawn_mpi(int ranks, std::vector<std::string> args, const std::string& err
     setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
     setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
     std::vector<std::string> all = {STAMPEDE_MPIEXEC, "-n", std::to_string(ranks), "--oversubscribe",
-                                    STAMPEDE_MPI_BINARY, "fit"};
+                                    STAMPEDE_MPI_BINARY, command};
     all.insert(all.end(), args.begin(), args.end());
     std::vector<char*> argv;
     for (auto& a : all) argv.push_back(a.data());
@@ -86,6 +87,11 @@ void expect_every_column_equal(const std::string& a, const std::string& b) {
   }
   ASSERT_GT(names.size(), 20u) << a;
   expect_tables_equal(a, b, names);
+}
+
+std::string read_bytes(const std::string& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
 class MpiDriver : public ::testing::Test {
@@ -275,6 +281,51 @@ TEST_F(MpiDriver, MedsTilesOverTwoRanksWriteTheSingleProcessTable) {
     ASSERT_EQ(r.exit_code, 0) << r.err;
     expect_every_column_equal(path(name + "_single.fits"), path(name + "_mpi.fits"));
   }
+}
+
+// `stampede-mpi metadetect`: the ranks' shards joined are the single process's table, byte for byte;
+// a rank killed then --resume gives it too.
+TEST_F(MpiDriver, MetadetectOverTwoRanksWritesTheSingleProcessTable) {
+  const auto sim = stampede::testing::finish(
+      stampede::testing::spawn({"cells", "--out", path("cells"), "--cells", "12", "--layout", "random"}, path("sim.txt"), "sim"),
+      path("sim.txt"));
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  std::vector<std::string> args;
+  for (int k = 0; k < 12; ++k) {
+    char name[32];
+    std::snprintf(name, sizeof name, "/cell_%04d.fits", k);
+    args.push_back(path("cells") + name);
+  }
+  args.insert(args.end(), {"--threads", "1", "--quiet"});
+  const auto single = stampede::testing::finish(
+      stampede::testing::spawn(std::vector<std::string>{"-o", path("single.fits")} + args, path("single.txt"), "metadetect"),
+      path("single.txt"));
+  ASSERT_EQ(single.exit_code, 0) << single.err;
+  const auto r = stampede::testing::finish(
+      spawn_mpi(2, std::vector<std::string>{"-o", path("mpi.fits")} + args, path("mpi.txt"), "metadetect"), path("mpi.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(read_bytes(path("single.fits")), read_bytes(path("mpi.fits")));
+  EXPECT_FALSE(fs::exists(path("mpi.fits.part-0-of-2.fits")));
+  // Killed when rank 1 has committed a cell: --resume finishes the job with the same table.
+  const pid_t job = spawn_mpi(2, std::vector<std::string>{"-o", path("killed.fits")} + args, path("killed.txt"), "metadetect");
+  const std::string checkpoint = path("killed.fits.part-1-of-2.fits.checkpoint");
+  pid_t victim = -1;
+  for (int i = 0; i < 3000 && victim < 0; ++i) {
+    std::ifstream c(checkpoint);
+    std::stringstream text;
+    text << c.rdbuf();
+    if (text.str().find("\ncells ") != std::string::npos && text.str().find("\ncells 0\n") == std::string::npos)
+      victim = rank_pid(path("killed.fits"), 1);
+    if (victim < 0) usleep(10000);
+  }
+  ASSERT_GT(victim, 0) << "rank 1 never committed a cell";
+  kill(victim, SIGKILL);
+  EXPECT_NE(stampede::testing::finish(job, path("killed.txt")).exit_code, 0);
+  const auto resumed = stampede::testing::finish(
+      spawn_mpi(2, std::vector<std::string>{"-o", path("killed.fits"), "--resume"} + args, path("resumed.txt"), "metadetect"),
+      path("resumed.txt"));
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  EXPECT_EQ(read_bytes(path("single.fits")), read_bytes(path("killed.fits")));
 }
 
 }  // namespace

@@ -7,12 +7,18 @@
 
 #include <cstdio>
 #include <cstring>
+#include <algorithm>
 #include <exception>
 #include <string>
 #include <stdexcept>
 #include <thread>
+#include <vector>
 
+#include "app/metadetect_merge.hpp"
+#include "io/durable_file.hpp"
+#include "io/output_check.hpp"
 #include "tools/fit_command.hpp"
+#include "tools/metadetect_command.hpp"
 #include "tools/mpi/file_dispatch.hpp"
 #include "tools/mpi/remote_fitting.hpp"
 
@@ -22,6 +28,7 @@ constexpr const char* kUsage =
     "usage: mpirun -n R stampede-mpi fit INPUT.fits -o OUT.fits [--threads T] [stampede fit options]\n"
     "       mpirun -n R stampede-mpi fit --meds TILE.fits [--meds ... --bands ...] -o OUT.fits [options]\n"
     "       mpirun -n R stampede-mpi fit --input-list LIST -o DIR [--threads T] [options]\n"
+    "       mpirun -n R stampede-mpi metadetect IMAGE.fits ... -o OUT.fits [stampede metadetect options]\n"
     "\n"
     "Runs `stampede fit` (see `stampede fit --help`) over R MPI ranks. Rank 0 reads the input (a grid,\n"
     "a catalogue, or MEDS tiles: each object's cutouts and PSFs travel with its batch), writes\n"
@@ -30,7 +37,11 @@ constexpr const char* kUsage =
     "(every column but time_us); --resume after a killed job (any rank) finishes it without refitting\n"
     "committed objects. With --input-list, ranks take whole files instead, one at a time to whichever\n"
     "rank is free, each written to DIR/<name>_fit.fits. T defaults to the node's cores divided by the\n"
-    "ranks on the node.\n";
+    "ranks on the node.\n"
+    "\n"
+    "metadetect: rank r measures shard r of R of the cells (`stampede metadetect --shard r/R`) into\n"
+    "OUT.fits.part-r-of-R.fits, then rank 0 joins them into OUT.fits (the single process's table)\n"
+    "and removes them; --resume continues the parts of a killed job.\n";
 
 // Ranks sharing this node (for the default thread count).
 int ranks_on_this_node() {
@@ -42,7 +53,70 @@ int ranks_on_this_node() {
   return n;
 }
 
+// `stampede-mpi metadetect ARGS -o OUT.fits`: rank r of R measures shard r/R of the cells into
+// OUT.fits.part-r-of-R.fits (resumable on its own), then rank 0 joins the parts into OUT.fits as
+// `stampede merge` does and removes them: the table equals a single process's. Cells cost alike,
+// so contiguous shards keep the ranks equally busy.
+int run_metadetect_over_ranks(int argc, char** argv, int rank, int ranks) {
+  MetadetectCommandLine command;
+  int failed = 0;
+  try {
+    if (const int code = parse_metadetect_arguments(argc - 1, argv + 1, &command, rank == 0); code >= 0)
+      return rank == 0 ? code : 0;
+    if (command.run.shards > 1) throw std::invalid_argument("--shard: under stampede-mpi the ranks are the shards");
+  } catch (const std::exception& e) {
+    if (rank == 0) std::fprintf(stderr, "stampede-mpi metadetect: error: %s\n", e.what());
+    return 1;
+  }
+  stampede::app::MetadetectRunOptions& o = command.run;
+  if (o.threads == 0) o.threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / ranks_on_this_node());
+  const std::string output = o.output;
+  auto part = [&](int r) { return output + ".part-" + std::to_string(r) + "-of-" + std::to_string(ranks) + ".fits"; };
+  try {
+    if (rank == 0 && !o.resume) stampede::io::refuse_to_replace(output, o.overwrite);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "stampede-mpi metadetect: error: %s\n", e.what());
+    failed = 1;
+  }
+  MPI_Bcast(&failed, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  if (failed) return 1;
+  try {
+    MetadetectCommandLine mine = command;
+    mine.run.shard = rank, mine.run.shards = ranks, mine.run.output = part(rank);
+    mine.quiet = command.quiet || rank != 0;
+    // Parts are this job's own: a fresh run replaces stale ones; --resume continues a part that was
+    // started and skips one that is complete.
+    mine.run.overwrite = !o.resume;
+    const bool complete = stampede::io::file_exists(mine.run.output) &&
+                          !stampede::io::file_exists(mine.run.output + ".checkpoint");
+    mine.run.resume = o.resume && stampede::io::file_exists(mine.run.output + ".checkpoint");
+    if (o.resume && !mine.run.resume) mine.run.overwrite = true;
+    if (!(o.resume && complete) && run_metadetect_with_reports(mine) != 0)
+      throw std::runtime_error("rank " + std::to_string(rank) + " stopped before its cells were done");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "stampede-mpi metadetect: error (rank %d): %s\n", rank, e.what());
+    failed = 1;
+  }
+  int any = 0;
+  MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+  if (any) return 1;
+  if (rank == 0) {
+    try {
+      std::vector<std::string> parts;
+      for (int r = 0; r < ranks; ++r) parts.push_back(part(r));
+      stampede::app::merge_metadetect_shards({parts, output, o.overwrite || o.resume});
+      for (const std::string& p : parts) stampede::io::remove_if_present(p);
+      if (!command.quiet) std::fprintf(stderr, "stampede-mpi metadetect: %d ranks joined into %s\n", ranks, output.c_str());
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "stampede-mpi metadetect: error: %s\n", e.what());
+      return 1;
+    }
+  }
+  return 0;
+}
+
 int run(int argc, char** argv, int rank, int ranks) {
+  if (argc >= 2 && std::strcmp(argv[1], "metadetect") == 0) return run_metadetect_over_ranks(argc, argv, rank, ranks);
   if (argc < 2 || std::strcmp(argv[1], "fit") != 0) {
     if (rank == 0) std::fputs(kUsage, argc >= 2 && !std::strcmp(argv[1], "--help") ? stdout : stderr);
     return argc >= 2 && !std::strcmp(argv[1], "--help") ? 0 : 2;
