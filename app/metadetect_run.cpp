@@ -4,6 +4,8 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <cmath>
+#include <stdexcept>
 #include <chrono>
 #include <limits>
 #include <memory>
@@ -16,6 +18,7 @@
 #include "io/cell_image_reader.hpp"
 #include "io/config_error.hpp"
 #include "io/file_digest.hpp"
+#include "io/meds_file.hpp"
 #include "io/metadetect_writer.hpp"
 #include "io/output_check.hpp"
 #include "io/output_lock.hpp"
@@ -57,7 +60,42 @@ class CellSource : public StampSource {
       : inputs_{"image"}, options_(options), memory_(&image) {
     add_layout(image.width, image.height, "");
   }
+  // A cell tile (DES Y6's "pizza slices"): each object_data row a cell, cutout 0 its coadd with a
+  // weight (and bmask) cutout and its PSF in the psf HDU; the cell's place in the tile from
+  // orig_start_row/col, its pixel scale from the WCS Jacobian (which must be the scale times the
+  // unit matrix: the metacal shear is applied in the cell's pixels).
+  CellSource(const std::string& tile, const MetadetectOptions& options, bool /*tile_tag*/)
+      : inputs_{tile}, options_(options) {
+    tile_ = std::make_unique<io::MedsFile>(io::MedsFile::open(tile));
+    if (!tile_->has(io::MedsCutoutType::kWeight))
+      throw io::ConfigError(tile + ": no weight_cutouts HDU: detection needs the noise level");
+    if (!tile_->has_psf_cutouts()) throw io::ConfigError(tile + ": no PSF cutouts: " + tile_->psf_cutouts_problem());
+    std::vector<CellPlacement> places;
+    for (long long row = 0; row < tile_->size(); ++row) {
+      const io::MedsObject o = tile_->object(row);
+      if (!o.problem.empty()) throw io::ConfigError(tile + ": object_data row " + std::to_string(row) + ": " + o.problem);
+      if (o.cutouts.empty()) throw io::ConfigError(tile + ": object_data row " + std::to_string(row) + " has no cutout");
+      const io::MedsCutout& c = o.cutouts[0];
+      if (2L * options.cell_buffer >= o.box_size)
+        throw io::ConfigError(tile + ": cell " + std::to_string(row) + " is " + std::to_string(o.box_size) +
+                              " pixels, not more than twice --cell-buffer " + std::to_string(options.cell_buffer));
+      CellPlacement p;
+      p.x0 = static_cast<int>(c.orig_start_col), p.y0 = static_cast<int>(c.orig_start_row);
+      p.keep_x0 = p.keep_y0 = options.cell_buffer - 0.5;
+      p.keep_x1 = p.keep_y1 = o.box_size - options.cell_buffer - 0.5;
+      places.push_back(p);
+    }
+    total_ = static_cast<long long>(places.size());
+    layouts_.push_back(std::move(places));
+  }
   long long total_objects() const override { return total_; }
+  // The largest cell's pixels (SEP's pixel stack must hold a whole cell above the threshold).
+  long long max_cell_pixels() const {
+    long long side = options_.cell_size;
+    if (tile_)
+      for (long long row = 0; row < tile_->size(); ++row) side = std::max(side, tile_->object(row).box_size);
+    return side * side;
+  }
   void set_end(long long end) override { end_ = end; }
   void skip_to(long long index) override {
     next_ = index;
@@ -76,6 +114,10 @@ class CellSource : public StampSource {
     while (batch.count < batch.capacity() && file_ < static_cast<int>(layouts_.size()) && next_ < end_) {
       if (in_file_ >= static_cast<long long>(layouts_[file_].size())) {
         ++file_, in_file_ = 0;
+        continue;
+      }
+      if (tile_) {
+        fill_tile_cell(batch, data);
         continue;
       }
       if (loaded_ != file_) {
@@ -102,6 +144,49 @@ class CellSource : public StampSource {
   }
 
  private:
+  // The tile's next cell into the batch.
+  void fill_tile_cell(StampBatch& batch, CellBatch& data) {
+    const std::string where = inputs_[0] + ": cell " + std::to_string(in_file_);
+    const io::MedsObject o = tile_->object(in_file_);
+    const io::MedsCutout& c = o.cutouts[0];
+    const double det = c.dudcol * c.dvdrow - c.dudrow * c.dvdcol, scale = std::sqrt(std::abs(det));
+    if (!(scale > 0) || std::abs(c.dudrow) > 1e-6 * scale || std::abs(c.dvdcol) > 1e-6 * scale ||
+        std::abs(c.dudcol - c.dvdrow) > 1e-6 * scale)
+      throw io::ConfigError(where + ": its WCS Jacobian is not the pixel scale times the unit matrix "
+                            "(du/dcol = dv/drow, no rotation): not supported yet");
+    const int size = static_cast<int>(o.box_size);
+    const std::size_t npix = static_cast<std::size_t>(size) * size;
+    cell_.width = cell_.height = size;
+    cell_.pixel_scale = scale;
+    cell_.pixels.resize(npix), cell_.weight.resize(npix), mask_.clear();
+    tile_->read_cutout(o, 0, io::MedsCutoutType::kImage, cell_.pixels);
+    tile_->read_cutout(o, 0, io::MedsCutoutType::kWeight, cell_.weight);
+    if (tile_->has(io::MedsCutoutType::kBmask)) {
+      mask_.resize(npix);
+      tile_->read_cutout(o, 0, io::MedsCutoutType::kBmask, mask_);
+    }
+    try {
+      io::apply_cell_masks(mask_, &cell_);
+    } catch (const std::invalid_argument& e) {
+      throw io::ConfigError(where + ": " + e.what());
+    }
+    if (!c.psf_problem.empty()) throw io::ConfigError(where + ": " + c.psf_problem);
+    auto img = std::make_shared<PsfImage>();
+    img->nx = static_cast<int>(c.psf_cols), img->ny = static_cast<int>(c.psf_rows);
+    img->pixels.resize(static_cast<std::size_t>(c.psf_rows * c.psf_cols));
+    tile_->read_psf_cutout(o, 0, img->pixels);
+    img->centre_x = c.psf_cutout_col, img->centre_y = c.psf_cutout_row;
+    batch.observations.begin_object(1);
+    std::span<double> pixels, weights;
+    ArenaObservation& obs = batch.observations.add(size, &pixels, &weights);
+    obs.psf = PsfModel::Image(std::move(img));
+    std::copy(cell_.pixels.begin(), cell_.pixels.end(), pixels.begin());
+    std::copy(cell_.weight.begin(), cell_.weight.end(), weights.begin());
+    data.cells.push_back({0, layouts_[0][in_file_], scale});
+    batch.records[batch.count].id = next_;
+    ++batch.count, ++in_file_, ++next_;
+  }
+
   void add_layout(long width, long height, const std::string& where) {
     std::string why;
     layouts_.push_back(cell_layout(width, height, options_.cell_size, options_.cell_buffer, &why));
@@ -113,6 +198,9 @@ class CellSource : public StampSource {
   std::vector<std::string> inputs_;
   MetadetectOptions options_;
   const io::CellImage* memory_ = nullptr;
+  std::unique_ptr<io::MedsFile> tile_;
+  io::CellImage cell_;  // a tile's cell as read
+  std::vector<double> mask_;
   std::vector<std::vector<CellPlacement>> layouts_;
   long long total_ = 0, next_ = 0, in_file_ = 0, end_ = std::numeric_limits<long long>::max();
   int file_ = 0, loaded_ = -1;
@@ -255,10 +343,15 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
   const io::OutputLock lock = io::OutputLock::acquire(options.output);
   if (!options.resume) io::refuse_to_replace(options.output, options.overwrite);
 
-  CellSource source(options.inputs, options.metadetect);
+  if (options.tile && options.inputs.size() != 1)
+    throw io::ConfigError("--meds takes one cell tile (the bands of a tile are not supported yet)");
+  CellSource source = options.tile ? CellSource(options.inputs[0], options.metadetect, true)
+                                   : CellSource(options.inputs, options.metadetect);
   io::MetadetectWriterOptions wo;
   wo.path = options.output;
   std::string fingerprint = "stampede " + std::string(program_version()) + " metadetect\n";
+  wo.header.emplace_back("INPUTS", options.tile ? "cell tile" : "images");
+  fingerprint += options.tile ? "cell tile\n" : "images\n";
   for (const auto& [key, value] : option_keys(options.metadetect)) {
     wo.header.emplace_back(key, value);
     fingerprint += key + "=" + value + "\n";
@@ -297,7 +390,7 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
   source.set_end(end);
   try {
     // SEP's pixel stack is global: sized for a whole cell above the threshold before threads start.
-    set_detection_pixel_stack(static_cast<long long>(options.metadetect.cell_size) * options.metadetect.cell_size);
+    set_detection_pixel_stack(source.max_cell_pixels());
     CellSink sink(*writer, source, &summary);
     PipelineOptions po;
     po.threads = options.threads;

@@ -17,7 +17,11 @@
 namespace stampede::app {
 
 struct MetadetectRunOptions {
-  std::vector<std::string> inputs;  // image files (io/cell_image_reader)
+  std::vector<std::string> inputs;  // image files (io/cell_image_reader), or with `tile` one cell tile
+  // inputs[0] is a cell tile (MEDS, DES Y6's "pizza slices"): each object_data row a cell, cutout 0
+  // its coadd with weight (and bmask) cutouts and its PSF cutout; x, y are the tile's pixels
+  // (orig_start_row/col + the cell's); --cell-size is the tile's box size.
+  bool tile = false;
   std::string output;
   MetadetectOptions metadetect;
   int threads = 0;     // 0: all cores

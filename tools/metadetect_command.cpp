@@ -25,6 +25,7 @@ void print_help() {
   std::printf(
       "usage: stampede metadetect IMAGE.fits [IMAGE.fits ...] -o OUT.fits [options]\n"
       "       stampede metadetect --input-list LIST -o OUT.fits [options]\n"
+      "       stampede metadetect --meds CELLS_MEDS.fits -o OUT.fits [options]\n"
       "\n"
       "Metadetection (Sheldon et al. 2020, 2023): each cell's five metacal images (noshear, 1p, 1m,\n"
       "2p, 2m, with fixnoise) are made, objects are detected anew on each with SEP, and each detection\n"
@@ -36,7 +37,9 @@ void print_help() {
       "input: IMAGE.fits holds the image in HDU 0 with its pixel scale (keyword SCALE, arcsec/px, or\n"
       "a WCS), and extensions WEIGHT (inverse variance, required), BMASK (optional, non-zero masks) and\n"
       "PSF (a centred PSF image at the image's pixel scale, required). `stampede sim cells` writes such\n"
-      "files. LIST: one image path per line (# comments).\n"
+      "files. LIST: one image path per line (# comments). --meds: a cell tile (DES Y6's \"pizza slices\":\n"
+      "a MEDS file whose object_data rows are cells, cutout 0 each cell's coadd with weight, bmask and\n"
+      "psf cutouts; `sim cells --tile` writes one); x, y are then the tile's pixels.\n"
       "\n"
       "output: OUT.fits, table METADETECT, a row per (cell, shear type, detection): cell shear_type id\n"
       "x y (0-based pixels of the input image) u v (arcsec) e1 e2 e1_err e2_err T (arcsec^2) T_ratio\n"
@@ -109,6 +112,9 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
       return 0;
     } else if (s == "-o" || s == "--output") {
       o.output = value();
+    } else if (s == "--meds") {
+      o.inputs.push_back(value());
+      o.tile = true;
     } else if (s == "--input-list") {
       for (std::string& p : read_list(value())) o.inputs.push_back(std::move(p));
     } else if (s == "--cell-size") {
@@ -166,6 +172,8 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
   }
   if (o.output.empty()) throw std::invalid_argument("-o OUT.fits is required (see stampede metadetect --help)");
   if (o.inputs.empty()) throw std::invalid_argument("no input image (see stampede metadetect --help)");
+  if (o.tile && o.inputs.size() != 1)
+    throw std::invalid_argument("--meds takes one cell tile and no image files (see stampede metadetect --help)");
   if (o.resume && o.overwrite) throw std::invalid_argument("--resume and --overwrite exclude each other");
   return -1;
 }

@@ -32,6 +32,8 @@ void print_help() {
       "                        [--json OUT.json] [--bootstrap N] [--seed S] [--e-columns E1,E2]\n"
       "                        [--metacal [--no-selection-response]] [--cut-snr X] [--cut-radius R]\n"
       "                        [--cut-size-ratio Q] [--shear-pairs]\n"
+      "       stampede metrics --metadetect TABLE.fits [--minus MINUS.fits] ...  (metadetection catalogues:\n"
+      "                        `stampede metrics --metadetect X --help` for its options)\n"
       "\n"
       "Per set (a `stampede fit` table and the truth file of the same set, in the GREAT08-mini\n"
       "layout: SHEAR1 SHEAR2 in the primary header, a TRUTH table with `index` and `pair`):\n"

@@ -115,6 +115,36 @@ TEST(MetadetectRun, ImageLargerThanACellKeepsEachGalaxyOnce) {
   EXPECT_EQ(static_cast<int>(std::count(t.shear_type.begin(), t.shear_type.end(), 0)), static_cast<int>(truth.size()));
 }
 
+TEST(MetadetectRun, CellTileMeasuresAsItsCellImages) {
+  testing::ScratchDir scratch("stampede_mdet_tile_");
+  CellSimOptions so;
+  so.snr = 1e4;
+  CellOutputOptions out;
+  out.cells = 3;
+  out.tile = true;
+  write_cell_simulation(so, out, scratch.path("sims"));
+  MetadetectRunOptions o;
+  o.inputs = {scratch.path("sims/cell_0000.fits"), scratch.path("sims/cell_0001.fits"), scratch.path("sims/cell_0002.fits")};
+  o.output = scratch.path("images.fits");
+  run_metadetect(o);
+  o.inputs = {scratch.path("sims/cells_meds.fits")};
+  o.tile = true;
+  o.output = scratch.path("tile.fits");
+  EXPECT_EQ(run_metadetect(o).cells, 3);
+  io::FitsFile a = io::FitsFile::open_read(scratch.path("images.fits")), b = io::FitsFile::open_read(o.output);
+  a.move_to("METADETECT"), b.move_to("METADETECT");
+  for (const char* c : {"cell", "e1", "e2", "T", "T_ratio", "snr", "flux", "flags"}) EXPECT_EQ(a.read_column(c), b.read_column(c)) << c;
+  // x, y in the tile's pixels: each cell's place in it (a square of 2 x 2 places for 3 cells,
+  // adjacent cells overlapping by their buffers).
+  const std::vector<double> xa = a.read_column("x"), xb = b.read_column("x"), ya = a.read_column("y"),
+                            yb = b.read_column("y"), cell = a.read_column("cell");
+  for (std::size_t i = 0; i < xa.size(); ++i) {
+    const int k = static_cast<int>(cell[i]);
+    EXPECT_NEAR(xb[i] - xa[i], (k % 2) * (251 - 2 * 34), 1e-9);
+    EXPECT_NEAR(yb[i] - ya[i], (k / 2) * (251 - 2 * 34), 1e-9);
+  }
+}
+
 // A cell image written by hand: `extnames` of WEIGHT, BMASK, PSF to include; PSF SCALE psf_scale.
 std::string write_image(const std::string& path, int size, const std::vector<std::string>& extnames, double weight = 1.0,
                         double psf_scale = 0.25, double pixel = 0.0) {
