@@ -64,8 +64,11 @@ class CellSource : public StampSource {
   // weight (and bmask) cutout and its PSF in the psf HDU; the cell's place in the tile from
   // orig_start_row/col, its pixel scale from the WCS Jacobian (which must be the scale times the
   // unit matrix: the metacal shear is applied in the cell's pixels).
-  CellSource(const std::string& tile, const MetadetectOptions& options, bool /*tile_tag*/)
-      : inputs_{tile}, options_(options) {
+  struct Tile {
+    std::string path;
+  };
+  CellSource(const Tile& t, const MetadetectOptions& options) : inputs_{t.path}, options_(options) {
+    const std::string& tile = t.path;
     tile_ = std::make_unique<io::MedsFile>(io::MedsFile::open(tile));
     if (!tile_->has(io::MedsCutoutType::kWeight))
       throw io::ConfigError(tile + ": no weight_cutouts HDU: detection needs the noise level");
@@ -345,7 +348,7 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
 
   if (options.tile && options.inputs.size() != 1)
     throw io::ConfigError("--meds takes one cell tile (the bands of a tile are not supported yet)");
-  CellSource source = options.tile ? CellSource(options.inputs[0], options.metadetect, true)
+  CellSource source = options.tile ? CellSource(CellSource::Tile{options.inputs[0]}, options.metadetect)
                                    : CellSource(options.inputs, options.metadetect);
   io::MetadetectWriterOptions wo;
   wo.path = options.output;
