@@ -8,9 +8,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "app/metadetect_metrics.hpp"
 #include "engine/analysis/metadetect_shear.hpp"
-#include "io/fits_file.hpp"
-#include "io/metadetect_reader.hpp"
 #include "tools/arguments.hpp"
 
 namespace {
@@ -92,20 +91,11 @@ int run_metadetect_metrics_command(int argc, char** argv) {
       throw std::invalid_argument("option " + tools::quoted_value(a) + " is not one of metrics --metadetect's");
     }
   }
-  const io::MetadetectTable plus = io::read_metadetect_table(plus_path);
-  auto sums = [&](const io::MetadetectTable& t) {
-    return sum_metadetect_cells(t.cell, t.shear_type, t.e1, t.e2, t.flags, t.snr, t.t_ratio, cuts);
-  };
-  if (rotated_path.empty() != rotated_minus_path.empty() && !minus_path.empty())
-    throw std::invalid_argument("--rotated and --rotated-minus go together with --minus");
-  MetadetectCellSums ps = sums(plus);
-  auto add_rotated = [&](const std::string& path, const io::MetadetectTable& of, MetadetectCellSums* into) {
-    const io::MetadetectTable t = io::read_metadetect_table(path);
-    if (t.step != of.step) throw std::invalid_argument(path + " was run with another metacal step");
-    add_cell_sums(sums(t), into);
-  };
-  if (!rotated_path.empty()) add_rotated(rotated_path, plus, &ps);
-  const MetadetectShear s = metadetect_shear(ps, plus.step, resamples, seed);
+  app::MetadetectMetricsOptions mo;
+  mo.table = plus_path, mo.minus = minus_path, mo.rotated = rotated_path, mo.rotated_minus = rotated_minus_path;
+  mo.shear = shear, mo.cuts = cuts, mo.resamples = resamples, mo.seed = seed;
+  const app::MetadetectMetrics r = app::metadetect_metrics(mo);
+  const MetadetectShear& s = r.shear;
   std::printf("%s: %lld cells, %.0f noshear rows kept (snr > %g, T_ratio > %g, flags 0)\n", plus_path.c_str(), s.cells,
               s.kept_noshear, cuts.min_snr, cuts.min_t_ratio);
   std::printf("  R11 = %.5f +- %.5f   R22 = %.5f +- %.5f\n", s.r11, s.r11_err, s.r22, s.r22_err);
@@ -114,21 +104,13 @@ int run_metadetect_metrics_command(int argc, char** argv) {
                     ", \"R11_err\": " + number(s.r11_err) + ", \"R22\": " + number(s.r22) + ", \"R22_err\": " +
                     number(s.r22_err) + ", \"g1\": " + number(s.g1) + ", \"g1_err\": " + number(s.g1_err) +
                     ", \"g2\": " + number(s.g2) + ", \"g2_err\": " + number(s.g2_err);
-  if (!minus_path.empty()) {
-    const io::MetadetectTable minus = io::read_metadetect_table(minus_path);
-    if (minus.step != plus.step) throw std::invalid_argument("--minus " + minus_path + " was run with another metacal step");
-    if (!shear) {
-      if (plus.first_input.empty()) throw std::invalid_argument("--shear G1,G2 is needed: the table records no input");
-      io::FitsFile in = io::FitsFile::open_read(plus.first_input);
-      shear = std::array<double, 2>{in.key_double("G1"), in.key_double("G2")};
-    }
-    MetadetectCellSums ms = sums(minus);
-    if (!rotated_minus_path.empty()) add_rotated(rotated_minus_path, minus, &ms);
-    const MetadetectBias b = metadetect_pair_bias(ps, ms, (*shear)[0], (*shear)[1], plus.step, resamples, seed);
-    std::printf("shear pair with %s, g = (%g, %g), %lld pairs of cells:\n", minus_path.c_str(), (*shear)[0], (*shear)[1], b.pairs);
+  if (r.has_bias) {
+    const MetadetectBias& b = r.bias;
+    std::printf("shear pair with %s, g = (%g, %g), %lld pairs of cells:\n", minus_path.c_str(), r.true_shear[0],
+                r.true_shear[1], b.pairs);
     if (std::isfinite(b.m1)) std::printf("  m1 = %+.3e +- %.1e   c2 = %+.3e +- %.1e\n", b.m1, b.m1_err, b.c2, b.c2_err);
     if (std::isfinite(b.m2)) std::printf("  m2 = %+.3e +- %.1e   c1 = %+.3e +- %.1e\n", b.m2, b.m2_err, b.c1, b.c1_err);
-    out += ", \"minus\": \"" + minus_path + "\", \"shear\": [" + number((*shear)[0]) + ", " + number((*shear)[1]) +
+    out += ", \"minus\": \"" + minus_path + "\", \"shear\": [" + number(r.true_shear[0]) + ", " + number(r.true_shear[1]) +
            "], \"pairs\": " + std::to_string(b.pairs) + ", \"m1\": " + number(b.m1) + ", \"m1_err\": " + number(b.m1_err) +
            ", \"c2\": " + number(b.c2) + ", \"c2_err\": " + number(b.c2_err) + ", \"m2\": " + number(b.m2) +
            ", \"m2_err\": " + number(b.m2_err) + ", \"c1\": " + number(b.c1) + ", \"c1_err\": " + number(b.c1_err);

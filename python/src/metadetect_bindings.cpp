@@ -3,10 +3,12 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "app/metadetect_metrics.hpp"
 #include "app/metadetect_run.hpp"
 #include "arguments.hpp"
 #include "engine/metacal/metacal_type.hpp"
@@ -129,9 +131,55 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
   return rows_array(rows);
 }
 
+py::dict metadetect_metrics(py::args args, py::kwargs kwargs) {
+  const Arguments a("metadetect_metrics", args, kwargs,
+                    {{"table", true}, {"minus"}, {"rotated"}, {"rotated_minus"}, {"shear"}, {"cut_snr"},
+                     {"cut_t_ratio"}, {"bootstrap"}, {"seed"}});
+  app::MetadetectMetricsOptions o;
+  o.table = a.text("table");
+  o.minus = a.text("minus");
+  o.rotated = a.text("rotated");
+  o.rotated_minus = a.text("rotated_minus");
+  if (a.given("shear")) {
+    const DoubleArray g = as_float64(a.object("shear"), {1}, "shear");
+    if (g.size() != 2) throw py::value_error(a.where("shear") + ": two numbers (g1, g2)");
+    o.shear = std::array<double, 2>{g.data()[0], g.data()[1]};
+  }
+  o.cuts.min_snr = a.real("cut_snr", o.cuts.min_snr);
+  o.cuts.min_t_ratio = a.real("cut_t_ratio", o.cuts.min_t_ratio);
+  o.resamples = static_cast<int>(a.integer_in("bootstrap", 200, 2, 100000));
+  o.seed = static_cast<std::uint64_t>(a.integer_in("seed", 1, 0, 1LL << 62));
+  app::MetadetectMetrics r;
+  {
+    py::gil_scoped_release release;
+    r = app::metadetect_metrics(o);
+  }
+  py::dict d;
+  const MetadetectShear& s = r.shear;
+  d["cells"] = s.cells, d["kept_noshear"] = s.kept_noshear;
+  d["R11"] = s.r11, d["R11_err"] = s.r11_err, d["R22"] = s.r22, d["R22_err"] = s.r22_err;
+  d["g1"] = s.g1, d["g1_err"] = s.g1_err, d["g2"] = s.g2, d["g2_err"] = s.g2_err;
+  if (r.has_bias) {
+    const MetadetectBias& b = r.bias;
+    d["shear"] = py::make_tuple(r.true_shear[0], r.true_shear[1]);
+    d["pairs"] = b.pairs;
+    d["m1"] = b.m1, d["m1_err"] = b.m1_err, d["c2"] = b.c2, d["c2_err"] = b.c2_err;
+    d["m2"] = b.m2, d["m2_err"] = b.m2_err, d["c1"] = b.c1, d["c1_err"] = b.c1_err;
+  }
+  return d;
+}
+
 }  // namespace
 
 void bind_metadetect(py::module_& m) {
+  m.def("metadetect_metrics", &metadetect_metrics, R"doc(metadetect_metrics(table, minus=None, rotated=None,
+           rotated_minus=None, shear=None, cut_snr=10, cut_t_ratio=1.2, bootstrap=200, seed=1)
+
+`stampede metrics --metadetect` as a dict: R11, R22, g1, g2 (with _err, bootstrap over cells) of
+`table`; with `minus` (the same cells under the opposite shear) m1, c2, m2, c1 and their errors.
+`rotated`/`rotated_minus`: the same cells' scenes turned by 90 degrees, joined to their cells.
+`shear`: the true shear (g1, g2) of `table`, else its first input's G1, G2 keys.
+)doc");
   m.def("metadetect", &metadetect, R"doc(metadetect(image, weight, psf, pixel_scale, bmask=None, threads=0, *,
            cell_size=251, cell_buffer=34, step=0.01, psf_dilation=0, fixnoise=True, seed=20170101,
            weight_fwhm=1.2, detect_threshold=0.8, detect_min_area=4, deblend_contrast=1e-5,

@@ -54,3 +54,19 @@ def test_masked_cell_is_one_flagged_row(cell):
     assert len(rows) == 1
     assert rows["id"][0] == -1
     assert rows["flags"][0] == 8
+
+
+def test_metrics_of_a_shear_pair(tmp_path):
+    d = str(tmp_path)
+    run_cli("sim", "cells", "--out", d, "--cells", "3", "--pair", "--snr", "1e4")
+    for sign, sub in (("plus", ""), ("minus", "minus/")):
+        run_cli("metadetect", *[os.path.join(d, sub + "cell_%04d.fits" % k) for k in range(3)],
+                "-o", os.path.join(d, sign + ".fits"), "--quiet")
+    r = stampede.metadetect_metrics(os.path.join(d, "plus.fits"), minus=os.path.join(d, "minus.fits"))
+    assert r["cells"] == 3 and r["pairs"] == 3
+    assert r["shear"] == (0.02, 0.0)
+    assert 0.15 < r["R11"] < 0.3
+    assert abs(r["m1"]) < 3e-3
+    given = stampede.metadetect_metrics(os.path.join(d, "plus.fits"), minus=os.path.join(d, "minus.fits"),
+                                        shear=[0.02, 0.0])
+    assert given["m1"] == r["m1"]
