@@ -1,5 +1,5 @@
 // Metadetection test cells on disk (`stampede sim cells`): for each shear sign (DIR for +g, and
-// DIR/minus for -g with --pair: the same galaxies, positions and noise) and each band (one band:
+// DIR/minus for -g with --pair: the same galaxies and noise, the scene sheared the other way) and each band (one band:
 // the sign's directory itself; several: its subdirectory named by the band):
 //   cell_KKKK.fits   the cell image with WEIGHT, BMASK, NOISE and PSF (io/cell_image_writer.hpp)
 //   cells_meds.fits  with `tile`: the cells as a cell tile (DES "pizza slices", a MEDS file whose
