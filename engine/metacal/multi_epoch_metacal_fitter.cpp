@@ -110,11 +110,13 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
     // Each image set is fitted exactly as the noshear one, from its own moments (MetacalFitter).
     MultiBandFitResult r = fitter_.fit(fit_epochs_, n_bands, 0);
     // The fit weighs the images' noise as white; its errors and S/N are made those of the noise
-    // the images carry (metacal_noise.hpp). Per-band S/N keep the white weighting's.
+    // the images carry (metacal_noise.hpp); each band's S/N by the joint fit's factor.
     if (r.fit.status == FitStatus::kOk && std::all_of(variances_.begin(), variances_.begin() + n, [](double v) { return v > 0; })) {
       moment_stamps(t, -1, nullptr);
+      const double white_snr = r.fit.snr;
       correct_fit_for_correlated_noise(stamps_, equivalent_weights(r.fit.params[index(Param::kRadius)], gamma_fwhm_),
                                        moments_scratch_, &r.fit);
+      for (BandFit& b : r.bands) b.snr = r.bands.size() == 1 ? r.fit.snr : b.snr * (r.fit.snr / white_snr);
     }
     return r;
   };
