@@ -1,6 +1,7 @@
 // Fixed-weight moments; see weighted_moments.hpp.
 #include "kernels/weighted_moments.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace stampede::kernels {
@@ -80,9 +81,12 @@ Sums weighted_sums(const MomentsStamp& st, double x, double y, double inv_two_s2
 
 // Sum over the stamp's pixels of d e / d I_p squared (times T^4) for e1 and e2, and of w^2, about
 // the centroid: de/dI_p = w_p (q_p T - S q'_p) / T^2 with q = du^2 - dv^2 (e1) or 2 du dv (e2).
+// With a covariance the same derivatives are kept as maps (maps: 3 x size^2) and the sums are
+// a^T C a instead.
 void error_sums(const MomentsStamp& st, double x, double y, const double* w, double ts, double sdiff, double sxy,
-                double* v1, double* v2, double* w2) {
+                double* v1, double* v2, double* w2, double* maps) {
   const int size = st.size;
+  const std::size_t npix = static_cast<std::size_t>(size) * size;
   const bool sep = separable(st);
   for (int j = 0; j < size; ++j) {
     const double dy = j - y;
@@ -98,13 +102,25 @@ void error_sums(const MomentsStamp& st, double x, double y, const double* w, dou
       const double r2 = du * du + dv * dv;
       const double d1 = wp * ((du * du - dv * dv) * ts - sdiff * r2);
       const double d2 = wp * (2 * du * dv * ts - 2 * sxy * r2);
+      if (maps) {
+        const std::size_t p = static_cast<std::size_t>(j) * size + i;
+        maps[p] = d1, maps[npix + p] = d2, maps[2 * npix + p] = wp;
+        continue;
+      }
       *v1 += d1 * d1;
       *v2 += d2 * d2;
       *w2 += wp * wp;
     }
   }
+  if (!maps) return;
+  PixelCovariance& c = *st.covariance;
+  *v1 = c.variance({maps, npix});
+  *v2 = c.variance({maps + npix, npix});
+  *w2 = c.variance({maps + 2 * npix, npix});
 }
 
+// scratch: the stamps' weights (scratch_size each), then, when a stamp has a covariance, 3 x the
+// largest such stamp's size^2 for its derivative maps.
 WeightedMoments measure(std::span<const MomentsStamp> stamps, double fwhm, double* scratch, int centroid_iterations) {
   WeightedMoments m;
   const std::size_t n = stamps.size();
@@ -182,13 +198,16 @@ WeightedMoments measure(std::span<const MomentsStamp> stamps, double fwhm, doubl
   // Linear error propagation from each pixel's noise, the centroid held.
   double v1 = 0, v2 = 0, w2 = 0;
   const double* w = scratch;
+  double* maps = scratch;
+  for (const MomentsStamp& st : stamps) maps += scratch_size(st);
   for (std::size_t k = 0; k < n; ++k) {
     double xk, yk, a1 = 0, a2 = 0, aw = 0;
     stamp_centroid(k, &xk, &yk);
-    error_sums(stamps[k], xk, yk, w, ts, s.sxx - s.syy, s.sxy, &a1, &a2, &aw);
+    const bool correlated = !noise_free && stamps[k].covariance;
+    error_sums(stamps[k], xk, yk, w, ts, s.sxx - s.syy, s.sxy, &a1, &a2, &aw, correlated ? maps : nullptr);
     w += scratch_size(stamps[k]);
     const double f = c_of(stamps[k]) / c_sum / stamps[k].flux_scale;
-    const double g = f * f * (noise_free ? 0.0 : stamps[k].variance);
+    const double g = f * f * (noise_free ? 0.0 : correlated ? 1.0 : stamps[k].variance);
     v1 += g * a1, v2 += g * a2, w2 += g * aw;
   }
   m.e1_err = std::sqrt(v1) / (ts * ts);
@@ -208,11 +227,13 @@ bool usable(const MomentsStamp& s) {
 WeightedMoments weighted_moments(std::span<const MomentsStamp> stamps, double fwhm, std::vector<double>& scratch,
                                  int centroid_iterations) {
   if (stamps.empty() || !(fwhm > 0)) return {};
-  std::size_t need = 0;
+  std::size_t need = 0, maps = 0;
   for (const MomentsStamp& s : stamps) {
     if (!usable(s)) return {};
     need += scratch_size(s);
+    if (s.covariance) maps = std::max(maps, 3 * static_cast<std::size_t>(s.size) * s.size);
   }
+  need += maps;
   if (scratch.size() < need) scratch.resize(need);
   return measure(stamps, fwhm, scratch.data(), centroid_iterations);
 }

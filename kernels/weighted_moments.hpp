@@ -20,7 +20,17 @@ struct WeightedMoments {
   double flux = 0;           // sum w I (in sky units: over the stamps' flux scales)
   double t = 0;              // T = Muu + Mvv of the weighted, flux-normalised moments, sky units^2
   double e1 = 0, e2 = 0;     // (Muu - Mvv) / T, 2 Muv / T
-  double e1_err = 0, e2_err = 0, snr = 0;  // for uncorrelated pixel noise of each stamp's variance
+  double e1_err = 0, e2_err = 0, snr = 0;  // for each stamp's noise: its covariance, else white of its variance
+};
+
+// The noise covariance C of a stamp whose pixels' noise is correlated (metacal's images: the data's
+// noise deconvolved, sheared and reconvolved). The moments are linear in the pixels to first order,
+// so their errors need only Var(sum_p a_p I_p) = a^T C a for the maps a of their derivatives.
+class PixelCovariance {
+ public:
+  virtual ~PixelCovariance() = default;
+  // a: size x size, row-major, the stamp's layout. Called three times per stamp and measurement.
+  virtual double variance(std::span<const double> a) = 0;
 };
 
 // One stamp of the object: pixel (x, y) (x the column, 0-based, pixel centres at integers) lies at
@@ -32,15 +42,18 @@ struct MomentsStamp {
   double x_ref = 0, y_ref = 0;
   double flux_scale = 1;  // image = flux_scale x the sky's flux
   double variance = 0;    // each pixel's noise variance; 0 for noise-free (errors 0, snr inf)
+  // Correlated noise: its covariance (variance then only weighs the stamps, not the errors); null:
+  // white noise of `variance`.
+  PixelCovariance* covariance = nullptr;
 };
 
 // The weight is exp(-r^2 / (2 sigma^2)) on the sky, sigma = fwhm / 2.3548, about a centroid found by
 // `centroid_iterations` Newton steps of the weighted centroid from the first stamp's centre (so the
 // estimator does not depend on where in the stamps the object is; a fixed count keeps it a smooth
 // function of the pixels). Stamps are averaged with weights flux_scale^2 |det J| / variance (equal
-// weights when any variance is 0). The errors take each stamp's noise as uncorrelated (metacal's
-// images' is not: there they are approximate, as a fit's are). scratch grows to what is needed
-// and is kept, so a caller that reuses it allocates nothing in steady state.
+// weights when any variance is 0). The errors take each stamp's noise as white of its variance,
+// or as its covariance where it has one (linear propagation, the centroid held). scratch grows to
+// what is needed and is kept, so a caller that reuses it allocates nothing in steady state.
 WeightedMoments weighted_moments(std::span<const MomentsStamp> stamps, double fwhm, std::vector<double>& scratch,
                                  int centroid_iterations = 6);
 

@@ -6,6 +6,7 @@
 
 #include "engine/common/number_text.hpp"
 #include "engine/common/random_stream.hpp"
+#include "engine/metacal/metacal_noise.hpp"
 #include "engine/metacal/reconvolution_psf.hpp"
 #include "kernels/weighted_moments.hpp"
 
@@ -56,7 +57,6 @@ MetacalFitter::MetacalFitter(const FitterOptions& fit_options, const MetacalOpti
   const std::size_t npix = static_cast<std::size_t>(s_) * s_;
   images_.resize(kNumMetacalTypes * npix);
   weight_.resize(npix);
-  scratch_.resize(2 * static_cast<std::size_t>(s_));
 }
 
 double MetacalFitter::weight_fwhm() const {
@@ -88,7 +88,7 @@ bool MetacalFitter::make_images(std::span<const double> pixels, std::span<const 
   const std::int64_t key = negated ? object_id - 2 : object_id;
   return images_set_.make(pixels, weight, kind, fit_options_.noise_sigma, *filters_, options_,
                           RandomStream({options_.seed, static_cast<std::uint64_t>(key), kFixnoisePurpose}), images_,
-                          image_variance, negated ? -1.0 : 1.0);
+                          image_variance, negated ? -1.0 : 1.0, &noise_power_);
 }
 
 void MetacalFitter::fit(std::span<const double> pixels, std::span<const double> weight, WeightKind kind,
@@ -128,8 +128,21 @@ void MetacalFitter::fit(std::span<const double> pixels, std::span<const double> 
   auto image = [&](MetacalType t) { return std::span<const double>(images_).subspan(static_cast<int>(t) * npix, npix); };
   // The estimator of every image: a fit of metacal's model, or the weighted moments.
   auto measure = [&](MetacalType t) {
-    if (options_.model != MetacalModel::kWeightedMoments) return fitter_->fit(image(t), w, WeightKind::kInverseVariance);
-    return moments_result(image(t), variance);
+    if (options_.model == MetacalModel::kWeightedMoments) return moments_result(image(t), variance);
+    FitResult r = fitter_->fit(image(t), w, WeightKind::kInverseVariance);
+    // The fit weighs the images' noise as white; its errors and S/N are made those of the noise
+    // the images carry (metacal_noise.hpp).
+    if (variance > 0 && r.status == FitStatus::kOk) {
+      MetacalNoise noise(&images_set_.noise_spectrum(), noise_power_);
+      kernels::MomentsStamp stamp;
+      stamp.image = image(t);
+      stamp.size = s_;
+      stamp.variance = variance;
+      stamp.covariance = &noise;
+      correct_fit_for_correlated_noise({&stamp, 1}, equivalent_weights(r.params[index(Param::kRadius)], gamma_.moffat.fwhm),
+                                       scratch_, &r);
+    }
+    return r;
   };
   *noshear = measure(MetacalType::kNoshear);
   bool usable = true;
@@ -165,14 +178,23 @@ FitResult weighted_moments_row(const kernels::WeightedMoments& m, bool unweighte
   r.errors[index(Param::kE1)] = r.e1_err = m.e1_err;
   r.errors[index(Param::kE2)] = r.e2_err = m.e2_err;
   r.flux = m.flux;
-  r.snr = m.snr;
+  // Noise-free images have no S/N (docs/usage.md: unweighted rows' snr is NaN).
+  r.snr = unweighted ? NAN : m.snr;
   return r;
 }
 
 FitResult MetacalFitter::moments_result(std::span<const double> image, double variance) {
   // Noise-free images are measured in data units, as an unweighted fit is (and flagged so).
   const bool unweighted = !(variance > 0);
-  const kernels::WeightedMoments m = kernels::weighted_moments(image, s_, weight_fwhm(), unweighted ? 1.0 : variance, scratch_);
+  // The stamp in its own pixels (the multi-stamp form of one stamp is the same measurement), its
+  // errors for the images' correlated noise.
+  MetacalNoise noise(&images_set_.noise_spectrum(), noise_power_);
+  kernels::MomentsStamp stamp;
+  stamp.image = image;
+  stamp.size = s_;
+  stamp.variance = unweighted ? 1.0 : variance;
+  stamp.covariance = unweighted ? nullptr : &noise;
+  const kernels::WeightedMoments m = kernels::weighted_moments({&stamp, 1}, weight_fwhm(), scratch_);
   return weighted_moments_row(m, unweighted, static_cast<int>(image.size()));
 }
 

@@ -67,9 +67,10 @@ class MetacalFitter {
   PsfModel psf_, gamma_;
   bool have_psf_ = false;
   // metacal_model = wmom: one image's weighted moments as a row (e, centroid, radius, S/N, errors;
-  // flux the weighted flux).
+  // flux the weighted flux), errors and S/N for the noise of noise_power_.
   FitResult moments_result(std::span<const double> image, double variance);
   std::vector<double> images_, weight_, scratch_;
+  std::vector<double> noise_power_;  // the images' noise power (metacal_noise.hpp); empty when noise-free
 };
 
 }  // namespace stampede

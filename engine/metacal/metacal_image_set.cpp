@@ -22,7 +22,9 @@ void add_rotated_back(std::span<const double> in, std::span<double> out, int s) 
 }  // namespace
 
 MetacalImageSet::MetacalImageSet(int stamp_size, FftPlanning planning, int period)
-    : s_(stamp_size), imager_(stamp_size, period > 0 ? period : MetacalImager::padded_size(stamp_size), planning) {
+    : s_(stamp_size),
+      imager_(stamp_size, period > 0 ? period : MetacalImager::padded_size(stamp_size), planning),
+      spectrum_(stamp_size, imager_.period()) {
   const std::size_t npix = static_cast<std::size_t>(s_) * s_;
   noise_.resize(npix);
   rotated_.resize(npix);
@@ -31,7 +33,8 @@ MetacalImageSet::MetacalImageSet(int stamp_size, FftPlanning planning, int perio
 
 bool MetacalImageSet::make(std::span<const double> pixels, std::span<const double> weight, WeightKind kind,
                            double noise_sigma, const MetacalFilters& filters, const MetacalOptions& options,
-                           RandomStream noise, std::span<double> out, double* image_variance, double fixnoise_sign) {
+                           RandomStream noise, std::span<double> out, double* image_variance, double fixnoise_sign,
+                           std::vector<double>* noise_power) {
   const std::size_t npix = static_cast<std::size_t>(s_) * s_;
   if (pixels.size() != npix || (!weight.empty() && weight.size() != npix) || out.size() != kNumMetacalTypes * npix)
     throw std::invalid_argument("MetacalImageSet::make: sizes do not match the stamp");
@@ -65,6 +68,10 @@ bool MetacalImageSet::make(std::span<const double> pixels, std::span<const doubl
       add_rotated_back(std::span<const double>(noise_images_).subspan(t * npix, npix), out.subspan(t * npix, npix), s_);
   }
   *image_variance = mean_variance * filters.noise_gain() * (fixnoise ? 2.0 : 1.0);
+  if (noise_power) {
+    noise_power->clear();
+    if (mean_variance > 0) metacal_noise_power(filters, mean_variance, fixnoise, noise_power);
+  }
   return !masked;
 }
 

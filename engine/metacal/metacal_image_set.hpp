@@ -12,6 +12,7 @@
 #include "engine/common/random_stream.hpp"
 #include "engine/fit/fitter.hpp"
 #include "engine/metacal/metacal_imager.hpp"
+#include "engine/metacal/metacal_noise.hpp"
 #include "engine/metacal/metacal_options.hpp"
 
 namespace stampede {
@@ -34,13 +35,19 @@ class MetacalImageSet {
   // per-pixel noise variance (the data's through the noshear filter, twice that with fixnoise; 0
   // for noise-free data). `noise` draws the fixnoise field (used only with options.fixnoise),
   // multiplied by fixnoise_sign (-1 for the noise-negated member of a simulated noise pair).
+  // noise_power (when not null): the images' noise power (metacal_noise_power; empty for
+  // noise-free data), for noise_spectrum()'s variances.
   bool make(std::span<const double> pixels, std::span<const double> weight, WeightKind kind, double noise_sigma,
             const MetacalFilters& filters, const MetacalOptions& options, RandomStream noise, std::span<double> out,
-            double* image_variance, double fixnoise_sign = 1.0);
+            double* image_variance, double fixnoise_sign = 1.0, std::vector<double>* noise_power = nullptr);
+
+  // The variances of linear combinations of this stamp size's images' pixels.
+  NoiseSpectrum& noise_spectrum() { return spectrum_; }
 
  private:
   int s_;
   MetacalImager imager_;
+  NoiseSpectrum spectrum_;
   std::vector<double> noise_, rotated_, noise_images_;
 };
 

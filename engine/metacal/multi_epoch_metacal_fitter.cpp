@@ -74,6 +74,8 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
   if (images_.size() < n) images_.resize(n), weights_.resize(n);
   prepared_.resize(n);
   variances_.resize(n);
+  if (noise_powers_.size() < n) noise_powers_.resize(n);
+  noises_.resize(n);
   const bool moments = options_.model == MetacalModel::kWeightedMoments;
   for (std::size_t k = 0; k < n; ++k) {
     const MetacalEpoch& e = *used_[k];
@@ -84,9 +86,11 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
     const RandomStream noise = k == 0 ? RandomStream({options_.seed, static_cast<std::uint64_t>(object_id), kFixnoisePurpose})
                                       : RandomStream({options_.seed, static_cast<std::uint64_t>(object_id), kFixnoisePurpose, k});
     double variance = 0;
-    set_for(e.box_size).make(e.pixels, e.weight, WeightKind::kInverseVariance, 0.0, *gamma_.filters[k], options_, noise,
-                             images_[k], &variance);
+    MetacalImageSet& set = set_for(e.box_size);
+    set.make(e.pixels, e.weight, WeightKind::kInverseVariance, 0.0, *gamma_.filters[k], options_, noise, images_[k],
+             &variance, 1.0, &noise_powers_[k]);
     variances_[k] = variance;
+    noises_[k] = MetacalNoise(&set.noise_spectrum(), noise_powers_[k]);
     if (moments) continue;  // nothing is fitted: no weight map, no Gamma to render
     // The images' noise is uniform: their weight is 1 / variance (unit for noise-free data).
     const double w = variance > 0 ? 1.0 / variance : 1.0;
@@ -104,7 +108,17 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
                              e.box_size, e.frame, prepared_[k], e.flux_scale, e.band});
     }
     // Each image set is fitted exactly as the noshear one, from its own moments (MetacalFitter).
-    return fitter_.fit(fit_epochs_, n_bands, 0);
+    MultiBandFitResult r = fitter_.fit(fit_epochs_, n_bands, 0);
+    // The fit weighs the images' noise as white; its errors and S/N are made those of the noise
+    // the images carry (metacal_noise.hpp); each band's S/N by the joint fit's factor.
+    if (r.fit.status == FitStatus::kOk && std::all_of(variances_.begin(), variances_.begin() + n, [](double v) { return v > 0; })) {
+      moment_stamps(t, -1, nullptr);
+      const double white_snr = r.fit.snr;
+      correct_fit_for_correlated_noise(stamps_, equivalent_weights(r.fit.params[index(Param::kRadius)], gamma_fwhm_),
+                                       moments_scratch_, &r.fit);
+      for (BandFit& b : r.bands) b.snr = r.bands.size() == 1 ? r.fit.snr : b.snr * (r.fit.snr / white_snr);
+    }
+    return r;
   };
   MultiBandFitResult noshear_bands = fit_type(MetacalType::kNoshear);
   *noshear = noshear_bands.fit;
@@ -129,29 +143,31 @@ double MultiEpochMetacalFitter::weight_fwhm() const {
   return options_.moments_weight_fwhm(gamma_fwhm_);
 }
 
+void MultiEpochMetacalFitter::moment_stamps(MetacalType t, int band, bool* unweighted) {
+  stamps_.clear();
+  for (std::size_t k = 0; k < used_.size(); ++k) {
+    const MetacalEpoch& e = *used_[k];
+    if (band >= 0 && e.band != band) continue;
+    const std::size_t npix = static_cast<std::size_t>(e.box_size) * e.box_size;
+    kernels::MomentsStamp s;
+    s.image = std::span<const double>(images_[k]).subspan(static_cast<int>(t) * npix, npix);
+    s.size = e.box_size;
+    s.dudx = e.frame.dudx, s.dudy = e.frame.dudy, s.dvdx = e.frame.dvdx, s.dvdy = e.frame.dvdy;
+    s.x_ref = e.frame.x_ref, s.y_ref = e.frame.y_ref;
+    s.flux_scale = e.flux_scale;
+    s.variance = variances_[k] > 0 ? variances_[k] : 1.0;
+    s.covariance = variances_[k] > 0 ? &noises_[k] : nullptr;
+    if (unweighted) *unweighted = *unweighted || !(variances_[k] > 0);
+    stamps_.push_back(s);
+  }
+}
+
 MultiBandFitResult MultiEpochMetacalFitter::measure_moments(MetacalType t, int n_bands, bool per_band) {
   // Noise-free images are measured in data units, as the single-stamp path does (and flagged so).
   bool unweighted = false;
+  moment_stamps(t, -1, &unweighted);
   int n_pixels = 0;
-  auto stamps_of = [&](int band) {  // band < 0: every cutout
-    stamps_.clear();
-    for (std::size_t k = 0; k < used_.size(); ++k) {
-      const MetacalEpoch& e = *used_[k];
-      if (band >= 0 && e.band != band) continue;
-      const std::size_t npix = static_cast<std::size_t>(e.box_size) * e.box_size;
-      kernels::MomentsStamp s;
-      s.image = std::span<const double>(images_[k]).subspan(static_cast<int>(t) * npix, npix);
-      s.size = e.box_size;
-      s.dudx = e.frame.dudx, s.dudy = e.frame.dudy, s.dvdx = e.frame.dvdx, s.dvdy = e.frame.dvdy;
-      s.x_ref = e.frame.x_ref, s.y_ref = e.frame.y_ref;
-      s.flux_scale = e.flux_scale;
-      s.variance = variances_[k] > 0 ? variances_[k] : 1.0;
-      unweighted = unweighted || !(variances_[k] > 0);
-      if (band < 0) n_pixels += static_cast<int>(npix);
-      stamps_.push_back(s);
-    }
-  };
-  stamps_of(-1);
+  for (const kernels::MomentsStamp& st : stamps_) n_pixels += st.size * st.size;
   MultiBandFitResult out;
   const kernels::WeightedMoments m = kernels::weighted_moments(stamps_, weight_fwhm(), moments_scratch_);
   out.fit = weighted_moments_row(m, unweighted, n_pixels);
@@ -159,7 +175,7 @@ MultiBandFitResult MultiEpochMetacalFitter::measure_moments(MetacalType t, int n
   if (!per_band) return out;
   // Each band's weighted flux and S/N, under the same weight, about its own centroid.
   for (int b = 0; b < n_bands; ++b) {
-    stamps_of(b);
+    moment_stamps(t, b, nullptr);
     BandFit& bf = out.bands[static_cast<std::size_t>(b)];
     bf.n_epochs = static_cast<int>(stamps_.size());
     if (stamps_.empty()) continue;

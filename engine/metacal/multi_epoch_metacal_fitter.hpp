@@ -22,6 +22,7 @@
 
 #include "engine/fit/multi_band_fitter.hpp"
 #include "engine/metacal/metacal_image_set.hpp"
+#include "engine/metacal/metacal_noise.hpp"
 #include "engine/metacal/metacal_options.hpp"
 #include "engine/metacal/metacal_record.hpp"
 #include "engine/metacal/reconvolution_psf.hpp"
@@ -67,6 +68,9 @@ class MultiEpochMetacalFitter {
   // metacal_model = wmom: image set t's moments over the used cutouts (per_band: and each band's
   // weighted flux and S/N).
   MultiBandFitResult measure_moments(MetacalType t, int n_bands, bool per_band);
+  // stamps_: image set t of the used cutouts of `band` (< 0: all) with their noise; *unweighted
+  // (when not null) gains whether one is noise-free (measured in data units).
+  void moment_stamps(MetacalType t, int band, bool* unweighted);
   FitterOptions fit_options_;
   MetacalOptions options_;
   MultiBandFitter fitter_;  // one band: MultiEpochFitter's fits
@@ -77,6 +81,9 @@ class MultiEpochMetacalFitter {
   std::vector<std::shared_ptr<const PreparedPsf>> prepared_;
   std::vector<Observation> fit_epochs_;
   std::vector<double> variances_;  // each used cutout's image noise variance (0: noise-free)
+  // Each used cutout's images' noise (metacal_noise.hpp): its power, and it as the moments take it.
+  std::vector<std::vector<double>> noise_powers_;
+  std::vector<MetacalNoise> noises_;
   std::vector<kernels::MomentsStamp> stamps_;
   std::vector<double> moments_scratch_;
   SkyReconvolution gamma_;
