@@ -4,8 +4,6 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
-#include "engine/pipeline/tsan_annotations.hpp"
-
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -131,16 +129,11 @@ void write_cell_simulation(const CellSimOptions& options, const CellOutputOption
   for (int first = 0; first < out.cells; first += kChunk) {
     const int count = std::min(kChunk, out.cells - first);
     chunk.assign(static_cast<std::size_t>(count * signs), SimCell{});
-    // libtbb is not instrumented: its start of the tasks and its wait for them stated for TSan.
-    STAMPEDE_TSAN_RELEASE(&chunk);
     tbb::parallel_for(0, count * signs, [&](int k) {
-      STAMPEDE_TSAN_ACQUIRE(&chunk);
       const int sign = k % signs;
       const double s = sign == 0 ? 1.0 : -1.0;
       chunk[static_cast<std::size_t>(k)] = sim.simulate(first + k / signs, s * options.g1, s * options.g2, *workspaces.local());
-      STAMPEDE_TSAN_RELEASE(&truth);
     });
-    STAMPEDE_TSAN_ACQUIRE(&truth);
     for (int k = 0; k < count * signs; ++k) {
       const SimCell& cell = chunk[static_cast<std::size_t>(k)];
       const int sign = k % signs;

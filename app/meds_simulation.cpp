@@ -4,8 +4,6 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
-#include "engine/pipeline/tsan_annotations.hpp"
-
 #include <algorithm>
 #include <filesystem>
 
@@ -88,15 +86,10 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
   for (long long first = 0; first < options.objects; first += kChunk) {
     const long long count = std::min<long long>(kChunk, options.objects - first);
     chunk.assign(static_cast<std::size_t>(count), MedsSimObject{});
-    // libtbb is not instrumented: its start of the tasks and its wait for them stated for TSan.
-    STAMPEDE_TSAN_RELEASE(&chunk);
     tbb::parallel_for(0LL, count, [&](long long k) {
-      STAMPEDE_TSAN_ACQUIRE(&chunk);
       auto& ws = workspaces.local();
       chunk[static_cast<std::size_t>(k)] = sim.simulate(first + k, *ws);
-      STAMPEDE_TSAN_RELEASE(&cols);
     });
-    STAMPEDE_TSAN_ACQUIRE(&cols);
     for (long long k = 0; k < count; ++k) {
       const MedsSimObject& o = chunk[static_cast<std::size_t>(k)];
       const long long row = first + k;

@@ -3,6 +3,7 @@
 #include "app/metadetect_merge.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <fstream>
 #include <iterator>
@@ -37,7 +38,10 @@ TEST(MetadetectMerge, ShardsJoinToTheWholeRunsTable) {
   so.layout = CellLayout::kRandom;
   CellOutputOptions out;
   out.cells = 5;
-  write_cell_simulation(so, out, scratch.path("sims"));
+  {
+    const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);  // as metadetect_run_test's
+    write_cell_simulation(so, out, scratch.path("sims"));
+  }
   MetadetectRunOptions o;
   for (int k = 0; k < 5; ++k) o.inputs.push_back(scratch.path("sims/cell_000" + std::to_string(k) + ".fits"));
   o.output = scratch.path("whole.fits");
