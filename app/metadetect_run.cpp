@@ -82,6 +82,7 @@ class CellSource : public StampSource {
       if (2L * options.cell_buffer >= o.box_size)
         throw io::ConfigError(tile + ": cell " + std::to_string(row) + " is " + std::to_string(o.box_size) +
                               " pixels, not more than twice --cell-buffer " + std::to_string(options.cell_buffer));
+      max_tile_box_ = std::max(max_tile_box_, o.box_size);
       CellPlacement p;
       p.x0 = static_cast<int>(c.orig_start_col), p.y0 = static_cast<int>(c.orig_start_row);
       p.keep_x0 = p.keep_y0 = options.cell_buffer - 0.5;
@@ -94,9 +95,7 @@ class CellSource : public StampSource {
   long long total_objects() const override { return total_; }
   // The largest cell's pixels (SEP's pixel stack must hold a whole cell above the threshold).
   long long max_cell_pixels() const {
-    long long side = options_.cell_size;
-    if (tile_)
-      for (long long row = 0; row < tile_->size(); ++row) side = std::max(side, tile_->object(row).box_size);
+    const long long side = std::max<long long>(options_.cell_size, max_tile_box_);
     return side * side;
   }
   void set_end(long long end) override { end_ = end; }
@@ -202,6 +201,7 @@ class CellSource : public StampSource {
   MetadetectOptions options_;
   const io::CellImage* memory_ = nullptr;
   std::unique_ptr<io::MedsFile> tile_;
+  long long max_tile_box_ = 0;  // the tile's largest cell side, found while laying out its cells
   io::CellImage cell_;  // a tile's cell as read
   std::vector<double> mask_;
   std::vector<std::vector<CellPlacement>> layouts_;
