@@ -45,12 +45,7 @@ void check(const CellSimOptions& options, const CellOutputOptions& out) {
     throw std::invalid_argument("--bands: " + std::to_string(out.band_names.size()) + " names for " +
                                 std::to_string(options.bands) + " bands");
   std::string why;
-  for (const std::string& b : out.band_names)
-    if (!io::is_band_name(b, &why)) throw std::invalid_argument("--bands: " + why);
-  for (std::size_t b = 1; b < out.band_names.size(); ++b)
-    for (std::size_t a = 0; a < b; ++a)
-      if (out.band_names[a] == out.band_names[b])
-        throw std::invalid_argument("--bands: band '" + out.band_names[b] + "' is given twice");
+  if (!io::are_band_names(out.band_names, &why)) throw std::invalid_argument("--bands: " + why);
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
 }
 

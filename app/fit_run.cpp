@@ -30,6 +30,7 @@
 #include "io/catalog_writer.hpp"
 #include "io/catalogue_source.hpp"
 #include "io/durable_file.hpp"
+#include "io/file_digest.hpp"
 #include "io/fits_file.hpp"
 #include "io/fits_error.hpp"
 #include "io/grid_source.hpp"
@@ -524,10 +525,29 @@ RunInput open_survey_input(const FitRunOptions& a, const Warn& warn) {
   return in;
 }
 
+// The same tile given as two bands (another spelling of its path, a link, a copy, "g.fits[0]")
+// would count its pixels twice: S/N sqrt(2) too high, errors sqrt(2) too small. Tiles are told
+// apart by content: `digests[t]` is tile t's, as the table records it (MEDSDIGS, MEDSDIG1, ..).
+void refuse_repeated_tiles(const RunInput& in, const std::vector<std::string>& digests) {
+  for (std::size_t t = 1; t < in.meds.size(); ++t)
+    for (std::size_t u = 0; u < t; ++u)
+      if (digests[t] == digests[u])
+        throw io::ConfigError("--meds '" + in.meds[t] + "' (band " + in.bands[t] + ") holds the same bytes as --meds '" +
+                              in.meds[u] + "' (band " + in.bands[u] + "): " + digests[t] +
+                              "; one tile per band (the same tile twice would count its pixels twice)");
+}
+
 // The table's writer (created, or resumed with the source moved past the committed rows); null
 // without an output, or when the output is already this complete run's (*skipped).
 std::unique_ptr<io::CatalogWriter> open_writer(const FitRunOptions& a, RunInput& in, RunSummary* summary) {
-  if (a.output.empty()) return nullptr;
+  if (a.output.empty()) {
+    if (in.meds.size() > 1) {  // no table records the tiles' digests: they are read for this check alone
+      std::vector<std::string> digests;
+      for (const std::string& tile : in.meds) digests.push_back(io::digest_file(io::fits_root_name(tile)).text());
+      refuse_repeated_tiles(in, digests);
+    }
+    return nullptr;
+  }
   io::CatalogWriterOptions wo = base_writer_options(a, in.cfg);
   wo.positions = in.positions;
   wo.metacal = in.cfg.metacal.enabled;
@@ -536,6 +556,7 @@ std::unique_ptr<io::CatalogWriter> open_writer(const FitRunOptions& a, RunInput&
   wo.header.insert(wo.header.end(), in.header_before.begin(), in.header_before.end());
   std::vector<std::string> digests;
   wo.fingerprint = fit_fingerprint(in.files, wo.header, &digests) + in.fingerprint_extra;
+  refuse_repeated_tiles(in, digests);  // a survey run's files begin with its tiles, in order
   wo.header.insert(wo.header.end(), in.header_after.begin(), in.header_after.end());
   add_shard_keys(a, in.objects, &wo);
   add_identity_keys(in.files, digests, &wo);

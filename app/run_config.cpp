@@ -204,8 +204,10 @@ std::vector<Entry> make_registry() {
                          "+-metacal_step, reconvolve with a round Moffat, five fits); the row's e is the noshear "
                          "image's and the table gains R11 R12 R21 R22 and the sheared fits",
                          [](auto& c) -> auto& { return c.metacal.enabled; }));
-  r.push_back(double_entry(mcal, "metacal_step", "metacal: the applied shear delta, in (0, 0.1]", DoubleKind::kFinite,
-                           [](auto& c) -> auto& { return c.metacal.step; }));
+  r.push_back(double_entry(mcal, "metacal_step",
+                           "metacal: the applied shear delta, in [0.001, 0.1] (below 0.001 errors in e swamp R: "
+                           "docs/metacal.md)",
+                           DoubleKind::kFinite, [](auto& c) -> auto& { return c.metacal.step; }));
   r.push_back(double_entry(mcal, "metacal_psf_dilation",
                            "metacal: reconvolution PSF FWHM over the PSF's; 0 = (1 + 2 metacal_step) sqrt((1 + |e|) "
                            "/ (1 - |e|)), the smallest wider than the sheared PSF in every direction",

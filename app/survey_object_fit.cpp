@@ -155,7 +155,8 @@ void SurveyObjectFitter::fit_bands(const ObservationArena& arena, int object, lo
     if (!usable) {
       epochs_.resize(first), epoch_psfs_.resize(first);  // a band left out contributes no cutout
       unusable |= band.flags & (kFlagNoUsableEpoch | kFlagTooMasked);
-      out.flags |= band.flags & ~(kFlagNoUsableEpoch | kFlagTooMasked);
+      // Said in the row: a band masked in every cutout otherwise left it reading ok, its flux NaN.
+      out.flags |= (band.flags & ~(kFlagNoUsableEpoch | kFlagTooMasked)) | kFlagBandLeftOut;
       continue;
     }
     out.flags |= band.flags;

@@ -59,7 +59,8 @@ static_assert(kFlagMaskedPixels == 1u << 0 && kFlagDefaultStart == 1u << 1 &&
               kFlagAtBound == 1u << 2 && kFlagMirrored == 1u << 3 && kFlagNoErrors == 1u << 4 &&
               kFlagNotConverged == 1u << 5 && kFlagUnweighted == 1u << 6 &&
               kFlagEdge == 1u << 16 && kFlagPsfFailure == 1u << 17 && kFlagMetacalFailure == 1u << 18 &&
-              kFlagNoUsableEpoch == 1u << 19 && kFlagTooMasked == 1u << 20 && kFlagBadZeroPoint == 1u << 21,
+              kFlagNoUsableEpoch == 1u << 19 && kFlagTooMasked == 1u << 20 && kFlagBadZeroPoint == 1u << 21 &&
+                  kFlagBandLeftOut == 1u << 22,
               "flag bits changed: update kFlagDocs");
 const FlagDoc kFlagDocs[] = {
     {kFlagMaskedPixels, "some pixels had zero weight"},
@@ -75,6 +76,7 @@ const FlagDoc kFlagDocs[] = {
     {kFlagNoUsableEpoch, "survey: no cutout could be used"},
     {kFlagTooMasked, "survey: unmasked fraction below the minimum"},
     {kFlagBadZeroPoint, "survey: a cutout dropped for its image's magzp"},
+    {kFlagBandLeftOut, "multi-band: a band unusable and left out"},
 };
 constexpr int kNumStatuses = 7;  // FitStatus::kOk .. kPsfFailure
 static_assert(static_cast<int>(FitStatus::kPsfFailure) == kNumStatuses - 1,

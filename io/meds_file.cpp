@@ -197,6 +197,12 @@ void MedsFile::read_ids(long long first, std::span<long long> out) {
   file_.read_column_rows("id", first, out);
 }
 
+void MedsFile::read_positions(long long first, std::span<double> ra, std::span<double> dec) {
+  file_.move_to(object_hdu_);
+  file_.read_column_rows("ra", first, ra);
+  file_.read_column_rows("dec", first, dec);
+}
+
 MedsObject MedsFile::object(long long row) {
   file_.move_to(object_hdu_);
   if (row < 0 || row >= n_objects_)

@@ -84,6 +84,8 @@ class MedsFile {
 
   // The ids of object_data rows [first, first + out.size()).
   void read_ids(long long first, std::span<long long> out);
+  // The ra and dec (degrees) of object_data rows [first, first + ra.size()); dec.size() == ra.size().
+  void read_positions(long long first, std::span<double> ra, std::span<double> dec);
   // Row `row` of object_data (0 <= row < size()); sets `problem` for an object that cannot be fitted.
   MedsObject object(long long row);
   // The box_size^2 pixels (row-major, rows slow) of cutout `icut` of `object` from one array;

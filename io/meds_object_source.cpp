@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 #include "engine/common/number_text.hpp"
@@ -13,6 +14,15 @@ namespace stampede::io {
 
 namespace {
 constexpr double kMaxZeroPointOffset = 25;  // magnitudes: a factor 1e10 in flux
+
+// The angle between two (ra, dec) in degrees, in arcsec (haversine: accurate at small angles, where
+// the cosine formula loses the offset to rounding).
+double separation_arcsec(double ra1, double dec1, double ra2, double dec2) {
+  constexpr double kRad = 3.14159265358979323846 / 180;
+  const double s_dec = std::sin(0.5 * (dec2 - dec1) * kRad), s_ra = std::sin(0.5 * (ra2 - ra1) * kRad);
+  const double h = s_dec * s_dec + std::cos(dec1 * kRad) * std::cos(dec2 * kRad) * s_ra * s_ra;
+  return 2 * std::asin(std::sqrt(h > 1 ? 1.0 : h)) / kRad * 3600;  // a NaN stays NaN (std::min would give 1)
+}
 }  // namespace
 
 void apply_uberseg(std::span<const double> seg, int box_size, std::int64_t number, std::span<double> weight) {
@@ -44,6 +54,7 @@ void check_band_tiles(std::span<MedsFile* const> tiles) {
   MedsFile& first = *tiles[0];
   constexpr long long kChunk = 65536;  // ids compared a chunk at a time: memory bounded, any tile size
   std::vector<long long> a, b;
+  std::vector<double> ra_a, dec_a, ra_b, dec_b;
   for (std::size_t t = 1; t < tiles.size(); ++t) {
     MedsFile& other = *tiles[t];
     if (other.size() != first.size())
@@ -62,6 +73,32 @@ void check_band_tiles(std::span<MedsFile* const> tiles) {
                           std::to_string(*diff.second) + ", --meds '" + first.path() + "' id " +
                           std::to_string(*diff.first) +
                           ": a multi-band run's tiles must list the same objects in the same order");
+      }
+      // The same id at another place is another object: fitting the two as one mixes galaxies.
+      for (auto* v : {&ra_a, &dec_a, &ra_b, &dec_b}) v->resize(static_cast<std::size_t>(n));
+      first.read_positions(begin, ra_a, dec_a);
+      other.read_positions(begin, ra_b, dec_b);
+      for (std::size_t i = 0; i < static_cast<std::size_t>(n); ++i) {
+        const bool known_a = std::isfinite(ra_a[i]) && std::isfinite(dec_a[i]);
+        const bool known_b = std::isfinite(ra_b[i]) && std::isfinite(dec_b[i]);
+        if (!known_a && !known_b) continue;  // nothing to compare: the ids match
+        const double offset = separation_arcsec(ra_a[i], dec_a[i], ra_b[i], dec_b[i]);
+        if (offset <= kMaxBandOffsetArcsec) continue;
+        const auto place = [](double ra, double dec) {
+          std::string text = "(";  // appended, not "(" + ...: GCC 12 warns falsely (-Wrestrict) on that
+          text += number_text(ra);
+          text += ", ";
+          text += number_text(dec);
+          return text + ")";
+        };
+        char offset_text[32];
+        std::snprintf(offset_text, sizeof offset_text, "%.4g", offset);
+        throw ConfigError("--meds '" + other.path() + "': object id " + std::to_string(a[i]) + " (object_data row " +
+                          std::to_string(begin + static_cast<long long>(i)) + ") is at ra, dec = " +
+                          place(ra_b[i], dec_b[i]) + " deg, " + offset_text + " arcsec from its place in --meds '" +
+                          first.path() + "' " + place(ra_a[i], dec_a[i]) +
+                          ": a multi-band run's tiles must hold the same objects at the same places (within " +
+                          number_text(kMaxBandOffsetArcsec) + " arcsec)");
       }
     }
   }

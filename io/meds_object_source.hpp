@@ -82,8 +82,16 @@ class MedsObjectSource final : public StampSource {
   long long next_ = 0, end_ = -1;
 };
 
-// Throws ConfigError unless every tile lists the objects of the first in the same order: the
-// message names the tile, and the row and ids that differ first (or the object counts).
+// How far (arcsec) an object's ra, dec in another band's tile may lie from the first tile's. Tiles
+// cut from one detection catalogue agree exactly; 1 arcsec allows per-band astrometry and rounding,
+// and is about a galaxy's size: farther, the id names another object on the sky (a tile of another
+// field, or one whose object_data was renumbered).
+inline constexpr double kMaxBandOffsetArcsec = 1.0;
+
+// Throws ConfigError unless every tile lists the objects of the first in the same order at the
+// same places (within kMaxBandOffsetArcsec; an object without a finite position in any tile is not
+// compared): the message names the tile, and the row and ids that differ first (or the object
+// counts), or the tiles, the object's id and row and the offset.
 void check_band_tiles(std::span<MedsFile* const> tiles);
 
 // Uberseg: in a box_size^2 seg cutout, zero the weight of every pixel whose nearest labelled seg

@@ -293,16 +293,36 @@ bool is_band_name(const std::string& band, std::string* why) {
   return true;
 }
 
+bool are_band_names(const std::vector<std::string>& bands, std::string* why) {
+  const auto lower = [](std::string s) {
+    for (char& c : s)
+      if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+    return s;
+  };
+  for (std::size_t b = 0; b < bands.size(); ++b) {
+    if (!is_band_name(bands[b], why)) return false;
+    for (std::size_t a = 0; a < b; ++a) {
+      if (bands[a] == bands[b]) {
+        *why = "band '" + bands[b] + "' is given twice";
+        return false;
+      }
+      if (lower(bands[a]) == lower(bands[b])) {
+        *why = "bands '" + bands[a] + "' and '" + bands[b] + "' differ only in case, which FITS column names ignore (flux_" +
+               bands[a] + " is flux_" + bands[b] + "); name them apart";
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
 ResultSchema::ResultSchema(PositionColumns positions, bool metacal, const std::vector<std::string>& bands) : bands_(bands) {
   const std::span<const ResultColumn> base = result_columns(positions, metacal);
   columns_.assign(base.begin(), base.end());
   if (bands.size() > static_cast<std::size_t>(kMaxBands))
     throw std::invalid_argument(std::to_string(bands.size()) + " bands: at most " + std::to_string(kMaxBands));
+  if (std::string why; !are_band_names(bands, &why)) throw std::invalid_argument(why);
   for (std::size_t b = 0; b < bands.size(); ++b) {
-    std::string why;
-    if (!is_band_name(bands[b], &why)) throw std::invalid_argument(why);
-    if (std::find(bands.begin(), bands.begin() + static_cast<std::ptrdiff_t>(b), bands[b]) != bands.begin() + static_cast<std::ptrdiff_t>(b))
-      throw std::invalid_argument("band '" + bands[b] + "' is given twice");
     for (ResultColumn c : kBandColumns[b]) {
       std::string name(c.name);
       name.replace(name.size() - 4, 4, bands[b]);

@@ -103,14 +103,19 @@ inline constexpr const char* kBandsKey = "BANDS";
 // A band's name as a column suffix: 1..16 of [A-Za-z0-9_]. False with *why naming the rule.
 bool is_band_name(const std::string& band, std::string* why);
 
+// The bands of one table: each is_band_name, none repeated, and no two that differ only in case
+// (FITS column lookup ignores case: flux_G and flux_g would be one column to every reader and
+// merge). False with *why naming the name or the two names.
+bool are_band_names(const std::vector<std::string>& bands, std::string* why);
+
 // A table's columns with those of its bands: result_columns(positions, metacal), then for each band
 // b (multi-band survey tables) n_epochs_<b> flux_<b> bulge_flux_<b> disc_flux_<b> snr_<b>, read from
 // and written to record.survey.bands[k] for the k-th band. Owns the band columns' names, so it
 // is neither copied nor moved.
 class ResultSchema {
  public:
-  // Throws std::invalid_argument for more than kMaxBands bands, a name is_band_name refuses or a
-  // repeated one, naming it.
+  // Throws std::invalid_argument for more than kMaxBands bands or names are_band_names refuses,
+  // naming them.
   ResultSchema(PositionColumns positions, bool metacal, const std::vector<std::string>& bands = {});
   ResultSchema(const ResultSchema&) = delete;
   ResultSchema& operator=(const ResultSchema&) = delete;

@@ -3,7 +3,6 @@
 
 #include <tbb/global_control.h>
 
-#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
@@ -143,13 +142,8 @@ int run_sim_meds_command(int argc, char** argv) {
         begin = comma + 1;
       }
       std::string why;
-      for (const std::string& b : bands)
-        if (!io::is_band_name(b, &why)) throw std::invalid_argument("--bands " + tools::quoted_value(v) + ": " + why);
+      if (!io::are_band_names(bands, &why)) throw std::invalid_argument("--bands " + tools::quoted_value(v) + ": " + why);
       if (bands.size() > 8) throw std::invalid_argument("--bands " + tools::quoted_value(v) + ": at most 8 bands");
-      for (std::size_t b = 1; b < bands.size(); ++b)
-        if (std::find(bands.begin(), bands.begin() + static_cast<std::ptrdiff_t>(b), bands[b]) !=
-            bands.begin() + static_cast<std::ptrdiff_t>(b))
-          throw std::invalid_argument("--bands " + tools::quoted_value(v) + ": band '" + bands[b] + "' is given twice");
     } else if (s == "--seed") {
       o.seed = static_cast<std::uint64_t>(tools::integer_in(argc, argv, &i, 0, (1LL << 62)));
     } else if (s == "--threads") {

@@ -32,8 +32,12 @@ FitterOptions metacal_fit_options(FitterOptions o, MetacalModel model) {
 }
 
 bool MetacalOptions::IsValid(std::string* why) const {
-  if (!(step > 0 && step <= 0.1)) {
-    if (why) *why = "metacal_step = " + number_text(step) + ": must be in (0, 0.1]";
+  if (!(step >= kMinStep && step <= 0.1)) {
+    if (why)
+      *why = "metacal_step = " + number_text(step) + ": must be in [" + number_text(kMinStep) + ", 0.1]" +
+             (step > 0 && step < kMinStep ? " (below it, errors in e of the image operations and fits, over 2 "
+                                            "metacal_step, swamp R: docs/metacal.md, \"The step's floor\")"
+                                          : "");
     return false;
   }
   if (!(psf_dilation == 0 || (psf_dilation >= 1 && psf_dilation <= 3))) {

@@ -15,7 +15,13 @@ enum class MetacalModel { kBulgeDisc, kExponential, kGaussian, kWeightedMoments 
 
 struct MetacalOptions {
   bool enabled = false;
-  double step = 0.01;  // the applied shear delta
+  double step = 0.01;  // the applied shear delta, in [kMinStep, 0.1]
+  // R = (e(+step) - e(-step)) / (2 step): an error in e (the image operations' rounding, the fit's
+  // termination, a noisy fit changing basin between the two images) over 2 step is R's error, so a
+  // small enough step gives nonsense R with status ok. The floor is far above where noise-free R
+  // stops being resolved, and keeps noisy model fits' 1/step tail of R near the default step's
+  // (docs/metacal.md, "The step's floor").
+  static constexpr double kMinStep = 1e-3;
   // FWHM of the round reconvolution PSF over the PSF's; 0 = the smallest safe one, (1 + 2 step)
   // times the PSF's axis ratio factor sqrt((1 + |e|) / (1 - |e|)) (wider than the sheared PSF in
   // every direction).

@@ -25,6 +25,10 @@ enum InputFlag : std::uint32_t {
   kFlagNoUsableEpoch = 1u << 19,   // survey input: no cutout could be used (all masked, bad, or without a PSF)
   kFlagTooMasked = 1u << 20,       // survey input: the unmasked fraction fell below min_unmasked_fraction
   kFlagBadZeroPoint = 1u << 21,    // survey input: a cutout dropped, its image's magzp not a usable zero point
+  // Multi-band input: a band had no usable cutout (all masked, bad or without a PSF) or too few
+  // unmasked pixels, and the shape was fitted without it (its columns NaN, n_epochs_<band> 0). Not
+  // shear-excluding: the other bands measured the shape, and metacal's R is that fit's.
+  kFlagBandLeftOut = 1u << 22,
 };
 
 // Rows whose ellipticity may enter a shear estimate (`stampede metrics`, the noise-bias

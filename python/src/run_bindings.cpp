@@ -15,6 +15,7 @@
 
 #include "app/fit_run.hpp"
 #include "app/shard_merge.hpp"
+#include "io/result_columns.hpp"
 #include "arguments.hpp"
 #include "options.hpp"
 
@@ -148,6 +149,8 @@ void bind_run(py::module_& m) {
           if (!tile.empty()) a.meds = {tile};  // "" is the default: no tile
         }
         if (!in.object("bands").is_none()) a.bands = in.names("bands");
+        // Here as well as in the run, so that the error names run_fit's argument.
+        if (std::string why; !io::are_band_names(a.bands, &why)) throw py::value_error(in.where("bands") + ": " + why);
         if (!a.bands.empty() && a.meds.empty())
           throw py::value_error(in.where("bands") + " names the bands of the meds tiles: give meds");
         a.output = in.text("output");

@@ -185,6 +185,28 @@ TEST(RunConfigRegistry, MetacalModelAndWeightParseAndValidate) {
                        "metacal_weight_fwhm = 0.05: must be 0 (automatic) or in [0.1, 1000] (pixels; arcsec for MEDS tiles)"));
 }
 
+// metacal_step was accepted in (0, 0.1], but at 1e-4 .. 1e-8 errors in e over 2 step swamped R, with
+// status ok (bd at 1e-4: mean R11 3.2). Refused below the measured floor (docs/metacal.md, "The
+// step's floor"), naming the option, its value and the bound.
+TEST(RunConfigValidate, MetacalStepBelowItsFloorIsRefused) {
+  RunConfig c;
+  set_option(c, "metacal", "true");
+  for (const char* step : {"1e-04", "1e-08", "9e-04"}) {  // as the message writes them
+    set_option(c, "metacal_step", step);
+    EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }),
+                         std::string("metacal_step = ") + step + ": must be in [0.001, 0.1] (below it, errors in e of the "
+                         "image operations and fits, over 2 metacal_step, swamp R"))
+        << step;
+  }
+  set_option(c, "metacal_step", "0");
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }), "metacal_step = 0: must be in [0.001, 0.1]"));
+  for (const char* step : {"0.001", "0.1"}) {
+    set_option(c, "metacal_step", step);
+    EXPECT_NO_THROW(validate(c)) << step;
+  }
+  EXPECT_EQ(MetacalOptions::kMinStep, 0.001);  // the help text and docs/usage.md say 0.001
+}
+
 // --- get / set -----------------------------------------------------------------------------------
 
 // Every key, from the defaults and from awkward values: the text get_option gives sets the

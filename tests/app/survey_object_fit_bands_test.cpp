@@ -1,7 +1,9 @@
 // Multi-band fits of `stampede sim meds --bands` tiles (app/survey_object_fit):
 // noise-free three bands of four epochs under four shears have no bias and give each band's flux
 // (must-show 1); one band through the multi-band path is the single tile's rows bit for bit
-// (must-show 2); bad inputs are refused naming the tile, or are flagged rows (must-show 5).
+// (must-show 2); bad inputs are refused naming the tile, or are flagged rows (must-show 5): band
+// names apart only in case, the same tile as two bands, objects at other places in another band's
+// tile, a band masked in every cutout of an object.
 #include "app/survey_object_fit.hpp"
 
 #include <gtest/gtest.h>
@@ -23,6 +25,7 @@
 #include "app/shard_merge.hpp"
 #include "io/fits_error.hpp"
 #include "io/fits_file.hpp"
+#include "io/meds_file.hpp"
 #include "app/run_config.hpp"
 #include "support/error_assertions.hpp"
 #include "support/meds_edit.hpp"
@@ -297,6 +300,80 @@ TEST(MultiBandObjectFit, BadInputsAreRefusedOrFlagged) {
     EXPECT_EQ(n_g[i], 2) << i;
     EXPECT_TRUE(std::isnan(flux_r[i])) << i;
     EXPECT_GT(flux_g[i], 0) << i;
+    EXPECT_TRUE(static_cast<std::uint32_t>(flags[i]) & kFlagBandLeftOut) << i;
+  }
+}
+
+// Band names apart only in case: FITS column lookup ignores case, so flux_G and flux_g were one
+// column to readers and merge. Refused before any tile is opened, naming the option and both.
+TEST(MultiBandObjectFit, BandNamesDifferingOnlyInCaseAreRefused) {
+  testing::ScratchDir dir("stampede_multi_band_");
+  FitRunOptions r = run_of(dir.path("t"), {"G", "r", "g"}, dir.path("out.fits"));
+  expect_refused([&] { FitRun(r).run(); }, {"--bands: bands 'G' and 'g' differ only in case"});
+  EXPECT_FALSE(std::filesystem::exists(dir.path("out.fits")));
+}
+
+// The same tile given as two bands (another spelling of its path, a hard link, a copy, "t[0]") was
+// fitted as two bands: S/N sqrt(2) too high, errors sqrt(2) too small. Refused by the tiles'
+// digests, which the table records, naming both tiles and bands; with no output as well.
+TEST(MultiBandObjectFit, TheSameTileAsTwoBandsIsRefused) {
+  testing::ScratchDir dir("stampede_multi_band_");
+  MedsSimOptions o;
+  o.objects = 2, o.epochs = 1, o.snr = 30;
+  simulate(dir.path("t"), {"g", "r"}, o);
+  const std::string g = dir.path("t/g/meds.fits"), out = dir.path("out.fits");
+  std::filesystem::create_hard_link(g, dir.path("link.fits"));
+  std::filesystem::copy_file(g, dir.path("copy.fits"));
+  for (const std::string& same : {dir.path("t/./g/meds.fits"), dir.path("link.fits"), dir.path("copy.fits"), g + "[0]"}) {
+    FitRunOptions r = run_of(dir.path("t"), {"g", "r"}, out);
+    r.meds[1] = same;
+    const std::string refusal = "--meds '" + same + "' (band r) holds the same bytes as --meds '" + g + "' (band g)";
+    expect_refused([&] { FitRun(r).run(); }, {refusal, "one tile per band"});
+    r.output.clear();
+    expect_refused([&] { FitRun(r).run(); }, {refusal});
+  }
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+// Zero weight in every cutout (coadd included) of object `row` of `tile`.
+void mask_object(const std::string& tile, long long row) {
+  io::MedsObject o;
+  {
+    io::MedsFile m = io::MedsFile::open(tile);
+    o = m.object(row);
+  }
+  const std::vector<double> zeros(static_cast<std::size_t>(o.box_size * o.box_size), 0.0);
+  testing::MedsEditor(tile).edit([&](fitsfile* f, int* status) {
+    fits_movnam_hdu(f, IMAGE_HDU, const_cast<char*>("weight_cutouts"), 0, status);
+    for (const io::MedsCutout& c : o.cutouts)
+      fits_write_img(f, TDOUBLE, c.start_row + 1, static_cast<LONGLONG>(zeros.size()), const_cast<double*>(zeros.data()),
+                     status);
+  });
+}
+
+// A band masked in every cutout of an object was dropped without a word: n_epochs_r 0, flux_r NaN,
+// status ok, no flag. The row is still fitted from the other band, and now says so
+// (kFlagBandLeftOut); the other objects' rows do not.
+TEST(MultiBandObjectFit, ABandMaskedInEveryCutoutFlagsTheRow) {
+  testing::ScratchDir dir("stampede_multi_band_");
+  MedsSimOptions o;
+  o.objects = 4, o.epochs = 2, o.snr = 30;
+  const std::vector<std::string> bands = {"g", "r"};
+  simulate(dir.path("t"), bands, o);
+  mask_object(dir.path("t/r/meds.fits"), 1);
+  const std::string out = dir.path("out.fits");
+  FitRun(run_of(dir.path("t"), bands, out)).run();
+  const auto flags = column(out, "RESULTS", "flags"), status = column(out, "RESULTS", "status");
+  const auto n_r = column(out, "RESULTS", "n_epochs_r"), n_g = column(out, "RESULTS", "n_epochs_g");
+  const auto flux_r = column(out, "RESULTS", "flux_r");
+  ASSERT_EQ(flags.size(), 4u);
+  for (std::size_t i = 0; i < flags.size(); ++i) {
+    const bool masked = i == 1;
+    EXPECT_EQ(static_cast<bool>(static_cast<std::uint32_t>(flags[i]) & kFlagBandLeftOut), masked) << i;
+    EXPECT_EQ(status[i], 0) << i;
+    EXPECT_EQ(n_g[i], 2) << i;
+    EXPECT_EQ(n_r[i], masked ? 0 : 2) << i;
+    EXPECT_EQ(std::isnan(flux_r[i]), masked) << i;
   }
 }
 

@@ -1,14 +1,21 @@
 // Tests for the MEDS source (io/meds_object_source): a batch of the sample tile's objects carries
 // each object's four cutouts with their pixels, weights, frames and PSFEx images, and its identity;
-// a shard's end stops the reading; uberseg against a hand-built seg map.
+// a shard's end stops the reading; uberseg against a hand-built seg map; one tile per band must
+// hold the same objects at the same places.
 #include "io/meds_object_source.hpp"
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <filesystem>
+#include <numbers>
 #include <string>
 #include <vector>
 
 #include "engine/pipeline/range_source.hpp"
+#include "io/config_error.hpp"
+#include "support/meds_edit.hpp"
+#include "support/scratch_dir.hpp"
 
 namespace stampede::io {
 namespace {
@@ -63,6 +70,49 @@ TEST(MedsObjectSource, AShardsEndStopsTheReading) {
   EXPECT_EQ(batch.observations.objects(), 2);  // nothing read past the shard's end
   EXPECT_EQ(batch.first_object, 7);
   EXPECT_FALSE(shard.fill(batch));
+}
+
+// Band tiles used to be matched by id alone: an r tile whose object lay 1 degree away was fitted with
+// the g tile's as one galaxy. An offset beyond kMaxBandOffsetArcsec is refused naming both tiles,
+// the object's id and row and the offset; one within it (per-band astrometry) is not.
+TEST(MedsObjectSource, BandTilesWhoseObjectsLieApartAreRefused) {
+  testing::ScratchDir dir("stampede_meds_source_");
+  const std::string g = dir.path("g.fits"), r = dir.path("r.fits");
+  std::filesystem::copy_file(kSample + "/meds.fits", g);
+  std::filesystem::copy_file(kSample + "/meds.fits", r);
+  MedsFile tile = MedsFile::open(g);
+  const MedsObject o = tile.object(5);
+  const double arcsec = 1.0 / 3600, degree = std::numbers::pi / 180;
+  auto refusal = [&]() -> std::string {
+    try {
+      MedsObjectSource source({g, r}, MedsOptions{}, PsfModel{});
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  // Within the tolerance: 0.6 arcsec in dec, then 0.6 arcsec on the sky in ra (cos dec wider).
+  testing::MedsEditor(r).set_cell("object_data", "dec", 5, 0, o.dec + 0.6 * arcsec);
+  EXPECT_EQ(refusal(), "");
+  testing::MedsEditor(r).set_cell("object_data", "dec", 5, 0, o.dec);
+  testing::MedsEditor(r).set_cell("object_data", "ra", 5, 0, o.ra + 0.6 * arcsec / std::cos(o.dec * degree));
+  EXPECT_EQ(refusal(), "");
+  // 1 degree in ra: refused.
+  testing::MedsEditor(r).set_cell("object_data", "ra", 5, 0, o.ra + 1.0);
+  const std::string far = refusal();
+  for (const std::string& part : {"--meds '" + r + "'", "object id " + std::to_string(o.id) + " (object_data row 5)",
+                                  "--meds '" + g + "'", std::string("(within 1 arcsec)")})
+    EXPECT_NE(far.find(part), std::string::npos) << part << " in: " << far;
+  const std::size_t at = far.find(" deg, ");
+  ASSERT_NE(at, std::string::npos) << far;
+  const double offset = std::stod(far.substr(at + 6));  // "3600 arcsec from its place ..."
+  EXPECT_NEAR(offset, 3600 * std::cos(o.dec * degree), 1.0) << far;  // 1 degree of ra at that dec
+  // 1.5 arcsec in dec: refused; a position missing in one tile (NaN) cannot be matched either.
+  testing::MedsEditor(r).set_cell("object_data", "ra", 5, 0, o.ra);
+  testing::MedsEditor(r).set_cell("object_data", "dec", 5, 0, o.dec - 1.5 * arcsec);
+  EXPECT_NE(refusal().find("1.5 arcsec from its place"), std::string::npos) << refusal();
+  testing::MedsEditor(r).set_cell("object_data", "dec", 5, 0, NAN);
+  EXPECT_NE(refusal().find("nan arcsec from its place"), std::string::npos) << refusal();
 }
 
 // Uberseg on a hand-built 6 x 6 seg map: object 5 in the top-left, object 9 in the bottom-right;

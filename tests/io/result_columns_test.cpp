@@ -10,6 +10,7 @@
 #include <bit>
 #include <cstdint>
 #include <cstring>
+#include <stdexcept>
 #include <string>
 
 namespace stampede::io {
@@ -84,6 +85,23 @@ TEST(ResultColumns, SurveyMetacalTablesAddTheMetacalColumnsAndGamma) {
   EXPECT_EQ(metacal.back().field, ResultField::kGammaFwhm);
   EXPECT_STREQ(metacal.back().unit, "arcsec");
   for (const ResultColumn& c : survey) EXPECT_NE(c.field, ResultField::kR11);
+}
+
+// FITS column lookup ignores case: with bands G and g, flux_G and flux_g were one column to
+// CFITSIO, so a reader (and merge) got G's values for both. Such names are refused, naming both.
+TEST(ResultColumns, BandNamesThatDifferOnlyInCaseAreRefused) {
+  std::string why;
+  EXPECT_FALSE(are_band_names({"r", "G", "i", "g"}, &why));
+  EXPECT_NE(why.find("bands 'G' and 'g' differ only in case"), std::string::npos) << why;
+  EXPECT_FALSE(are_band_names({"g", "r", "g"}, &why));
+  EXPECT_NE(why.find("band 'g' is given twice"), std::string::npos) << why;
+  EXPECT_TRUE(are_band_names({"g", "r", "i", "z", "Y"}, &why)) << why;
+  try {
+    const ResultSchema schema(PositionColumns::kSurvey, false, {"DES_z", "des_Z"});
+    ADD_FAILURE() << "bands DES_z and des_Z accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'DES_z' and 'des_Z' differ only in case"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 """run_fit: the `stampede fit` run from Python, its summary, warnings and errors."""
 
 import os
+import re
+import shutil
 import signal
 import threading
 import warnings
@@ -156,6 +158,15 @@ def test_meds_tiles_of_several_bands_are_fitted_jointly(tmp_path):
         stampede.run_fit(meds=tiles, bands=["g"], output=str(tmp_path / "x.fits"))
     with pytest.raises(TypeError, match="bands"):
         stampede.run_fit(meds=tiles, bands="gr", output=str(tmp_path / "x.fits"))
+    # FITS column lookup ignores case: flux_G and flux_g would be one column to every reader.
+    with pytest.raises(ValueError, match=r"run_fit\(\): bands: bands 'G' and 'g' differ only in case"):
+        stampede.run_fit(meds=tiles, bands=["G", "g"], output=str(tmp_path / "x.fits"))
+    # The same tile as two bands (here a copy) would count its pixels twice: S/N sqrt(2) too high.
+    copy = str(tmp_path / "copy.fits")
+    shutil.copyfile(tiles[0], copy)
+    with pytest.raises(stampede.ConfigError, match=re.escape(f"'{copy}' (band r) holds the same bytes as --meds '{tiles[0]}' (band g)")):
+        stampede.run_fit(meds=[tiles[0], copy], bands=["g", "r"], output=str(tmp_path / "x.fits"))
+    assert not os.path.exists(tmp_path / "x.fits")
 
 
 def test_bord_rows_hold_the_losing_models_likelihood(tmp_path):

@@ -621,6 +621,21 @@ TEST_F(FitCommand, ResumingACompleteOutputLeavesItAsItIs) {
   EXPECT_NE(other.err.find("is complete but was written by another run"), std::string::npos) << other.err;
 }
 
+// Band names that differ only in case: FITS column lookup ignores case, so flux_G and flux_g were one
+// column to readers and merge (both read G's values). Refused before any work, naming the option
+// and both names; `sim meds`, whose tiles' directories the names are, likewise.
+TEST_F(FitCommand, BandNamesDifferingOnlyInCaseAreRefused) {
+  const RunResult r = run({"--meds", path("g.fits"), "--meds", path("r.fits"), "--bands", "G,g", "-o", path("o.fits")});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--bands: bands 'G' and 'g' differ only in case"), std::string::npos) << r.err;
+  const RunResult sim =
+      finish(spawn({"meds", "--out", path("sim"), "--bands", "r,g,R", "--objects", "2"}, path("sim.txt"), "sim"), path("sim.txt"));
+  EXPECT_EQ(sim.exit_code, 1);
+  EXPECT_NE(sim.err.find("--bands 'r,g,R': bands 'r' and 'R' differ only in case"), std::string::npos) << sim.err;
+  EXPECT_FALSE(fs::exists(path("o.fits")));
+  EXPECT_FALSE(fs::exists(path("sim")));
+}
+
 // --bands (or another one-value option) given twice: the last used to win silently; refused before
 // any work.
 TEST_F(FitCommand, OptionsGivenTwiceAreRefused) {

@@ -84,6 +84,7 @@ TEST_F(SimCellsCommand, BadOptionsAreClearErrorsNamingTheOption) {
       {{"--buffer", "200"}, "--buffer 200: must be >= 0 and leave an interior"},
       {{"--density", "0"}, "--density 0: must be in (0, 10000]"},
       {{"--bands", "g,g"}, "--bands: band 'g' is given twice"},
+      {{"--bands", "g,G"}, "--bands: bands 'g' and 'G' differ only in case"},
       {{"--frobnicate"}, "unknown option '--frobnicate'"},
   };
   for (const auto& [args, message] : cases) {

@@ -27,7 +27,7 @@ TEST(NumberText, MetacalOptionErrorsShowTheValueGiven) {
   o.step = -1e-7;
   std::string why;
   EXPECT_FALSE(o.IsValid(&why));
-  EXPECT_EQ(why, "metacal_step = -1e-07: must be in (0, 0.1]");
+  EXPECT_EQ(why, "metacal_step = -1e-07: must be in [0.001, 0.1]");
 }
 
 }  // namespace
