@@ -27,13 +27,8 @@ SurveyObjectFitter::SurveyObjectFitter(const MedsFitOptions& options, std::vecto
       (bands_.size() != tiles_.size() && !(bands_.empty() && tiles_.size() == 1)))
     throw std::invalid_argument("SurveyObjectFitter: " + std::to_string(tiles_.size()) + " tiles for " +
                                 std::to_string(bands_.size()) + " bands (1.." + std::to_string(kMaxBands) + ")");
-  const bool bord = options.model == MedsModel::kBulgeOrDisc;
-  if (tiles_.size() == 1) {
-    if (bord) bulge_fitter_ = std::make_unique<MultiEpochFitter>(single_component(options.fitter, Param::kDiscA));
-  } else {
-    band_fitter_ = std::make_unique<MultiBandFitter>(bord ? single_component(options.fitter, Param::kBulgeA) : options.fitter);
-    if (bord) band_bulge_fitter_ = std::make_unique<MultiBandFitter>(single_component(options.fitter, Param::kDiscA));
-  }
+  if (options.model == MedsModel::kBulgeOrDisc)
+    bulge_fitter_ = std::make_unique<ObjectFitter>(single_component(options.fitter, Param::kDiscA));
   if (options.metacal.enabled) metacal_ = std::make_unique<MultiEpochMetacalFitter>(options.fitter, options.metacal);
 }
 
@@ -127,10 +122,10 @@ void SurveyObjectFitter::fit_one_band(const ObservationArena& arena, int object,
     out.flags |= out.fit.flags;
     return;
   }
-  out.fit = fitter_.fit(epochs_, 0);
+  out.fit = fitter_.fit(epochs_);
   if (bulge_fitter_) {
     // The PSFs were prepared by fitter_'s renderers: the same kind, options and box size.
-    FitResult bulge = bulge_fitter_->fit(epochs_, 0);
+    FitResult bulge = bulge_fitter_->fit(epochs_);
     const bool disc_ok = IsUsable(out.fit.status), bulge_ok = IsUsable(bulge.status);
     const bool take_bulge = bulge_ok && (!disc_ok || bulge.likelihood > out.fit.likelihood);
     if (take_bulge) std::swap(out.fit, bulge);
@@ -185,18 +180,17 @@ void SurveyObjectFitter::fit_bands(const ObservationArena& arena, int object, lo
     out.flags |= out.fit.flags;
     return;
   }
-  MultiBandFitResult r = band_fitter_->fit(epochs_, n, 0);
-  if (band_bulge_fitter_) {
+  out.fit = fitter_.fit(epochs_, n, out.bands);
+  if (bulge_fitter_) {
     // The PSFs were prepared by fitter_'s renderers: the same kind, options and box sizes.
-    MultiBandFitResult bulge = band_bulge_fitter_->fit(epochs_, n, 0);
-    const bool disc_ok = IsUsable(r.fit.status), bulge_ok = IsUsable(bulge.fit.status);
-    const bool take_bulge = bulge_ok && (!disc_ok || bulge.fit.likelihood > r.fit.likelihood);
-    if (take_bulge) std::swap(r, bulge);
+    std::vector<BandFit> bulge_bands(static_cast<std::size_t>(n));
+    FitResult bulge = bulge_fitter_->fit(epochs_, n, bulge_bands);
+    const bool disc_ok = IsUsable(out.fit.status), bulge_ok = IsUsable(bulge.status);
+    const bool take_bulge = bulge_ok && (!disc_ok || bulge.likelihood > out.fit.likelihood);
+    if (take_bulge) std::swap(out.fit, bulge), std::swap(out.bands, bulge_bands);
     out.is_bulge = take_bulge;
-    out.other_likelihood = bulge.fit.likelihood;  // the loser's, after the swap
+    out.other_likelihood = bulge.likelihood;  // the loser's, after the swap
   }
-  out.fit = r.fit;
-  out.bands = std::move(r.bands);
   out.flags |= out.fit.flags;
 }
 

@@ -1,8 +1,8 @@
 // One survey object fitted on its observations: the cutouts a MEDS source read into the batch's
 // arena (io/meds_object_source), of one band or several. Each cutout's PSF is prepared here, in
 // the parallel fit stage, by this thread's renderers; the object is then fitted jointly on every
-// usable cutout (MultiEpochFitter for one band, MultiBandFitter for several: one shape, a bulge and
-// a disc amplitude per band), bord choosing the pure bulge or the pure disc, or measured by
+// usable cutout (ObjectFitter: one shape, a bulge and a disc amplitude per band), bord choosing the
+// pure bulge or the pure disc, or measured by
 // metacalibration (MultiEpochMetacalFitter: one Gamma over every cutout, R the combined response).
 // A band whose cutouts are all unusable is left out of a multi-band fit (its n_epochs 0, its
 // problem in the row's, prefixed with the band). One band named by --bands is the single tile's fit
@@ -18,9 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "engine/fit/multi_band_fitter.hpp"
 #include "engine/fit/multi_band_result.hpp"
-#include "engine/fit/multi_epoch_fitter.hpp"
+#include "engine/fit/object_fitter.hpp"
 #include "engine/metacal/multi_epoch_metacal_fitter.hpp"
 #include "engine/pipeline/object_record.hpp"
 #include "engine/pipeline/pipeline.hpp"
@@ -75,10 +74,8 @@ class SurveyObjectFitter {
   MedsFitOptions options_;
   std::vector<std::string> tiles_;
   std::vector<std::string> bands_;
-  MultiEpochFitter fitter_;  // bd; bord: the pure disc. Its renderers prepare every cutout's PSF
-  std::unique_ptr<MultiEpochFitter> bulge_fitter_;      // one band, bord: the pure bulge
-  std::unique_ptr<MultiBandFitter> band_fitter_;        // several bands: bd; bord: the pure disc
-  std::unique_ptr<MultiBandFitter> band_bulge_fitter_;  // several bands, bord: the pure bulge
+  ObjectFitter fitter_;  // bd; bord: the pure disc. Its renderers prepare every cutout's PSF
+  std::unique_ptr<ObjectFitter> bulge_fitter_;  // bord: the pure bulge
   std::unique_ptr<MultiEpochMetacalFitter> metacal_;    // metacal runs
   std::map<int, std::shared_ptr<const PreparedPsf>> options_psf_;  // meds_psf = options, per box size
   std::vector<Observation> epochs_;                // the current object's, reused

@@ -79,7 +79,7 @@ BENCHMARK(BM_OneFit)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_MetacalImages(benchmark::State& state) {
   FftPlanCache plans(FftPlanning::kEstimate);
-  MetacalFitter mcal(options(), MetacalOptions(), stamps().size, plans, FftPlanning::kEstimate);
+  MetacalFitter mcal(options(), MetacalOptions(), stamps().size, FftPlanning::kEstimate);
   std::string err;
   if (!mcal.set_psf(psf(), &err)) return state.SkipWithError(err.c_str());
   long long n = 0;
@@ -94,7 +94,7 @@ void metacal_rows(benchmark::State& state, MetacalModel model) {
   FftPlanCache plans(FftPlanning::kEstimate);
   MetacalOptions mo;
   mo.model = model;
-  MetacalFitter mcal(options(), mo, stamps().size, plans, FftPlanning::kEstimate);
+  MetacalFitter mcal(options(), mo, stamps().size, FftPlanning::kEstimate);
   std::string err;
   if (!mcal.set_psf(psf(), &err)) return state.SkipWithError(err.c_str());
   long long n = 0, failed = 0;

@@ -24,8 +24,7 @@
 #include <random>
 #include <vector>
 
-#include "engine/fit/multi_band_fitter.hpp"
-#include "engine/fit/multi_epoch_fitter.hpp"
+#include "engine/fit/object_fitter.hpp"
 #include "engine/metacal/multi_epoch_metacal_fitter.hpp"
 #include "engine/sim/sim_renderer.hpp"
 
@@ -103,9 +102,10 @@ const std::vector<Cutout>& band_cutouts() {
   return all;
 }
 
-// The joint fit of each galaxy's first `bands` bands (4 cutouts each) through MultiBandFitter.
+// The joint fit of each galaxy's first `bands` bands (4 cutouts each) through ObjectFitter.
 void fit_bands(benchmark::State& state, int bands, bool project = true) {
-  MultiBandFitter fitter(options(project));
+  ObjectFitter fitter(options(project));
+  std::vector<BandFit> band_fits(kBands);
   std::vector<Observation> data;
   for (std::size_t i = 0; i < band_cutouts().size(); ++i) {
     const Cutout& c = band_cutouts()[i];
@@ -118,10 +118,11 @@ void fit_bands(benchmark::State& state, int bands, bool project = true) {
   double iterations = 0, surrogate_iterations = 0, evaluations = 0;
   for (auto _ : state)
     for (int g = 0; g < kGalaxies; ++g, ++n) {
-      const MultiBandFitResult r = fitter.fit(std::span<const Observation>(data).subspan(g * kBands * kEpochs, bands * kEpochs), bands);
-      iterations += r.fit.iterations;
-      surrogate_iterations += r.fit.surrogate_iterations;
-      evaluations += r.fit.evaluations + r.fit.surrogate_evaluations;
+      const FitResult r = fitter.fit(std::span<const Observation>(data).subspan(g * kBands * kEpochs, bands * kEpochs), bands,
+                                     std::span<BandFit>(band_fits).first(static_cast<std::size_t>(bands)));
+      iterations += r.iterations;
+      surrogate_iterations += r.surrogate_iterations;
+      evaluations += r.evaluations + r.surrogate_evaluations;
     }
   state.counters["iters_per_fit"] = iterations / static_cast<double>(n);
   state.counters["surrogate_iters_per_fit"] = surrogate_iterations / static_cast<double>(n);
@@ -130,7 +131,7 @@ void fit_bands(benchmark::State& state, int bands, bool project = true) {
 }
 
 void fit_epochs(benchmark::State& state, int epochs, bool project = true) {
-  MultiEpochFitter fitter(options(project));
+  ObjectFitter fitter(options(project));
   std::vector<Observation> data;
   for (const Cutout& c : cutouts()) {
     std::string error;

@@ -306,6 +306,20 @@ def run_python(out_dir, grid):
             stampede.fit_stamps(stamps, options=opts, threads=2, grid_nx=nx))
     np.save(os.path.join(out_dir, "py-fit_stamps-mc.npy"),
             stampede.fit_stamps(stamps, options=opts.replace(metacal=True), threads=2, grid_nx=nx))
+    # A PSF image per stamp (three Gaussians of other widths and shapes in turn) and a weight map
+    # that masks each stamp's first row: the per-object PSF cache and the mask weights.
+    y, x = np.mgrid[0:25, 0:25] - 12.0
+    kinds = []
+    for sx, sy, rho in ((1.2, 1.3, 0.05), (1.5, 1.4, -0.1), (1.1, 1.1, 0.0)):
+        q = (x / sx) ** 2 + (y / sy) ** 2 - 2 * rho * x * y / (sx * sy)
+        g = np.exp(-0.5 * q / (1 - rho * rho))
+        kinds.append(g / g.sum())
+    psfs = np.ascontiguousarray(np.stack([kinds[i % 3] for i in range(len(stamps))]))
+    weights = np.full(stamps.shape, 1.0 / hdr["NOISESIG"] ** 2)
+    weights[:, 0, :] = 0
+    np.save(os.path.join(out_dir, "py-fit_stamps-psfs.npy"),
+            stampede.fit_stamps(stamps, weights=weights, psf=psfs, options=stampede.Options(),
+                                threads=2, grid_nx=nx))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the header's NOISESIG taken as noise_sigma
         stampede.run_fit(input=grid, output=os.path.join(out_dir, "py-run_fit.fits"), threads=2, overwrite=True)

@@ -11,13 +11,14 @@
 #
 # Cases and verdicts (exit status 1 when any case fails; every case runs whatever others gave):
 #   sim-*        NEW's `stampede sim` outputs = REF's, byte for byte (same command, same relative --out)
-#   grid-*       `stampede fit` on grids: plain (sim S/N 20; GalSim's nf set 0 and S/N 40 set 1), metacal
-#                wmom and bd: every column but time_us, the row count, the column names and the header
+#   grid-*       `stampede fit` on grids: plain (sim S/N 20, also with renderer = upsampled; GalSim's nf
+#                set 0 and S/N 40 set 1), metacal wmom and bd: every column but time_us, the row count, the column names and the header
 #                (keys holding times, dates or versions aside; RUNFP reported only) bit for bit
-#   py-*         stampede.fit_stamps on a numpy stack of the grid's stamps (plain, metacal) and
+#   py-*         stampede.fit_stamps on a numpy stack of the grid's stamps (plain, metacal, a PSF image
+#                per stamp with masked rows) and
 #                stampede.run_fit on the grid file: bitwise as grids
 #   meds-*       `fit --meds`: the shared sample tile, `sim meds` 4-epoch tiles noise-free and S/N 30, a
-#                3-band tile set (--bands g,r,i); plain and metacal wmom. Noise-free: |de| <= 1e-7 and
+#                3-band tile set (--bands g,r,i); plain, metacal wmom, and bord (1 and 3 bands). Noise-free: |de| <= 1e-7 and
 #                the same status for every object; noisy: >= 99.9 % of objects with |de| <= 0.01 e_err
 #                and the same status. BITWISE when the tables are identical.
 #   mpi-*        NEW only: `mpirun -n 2 stampede-mpi fit` bitwise against NEW's single-process table, on
@@ -197,6 +198,7 @@ fit_both grid-gs-snr40-1 bitwise "$GS/snr40/set_1.fits"
 # --- 2. grids, metacal
 fit_both grid-mc-wmom bitwise in/s20/set_0.fits "${MC[@]}"
 fit_both grid-mc-bd bitwise in/s20bd/set_0.fits "${BD[@]}"
+fit_both grid-s20-upsampled bitwise in/s20/set_0.fits --set renderer=upsampled
 
 # --- 3. Python
 py_ok=()
@@ -206,7 +208,7 @@ for side in ref new; do
     py_ok+=("$side")
   fi
 done
-for c in py-fit_stamps py-fit_stamps-mc py-run_fit; do
+for c in py-fit_stamps py-fit_stamps-mc py-fit_stamps-psfs py-run_fit; do
   ext=npy; [[ $c == py-run_fit ]] && ext=fits
   if [[ ${#py_ok[@]} -eq 2 ]]; then
     cmp_py table "$c" bitwise "ref/$c.$ext" "new/$c.$ext"
@@ -226,6 +228,8 @@ fit_both meds-noisy-mc noisy --meds in/meds-noisy/meds.fits "${MC[@]}"
 B3=(--meds in/meds-3band/g/meds.fits --meds in/meds-3band/r/meds.fits --meds in/meds-3band/i/meds.fits --bands g,r,i)
 fit_both meds-3band noisy "${B3[@]}"
 fit_both meds-3band-mc noisy "${B3[@]}" "${MC[@]}"
+fit_both meds-noisy-bord noisy --meds in/meds-noisy/meds.fits --set meds_model=bord
+fit_both meds-3band-bord noisy "${B3[@]}" --set meds_model=bord
 
 # --- 5. MPI (NEW only): 2 ranks = one process; kill -9 then --resume = uninterrupted
 mpi_vs mpi-grid new/grid-s20.fits in/s20/set_0.fits

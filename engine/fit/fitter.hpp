@@ -12,6 +12,7 @@
 
 #include "engine/fit/fit_result.hpp"
 #include "engine/fit/fit_units.hpp"
+#include "engine/fit/observation.hpp"
 #include "engine/model/galaxy_model.hpp"
 #include "engine/model/parameters.hpp"
 #include "engine/render/fft_plans.hpp"
@@ -47,11 +48,6 @@ struct FitterOptions {
 // free and unbounded, and some other parameter free): the single-stamp fit and the joint fits over
 // cutouts and bands (engine/fit/projected_joint_problem) alike.
 bool projects_amplitudes(const FitterOptions& options);
-
-// What a stamp's weight array holds: inverse variances, or a mask (0 masks a pixel, any other
-// value leaves it at noise_sigma's weight, unweighted when noise_sigma = 0), e.g. the image edge
-// of a cutout with no weight map, so a masked stamp follows the same weighting rules as a whole one.
-enum class WeightKind { kInverseVariance, kMask };
 
 class Fitter {
  public:

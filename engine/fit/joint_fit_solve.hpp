@@ -1,4 +1,4 @@
-// What the joint fits over cutouts (MultiEpochFitter) and over bands (MultiBandFitter) share besides
+// What the joint fits over observations (ObjectFitter's problems) share besides
 // the solve (engine/fit/solve.hpp): the scratch a cutout is drawn into, the check of their cutouts,
 // and whether any cutout's renderer has a surrogate to start on.
 #pragma once
@@ -10,7 +10,7 @@
 
 #include "engine/fit/fit_result.hpp"
 #include "engine/fit/fitter.hpp"
-#include "engine/fit/multi_epoch_fitter.hpp"
+#include "engine/fit/observation.hpp"
 #include "engine/fit/solve.hpp"
 #include "kernels/least_squares.hpp"
 
@@ -65,8 +65,7 @@ class CutoutScratch {
   std::array<double*, kNumParams> columns_{};
 };
 
-// What every joint problem holds of its cutouts (MultiEpochFitter's, MultiBandFitter's and the
-// projected one): the cutouts and their kernel data, the renderer per box size, the scratch they
+// What every joint problem holds of its cutouts (ObjectFitter's and the projected one): the cutouts and their kernel data, the renderer per box size, the scratch they
 // are drawn into, the unmasked pixel count and the chi2 that counts as exact.
 class JointCutouts {
  public:

@@ -1,4 +1,4 @@
-// What a joint fit over bands gives (engine/fit/multi_band_fitter): the common shape and, per band,
+// What a joint fit over bands gives (engine/fit/object_fitter): the common shape and, per band,
 // its amplitudes, fluxes and S/N. Kept apart from the fitter so output records can hold it.
 #pragma once
 

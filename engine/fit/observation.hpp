@@ -12,7 +12,13 @@
 
 namespace stampede {
 
-// psf: prepared by a renderer of the fitter's options at box_size (renderer_for(box_size)).
+// What a stamp's weight array holds: inverse variances, or a mask (0 masks a pixel, any other
+// value leaves it at noise_sigma's weight, unweighted when noise_sigma = 0), e.g. the image edge
+// of a cutout with no weight map, so a masked stamp follows the same weighting rules as a whole one.
+enum class WeightKind { kInverseVariance, kMask };
+
+// psf: prepared by a renderer of the fitter's options at box_size (ObjectFitter::renderer_for).
+// pixels and weight: box_size^2; an empty weight is noise_sigma's (a single stamp only).
 struct Observation {
   std::span<const double> pixels;  // box_size^2, row-major (rows slow)
   std::span<const double> weight;  // inverse variance per pixel; 0 masks
@@ -20,7 +26,9 @@ struct Observation {
   PixelFrame frame;
   std::shared_ptr<const PreparedPsf> psf;
   double flux_scale = 1;  // data = flux_scale x model (a zero point's factor)
-  int band = 0;           // multi-band fits (multi_band_fitter): the band whose amplitudes it sees
+  int band = 0;           // the band whose amplitudes it sees (object_fitter)
+  // A single stamp's weights may be a mask instead (a grid stamp; joint fits take inverse variances).
+  WeightKind weight_kind = WeightKind::kInverseVariance;
 };
 
 }  // namespace stampede

@@ -52,12 +52,13 @@ bool MetacalOptions::IsValid(std::string* why) const {
 }
 
 MetacalFitter::MetacalFitter(const FitterOptions& fit_options, const MetacalOptions& options, int stamp_size,
-                             FftPlanCache& plans, FftPlanning planning)
+                             FftPlanning planning)
     : fit_options_(metacal_fit_options(fit_options, options.model)),
       options_(options),
       s_(stamp_size),
-      images_set_(stamp_size, planning) {
-  fitter_ = std::make_unique<Fitter>(fit_options_, nullptr, plans);
+      images_set_(stamp_size, planning),
+      fitter_(fit_options_, planning) {
+  image_.box_size = s_;
   const std::size_t npix = static_cast<std::size_t>(s_) * s_;
   images_.resize(kNumMetacalTypes * npix);
   weight_.resize(npix);
@@ -72,16 +73,15 @@ bool MetacalFitter::set_psf(const PsfModel& psf, std::string* error) {
   have_psf_ = true;
   psf_ = psf;
   filters_.reset();
-  fitter_->set_psf(nullptr);
+  image_.psf = nullptr;
   filters_ = reconvolution_filters(psf, options_, images_set_.period(), error);
   if (!filters_) return false;
   gamma_ = filters_->reconvolution();
-  auto prepared = fitter_->renderer().prepare_psf(gamma_, error);
-  if (!prepared) {
+  image_.psf = fitter_.renderer_for(s_).prepare_psf(gamma_, error);
+  if (!image_.psf) {
     filters_.reset();
     return false;
   }
-  fitter_->set_psf(prepared);
   return true;
 }
 
@@ -133,7 +133,8 @@ void MetacalFitter::fit(std::span<const double> pixels, std::span<const double> 
   // The estimator of every image: a fit of metacal's model, or the weighted moments.
   auto measure = [&](MetacalType t) {
     if (options_.model == MetacalModel::kWeightedMoments) return moments_result(image(t), variance);
-    FitResult r = fitter_->fit(image(t), w, WeightKind::kInverseVariance);
+    image_.pixels = image(t), image_.weight = w;
+    FitResult r = fitter_.fit({&image_, 1});
     // The fit weighs the images' noise as white; its errors and S/N are made those of the noise
     // the images carry (metacal_noise.hpp).
     if (variance > 0 && r.status == FitStatus::kOk) {

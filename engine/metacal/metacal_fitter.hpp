@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/fit/fitter.hpp"
+#include "engine/fit/object_fitter.hpp"
 #include "engine/metacal/metacal_image_set.hpp"
 #include "engine/metacal/metacal_options.hpp"
 #include "engine/metacal/metacal_record.hpp"
@@ -30,9 +30,8 @@ FitResult weighted_moments_row(const kernels::WeightedMoments& m, bool unweighte
 class MetacalFitter {
  public:
   // fit_options must be valid (the fits' renderer, model, solver; noise_sigma is the data's);
-  // options.enabled is not consulted. `plans` must outlive it.
-  MetacalFitter(const FitterOptions& fit_options, const MetacalOptions& options, int stamp_size, FftPlanCache& plans,
-                FftPlanning planning);
+  // options.enabled is not consulted. planning: the image operations' and the fits' FFT plans.
+  MetacalFitter(const FitterOptions& fit_options, const MetacalOptions& options, int stamp_size, FftPlanning planning);
 
   // Prepares the filters and the reconvolution PSF for `psf` (nothing when it is the last one).
   // False, with *error, when metacal cannot use this PSF: the following fits report kPsfFailure.
@@ -62,7 +61,8 @@ class MetacalFitter {
   MetacalOptions options_;
   int s_;
   MetacalImageSet images_set_;
-  std::unique_ptr<Fitter> fitter_;  // its PSF is gamma_
+  ObjectFitter fitter_;  // fits each image as one observation in its pixel grid, with gamma_
+  Observation image_;    // the image being fitted: gamma_'s prepared PSF, the images' weights
   std::shared_ptr<const MetacalFilters> filters_;
   PsfModel psf_, gamma_;
   bool have_psf_ = false;

@@ -108,7 +108,9 @@ void MultiEpochMetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int
                              e.box_size, e.frame, prepared_[k], e.flux_scale, e.band});
     }
     // Each image set is fitted exactly as the noshear one, from its own moments (MetacalFitter).
-    MultiBandFitResult r = fitter_.fit(fit_epochs_, n_bands, 0);
+    MultiBandFitResult r;
+    r.bands.resize(static_cast<std::size_t>(n_bands));
+    r.fit = fitter_.fit(fit_epochs_, n_bands, r.bands, 0);
     // The fit weighs the images' noise as white; its errors and S/N are made those of the noise
     // the images carry (metacal_noise.hpp); each band's S/N by the joint fit's factor.
     if (r.fit.status == FitStatus::kOk && std::all_of(variances_.begin(), variances_.begin() + n, [](double v) { return v > 0; })) {

@@ -2,7 +2,7 @@
 // deconvolved by its own PSF, sheared on the sky (its WCS Jacobian carries the shear into its
 // pixels, MetacalFilters), reconvolved with the object's one Gamma, round on the sky
 // (sky_reconvolution states the rule), with a fixnoise field of its own weight map; then each of
-// the five image sets fitted jointly (MultiEpochFitter), so e and R are in the sky's (u, v) axes.
+// the five image sets fitted jointly (ObjectFitter), so e and R are in the sky's (u, v) axes.
 // metacal_model = wmom fits nothing: each image set's weighted moments under a weight round on
 // the sky, the cutouts combined (kernels/weighted_moments), its width in the cutouts' sky units.
 //
@@ -20,7 +20,8 @@
 #include <string>
 #include <vector>
 
-#include "engine/fit/multi_band_fitter.hpp"
+#include "engine/fit/multi_band_result.hpp"
+#include "engine/fit/object_fitter.hpp"
 #include "engine/metacal/metacal_image_set.hpp"
 #include "engine/metacal/metacal_noise.hpp"
 #include "engine/metacal/metacal_options.hpp"
@@ -37,7 +38,7 @@ struct MetacalEpoch {
   PixelFrame frame;
   const PsfModel* psf = nullptr;  // the cutout's PSF in its pixels
   double flux_scale = 1;          // data = flux_scale x model
-  int band = 0;                   // multi-band objects: the cutout's band (MultiBandFitter)
+  int band = 0;                   // multi-band objects: the cutout's band
 };
 
 class MultiEpochMetacalFitter {
@@ -73,7 +74,7 @@ class MultiEpochMetacalFitter {
   void moment_stamps(MetacalType t, int band, bool* unweighted);
   FitterOptions fit_options_;
   MetacalOptions options_;
-  MultiBandFitter fitter_;  // one band: MultiEpochFitter's fits
+  ObjectFitter fitter_;
   std::map<int, std::unique_ptr<MetacalImageSet>> sets_;
   std::vector<std::vector<double>> images_, weights_;
   std::vector<const MetacalEpoch*> used_;

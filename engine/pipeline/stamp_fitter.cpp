@@ -10,15 +10,15 @@ StampFitter::StampFitter(const FitterOptions& options, std::shared_ptr<const Pre
                          double psf_fwhm, std::optional<MetacalSetup> metacal)
     : options_(options),
       plans_(planning),
+      fitter_(options, planning),
       shared_psf_(std::move(shared_psf)),
       per_object_(per_object),
       psf_e1_(psf_e1),
       psf_e2_(psf_e2),
       psf_fwhm_(psf_fwhm),
       metacal_(std::move(metacal)) {
-  fitter_ = std::make_unique<Fitter>(options_, shared_psf_, plans_);
   if (metacal_) {
-    metacal_fitter_ = std::make_unique<MetacalFitter>(options_, metacal_->options, options_.render.stamp_size, plans_, planning);
+    metacal_fitter_ = std::make_unique<MetacalFitter>(options_, metacal_->options, options_.render.stamp_size, planning);
     std::string ignored;  // a PSF metacal cannot use: every row says kPsfFailure
     if (!per_object_) metacal_fitter_->set_psf(metacal_->shared_psf, &ignored);
   }
@@ -37,9 +37,9 @@ void StampFitter::fit(StampBatch& batch) {
       const PsfModel& psf = batch.psf[k];
       if (!metacal_fitter_) {  // metacal fits with its reconvolution PSF, never this one
         std::string error;
-        auto prepared = per_object_->get(psf, fitter_->renderer(), &error);
+        auto prepared = per_object_->get(psf, fitter_.renderer_for(batch.stamp_size), &error);
         if (!prepared) input_flags |= kFlagPsfFailure;
-        fitter_->set_psf(prepared);
+        observation_.psf = std::move(prepared);
       }
       rec.psf_e1 = psf.e1();
       rec.psf_e2 = psf.e2();
@@ -54,7 +54,10 @@ void StampFitter::fit(StampBatch& batch) {
       if (per_object_ && !metacal_fitter_->set_psf(batch.psf[k], &ignored)) input_flags |= kFlagPsfFailure;
       metacal_fitter_->fit(pixels, weight, kind, rec.id, kFlagMetacalFailure, &rec.fit, &rec.metacal, &input_flags);
     } else {
-      rec.fit = fitter_->fit(pixels, weight, kind);
+      observation_.pixels = pixels, observation_.weight = weight, observation_.weight_kind = kind;
+      observation_.box_size = batch.stamp_size;
+      if (!per_object_) observation_.psf = shared_psf_;
+      rec.fit = fitter_.fit({&observation_, 1});
     }
     rec.flags = rec.fit.flags | input_flags;
     rec.time_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();

@@ -1,10 +1,11 @@
-// The pipeline's per-thread fitting state: FFTW plans, a Fitter, and the PSF handling of the run.
+// The pipeline's per-thread fitting state for grid and catalogue stamps: each stamp one observation
+// in its pixel grid, fitted by the object fitter (or measured by metacal), and the run's PSF handling.
 #pragma once
 
 #include <memory>
 #include <optional>
 
-#include "engine/fit/fitter.hpp"
+#include "engine/fit/object_fitter.hpp"
 #include "engine/metacal/metacal_fitter.hpp"
 #include "engine/pipeline/pipeline.hpp"
 #include "engine/render/psf_cache.hpp"
@@ -30,12 +31,13 @@ class StampFitter final : public BatchFitter {
  private:
   FitterOptions options_;
   FftPlanCache plans_;
+  ObjectFitter fitter_;
   std::shared_ptr<const PreparedPsf> shared_psf_;
   PsfCache* per_object_;
-  std::unique_ptr<Fitter> fitter_;
   double psf_e1_, psf_e2_, psf_fwhm_;
   std::optional<MetacalSetup> metacal_;
   std::unique_ptr<MetacalFitter> metacal_fitter_;  // metacal runs: replaces fitter_'s fit
+  Observation observation_;  // the stamp being fitted
 };
 
 }  // namespace stampede

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/fit/multi_epoch_fitter.hpp"
+#include "engine/fit/object_fitter.hpp"
 #include "engine/sim/sim_renderer.hpp"
 #include "support/sky_to_pixel.hpp"
 
@@ -89,6 +89,14 @@ inline std::vector<Observation> epoch_data(Renderer& renderer, std::vector<SkyEp
     data.push_back({e.pixels, e.weight, kEpochBox, e.frame, psf, 1.0, band});
   }
   return data;
+}
+
+// A fit of n_bands bands with each band's part (ObjectFitter::fit into a MultiBandFitResult).
+inline MultiBandFitResult fit_bands(ObjectFitter& fitter, std::span<const Observation> data, int n_bands) {
+  MultiBandFitResult r;
+  r.bands.resize(static_cast<std::size_t>(n_bands));
+  r.fit = fitter.fit(data, n_bands, r.bands);
+  return r;
 }
 
 }  // namespace stampede::testing

@@ -11,7 +11,8 @@
 #include <random>
 #include <vector>
 
-#include "engine/fit/multi_band_fitter.hpp"
+#include "engine/fit/object_fitter.hpp"
+#include "engine/render/exact_renderer.hpp"
 #include "support/sky_epochs.hpp"
 
 namespace stampede {
@@ -49,7 +50,7 @@ struct ThreeBands {
   }
 };
 
-// The problem over ThreeBands' cutouts in MultiBandFitter's layout: the five shape parameters,
+// The problem over ThreeBands' cutouts in ObjectFitter's layout: the five shape parameters,
 // then each band's two amplitudes.
 RenderOptions box_options() {
   RenderOptions o;
@@ -141,9 +142,9 @@ TEST(ProjectedJointProblem, MultiEpochAndMultiBandFitsReachTheJointFitsOptimum) 
   ASSERT_FALSE(projects_amplitudes(joint));
   for (std::uint32_t seed : {11u, 12u, 13u}) {
     ThreeBands bands(seed);
-    MultiBandFitter p(projected), j(joint);
+    ObjectFitter p(projected), j(joint);
     const std::vector<Observation> dp = bands.data(p.renderer_for(kEpochBox)), dj = bands.data(j.renderer_for(kEpochBox));
-    const MultiBandFitResult rp = p.fit(dp, 3), rj = j.fit(dj, 3);
+    const MultiBandFitResult rp = testing::fit_bands(p, dp, 3), rj = testing::fit_bands(j, dj, 3);
     ASSERT_EQ(rp.fit.status, FitStatus::kOk);
     ASSERT_EQ(rj.fit.status, FitStatus::kOk);
     std::printf("seed %u bands: e (%.9f, %.9f) vs (%.9f, %.9f); iterations %d+%d vs %d+%d\n", seed,
@@ -160,8 +161,8 @@ TEST(ProjectedJointProblem, MultiEpochAndMultiBandFitsReachTheJointFitsOptimum) 
       EXPECT_NEAR(bp.flux, bj.flux, 1e-5 * bj.flux) << "band " << b;
       EXPECT_NEAR(bp.snr, bj.snr, 1e-6 * bj.snr) << "band " << b;
     }
-    // One band's cutouts through MultiEpochFitter, projected and joint.
-    MultiEpochFitter ep(projected), ej(joint);
+    // One band's cutouts, projected and joint.
+    ObjectFitter ep(projected), ej(joint);
     const std::vector<Observation> one_p = testing::epoch_data(ep.renderer_for(kEpochBox), bands.epochs[1]);
     const std::vector<Observation> one_j = testing::epoch_data(ej.renderer_for(kEpochBox), bands.epochs[1]);
     const FitResult fp = ep.fit(one_p), fj = ej.fit(one_j);

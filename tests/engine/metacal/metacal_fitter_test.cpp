@@ -80,7 +80,7 @@ TEST(MetacalFitter, NoiseFreeResponseMatchesTrulyShearedRefits) {
   FftPlanCache plans(FftPlanning::kEstimate);
   MetacalOptions mo;
   mo.model = MetacalModel::kBulgeDisc;
-  MetacalFitter mcal(fit_options(), mo, kStamp, plans, FftPlanning::kEstimate);
+  MetacalFitter mcal(fit_options(), mo, kStamp, FftPlanning::kEstimate);
   std::string error;
   ASSERT_TRUE(mcal.set_psf(kPsf, &error)) << error;
   Fitter truth(fit_options(), nullptr, plans);
@@ -138,7 +138,7 @@ TEST(MetacalFitter, TheResponseIsResolvedDownToTheStepFloor) {
       mo.model = model;
       mo.step = step;
       mo.psf_dilation = 1.1;  // >= (1 + 2 step) sqrt(1.05 / 0.95), the automatic rule, at every step here
-      MetacalFitter mcal(fit_options(), mo, kStamp, plans, FftPlanning::kEstimate);
+      MetacalFitter mcal(fit_options(), mo, kStamp, FftPlanning::kEstimate);
       std::string error;
       ASSERT_TRUE(mcal.set_psf(kPsf, &error)) << error;
       double worst = 0, mean_r11 = 0, mean_r22 = 0;
@@ -179,7 +179,7 @@ TEST_P(MetacalModels, NoiseFreeRingPairsCalibratedByTheirResponseRecoverTheShear
   FftPlanCache plans(FftPlanning::kEstimate);
   MetacalOptions mo;
   mo.model = GetParam();
-  MetacalFitter mcal(fit_options(), mo, kStamp, plans, FftPlanning::kEstimate);
+  MetacalFitter mcal(fit_options(), mo, kStamp, FftPlanning::kEstimate);
   std::string error;
   ASSERT_TRUE(mcal.set_psf(kPsf, &error)) << error;
   const double g1 = 0.02, g2 = -0.015;
@@ -247,7 +247,7 @@ TEST(MetacalFitter, FixnoiseMakesTheNoiseCorrelationIsotropic) {
     MetacalOptions mo;
     mo.fixnoise = fixnoise;
     mo.step = 0.05;  // a larger shear makes the effect measurable on few stamps
-    MetacalFitter mcal(fit_options(1.0), mo, kStamp, plans, FftPlanning::kEstimate);
+    MetacalFitter mcal(fit_options(1.0), mo, kStamp, FftPlanning::kEstimate);
     EXPECT_TRUE(mcal.set_psf(moffat(3.0, 2.85, 0.0, 0.15), &error)) << error;
     double xi0 = 0, xi_x = 0, xi_y = 0, xi_d = 0, xi_a = 0;
     std::vector<double> diffs_axes, diffs_diag;
@@ -301,7 +301,7 @@ TEST(MetacalFitter, EachImageIsFittedFromItsOwnStart) {
   FftPlanCache plans(FftPlanning::kEstimate);
   MetacalOptions bd;
   bd.model = MetacalModel::kBulgeDisc;
-  MetacalFitter mcal(fit_options(1.0), bd, kStamp, plans, FftPlanning::kEstimate);
+  MetacalFitter mcal(fit_options(1.0), bd, kStamp, FftPlanning::kEstimate);
   std::string error;
   ASSERT_TRUE(mcal.set_psf(kPsf, &error)) << error;
   Fitter fresh(fit_options(1.0), nullptr, plans);
@@ -331,7 +331,7 @@ TEST(MetacalFitter, EachImageIsFittedFromItsOwnStart) {
 // else was fitted before it (so any thread count gives the same output), another object another.
 TEST(MetacalFitter, TheFixnoiseFieldIsKeyedByTheObject) {
   FftPlanCache plans(FftPlanning::kEstimate);
-  MetacalFitter mcal(fit_options(2.0), MetacalOptions(), kStamp, plans, FftPlanning::kEstimate);
+  MetacalFitter mcal(fit_options(2.0), MetacalOptions(), kStamp, FftPlanning::kEstimate);
   std::string error;
   ASSERT_TRUE(mcal.set_psf(kPsf, &error)) << error;
   const std::vector<double> stamp = draw(kGalaxies[0], 0, 0, kPsf);
@@ -349,7 +349,7 @@ TEST(MetacalFitter, TheFixnoiseFieldIsKeyedByTheObject) {
 // Metacal needs a PSF it can deconvolve everywhere on the grid: the Airy disc is refused by name.
 TEST(MetacalFitter, APsfItCannotUseIsRefusedWithAMessage) {
   FftPlanCache plans(FftPlanning::kEstimate);
-  MetacalFitter mcal(fit_options(), MetacalOptions(), kStamp, plans, FftPlanning::kEstimate);
+  MetacalFitter mcal(fit_options(), MetacalOptions(), kStamp, FftPlanning::kEstimate);
   std::string error;
   EXPECT_FALSE(mcal.set_psf(PsfModel::Airy({2.0, 0.0}), &error));
   EXPECT_NE(error.find("needs a Moffat or image PSF"), std::string::npos) << error;
@@ -373,7 +373,7 @@ TEST(MetacalFitter, NoisePairsShareTheirFixnoiseFieldNegated) {
   auto images = [&](bool noise_pairs, std::int64_t id) {
     MetacalOptions mo;
     mo.noise_pairs = noise_pairs;
-    MetacalFitter mcal(fit_options(1.0), mo, kStamp, plans, FftPlanning::kEstimate);
+    MetacalFitter mcal(fit_options(1.0), mo, kStamp, FftPlanning::kEstimate);
     EXPECT_TRUE(mcal.set_psf(kPsf, &error)) << error;
     double variance = 0;
     mcal.make_images(blank, {}, WeightKind::kInverseVariance, id, &variance);
@@ -440,13 +440,13 @@ NoiseScatter noise_scatter(const MetacalOptions& mo, const Galaxy& gal, int n, s
   std::string error;
   MetacalOptions quiet = mo;
   quiet.fixnoise = false;
-  MetacalFitter noise_free(fit_options(), quiet, kStamp, plans, FftPlanning::kEstimate);
+  MetacalFitter noise_free(fit_options(), quiet, kStamp, FftPlanning::kEstimate);
   EXPECT_TRUE(noise_free.set_psf(kPsf, &error)) << error;
   double v0 = 0;
   noise_free.make_images(clean, {}, WeightKind::kInverseVariance, 0, &v0);
   const std::size_t npix = kStamp * kStamp;
   const std::vector<double> filter(noise_free.images().begin(), noise_free.images().begin() + npix);
-  MetacalFitter mcal(fit_options(sigma), mo, kStamp, plans, FftPlanning::kEstimate);
+  MetacalFitter mcal(fit_options(sigma), mo, kStamp, FftPlanning::kEstimate);
   EXPECT_TRUE(mcal.set_psf(kPsf, &error)) << error;
   std::vector<double> e1, e2, err1, err2, snr, stat, stamp(npix);
   for (int k = 0; k < n; ++k) {
@@ -541,7 +541,7 @@ TEST(MetacalNoise, BulgeDiscErrorsAndSnrMatchTheScatterOverNoise) {
 // the sheared images' neither.
 TEST(MetacalNoise, NoiseFreeRowsHaveNoSnr) {
   FftPlanCache plans(FftPlanning::kEstimate);
-  MetacalFitter mcal(fit_options(), MetacalOptions(), kStamp, plans, FftPlanning::kEstimate);
+  MetacalFitter mcal(fit_options(), MetacalOptions(), kStamp, FftPlanning::kEstimate);
   std::string error;
   ASSERT_TRUE(mcal.set_psf(kPsf, &error)) << error;
   FitResult r;

@@ -1,16 +1,20 @@
-// Tests for joint fits over cutouts (engine/fit/multi_epoch_fitter): noise-free epochs with random
+// Tests for joint fits over cutouts (engine/fit/object_fitter): noise-free epochs with random
 // WCS Jacobians and PSFs, drawn by the simulator in each cutout's pixels (the shape carried over
 // independently, tests/support/sky_to_pixel.hpp), give the sky ellipticity back; rotating every
-// epoch's WCS and pixels by 90 degrees changes nothing on the sky; errors fall as 1/sqrt(n).
-#include "engine/fit/multi_epoch_fitter.hpp"
+// epoch's WCS and pixels by 90 degrees changes nothing on the sky; errors fall as 1/sqrt(n); a
+// stamp in its pixel grid is the single-stamp fit bit for bit.
+#include "engine/fit/object_fitter.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <span>
+#include <string>
 #include <vector>
 
+#include "engine/render/renderer_factory.hpp"
 #include "support/sky_epochs.hpp"
 
 namespace stampede {
@@ -33,15 +37,15 @@ ParamVector perturbed(ParamVector p) {
   return p;
 }
 
-std::vector<Observation> epoch_data(MultiEpochFitter& fitter, std::vector<Epoch>& epochs) {
+std::vector<Observation> epoch_data(ObjectFitter& fitter, std::vector<Epoch>& epochs) {
   return testing::epoch_data(fitter.renderer_for(kBox), epochs);
 }
 
 // Must-show 1's core: four noise-free epochs, random rotations, scales, WCS shears and PSFs.
-TEST(MultiEpochFitter, NoiseFreeEpochsGiveTheSkyEllipticityBack) {
+TEST(ObjectFitterEpochs, NoiseFreeEpochsGiveTheSkyEllipticityBack) {
   std::mt19937 rng(31);
   std::uniform_real_distribution<double> u(-1, 1);
-  MultiEpochFitter fitter(options());
+  ObjectFitter fitter(options());
   double worst = 0;
   for (int galaxy = 0; galaxy < 4; ++galaxy) {
     const SkyGalaxy g{0.4 * u(rng), 0.4 * u(rng), 0.55 + 0.15 * u(rng), 0.05 * u(rng), 0.05 * u(rng),
@@ -55,7 +59,7 @@ TEST(MultiEpochFitter, NoiseFreeEpochsGiveTheSkyEllipticityBack) {
     }
     const std::vector<Observation> data = epoch_data(fitter, epochs);
     const ParamVector truth = sky_params(g, fitter.renderer_for(kBox));
-    const FitResult r = fitter.fit(data, perturbed(truth));
+    const FitResult r = fitter.fit_from(data, perturbed(truth));
     // From the moments of the first epoch, carried to the sky: the same optimum.
     const FitResult from_moments = fitter.fit(data);
     ASSERT_EQ(from_moments.status, FitStatus::kOk);
@@ -74,11 +78,11 @@ TEST(MultiEpochFitter, NoiseFreeEpochsGiveTheSkyEllipticityBack) {
 
 // Must-show 2: each epoch's WCS and pixels turned by 90 degrees about the box centre (and its PSF
 // with them) is the same sky: the fitted e agrees to 1e-6. Noisy data, so nothing is trivially 0.
-TEST(MultiEpochFitter, TurningEveryEpochBy90DegreesChangesNothingOnTheSky) {
+TEST(ObjectFitterEpochs, TurningEveryEpochBy90DegreesChangesNothingOnTheSky) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-1, 1);
   std::normal_distribution<double> noise(0, 1);
-  MultiEpochFitter fitter(options());
+  ObjectFitter fitter(options());
   const SkyGalaxy g{0.25, -0.15, 0.6, 0.02, -0.03, 400, 1200};
   std::vector<Epoch> epochs(4), turned(4);
   const double c = 0.5 * (kBox - 1);
@@ -104,7 +108,7 @@ TEST(MultiEpochFitter, TurningEveryEpochBy90DegreesChangesNothingOnTheSky) {
   }
   const ParamVector start = perturbed(sky_params(g, fitter.renderer_for(kBox)));
   const std::vector<Observation> a = epoch_data(fitter, epochs), b = epoch_data(fitter, turned);
-  const FitResult ra = fitter.fit(a, start), rb = fitter.fit(b, start);
+  const FitResult ra = fitter.fit_from(a, start), rb = fitter.fit_from(b, start);
   ASSERT_EQ(ra.status, FitStatus::kOk);
   ASSERT_EQ(rb.status, FitStatus::kOk);
   std::printf("e (%+.8f, %+.8f) and turned (%+.8f, %+.8f), true (%+.3f, %+.3f)\n", ra.params[index(Param::kE1)],
@@ -117,8 +121,8 @@ TEST(MultiEpochFitter, TurningEveryEpochBy90DegreesChangesNothingOnTheSky) {
 // Must-show 2: the same galaxy in 1, 2, 4 and 8 epochs: e's errors fall as 1/sqrt(n). Epochs turned
 // by multiples of 90 degrees about the object with a round PSF carry the same information, so the
 // law holds to rounding; random frames and PSFs follow it to a few per cent.
-TEST(MultiEpochFitter, ErrorsFallAsOneOverRootN) {
-  MultiEpochFitter fitter(options());
+TEST(ObjectFitterEpochs, ErrorsFallAsOneOverRootN) {
+  ObjectFitter fitter(options());
   const SkyGalaxy g{0.2, 0.1, 0.6, 0, 0, 400, 1200};
   for (bool random : {false, true}) {
     std::mt19937 rng(17);
@@ -142,7 +146,7 @@ TEST(MultiEpochFitter, ErrorsFallAsOneOverRootN) {
     std::vector<Observation> all = epoch_data(fitter, epochs);
     double err1[2] = {0, 0};
     for (int n : {1, 2, 4, 8}) {
-      const FitResult r = fitter.fit(std::span<const Observation>(all.data(), n), start);
+      const FitResult r = fitter.fit_from(std::span<const Observation>(all.data(), n), start);
       ASSERT_EQ(r.status, FitStatus::kOk);
       if (n == 1) err1[0] = r.e1_err, err1[1] = r.e2_err;
       const double ratio1 = r.e1_err * std::sqrt(n) / err1[0], ratio2 = r.e2_err * std::sqrt(n) / err1[1];
@@ -151,6 +155,60 @@ TEST(MultiEpochFitter, ErrorsFallAsOneOverRootN) {
       const double tol = random ? 0.1 : 1e-6;
       EXPECT_NEAR(ratio1, 1, tol) << n;
       EXPECT_NEAR(ratio2, 1, tol) << n;
+    }
+  }
+}
+
+
+// A stamp in its pixel grid is the single-stamp fit bit for bit, whatever the renderer and the kind
+// of weights (a grid row and a MEDS row of such a cutout are the same fit), only the centroid taken
+// from the frame's reference; a renderer that takes no frames refuses a cutout in another.
+TEST(ObjectFitterEpochs, AStampInItsPixelGridIsTheSingleStampFitBitForBit) {
+  std::mt19937 rng(21);
+  std::normal_distribution<double> noise(0, 0.5);
+  PixelFrame grid;
+  grid.x_ref = 23.25, grid.y_ref = 24.0;
+  const SkyGalaxy g{0.15, -0.2, 2.2, 0.3, -0.4, 200, 900};
+  std::vector<double> pixels = draw(g, grid, moffat(3.0, 0.02, -0.01));
+  for (double& v : pixels) v += noise(rng);
+  std::vector<double> mask(pixels.size(), 1.0);
+  for (int k = 0; k < kBox; ++k) mask[static_cast<std::size_t>(k)] = 0;  // a masked first row
+  for (RendererKind kind : {RendererKind::kExact, RendererKind::kUpsampled}) {
+    FitterOptions o = options();
+    o.renderer = kind;
+    o.noise_sigma = 0.5;
+    o.render.stamp_size = kBox;
+    ObjectFitter object(o);
+    std::string error;
+    const auto psf = object.renderer_for(kBox).prepare_psf(moffat(3.0, 0.02, -0.01), &error);
+    ASSERT_TRUE(psf) << error;
+    FftPlanCache plans(FftPlanning::kEstimate);
+    Fitter stamp(o, psf, plans);
+    for (WeightKind weights : {WeightKind::kMask, WeightKind::kInverseVariance}) {
+      const std::span<const double> w = weights == WeightKind::kMask ? std::span<const double>(mask) : std::span<const double>();
+      const Observation one{pixels, w, kBox, grid, psf, 1.0, 0, weights};
+      const FitResult a = object.fit({&one, 1});
+      const FitResult b = stamp.fit(pixels, w, weights);
+      ASSERT_EQ(b.status, FitStatus::kOk) << renderer_kind_name(kind);
+      EXPECT_EQ(a.status, b.status);
+      EXPECT_EQ(a.iterations, b.iterations);
+      EXPECT_EQ(a.n_pixels, b.n_pixels);
+      EXPECT_EQ(a.params[index(Param::kX0)], b.params[index(Param::kX0)] - grid.x_ref);
+      EXPECT_EQ(a.params[index(Param::kY0)], b.params[index(Param::kY0)] - grid.y_ref);
+      for (Param q : {Param::kE1, Param::kE2, Param::kRadius, Param::kBulgeA, Param::kDiscA}) {
+        EXPECT_EQ(a.params[index(q)], b.params[index(q)]) << param_name(q) << " " << renderer_kind_name(kind);
+        EXPECT_EQ(a.errors[index(q)], b.errors[index(q)]) << param_name(q) << " " << renderer_kind_name(kind);
+      }
+      EXPECT_EQ(a.chi2, b.chi2);
+      EXPECT_EQ(a.snr, b.snr);
+    }
+    if (kind == RendererKind::kUpsampled) {
+      // The same cutout seen through a scaled frame needs a renderer that takes frames.
+      PixelFrame scaled = grid;
+      scaled.dudx = scaled.dvdy = 0.263;
+      std::vector<double> weight(pixels.size(), 4.0);
+      const Observation other{pixels, weight, kBox, scaled, psf, 1.0};
+      EXPECT_THROW(object.fit({&other, 1}), std::invalid_argument);
     }
   }
 }
