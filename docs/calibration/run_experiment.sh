@@ -24,6 +24,10 @@
 # MATCHED_CALIBRATIONS="SNR:TABLE ..." (default none): tables built by hand with `calibrate build
 # --snr SNR`, applied (population mode) to that S/N's sets as well, e.g. "10:OUTDIR/cal_snr10.fits"
 # PYTHON=python3 (with numpy and astropy, for the tables)
+# SHEAR_PAIRS=1 (default 0): science and extra sets as shear pairs (sim --shear-pairs, SETS even):
+# set 2j+1 repeats set 2j's galaxies and noise under -g, and metrics --shear-pairs measures m from
+# half the pair differences, where shape noise and pixel noise cancel; SHEAR=G1,G2 fixes every
+# pair's shear (a longer lever arm than U(-0.05, 0.05) shears)
 #
 # Every science set uses --noise-pairs: objects 4q+2, 4q+3 repeat the ring pair 4q, 4q+1 with the
 # pixel noise negated. Expectations are those of plain GREAT08 sets; the scatter of the set means is
@@ -41,6 +45,10 @@ REALISATIONS=${REALISATIONS:-16}
 STAMPEDE=${STAMPEDE:-build/tools/stampede}
 threads=()
 [[ -n "${THREADS:-}" ]] && threads=(--threads "$THREADS")
+SHEAR_PAIRS=${SHEAR_PAIRS:-0}
+pairing=()  # sim options of the science and extra sets
+[[ $SHEAR_PAIRS == 1 ]] && pairing+=(--shear-pairs)
+[[ -n "${SHEAR:-}" ]] && pairing+=(--shear "$SHEAR")
 EXTRA_BATCHES=${EXTRA_BATCHES:-}
 CALIBRATION=${CALIBRATION:-$out/calibration.fits}
 if [[ ${#stages[@]} -eq 0 ]]; then
@@ -78,7 +86,7 @@ science() {  # SNR
   local snr=$1 dir="$out/snr$1"
   if [[ ! -f "$dir/set_$((SETS - 1)).fits" ]]; then
     "$STAMPEDE" sim great08 --out "$dir" --sets "$SETS" --grid "$GRID" --snr "$snr" --noise-pairs --seed $((1000 + ${snr%.*})) \
-      --overwrite "${sim_common[@]}"
+      --overwrite "${sim_common[@]}" "${pairing[@]}"
   fi
   fit_sets "$dir"
 }
@@ -90,7 +98,7 @@ extra() {
     dir="$out/snr${snr}_seed$seed"
     if [[ ! -f "$dir/set_$((sets - 1)).fits" ]]; then
       "$STAMPEDE" sim great08 --out "$dir" --sets "$sets" --grid "$GRID" --snr "$snr" --noise-pairs --seed "$seed" \
-        --overwrite "${sim_common[@]}"
+        --overwrite "${sim_common[@]}" "${pairing[@]}"
     fi
     fit_sets "$dir"
   done
@@ -129,6 +137,10 @@ apply() {
         echo "apply: $set_dir/fit_$k.fits not made yet: set left out" >&2
         continue
       fi
+      if [[ $SHEAR_PAIRS == 1 && ! -f "$set_dir/fit_$((k ^ 1)).fits" ]]; then
+        echo "apply: $set_dir/fit_$((k ^ 1)).fits (the shear-pair partner) not made yet: set left out" >&2
+        continue
+      fi
       population "$CALIBRATION" "$set_dir/fit_$k.fits" "$set_dir/cal_$k.fits"
       "$STAMPEDE" calibrate apply "$set_dir/fit_$k.fits" --per-object --calibration "$CALIBRATION" \
         -o "$set_dir/obj_$k.fits" --overwrite --quiet
@@ -146,14 +158,16 @@ apply() {
       echo "apply: no fitted sets at S/N $snr: left out" >&2
       continue
     fi
-    local dir="$out/snr$snr"
+    local dir="$out/snr$snr" paired=()
+    # Glob order keeps each pair's sets 2j, 2j+1 together, + before -, as --shear-pairs wants.
+    [[ $SHEAR_PAIRS == 1 ]] && paired=(--shear-pairs)
     mkdir -p "$dir"
-    "$STAMPEDE" metrics "${fits[@]}" --json "$dir/metrics_uncalibrated.json" > "$dir/metrics_uncalibrated.txt"
-    "$STAMPEDE" metrics "${cal[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_calibrated.json" > "$dir/metrics_calibrated.txt"
-    "$STAMPEDE" metrics "${obj[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_per_object.json" > "$dir/metrics_per_object.txt"
+    "$STAMPEDE" metrics "${paired[@]}" "${fits[@]}" --json "$dir/metrics_uncalibrated.json" > "$dir/metrics_uncalibrated.txt"
+    "$STAMPEDE" metrics "${paired[@]}" "${cal[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_calibrated.json" > "$dir/metrics_calibrated.txt"
+    "$STAMPEDE" metrics "${paired[@]}" "${obj[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_per_object.json" > "$dir/metrics_per_object.txt"
     local line="$snr $dir/metrics_uncalibrated.json $dir/metrics_calibrated.json $dir/metrics_per_object.json"
     if [[ ${#matched[@]} -gt 0 ]]; then
-      "$STAMPEDE" metrics "${matched[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_matched.json" > "$dir/metrics_matched.txt"
+      "$STAMPEDE" metrics "${paired[@]}" "${matched[@]}" --e-columns e1_cal,e2_cal --json "$dir/metrics_matched.json" > "$dir/metrics_matched.txt"
       line+=" $dir/metrics_matched.json"
     fi
     echo "$line" >> "$table.tmp"

@@ -123,7 +123,10 @@ std::vector<SimComponent> Great08Simulator::round_components(double bulge_fracti
 
 double Great08Simulator::half_light_radius(double bulge_fraction) const {
   const double target = options_.size_ratio * psf_fwhm_;
-  auto excess = [&](double h) { return renderer_->round_fwhm(round_components(bulge_fraction, h)) - target; };
+  auto excess = [&](double h) {
+    const std::vector<SimComponent> round = round_components(bulge_fraction, h);
+    return (fwhm_solver_ ? (*fwhm_solver_)(round) : renderer_->round_fwhm(round)) - target;
+  };
   // Bracket in h (FWHM grows monotonically with h), then Illinois regula falsi.
   double lo = 1e-3, hi = 1.0;
   double f_lo = excess(lo), f_hi = excess(hi);
@@ -179,6 +182,7 @@ Great08Simulator::Great08Simulator(const Great08SimOptions& options) : options_(
   ro.max_half_light_radius = 1.1 * largest;
   if (ro.max_half_light_radius > 100) throw std::invalid_argument("--size needs galaxies larger than 100 pixels");
   renderer_ = std::make_unique<SimRenderer>(options.psf, ro);
+  fwhm_solver_ = std::make_unique<RoundFwhmSolver>(*renderer_, true);  // every galaxy's radius is solved
 }
 
 SimSet Great08Simulator::simulate_set(int k) const {

@@ -114,6 +114,7 @@ class Great08Simulator {
   Great08SimOptions options_;
   double psf_fwhm_ = 0;
   std::unique_ptr<SimRenderer> renderer_;
+  std::unique_ptr<RoundFwhmSolver> fwhm_solver_;  // renderer_'s, for half_light_radius (once built)
   double bulge_radius_ratio() const;
   std::vector<SimComponent> round_components(double bulge_fraction, double disc_hlr) const;
 };

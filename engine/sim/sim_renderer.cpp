@@ -5,6 +5,7 @@
 #include <math.h>  // j0, j1 (glibc)
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <complex>
 #include <mutex>
@@ -24,6 +25,12 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 constexpr double kPsfTransformFloor = 1e-12;  // aliases are summed out to here
 constexpr int kMaxGrid = 2048;
+
+// A fresh SimRenderer::id_ (0 is no renderer's).
+std::uint64_t next_renderer_id() {
+  static std::atomic<std::uint64_t> last{0};
+  return ++last;
+}
 
 // Radius beyond which a Sérsic's surface brightness is below 1e-6 of its value at r_e.
 double sersic_tail_radius(double n, double hlr) {
@@ -77,7 +84,7 @@ bool SimRenderer::Options::IsValid(std::string* why) const {
   return false;
 }
 
-SimRenderer::SimRenderer(const PsfModel& psf, const Options& options) : psf_(psf) {
+SimRenderer::SimRenderer(const PsfModel& psf, const Options& options) : psf_(psf), id_(next_renderer_id()) {
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument("SimRenderer: " + why);
   if (!psf.IsValid(&why)) throw std::invalid_argument("SimRenderer PSF: " + why);
@@ -126,7 +133,7 @@ bool SimGaussianPsf::IsValid(std::string* why) const {
   return false;
 }
 
-SimRenderer::SimRenderer(const SimGaussianPsf& psf, const Options& options) {
+SimRenderer::SimRenderer(const SimGaussianPsf& psf, const Options& options) : id_(next_renderer_id()) {
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument("SimRenderer: " + why);
   if (!psf.IsValid(&why)) throw std::invalid_argument("SimRenderer PSF: " + why);
@@ -255,6 +262,28 @@ void SimRenderer::draw(std::span<const SimComponent> components, bool psf_only, 
         }
       }
   }
+  if (!psf_only && with_pixel && step == 1.0) {
+    // A galaxy's draw: the terms below with the PSF's factors from the workspace.
+    const SimWorkspace::PsfTerms& terms = galaxy_psf_terms(n, ws);
+    const std::size_t frequencies = static_cast<std::size_t>(n) * half;
+    std::size_t t = 0;
+    for (std::size_t f = 0; f < frequencies; ++f) {
+      std::complex<double> sum = 0;
+      for (const std::size_t end = terms.end[f]; t < end; ++t) {
+        const std::size_t ix = terms.ix[t], iy = terms.iy[t];
+        const double kx = terms.k_x[ix], ky = terms.k_y[iy];
+        std::complex<double> gal = 0;
+        for (std::size_t c = 0; c < prepared.size(); ++c) {
+          const SimWorkspace::Component& p = prepared[c];
+          const double u = p.s[0] * kx + p.s[1] * ky, v = p.s[1] * kx + p.s[2] * ky;
+          gal += p.flux * sersic_transform(p.table, std::sqrt(u * u + v * v) * p.hlr) *
+                 (ws.phase_x_[c * nx + ix] * ws.phase_y_[c * ny + iy]);
+        }
+        sum += terms.psf[t] * gal;
+      }
+      spectrum[f] = sum * scale;
+    }
+  } else {
   for (int jy = 0; jy < n; ++jy) {
     for (int jx = 0; jx < half; ++jx) {
       std::complex<double> sum = 0;
@@ -286,6 +315,7 @@ void SimRenderer::draw(std::span<const SimComponent> components, bool psf_only, 
       spectrum[static_cast<std::size_t>(jy) * half + jx] = sum * scale;
     }
   }
+  }
   fftw_execute_dft_c2r(static_cast<fftw_plan>(grid.plan), reinterpret_cast<fftw_complex*>(spectrum),
                        static_cast<double*>(grid.image.data()));
   const double* image = static_cast<const double*>(grid.image.data());
@@ -293,52 +323,142 @@ void SimRenderer::draw(std::span<const SimComponent> components, bool psf_only, 
     std::copy_n(image + static_cast<std::size_t>(y) * n, size, out.data() + static_cast<std::size_t>(y) * size);
 }
 
+const SimWorkspace::PsfTerms& SimRenderer::galaxy_psf_terms(int n, SimWorkspace& ws) const {
+  if (ws.psf_terms_renderer_ != id_) {
+    ws.psf_terms_.clear();
+    ws.psf_terms_renderer_ = id_;
+  }
+  if (auto it = ws.psf_terms_.find(n); it != ws.psf_terms_.end()) return it->second;
+  // draw()'s loop at step 1 with the pixel, its expressions unchanged so that the values are the same.
+  const double step = 1.0;
+  const int half = n / 2 + 1;
+  const double dk = 2 * kPi / (n * step), alias = 2 * kPi / step;
+  const double k_bound = k_limit_ * psf_stretch_;
+  const int m_max = static_cast<int>(std::ceil(k_bound / alias + 0.5));
+  const int aliases = 2 * m_max + 1;
+  auto axis_k = [&](int j, int m, bool is_y) { return dk * (is_y && j > n / 2 ? j - n : j) + alias * m; };
+  SimWorkspace::PsfTerms t;
+  t.k_x.resize(static_cast<std::size_t>(half) * aliases);
+  t.k_y.resize(static_cast<std::size_t>(n) * aliases);
+  std::vector<double> sinc_x(t.k_x.size()), sinc_y(t.k_y.size());
+  for (int j = 0; j < n; ++j)
+    for (int m = -m_max; m <= m_max; ++m) {
+      const std::size_t i = static_cast<std::size_t>(j) * aliases + (m + m_max);
+      if (j < half) {
+        t.k_x[i] = axis_k(j, m, false);
+        sinc_x[i] = kernels::sinc(0.5 * t.k_x[i]);
+      }
+      t.k_y[i] = axis_k(j, m, true);
+      sinc_y[i] = kernels::sinc(0.5 * t.k_y[i]);
+    }
+  t.end.reserve(static_cast<std::size_t>(n) * half);
+  for (int jy = 0; jy < n; ++jy)
+    for (int jx = 0; jx < half; ++jx) {
+      for (int my = -m_max; my <= m_max; ++my) {
+        const std::size_t iy = static_cast<std::size_t>(jy) * aliases + (my + m_max);
+        const double ky = t.k_y[iy];
+        if (std::abs(ky) > k_bound) continue;
+        for (int mx = -m_max; mx <= m_max; ++mx) {
+          const std::size_t ix = static_cast<std::size_t>(jx) * aliases + (mx + m_max);
+          const double kx = t.k_x[ix];
+          if (kx * kx + ky * ky > k_bound * k_bound) continue;
+          double psf = psf_transform(kx, ky);
+          if (psf == 0.0) continue;
+          psf *= sinc_x[ix] * sinc_y[iy];
+          t.psf.push_back(psf);
+          t.ix.push_back(static_cast<std::uint32_t>(ix));
+          t.iy.push_back(static_cast<std::uint32_t>(iy));
+        }
+      }
+      t.end.push_back(static_cast<std::uint32_t>(t.psf.size()));
+    }
+  return ws.psf_terms_.emplace(n, std::move(t)).first->second;
+}
+
 double SimRenderer::round_fwhm(std::span<const SimComponent> components) const {
+  return RoundFwhmSolver(*this, false)(components);
+}
+
+RoundFwhmSolver::RoundFwhmSolver(const SimRenderer& renderer, bool bracket_tables) : renderer_(renderer) {
   // I(r) = (1/2pi) Integral F(k) J0(k r) k dk over [0, k_limit], as sum_i c_i J0(k_i r) with
   // Gauss-Legendre panels of width 0.05 / pixel (a quarter period of J0 at r = 30 px).
   constexpr double kPanel = 0.05;
-  std::vector<const kernels::LogTable*> tables;
-  for (const SimComponent& c : components) tables.push_back(table_for(c.sersic_n));
-  std::vector<double> nodes, coeffs;
-  for (double a = 0; a < k_limit_; a += kPanel) {
+  for (double a = 0; a < renderer.k_limit_; a += kPanel) {
     const double mid = a + 0.5 * kPanel, h = 0.5 * kPanel;
     const kernels::GaussLegendre12& gl = kernels::gauss_legendre_12();
     for (int i = 0; i < kernels::GaussLegendre12::kN; ++i) {
-        const double k = mid + h * gl.x[i];
-        double f = psf_round_transform(k);
-        if (!components.empty()) {
-          double g = 0;
-          for (std::size_t c = 0; c < components.size(); ++c)
-            g += components[c].flux * sersic_transform(tables[c], k * components[c].half_light_radius);
-          f *= g;
-        }
-        nodes.push_back(k);
-        coeffs.push_back(gl.w[i] * h * k * f);
-      }
+      const double k = mid + h * gl.x[i];
+      nodes_.push_back(k);
+      weights_.push_back(gl.w[i] * h * k);
+    }
   }
-  auto intensity = [&](double r) {
-    double s = 0;
-    for (std::size_t i = 0; i < nodes.size(); ++i) s += coeffs[i] * ::j0(nodes[i] * r);
-    return s;
+  if (!bracket_tables) return;
+  auto bessel = [&](double (*fn)(double), double r) {
+    std::vector<double> v(nodes_.size());
+    for (std::size_t i = 0; i < nodes_.size(); ++i) v[i] = fn(nodes_[i] * r);
+    return v;
   };
-  auto slope = [&](double r) {
-    double s = 0;
-    for (std::size_t i = 0; i < nodes.size(); ++i) s -= coeffs[i] * nodes[i] * ::j1(nodes[i] * r);
-    return s;
-  };
-  const double target = 0.5 * intensity(0.0);
-  double lo = 0, hi = 0.25;
-  while (intensity(hi) > target) {
+  double lo = 0, hi = 0.25;  // the solve's bracket, doubled as it does
+  for (int j = 0; j < kTabulatedDoublings; ++j) {
+    const double middle = 0.5 * (lo + hi);
+    j0_doubling_.push_back(bessel(::j0, hi));
+    j0_middle_.push_back(bessel(::j0, middle));
+    j1_middle_.push_back(bessel(::j1, middle));
     lo = hi;
     hi *= 2;
+  }
+}
+
+double RoundFwhmSolver::operator()(std::span<const SimComponent> components) const {
+  std::vector<const kernels::LogTable*> tables;
+  for (const SimComponent& c : components) tables.push_back(renderer_.table_for(c.sersic_n));
+  std::vector<double> coeffs(nodes_.size());
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    const double k = nodes_[i];
+    double f = renderer_.psf_round_transform(k);
+    if (!components.empty()) {
+      double g = 0;
+      for (std::size_t c = 0; c < components.size(); ++c)
+        g += components[c].flux * SimRenderer::sersic_transform(tables[c], k * components[c].half_light_radius);
+      f *= g;
+    }
+    coeffs[i] = weights_[i] * f;
+  }
+  // J0 and J1 from a table when one holds them at r, else evaluated.
+  auto intensity = [&](double r, const std::vector<double>* j0_at_r) {
+    double s = 0;
+    for (std::size_t i = 0; i < nodes_.size(); ++i) s += coeffs[i] * (j0_at_r ? (*j0_at_r)[i] : ::j0(nodes_[i] * r));
+    return s;
+  };
+  auto slope = [&](double r, const std::vector<double>* j1_at_r) {
+    double s = 0;
+    for (std::size_t i = 0; i < nodes_.size(); ++i)
+      s -= coeffs[i] * nodes_[i] * (j1_at_r ? (*j1_at_r)[i] : ::j1(nodes_[i] * r));
+    return s;
+  };
+  const auto tabulated = [&](const std::vector<std::vector<double>>& table, int j) {
+    return j < static_cast<int>(table.size()) ? &table[static_cast<std::size_t>(j)] : nullptr;
+  };
+  // J0(0) = 1 exactly: the peak is the sum of the coefficients.
+  double peak = 0;
+  for (double c : coeffs) peak += c;
+  const double target = 0.5 * peak;
+  double lo = 0, hi = 0.25;
+  int doubling = 0;
+  while (intensity(hi, tabulated(j0_doubling_, doubling)) > target) {
+    lo = hi;
+    hi *= 2;
+    ++doubling;
     if (hi > 1e3) throw std::runtime_error("round_fwhm: the profile does not fall to half maximum");
   }
   // Newton from the bracket's middle, falling back to bisection when a step leaves the bracket.
-  double r = 0.5 * (lo + hi);
+  const double middle = 0.5 * (lo + hi);
+  double r = middle;
   for (int it = 0; it < 100 && hi - lo > 1e-12 * hi; ++it) {
-    const double f = intensity(r) - target;
+    const bool at_middle = it == 0;
+    const double f = intensity(r, at_middle ? tabulated(j0_middle_, doubling) : nullptr) - target;
     (f > 0 ? lo : hi) = r;
-    const double d = slope(r);
+    const double d = slope(r, at_middle ? tabulated(j1_middle_, doubling) : nullptr);
     double next = d < 0 ? r - f / d : 0.5 * (lo + hi);
     if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
     if (std::abs(next - r) < 1e-13 * r) {

@@ -14,6 +14,7 @@
 #pragma once
 
 #include <complex>
+#include <cstdint>
 #include <map>
 #include <span>
 #include <vector>
@@ -61,6 +62,19 @@ class SimWorkspace {
   std::vector<Component> components_;
   std::vector<double> sinc_x_, sinc_y_;
   std::vector<std::complex<double>> phase_x_, phase_y_;
+  // A galaxy draw's PSF terms on an n x n grid: the PSF transform times the pixel response at each
+  // (kx, ky) the alias sum keeps, in the sum's order. They depend on the renderer and n alone, so
+  // a thread drawing many galaxies computes them once per grid size instead of a Moffat table
+  // lookup (a log and a 6-point interpolation) per term and draw. Values are bitwise those the
+  // draw computed in place.
+  struct PsfTerms {
+    std::vector<double> psf;                   // per term: PSF x pixel response
+    std::vector<std::uint32_t> ix, iy;         // per term: index into k_x, k_y (j * aliases + m + m_max)
+    std::vector<std::uint32_t> end;            // per frequency jy * (n/2 + 1) + jx: one past its last term
+    std::vector<double> k_x, k_y;              // per axis index: the frequency with its alias
+  };
+  std::map<int, PsfTerms> psf_terms_;
+  std::uint64_t psf_terms_renderer_ = 0;  // SimRenderer::id_ of the renderer that made psf_terms_
 };
 
 // A Gaussian PSF, drawn by the simulator alone (the fitting renderers take PsfModel's kinds; the
@@ -114,6 +128,9 @@ class SimRenderer {
   void build_sersic_tables(const Options& options);  // after the PSF's k_limit_ and stretch are set
   void draw(std::span<const SimComponent> components, bool with_psf_only, int size, double step, double cx,
             double cy, bool with_pixel, double tail_radius, std::span<double> out, SimWorkspace& ws) const;
+  // ws's PSF terms of a galaxy draw on an n x n grid (unit step, pixel response), made when missing.
+  const SimWorkspace::PsfTerms& galaxy_psf_terms(int n, SimWorkspace& ws) const;
+  friend class RoundFwhmSolver;
 
   PsfModel psf_;
   double psf_alpha_ = 1.0;        // Moffat alpha, or lambda / D for Airy
@@ -124,6 +141,28 @@ class SimRenderer {
   double psf_tail_radius_ = 0.0;
   kernels::LogTable moffat_table_;
   std::vector<std::pair<double, kernels::LogTable>> sersic_tables_;
+  std::uint64_t id_ = 0;  // unique per constructed renderer: names it to a workspace's PSF terms
+};
+
+// SimRenderer::round_fwhm for a caller that solves for many profiles of one renderer (the GREAT08
+// simulator finds each galaxy's radius by root finding on it, ~15 solves a galaxy). Each solve
+// sums the quadrature's J0(k_i r) and J1(k_i r) at the radii it visits; the first of them (r = 0,
+// the bracket's doublings 2^j / 4 and the first Newton point, the bracket's middle) are the same
+// for every profile, so they are computed once here. Results are bitwise round_fwhm's.
+// Immutable after construction: one solver may serve every thread. Holds a reference to renderer.
+class RoundFwhmSolver {
+ public:
+  // bracket_tables: precompute the Bessel values above (~60,000 J0/J1 evaluations); without
+  // them a solver is as cheap to build as one solve.
+  RoundFwhmSolver(const SimRenderer& renderer, bool bracket_tables);
+  double operator()(std::span<const SimComponent> components) const;
+
+ private:
+  static constexpr int kTabulatedDoublings = 8;  // brackets up to r = 32 px: every GREAT08 size
+  const SimRenderer& renderer_;
+  std::vector<double> nodes_, weights_;  // k_i and w_i h k_i of the Gauss-Legendre panels
+  // Per doubling j: J0(k_i 2^j / 4); J0 and J1 at the bracket [2^(j-1) / 4, 2^j / 4]'s middle.
+  std::vector<std::vector<double>> j0_doubling_, j0_middle_, j1_middle_;
 };
 
 // S such that a profile sheared by (e1, e2) has transform F(S k); det S = 1.

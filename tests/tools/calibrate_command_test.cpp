@@ -5,6 +5,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -193,6 +194,43 @@ TEST_F(CalibrateCommand, ATableIsAppliedOnlyWithTheRendererAndSolverThatBuiltIt)
   r = apply(path("same.fits"), path("old.fits"));
   EXPECT_NE(r.err.find("old.fits does not record the renderer it was built with (an older table); rebuild"),
             std::string::npos) << r.err;
+}
+
+// Issue 44: every table committed in docs/calibration/ was built with the default fit (renderer =
+// auto, resolved to exact for its Moffat PSF): apply accepts it on a default-fit catalogue and
+// refuses it on an upsampled-renderer one, naming both renderers.
+TEST_F(CalibrateCommand, EveryCommittedTableIsAppliedToTheDefaultFitOnly) {
+  std::vector<std::string> tables;
+  for (const auto& entry : fs::directory_iterator(STAMPEDE_CALIBRATION_DIR)) {
+    const std::string name = entry.path().filename().string();
+    if (name.starts_with("calibration_") && name.ends_with(".fits")) tables.push_back(entry.path().string());
+  }
+  std::sort(tables.begin(), tables.end());
+  ASSERT_EQ(tables.size(), 4u);  // the four tables docs/calibration/README.md lists
+  write_catalogue(path("default.fits"));
+  write_catalogue(path("upsampled.fits"), "upsampled");
+  for (const std::string& table : tables) {
+    std::map<std::string, std::string> config;
+    for (const auto& [k, v] : io::read_calibration_table(table).config) config[k] = v;
+    EXPECT_EQ(config["renderer"], "exact") << table;
+    EXPECT_EQ(config["exact_surrogate"], "true") << table;
+    EXPECT_EQ(config["project_amplitudes"], "true") << table;
+    for (const std::string mode : {"--per-object", "--deep"}) {
+      std::vector<std::string> args = {"apply", path("default.fits"), "--calibration", table, "-o", path("out.fits"),
+                                       "--overwrite", "--quiet", mode};
+      if (mode == "--deep") args.push_back(path("default.fits"));
+      RunResult r = run(args);
+      EXPECT_EQ(r.exit_code, 0) << table << " " << mode << ": " << r.err;
+      EXPECT_EQ(column(path("out.fits"), "RESULTS", "e1_cal").size(), 40u) << table;
+      args[1] = path("upsampled.fits");
+      r = run(args);
+      EXPECT_EQ(r.exit_code, 1) << table;
+      EXPECT_NE(r.err.find(table + " was built with renderer = exact, " + path("upsampled.fits") +
+                           " fitted with renderer = upsampled"),
+                std::string::npos)
+          << r.err;
+    }
+  }
 }
 
 TEST_F(CalibrateCommand, KillNineThenResumeEqualsUninterruptedBuild) {

@@ -215,5 +215,44 @@ TEST(SimRendererGaussian, PsfImageIsThePixelIntegratedGaussian) {
   EXPECT_NEAR(r.psf_tail_radius(), sigma * std::sqrt(2 * std::log(1e7)), 1e-12);
 }
 
+// A workspace keeps the PSF terms of the renderer that last drew with it, per grid size: drawing
+// with another renderer, or another size, between two draws changes neither (bitwise against
+// fresh workspaces).
+TEST(SimRenderer, AWorkspaceKeepsEachRenderersPsfTermsApart) {
+  const SimRenderer a(moffat(3.0, 2.85, 0.0, 0.05), small_galaxies()), b(moffat(4.5, 1.7, 0.1, -0.05), small_galaxies());
+  const std::vector<SimComponent> galaxy = {{4.0, 0.4, 1.3, 0.2, -0.1, 12.3, 11.8}, {1.0, 0.6, 1.3, 0.2, -0.1, 12.3, 11.8}};
+  auto fresh = [&](const SimRenderer& r, int size) {
+    SimWorkspace ws;
+    std::vector<double> out(static_cast<std::size_t>(size) * size);
+    r.render(galaxy, size, out, ws);
+    return out;
+  };
+  SimWorkspace shared;
+  auto reused = [&](const SimRenderer& r, int size) {
+    std::vector<double> out(static_cast<std::size_t>(size) * size);
+    r.render(galaxy, size, out, shared);
+    return out;
+  };
+  EXPECT_EQ(reused(a, 25), fresh(a, 25));
+  EXPECT_EQ(reused(a, 39), fresh(a, 39));
+  EXPECT_EQ(reused(b, 25), fresh(b, 25));
+  EXPECT_EQ(reused(a, 25), fresh(a, 25));
+  EXPECT_NE(fresh(a, 25), fresh(b, 25));  // the two PSFs do draw different images
+}
+
+// The solver's tabulated Bessel values are those a solve computes: bitwise the same sizes.
+TEST(SimRenderer, RoundFwhmSolverIsRoundFwhm) {
+  const SimRenderer r(moffat(3.0, 2.85, 0.0, 0.05), small_galaxies());
+  const RoundFwhmSolver solver(r, true);
+  EXPECT_EQ(solver({}), r.round_fwhm({}));
+  for (double bulge : {0.0, 0.3, 1.0})
+    for (double hlr : {0.02, 0.5, 1.5, 3.0, 12.0, 40.0}) {  // brackets from the first to past the last tabulated
+      std::vector<SimComponent> round;
+      if (bulge > 0) round.push_back({4.0, bulge, hlr, 0, 0, 0, 0});
+      if (bulge < 1) round.push_back({1.0, 1 - bulge, hlr, 0, 0, 0, 0});
+      EXPECT_EQ(solver(round), r.round_fwhm(round)) << "bulge " << bulge << " hlr " << hlr;
+    }
+}
+
 }  // namespace
 }  // namespace stampede
