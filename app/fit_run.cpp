@@ -541,6 +541,13 @@ RunInput open_survey_input(const FitRunOptions& a, const Warn& warn) {
       for (std::size_t k = n_tiles; k < digests.size(); ++k) psfex.line(digests[k]);
       wo->header.emplace_back("PSFEXDIG", psfex.text(missing).hex());
     };
+  // The bands name the table's columns: a resume under other names is another run, not a partial
+  // found corrupt at its first band column.
+  if (!in.bands.empty()) {
+    std::string names;
+    for (const std::string& b : in.bands) names += (names.empty() ? "" : ",") + b;
+    in.fingerprint_extra += "bands=" + names + "\n";
+  }
   return in;
 }
 

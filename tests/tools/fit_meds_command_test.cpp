@@ -149,6 +149,38 @@ TEST_F(FitMeds, PsfexModelsAreFingerprintedAndProtected) {
   EXPECT_TRUE(contains(resumed.err, "se_e1.psf")) << resumed.err;
 }
 
+// A resume that is another run is refused by what differs, not by a line at the same place of the
+// fingerprint: other band names (the partial used to be "corrupt: column 38 is not 'n_epochs_i'")
+// and another meds_psf_dir (other PSFEx files: the message compared unrelated lines).
+TEST_F(FitMeds, AResumeOfAnotherRunNamesWhatDiffers) {
+  const std::string sim = path("sim");
+  RunResult r = stampede::testing::finish(
+      spawn({"meds", "--out", sim, "--objects", "64", "--epochs", "1", "--noise-free", "--bands", "g,r"}, path("sim.txt"),
+            "sim"),
+      path("sim.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::vector<std::string> tiles = {"--meds", sim + "/g/meds.fits", "--meds", sim + "/r/meds.fits"};
+  const std::vector<std::string> opts = {"--set", "batch_size=1", "--threads", "1", "--quiet"};
+  const std::string out = path("out.fits");
+  const pid_t pid = spawn(tiles + std::vector<std::string>{"--bands", "g,r", "-o", out} + opts, path("stderr.txt"));
+  kill_after_a_commit(pid, out, path("stderr.txt"));
+  if (::testing::Test::HasFatalFailure()) return;
+  const RunResult bands = run(tiles + std::vector<std::string>{"--bands", "g,i", "-o", out, "--resume"} + opts);
+  EXPECT_EQ(bands.exit_code, 1);
+  EXPECT_TRUE(contains(bands.err, "was written by a different run (input or configuration changed): it records "
+                                  "'bands=g,r', this run has 'bands=g,i'"))
+      << bands.err;
+  fs::create_directories(path("elsewhere"));
+  const RunResult psf = run(tiles + std::vector<std::string>{"--bands", "g,r", "-o", out, "--resume", "--set",
+                                                             "meds_psf_dir=" + path("elsewhere")} + opts);
+  EXPECT_EQ(psf.exit_code, 1);
+  EXPECT_TRUE(contains(psf.err, "it records 'meds_psf_dir=', this run has 'meds_psf_dir=" + path("elsewhere") + "'"))
+      << psf.err;
+  ASSERT_TRUE(fs::exists(out + ".partial")) << "a refused resume keeps the run resumable";
+  const RunResult resumed = run(tiles + std::vector<std::string>{"--bands", "g,r", "-o", out, "--resume"} + opts);
+  EXPECT_EQ(resumed.exit_code, 0) << resumed.err;
+}
+
 // Issue 31: grid options --meds does not use are named, and a run in which no object could be
 // fitted (here: PSFEx models looked for in the wrong directory) says so and exits non-zero.
 TEST_F(FitMeds, UnusedOptionsAreNamedAndARunWithNothingFittedFails) {
