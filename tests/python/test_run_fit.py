@@ -154,6 +154,15 @@ def test_meds_tiles_of_several_bands_are_fitted_jointly(tmp_path):
     cli = str(tmp_path / "cli.fits")
     run_cli("fit", "--meds", tiles[0], "--meds", tiles[1], "--bands", "g,r", "-o", cli, "--quiet")
     assert columns_equal_bitwise(rows, stampede.read_results(cli)) == []
+    # metacal wmom measures one set of moments over every band's cutouts: its flux is a weighted mean
+    # of the bands' (not their sum, which the docs promised), its snr that measurement's, at most the
+    # bands' quadrature sum.
+    mcal = str(tmp_path / "wmom.fits")
+    stampede.run_fit(meds=tiles, bands=["g", "r"], output=mcal, options={"metacal": True}, threads=2)
+    m = stampede.read_results(mcal)
+    low, high = np.minimum(m["flux_g"], m["flux_r"]), np.maximum(m["flux_g"], m["flux_r"])
+    assert ((m["flux"] >= low) & (m["flux"] <= high)).all(), (m["flux"], m["flux_g"], m["flux_r"])
+    assert (m["snr"] <= np.hypot(m["snr_g"], m["snr_r"]) * (1 + 1e-12)).all()
     with pytest.raises(stampede.ConfigError, match="names 1 bands for 2 --meds tiles"):
         stampede.run_fit(meds=tiles, bands=["g"], output=str(tmp_path / "x.fits"))
     with pytest.raises(TypeError, match="bands"):
