@@ -176,7 +176,9 @@ SetData read_set(const std::string& fit_path, const std::string& truth_path, con
       pair[i] = static_cast<long long>(pair_col[i]);
     }
   }
-  if (!pe1.empty() && std::isfinite(pe1[0])) {
+  // The frame c is rotated into: the PSF's e (both components finite and |e| < 1; a damaged row 0
+  // printed "e = 0.000, -inf").
+  if (!pe1.empty() && std::abs(pe1[0]) < 1 && std::abs(pe2[0]) < 1) {
     *psf_e1 = pe1[0];
     *psf_e2 = pe2[0];
   }

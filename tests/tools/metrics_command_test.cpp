@@ -289,6 +289,28 @@ TEST_F(MetricsCommand, IntegersNoFitWritesAreNamed) {
       << r.err;
 }
 
+// The PSF frame is the first row's PSF e: a damaged one (psf_e2 = -inf) was printed as the frame,
+// "PSF frame (e = 0.000, -inf)" (found by fuzz/fuzz_metrics_report.py); now it is not taken.
+TEST_F(MetricsCommand, ADamagedPsfEllipticityIsNotTheFrame) {
+  auto write_fit = [&](const std::string& file, double psf_e2) {
+    std::vector<double> id, e, zero(400, 0.0), psf(400, 0.05);
+    for (int i = 0; i < 400; ++i) id.push_back(i), e.push_back(0.01 * (i % 7));
+    psf[0] = psf_e2;
+    FitsFile f = FitsFile::create(file, true);
+    f.write_empty_image();
+    f.write_table("RESULTS", {{"id", true, id}, {"e1", false, e}, {"e2", false, e}, {"status", true, zero},
+                              {"flags", true, zero}, {"psf_e1", false, zero}, {"psf_e2", false, psf}});
+  };
+  write_fit(path("a.fits"), 0.05);
+  write_fit(path("b.fits"), -INFINITY);
+  const RunResult r = metrics({"--fit", path("a.fits"), "--truth", data("truth_0.fits"), "--fit", path("b.fits"),
+                               "--truth", data("truth_1.fits")});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string out = text_of(path("report.txt"));
+  EXPECT_TRUE(Contains(out, "PSF frame (e = 0.000, 0.050)")) << out;  // set 0's, the last finite one
+  EXPECT_FALSE(Contains(out, "inf")) << out;
+}
+
 // Metacal's R calibrates the noshear e (e1, e2); applied to calibrate apply's e1_cal, e2_cal it
 // calibrated twice, with only calibrate apply's warning: refused. The same columns by another case
 // are e1, e2.

@@ -106,7 +106,7 @@ class ShearAgainstTruth:
                               f"({truth.table.where}) is object {true['index'][row]}: not the truth of this fit")
         pair = true["pair"] if "pair" in true else np.arange(table.rows)
         usable = usable_for_shear(fit["status"], fit["flags"], fit["e1"], fit["e2"])
-        if "psf_e1" in fit and "psf_e2" in fit and math.isfinite(fit["psf_e1"][0]):
+        if "psf_e1" in fit and "psf_e2" in fit and abs(fit["psf_e1"][0]) < 1 and abs(fit["psf_e2"][0]) < 1:
             self.psf_e = (float(fit["psf_e1"][0]), float(fit["psf_e2"][0]))  # as metrics: the last set's
         shear = stampede.set_shear(fit["e1"], fit["e2"], usable.astype(np.int32), pair, truth.g1, truth.g2,
                                    bootstrap=BOOTSTRAP, seed=SEED + k)

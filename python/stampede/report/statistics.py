@@ -176,14 +176,14 @@ class BinnedMean:
         mx, my = sx / n, sy / n
         vxx, vxy, vyy = sxx / n - mx * mx, sxy / n - mx * my, syy / n - my * my
         out["x_spread"] = math.sqrt(max(0.0, vxx))
-        if not vxx > 1e-12 * max(1.0, (mx + self.shift_x) ** 2):
+        if not vxx > 1e-12 * max(1.0, (mx + self.shift_x) * (mx + self.shift_x)):  # * not **: inf, no OverflowError
             return out
         alpha = vxy / vxx
         residual = max(0.0, (vyy - alpha * vxy) * n / (n - 2))
         mean_x = mx + self.shift_x
         out["alpha"], out["alpha_err"] = alpha, math.sqrt(residual / (n * vxx))
         out["intercept"] = my + self.shift_y - alpha * mean_x
-        out["intercept_err"] = math.sqrt(residual * (1.0 / n + mean_x ** 2 / (n * vxx)))
+        out["intercept_err"] = math.sqrt(residual * (1.0 / n + mean_x * mean_x / (n * vxx)))
         return out
 
     def display(self, bins=10, min_count=1):
