@@ -281,6 +281,12 @@ def edited(source, path, *replacements):
 def as_reals(source, path, name):
     """A copy of `source` whose integer column `name` is declared real of its width ('1J' -> '1E',
     '1K' -> '1D')."""
+    return declared(source, path, name, {b"J": b"E", b"K": b"D"})
+
+
+def declared(source, path, name, forms):
+    """A copy of `source` whose column `name` is declared of another type of the same width (forms:
+    old TFORM letter -> new), its bytes unchanged."""
     data = source.read_bytes()
     at, number = data.index(b"XTENSION"), None
     while not data[at:at + 80].startswith(b"END "):
@@ -289,8 +295,7 @@ def as_reals(source, path, name):
             number = c[5:8].strip()
         at += 80
     form = data.index(f"TFORM{number}".ljust(8).encode() + b"= '1")
-    real = {b"J": b"E", b"K": b"D"}[data[form + 12:form + 13]]  # the same width
-    path.write_bytes(data[:form + 12] + real + data[form + 13:])
+    path.write_bytes(data[:form + 12] + forms[data[form + 12:form + 13]] + data[form + 13:])
     return path
 
 
@@ -314,6 +319,10 @@ def test_damaged_tables_are_refused_by_name_or_reported(run, tmp_path):
     nan_status = with_column(as_reals(table, tmp_path / "status_reals.fits", "status"), tmp_path / "status_nan.fits",
                              "status", float("nan"))
     refused(run, "status_nan", [nan_status], nan_status, "column 'status' row 0 = nan is not an integer in [0, ")
+    # An e2 column declared 64-bit integer (found by the fuzzer, case 69/41): a TypeError in set_shear.
+    integer_e = declared(table, tmp_path / "integer_e2.fits", "e2", {b"D": b"K"})
+    r = report(integer_e, "--truth", run["sim"], "-o", tmp_path / "integer_e2")
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
     # A truth whose shear is text: a ValueError traceback before.
     truth = run["sim"] / "truth_1.fits"
     text_truth = truth.read_bytes()

@@ -255,6 +255,18 @@ TEST_F(MetricsCommand, TheJsonIsNeverAnInput) {
   EXPECT_EQ(json.substr(json.size() - 2), "}\n");
 }
 
+// The same for metrics --metadetect: its --json naming the catalogue it reads is refused before
+// the catalogue is read (it was truncated once the figures were computed).
+TEST_F(MetricsCommand, TheMetadetectJsonIsNeverAnInput) {
+  { std::ofstream(path("md.fits")) << "a catalogue"; }
+  const RunResult r = metrics({"--metadetect", path("md.fits"), "--json", path("md.fits")});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_TRUE(Contains(r.err, "--json '" + path("md.fits") + "' is the --metadetect '" + path("md.fits") +
+                                  "': writing it would destroy it"))
+      << r.err;
+  EXPECT_EQ(text_of(path("md.fits")), "a catalogue");
+}
+
 // A status or flag that no fit writes (NaN, 2.5, a status past the last), or an e no fit gives, is
 // a damaged table, named by file, column and row; the integers used to be cast (undefined for NaN)
 // and the row silently kept or dropped.

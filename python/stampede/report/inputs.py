@@ -100,7 +100,8 @@ class ResultTable:
 
     def _integers(self, chunk, first_row):
         """status and flags as the fit wrote them, int64: a value none writes (NaN, 2.5, a status past
-        the table's STATUSn keys, a negative flag word) is a damaged table, named by column and row."""
+        the table's STATUSn keys, a negative flag word) is a damaged table, named by column and row;
+        the other columns as float64."""
         last_status = max(self.status_names(), default=6)
         for name, lo, hi in (("status", 0, last_status), ("flags", 0, 2**32 - 1)):
             if name not in chunk:
@@ -113,6 +114,9 @@ class ResultTable:
                 raise ReportError(f"{self.table.where}: column '{name}' row {first_row + i} = {v[i]} is not an "
                                   f"integer in [{lo}, {hi}]")
             chunk[name] = v.astype(np.int64)
+        for name in chunk:  # the measured columns as reals, whatever type a table gives them (an e of J)
+            if name not in ("id", "status", "flags"):
+                chunk[name] = np.asarray(chunk[name], dtype=np.float64)
         return chunk
 
     def status_names(self):
