@@ -495,6 +495,25 @@ RunInput open_survey_input(const FitRunOptions& a, const Warn& warn) {
   auto source = std::make_unique<io::MedsObjectSource>(a.meds, options, options.psf_model);
   const std::vector<std::string> psfex_files = source->psfex_files();
   make_survey_fitter(cfg, a.meds, in.bands);
+  // A `sim meds` tile names its simulation (SIMID): recorded as INSETID for `metrics` and the report
+  // to refuse another simulation's truth. Tiles of two simulations are not bands of one set of
+  // galaxies, though their ids and positions match.
+  std::string input_set;
+  std::size_t set_tile = 0;
+  for (std::size_t t = 0; t < a.meds.size(); ++t) {
+    std::string id;
+    try {
+      id = io::file_simulation_identity(a.meds[t]);
+    } catch (const io::FitsError& e) {  // as a grid's record: only `metrics` and the report check it
+      warn(std::string("the simulation's identity is unreadable, not recorded: ") + e.what());
+    }
+    if (!id.empty() && !input_set.empty() && id != input_set)
+      throw io::ConfigError("--meds '" + a.meds[t] + "' (band " + in.bands[t] + ") is of simulation '" + id +
+                            "' but --meds '" + a.meds[set_tile] + "' (band " + in.bands[set_tile] + ") of '" + input_set +
+                            "': the bands of a fit must be tiles of the same galaxies");
+    if (input_set.empty()) input_set = id, set_tile = t;
+  }
+  if (!input_set.empty()) in.header_after.emplace_back(io::kInputSetKey, input_set);
   in.locks = lock_outputs(a, cfg, psfex_files);  // every file the run reads is protected, PSFEx models included
   in.whole = std::move(source);
   take_shard(a, &in);
@@ -522,6 +541,13 @@ RunInput open_survey_input(const FitRunOptions& a, const Warn& warn) {
       for (std::size_t k = n_tiles; k < digests.size(); ++k) psfex.line(digests[k]);
       wo->header.emplace_back("PSFEXDIG", psfex.text(missing).hex());
     };
+  // The bands name the table's columns: a resume under other names is another run, not a partial
+  // found corrupt at its first band column.
+  if (!in.bands.empty()) {
+    std::string names;
+    for (const std::string& b : in.bands) names += (names.empty() ? "" : ",") + b;
+    in.fingerprint_extra += "bands=" + names + "\n";
+  }
   return in;
 }
 

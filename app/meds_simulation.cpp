@@ -5,12 +5,15 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 
 #include "io/durable_file.hpp"
+#include "io/file_digest.hpp"
 #include "io/fits_file.hpp"
 #include "io/meds_writer.hpp"
 #include "io/output_check.hpp"
+#include "io/simulation_identity.hpp"
 
 namespace stampede::app {
 
@@ -20,6 +23,29 @@ constexpr long long kChunk = 64;
 constexpr double kRa0 = 45.0, kDec0 = 0.0;  // the tile's centre; objects on a line in RA
 
 }  // namespace
+
+std::string meds_simulation_id(const MedsSimOptions& o) {
+  std::string text;
+  auto add = [&](const char* name, double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%s=%.17g;", name, v);
+    text += buf;
+  };
+  add("objects", o.objects), add("epochs", o.epochs), add("images", o.images), add("box_size", o.box_size);
+  add("pixel_scale", o.pixel_scale), add("scale_jitter", o.scale_jitter), add("wcs_shear", o.wcs_shear);
+  add("rotate", o.rotate), add("psf_beta", o.psf_beta), add("psf_fwhm_min", o.psf_fwhm_min);
+  add("psf_fwhm_max", o.psf_fwhm_max), add("psf_e_max", o.psf_e_max), add("psf_size", o.psf_size);
+  add("psf_cutouts", o.psf_cutouts), add("g1", o.g1), add("g2", o.g2), add("snr", o.snr);
+  add("noise_sigma", o.noise_sigma), add("noise_free", o.noise_free), add("hlr_min", o.hlr_min);
+  add("hlr_max", o.hlr_max), add("bulge_fraction_max", o.bulge_fraction_max), add("e_sigma", o.e_sigma);
+  add("e_max", o.e_max), add("centre_offset", o.centre_offset), add("magzp", o.magzp);
+  add("magzp_jitter", o.magzp_jitter), add("bad_column_fraction", o.bad_column_fraction);
+  add("neighbour_fraction", o.neighbour_fraction), add("bands", o.bands);
+  text += "seed=" + std::to_string(o.seed) + ";";  // 64 bits: beyond a double's 53
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(io::xxh64(text)));
+  return hex;
+}
 
 void write_meds_simulation(const MedsSimOptions& options, const std::string& dir, bool overwrite,
                            const std::function<void(long long, long long)>& progress) {
@@ -70,8 +96,10 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
     l.cutouts[0] = l.cutouts[1];  // the coadd slot: the first epoch's geometry, blank pixels
     l.cutouts[0].file_id = 0;
   }
+  const std::string id = meds_simulation_id(options);
   io::MedsWriter writer(tile, layout, images,
-                        {io::MedsCutoutType::kWeight, io::MedsCutoutType::kSeg, io::MedsCutoutType::kBmask});
+                        {io::MedsCutoutType::kWeight, io::MedsCutoutType::kSeg, io::MedsCutoutType::kBmask},
+                        {{io::kSimulationIdKey, id}});
   tbb::enumerable_thread_specific<std::unique_ptr<MedsSimulator::Workspace>> workspaces(
       [&] { return sim.make_workspace(); });
   std::vector<MedsSimObject> chunk;
@@ -121,6 +149,7 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
   {
     io::FitsFile truth = io::FitsFile::create(partial, true);
     truth.write_empty_image();
+    truth.write_key(io::kSimulationIdKey, id, "the simulation (its tile's SIMID)");
     truth.write_key("SHEAR1", options.g1, "the constant shear g1, (u, v) frame");
     truth.write_key("SHEAR2", options.g2, "the constant shear g2");
     truth.write_key("NOISEFRE", options.noise_free ? 1LL : 0LL, "1: noise-free");

@@ -14,6 +14,12 @@
 
 namespace stampede::app {
 
+// The simulation's identity, the SIMID key of its tile's and truth file's primary headers: the
+// XXH64 (16 hex digits) of every option but `band`, so a multi-band simulation's tiles and truth
+// files share it (they hold the same galaxies). `stampede fit` records a tile's as INSETID, and
+// `metrics` and the report refuse the truth of another simulation by it.
+std::string meds_simulation_id(const MedsSimOptions& options);
+
 // Object numbers in the seg map: object i is i + 1; its neighbour is objects + i + 1.
 void write_meds_simulation(const MedsSimOptions& options, const std::string& dir, bool overwrite,
                            const std::function<void(long long done, long long total)>& progress = {});

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "engine/common/quoted_value.hpp"
 #include "engine/render/renderer_factory.hpp"
 #include "io/fits_file.hpp"
 
@@ -128,7 +129,15 @@ PsfModel checked_reconvolution_psf(const PsfModel& psf, const app::RunConfig& cf
   std::string why;
   const auto filters =
       reconvolution_filters(psf, cfg.metacal, MetacalImager::padded_size(cfg.fitter.render.stamp_size), &why);
-  if (!filters) throw io::ConfigError("metacal_psf_dilation = " + app::get_option(cfg, "metacal_psf_dilation") + ": " + why);
+  if (!filters) {
+    // The option is named where the user set it; otherwise the PSF itself is what metacal cannot use
+    // (a NaN PSF image named metacal_psf_dilation, which the run had left at its default).
+    if (cfg.explicitly_set.count("metacal_psf_dilation"))
+      throw io::ConfigError("metacal_psf_dilation = " + app::get_option(cfg, "metacal_psf_dilation") + ": " + why);
+    std::string psf_text = "psf_input = " + app::get_option(cfg, "psf_input");
+    if (cfg.psf_kind == PsfKind::kImage) psf_text += ", psf_image = " + quoted_value(cfg.psf_image, kQuotedPathMaxBytes);
+    throw io::ConfigError("metacal = true cannot use the run's PSF (" + psf_text + "): " + why);
+  }
   return filters->reconvolution();
 }
 

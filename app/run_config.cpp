@@ -475,6 +475,12 @@ void validate(const RunConfig& config) {
                      ": the image would not be used; set psf_input = image to fit with it, or leave psf_image out");
   if (config.metacal.enabled) {
     if (!config.metacal.IsValid(&why)) fail(config, why);
+    // The weight is the moments' (wmom); a model fit has none, and would ignore it silently.
+    if (config.metacal.weight_fwhm != 0 && config.metacal.model != MetacalModel::kWeightedMoments)
+      fail(config, "metacal_weight_fwhm = " + format_double(config.metacal.weight_fwhm) + " with metacal_model = " +
+                       get_option(config, "metacal_model") +
+                       ": it is the wmom moments' weight, and a model fit has none (leave metacal_weight_fwhm out, "
+                       "or set metacal_model = wmom)");
     if (config.psf_kind == PsfKind::kAiry)
       fail(config, "metacal = true needs psf_input = moffat, moffat_catalog or image (the Airy disc's transform "
                    "vanishes beyond its cut-off: nothing to deconvolve there); psf_input = airy");

@@ -2,6 +2,8 @@
 #include "app/stamp_fitter_recipe.hpp"
 
 #include "app/psf_setup.hpp"
+#include "engine/common/number_text.hpp"
+#include "io/config_error.hpp"
 
 namespace stampede::app {
 
@@ -27,6 +29,13 @@ StampFitterRecipe stamp_fitter_recipe(const app::RunConfig& cfg, FftPlanCache& p
   r.psf_e1 = shared.e1, r.psf_e2 = shared.e2, r.psf_fwhm = shared.fwhm;
   if (r.metacal) {
     r.gamma_fwhm = checked_reconvolution_psf(shared.model, cfg).moffat.fwhm;
+    // A moments weight narrower than Γ, the images' PSF, measures no response (docs/metacal.md
+    // measures 1.5 Γ and wider); a MEDS run, whose Γ is per object, flags such rows instead.
+    if (cfg.metacal.model == MetacalModel::kWeightedMoments && cfg.metacal.weight_fwhm > 0 &&
+        cfg.metacal.weight_fwhm < r.gamma_fwhm)
+      throw io::ConfigError("metacal_weight_fwhm = " + app::get_option(cfg, "metacal_weight_fwhm") +
+                            " is narrower than the reconvolution PSF Γ (FWHM " + number_text(r.gamma_fwhm) +
+                            " px): the moments' weight must be at least as wide (default 2.5 Γ: 0)");
     r.metacal->shared_psf = shared.model;
   }
   return r;

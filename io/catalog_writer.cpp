@@ -23,6 +23,7 @@
 #include <iterator>
 #include <string_view>
 #include <system_error>
+#include <vector>
 
 #include "engine/common/quoted_value.hpp"
 #include "io/durable_file.hpp"
@@ -193,18 +194,52 @@ std::string text_header_line(std::span<const ResultColumn> columns) {
   return line + "\n";
 }
 
-// ": it records 'A', this run has 'B'" for the first line where two fingerprints differ ("" when
-// only the layout or the text output differs). A line may name a file: shown whole, as paths are.
+// What differs between two fingerprints, as ": it records 'A', this run has 'B'" ("" when only the
+// layout or the text output differs). Lines are "KEY=value" (an option or header key) or "role
+// path: digest" (a file); those in one fingerprint only are compared, not lines at the same place,
+// which a file more or less (another meds_psf_dir finds other PSFEx models) would misalign. An
+// option changed is named first, as the cause; then a file of the same role; then whatever differs.
+// A line may name a file: shown whole, as paths are.
 std::string first_difference(std::string_view recorded, std::string_view current) {
-  while (!recorded.empty() || !current.empty()) {
-    const std::string_view a = recorded.substr(0, recorded.find('\n')), b = current.substr(0, current.find('\n'));
-    if (a != b) {
-      return ": it records " + (recorded.empty() ? std::string("nothing more") : quoted_value(a, kQuotedPathMaxBytes)) +
-             ", this run has " + (current.empty() ? std::string("nothing more") : quoted_value(b, kQuotedPathMaxBytes));
+  auto lines = [](std::string_view text) {
+    std::vector<std::string_view> out;
+    while (!text.empty()) {
+      const std::string_view line = text.substr(0, text.find('\n'));
+      out.push_back(line);
+      text.remove_prefix(std::min(text.size(), line.size() + 1));
     }
-    recorded.remove_prefix(std::min(recorded.size(), a.size() + 1));
-    current.remove_prefix(std::min(current.size(), b.size() + 1));
-  }
+    return out;
+  };
+  auto only_in = [](std::vector<std::string_view> a, std::vector<std::string_view> b) {  // a - b, in a's order
+    std::vector<std::string_view> out;
+    for (const std::string_view line : a) {
+      const auto at = std::find(b.begin(), b.end(), line);
+      if (at == b.end()) out.push_back(line);
+      else b.erase(at);
+    }
+    return out;
+  };
+  const std::vector<std::string_view> a = lines(recorded), b = lines(current);
+  const std::vector<std::string_view> only_a = only_in(a, b), only_b = only_in(b, a);
+  auto quoted = [](std::string_view line) { return quoted_value(line, kQuotedPathMaxBytes); };
+  auto option_key = [](std::string_view line) {
+    const std::size_t eq = line.find('=');
+    return eq == std::string_view::npos || line.find(' ') < eq ? std::string_view() : line.substr(0, eq + 1);
+  };
+  auto file_role = [](std::string_view line) {
+    const std::size_t space = line.find(' ');
+    return space == std::string_view::npos || line.find('=') < space ? std::string_view() : line.substr(0, space + 1);
+  };
+  for (auto key : {+option_key, +file_role})
+    for (const std::string_view x : only_a)
+      for (const std::string_view y : only_b)
+        if (!key(x).empty() && key(x) == key(y)) return ": it records " + quoted(x) + ", this run has " + quoted(y);
+  if (!only_a.empty() && !only_b.empty())
+    return ": it records " + quoted(only_a.front()) + ", this run has " + quoted(only_b.front());
+  if (!only_a.empty()) return ": it records " + quoted(only_a.front()) + ", which this run has not";
+  if (!only_b.empty()) return ": this run has " + quoted(only_b.front()) + ", which it does not record";
+  for (std::size_t k = 0; k < a.size() && k < b.size(); ++k)  // the same lines in another order
+    if (a[k] != b[k]) return ": it records " + quoted(a[k]) + ", this run has " + quoted(b[k]);
   return "";
 }
 

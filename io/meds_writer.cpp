@@ -58,7 +58,8 @@ struct MedsWriter::State {
 };
 
 MedsWriter::MedsWriter(const std::string& path, std::vector<MedsObjectLayout> objects,
-                       const std::vector<MedsImageInfo>& images, const std::vector<MedsCutoutType>& types)
+                       const std::vector<MedsImageInfo>& images, const std::vector<MedsCutoutType>& types,
+                       const std::vector<std::pair<std::string, std::string>>& primary_keys)
     : s_(std::make_unique<State>()) {
   State& s = *s_;
   s.path = path;
@@ -86,6 +87,8 @@ MedsWriter::MedsWriter(const std::string& path, std::vector<MedsObjectLayout> ob
   }
   // A primary HDU with no data, then the tables.
   fits_create_img(s.f, BYTE_IMG, 0, nullptr, &status);
+  for (const auto& [key, value] : primary_keys)
+    fits_write_key(s.f, TSTRING, key.c_str(), const_cast<char*>(value.c_str()), nullptr, &status);
   {
     const std::string n = std::to_string(nmax);
     const std::string k = n + "K", d = n + "D";

@@ -9,6 +9,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "io/meds_file.hpp"
@@ -27,10 +28,12 @@ struct MedsObjectLayout {
 
 class MedsWriter {
  public:
-  // Types other than kImage are written when listed in `types` (kImage always is). Throws FitsError
-  // naming the path when it cannot be created.
+  // Types other than kImage are written when listed in `types` (kImage always is); `primary_keys`
+  // are string keywords (key, value) of the primary header, e.g. a simulation's SIMID. Throws
+  // FitsError naming the path when it cannot be created.
   MedsWriter(const std::string& path, std::vector<MedsObjectLayout> objects, const std::vector<MedsImageInfo>& images,
-             const std::vector<MedsCutoutType>& types);
+             const std::vector<MedsCutoutType>& types,
+             const std::vector<std::pair<std::string, std::string>>& primary_keys = {});
   ~MedsWriter();
   MedsWriter(const MedsWriter&) = delete;
   MedsWriter& operator=(const MedsWriter&) = delete;

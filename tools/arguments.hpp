@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <array>
+#include <initializer_list>
 #include <charconv>
 #include <cmath>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -15,6 +17,17 @@
 namespace stampede::tools {
 
 using stampede::quoted_value;
+
+// An option that takes a value, given twice: the last would silently win over the first, so it is
+// refused. `seen` holds the options met so far; `flags` are the command's options without a value
+// (repeating one changes nothing).
+inline void refuse_repeated_option(const std::string& option, std::initializer_list<const char*> flags,
+                                   std::set<std::string>* seen, const char* command) {
+  if (!option.starts_with("--") || std::any_of(flags.begin(), flags.end(), [&](const char* f) { return option == f; }))
+    return;
+  if (!seen->insert(option).second)
+    throw std::invalid_argument(option + " is given twice: give it once (see stampede " + std::string(command) + " --help)");
+}
 
 // The value after option argv[*i] (advancing *i); a clear error when it is missing.
 inline std::string option_value(int argc, char** argv, int* i) {

@@ -11,6 +11,7 @@
 #include "app/metadetect_metrics.hpp"
 #include "engine/analysis/metadetect_shear.hpp"
 #include "tools/arguments.hpp"
+#include "tools/json_output.hpp"
 
 namespace {
 
@@ -91,6 +92,9 @@ int run_metadetect_metrics_command(int argc, char** argv) {
       throw std::invalid_argument("option " + tools::quoted_value(a) + " is not one of metrics --metadetect's");
     }
   }
+  if (!json.empty())
+    tools::check_json_output(json, {{"--metadetect", plus_path}, {"--minus", minus_path}, {"--rotated", rotated_path},
+                                    {"--rotated-minus", rotated_minus_path}});
   app::MetadetectMetricsOptions mo;
   mo.table = plus_path, mo.minus = minus_path, mo.rotated = rotated_path, mo.rotated_minus = rotated_minus_path;
   mo.shear = shear, mo.cuts = cuts, mo.resamples = resamples, mo.seed = seed;
@@ -100,7 +104,8 @@ int run_metadetect_metrics_command(int argc, char** argv) {
               s.kept_noshear, cuts.min_snr, cuts.min_t_ratio);
   std::printf("  R11 = %.5f +- %.5f   R22 = %.5f +- %.5f\n", s.r11, s.r11_err, s.r22, s.r22_err);
   std::printf("  g1  = %+.3e +- %.1e   g2 = %+.3e +- %.1e\n", s.g1, s.g1_err, s.g2, s.g2_err);
-  std::string out = "{\"table\": \"" + plus_path + "\", \"cells\": " + std::to_string(s.cells) + ", \"R11\": " + number(s.r11) +
+  std::string out = "{\"table\": " + tools::json_string(plus_path) + ", \"cells\": " + std::to_string(s.cells) +
+                    ", \"R11\": " + number(s.r11) +
                     ", \"R11_err\": " + number(s.r11_err) + ", \"R22\": " + number(s.r22) + ", \"R22_err\": " +
                     number(s.r22_err) + ", \"g1\": " + number(s.g1) + ", \"g1_err\": " + number(s.g1_err) +
                     ", \"g2\": " + number(s.g2) + ", \"g2_err\": " + number(s.g2_err);
@@ -110,16 +115,13 @@ int run_metadetect_metrics_command(int argc, char** argv) {
                 r.true_shear[1], b.pairs);
     if (std::isfinite(b.m1)) std::printf("  m1 = %+.3e +- %.1e   c2 = %+.3e +- %.1e\n", b.m1, b.m1_err, b.c2, b.c2_err);
     if (std::isfinite(b.m2)) std::printf("  m2 = %+.3e +- %.1e   c1 = %+.3e +- %.1e\n", b.m2, b.m2_err, b.c1, b.c1_err);
-    out += ", \"minus\": \"" + minus_path + "\", \"shear\": [" + number(r.true_shear[0]) + ", " + number(r.true_shear[1]) +
+    out += ", \"minus\": " + tools::json_string(minus_path) + ", \"shear\": [" + number(r.true_shear[0]) + ", " +
+           number(r.true_shear[1]) +
            "], \"pairs\": " + std::to_string(b.pairs) + ", \"m1\": " + number(b.m1) + ", \"m1_err\": " + number(b.m1_err) +
            ", \"c2\": " + number(b.c2) + ", \"c2_err\": " + number(b.c2_err) + ", \"m2\": " + number(b.m2) +
            ", \"m2_err\": " + number(b.m2_err) + ", \"c1\": " + number(b.c1) + ", \"c1_err\": " + number(b.c1_err);
   }
   out += "}\n";
-  if (!json.empty()) {
-    std::FILE* f = std::fopen(json.c_str(), "w");
-    if (!f || std::fputs(out.c_str(), f) < 0 || std::fclose(f) != 0)
-      throw std::runtime_error("cannot write --json " + tools::quoted_value(json));
-  }
+  if (!json.empty()) tools::write_json(json, out);
   return 0;
 }

@@ -1,18 +1,23 @@
 // `stampede metrics`; see metrics_command.hpp.
 #include "tools/arguments.hpp"
 #include "tools/metrics_command.hpp"
+#include "tools/json_output.hpp"
 #include "tools/metadetect_metrics_command.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "engine/common/number_text.hpp"
 #include "engine/fit/fit_result.hpp"
 #include "engine/pipeline/object_record.hpp"
 #include "engine/analysis/metacal_shear.hpp"
@@ -105,31 +110,20 @@ std::string json_number(double v) {
   return buf;
 }
 
-// A path as a JSON string: quotes, backslashes and control characters escaped.
-std::string json_string(const std::string& text) {
-  std::string out = "\"";
-  for (const char ch : text) {
-    const auto c = static_cast<unsigned char>(ch);
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += ch;
-    } else if (c < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      out += buf;
-    } else {
-      out += ch;
-    }
-  }
-  return out + "\"";
-}
-
 // A set's estimate, and what pairing it with its shear-pair partner needs.
 struct SetData {
   SetShear shear;
   std::unique_ptr<UnitShearEstimator> units;  // --shear-pairs only: a copy of the set's rows
   long long index = -1, partner = -1;  // SETIDX and SHEARPR of the truth (-1: none)
 };
+
+// A table's integer as the fit or simulation wrote it: a value none writes (NaN, 2.5, a status past
+// the last) is a damaged or foreign file, named rather than cast (NaN to an integer is undefined).
+void check_integer(const std::string& where, const char* column, std::size_t row, double v, double lo, double hi) {
+  if (!(v >= lo && v <= hi && v == std::floor(v)))
+    throw std::runtime_error(where + ": column '" + column + "' row " + std::to_string(row) + " = " + number_text(v) +
+                             " is not an integer in [" + number_text(lo) + ", " + number_text(hi) + "]");
+}
 
 SetData read_set(const std::string& fit_path, const std::string& truth_path, const std::string& e1_column,
                  const std::string& e2_column, int bootstrap, std::uint64_t seed, const Cuts& cuts, double* psf_e1,
@@ -141,6 +135,9 @@ SetData read_set(const std::string& fit_path, const std::string& truth_path, con
              pe2 = fit.column(F::kPsfE2);
   io::FitsFile truth = io::FitsFile::open_read(truth_path);
   const double g1 = truth.key_double("SHEAR1"), g2 = truth.key_double("SHEAR2");
+  if (!(std::abs(g1) < 1 && std::abs(g2) < 1))
+    throw std::runtime_error(truth.describe() + ": SHEAR1, SHEAR2 = " + number_text(g1) + ", " + number_text(g2) +
+                             " is not a shear (|g| < 1)");
   SetData out;
   out.index = truth.read_key_long("SETIDX").value_or(-1);
   out.partner = truth.read_key_long("SHEARPR").value_or(-1);
@@ -164,11 +161,24 @@ SetData read_set(const std::string& fit_path, const std::string& truth_path, con
     if (id[i] != index[i])
       throw std::runtime_error(fit.describe() + ": row " + std::to_string(i) + " is object " + std::to_string(id[i]) +
                                " but the truth row is object " + std::to_string(index[i]));
+    check_integer(fit.describe(), "status", i, status[i], 0, kFitStatusCount - 1);
+    check_integer(fit.describe(), "flags", i, flags[i], 0, 4294967295.0);
     usable[i] = usable_for_shear(static_cast<FitStatus>(static_cast<int>(status[i])), static_cast<std::uint32_t>(flags[i])) &&
                 std::isfinite(e1[i]) && std::isfinite(e2[i]);
-    if (!pair.empty()) pair[i] = static_cast<long long>(pair_col[i]);
+    // A fit's |e| is below 1 (calibrated columns a little beyond): 1e308 is a damaged table, whose
+    // mean would overflow to an infinite shear.
+    for (const auto& [column, e] : {std::pair{&e1_column, &e1}, std::pair{&e2_column, &e2}})
+      if (usable[i] && !(std::abs((*e)[i]) <= 10))
+        throw std::runtime_error(fit.describe() + ": column '" + *column + "' row " + std::to_string(i) + " = " +
+                                 number_text((*e)[i]) + " is not an ellipticity (|e| <= 10)");
+    if (!pair.empty()) {
+      check_integer(truth.describe(), "pair", i, pair_col[i], -9007199254740992.0, 9007199254740992.0);
+      pair[i] = static_cast<long long>(pair_col[i]);
+    }
   }
-  if (!pe1.empty() && std::isfinite(pe1[0])) {
+  // The frame c is rotated into: the PSF's e (both components finite and |e| < 1; a damaged row 0
+  // printed "e = 0.000, -inf").
+  if (!pe1.empty() && std::abs(pe1[0]) < 1 && std::abs(pe2[0]) < 1) {
     *psf_e1 = pe1[0];
     *psf_e2 = pe2[0];
   }
@@ -180,8 +190,11 @@ SetData read_set(const std::string& fit_path, const std::string& truth_path, con
   if (cuts.metacal) {
     if (!fit.has(F::kR11))
       throw std::runtime_error(fit.describe() + " has no metacal columns (R11 ...): fit with metacal = true, or drop --metacal");
-    const double step = fit.file().read_key_double("metacal_step").value_or(NAN);
-    if (!(step > 0)) throw std::runtime_error(fit.describe() + ": no valid metacal_step key");
+    const std::optional<double> recorded_step = fit.file().read_key_double("metacal_step");
+    if (!recorded_step) throw std::runtime_error(fit.describe() + ": no metacal_step key (R is measured over it)");
+    const double step = *recorded_step;
+    if (!(step > 0 && step <= 0.1))
+      throw std::runtime_error(fit.describe() + ": metacal_step = " + number_text(step) + " is not a metacal step in (0, 0.1]");
     const auto snr = fit.column(F::kSnr), radius = fit.column(F::kRadius);
     // The size-ratio cut is a radius cut at Q x Gamma, the PSF of all five images: per object in a
     // survey table, one for a grid's run.
@@ -333,11 +346,28 @@ int run_metrics_command(int argc, char** argv) {
   }
   if (std::isfinite(cuts.min_size_ratio) && !cuts.metacal)
     throw std::invalid_argument("--cut-size-ratio is a metacal cut (the images' PSF is Gamma): add --metacal");
+  // R is the response of the noshear e (e1, e2) to shear: applied to other columns (calibrate
+  // apply's e1_cal, e2_cal, already corrected for noise bias) it would calibrate twice.
+  auto lower = [](std::string t) {
+    for (char& ch : t) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    return t;
+  };  // FITS column names match without case
+  if (cuts.metacal && (lower(e1_column) != io::column_name(io::ResultField::kE1) ||
+                       lower(e2_column) != io::column_name(io::ResultField::kE2)))
+    throw std::invalid_argument("--metacal with --e-columns " + tools::quoted_value(e1_column + "," + e2_column) +
+                                ": metacal's R is the response of the noshear e (e1, e2) and calibrates them; applied to "
+                                "other columns (calibrate apply's e1_cal, e2_cal are calibrated already) it would "
+                                "calibrate twice. Drop --e-columns, or --metacal to measure calibrated columns as they are");
   if (!cuts.selection_response && !cuts.metacal)
     throw std::invalid_argument("--no-selection-response leaves metacal's R_S out: add --metacal");
   if (fits.empty() || fits.size() != truths.size())
     throw std::invalid_argument("give one --truth for each --fit (got " + std::to_string(fits.size()) + " and " +
                                 std::to_string(truths.size()) + ")");
+  if (!json.empty()) {
+    std::vector<std::pair<std::string, std::string>> inputs;
+    for (std::size_t k = 0; k < fits.size(); ++k) inputs.insert(inputs.end(), {{"--fit", fits[k]}, {"--truth", truths[k]}});
+    tools::check_json_output(json, inputs);
+  }
   double psf_e1 = 0, psf_e2 = 0;
   std::vector<SetData> data;
   std::vector<SetShear> sets;
@@ -366,7 +396,7 @@ int run_metrics_command(int argc, char** argv) {
                                                     " (a bootstrap error needs 2 or more)"));
   }
   for (const std::string& why : without_errors) std::printf("err n/a: %s\n", why.c_str());
-  if (m.sets.size() >= 2) {
+  if (std::isfinite(m.component[0].m) && std::isfinite(m.component[1].m)) {
     for (int c = 0; c < 2; ++c)
       std::printf("m%d = %+.3e +- %s   c%d = %+.3e +- %s\n", c + 1, m.component[c].m,
                   number_or_na("%.1e", m.component[c].m_err).c_str(), c + 1, m.component[c].c,
@@ -403,12 +433,11 @@ int run_metrics_command(int argc, char** argv) {
     std::printf("paired PSF frame: c+ = %+.3e  cx = %+.3e\n", paired.c_plus, paired.c_cross);
   }
   if (!json.empty()) {
-    std::ofstream out(json);
-    if (!out) throw std::runtime_error("cannot write '" + json + "'");
+    std::ostringstream out;
     out << "{\n  \"sets\": [\n";
     for (std::size_t k = 0; k < m.sets.size(); ++k) {
       const SetShear& s = m.sets[k];
-      out << "    {\"fit\": " << json_string(fits[k]) << ", \"g1_true\": " << json_number(s.g1_true)
+      out << "    {\"fit\": " << tools::json_string(fits[k]) << ", \"g1_true\": " << json_number(s.g1_true)
           << ", \"g2_true\": " << json_number(s.g2_true) << ", \"g1\": " << json_number(s.g1) << ", \"g2\": "
           << json_number(s.g2) << ", \"err1\": " << json_number(s.err1) << ", \"err2\": " << json_number(s.err2)
           << ", \"used\": " << s.used << ", \"excluded\": " << s.excluded << ", \"units\": " << s.units << "}"
@@ -433,6 +462,7 @@ int run_metrics_command(int argc, char** argv) {
           << ", \"c_plus\": " << num(paired.c_plus) << ", \"c_cross\": " << num(paired.c_cross) << "}";
     }
     out << "\n}\n";
+    tools::write_json(json, out.str());
   }
   return 0;
 }

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -101,8 +102,11 @@ int run_sim_cells_command(int argc, char** argv) {
   app::CellOutputOptions out;
   std::string dir;
   int threads = 0;
+  std::set<std::string> seen;
   for (int i = 2; i < argc; ++i) {
     const std::string s = argv[i];
+    tools::refuse_repeated_option(s, {"--help", "--pair", "--rotate", "--noise-free", "--tile", "--overwrite"},
+                                  &seen, "sim cells");
     auto value = [&] { return tools::option_value(argc, argv, &i); };
     auto number = [&] { return tools::number_value(argc, argv, &i); };
     auto integer = [&](long long lo, long long hi) { return static_cast<int>(tools::integer_in(argc, argv, &i, lo, hi)); };

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -85,8 +86,11 @@ int run_sim_meds_command(int argc, char** argv) {
   int threads = 0;
   bool overwrite = false;
   std::vector<std::string> bands;
+  std::set<std::string> seen;
   for (int i = 2; i < argc; ++i) {
     const std::string s = argv[i];
+    tools::refuse_repeated_option(s, {"--help", "--noise-free", "--no-rotation", "--psf-cutouts", "--overwrite"}, &seen,
+                                  "sim meds");
     auto value = [&] { return tools::option_value(argc, argv, &i); };
     auto number = [&] { return tools::number_value(argc, argv, &i); };
     if (s == "--help" || s == "-h") {

@@ -154,7 +154,12 @@ ShearMetrics combine_sets(std::vector<SetShear> sets, double psf_e1, double psf_
     terms += 2;
   }
   m.sets = std::move(sets);
-  if (x1.size() >= 2) {
+  // A line needs two distinct true shears per component (two fits of one set have one): else m and
+  // c are not defined, and NaN says so.
+  auto varies = [](const std::vector<double>& x) {
+    return std::any_of(x.begin(), x.end(), [&](double v) { return v != x[0]; });
+  };
+  if (x1.size() >= 2 && varies(x1) && varies(x2)) {
     m.component[0] = fit_linear_bias(x1, y1, s1);
     m.component[1] = fit_linear_bias(x2, y2, s2);
   } else {

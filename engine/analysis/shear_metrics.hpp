@@ -52,6 +52,7 @@ struct ShearMetrics {
 };
 
 // psf_e1, psf_e2: the PSF's ellipticity defining the frame (0, 0: c_plus = c1, c_cross = c2).
+// m and c are NaN unless two sets with finite estimates differ in each component's true shear.
 ShearMetrics combine_sets(std::vector<SetShear> sets, double psf_e1, double psf_e2);
 
 // (c1, c2) in the PSF frame: c_plus along the PSF's major axis, c_cross at 45 degrees to it.

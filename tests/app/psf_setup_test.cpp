@@ -5,6 +5,11 @@
 #include "app/psf_setup.hpp"
 #include "engine/render/exact_psf.hpp"
 #include "app/run_config.hpp"
+#include "io/config_error.hpp"
+#include "support/error_assertions.hpp"
+
+#include <cmath>
+#include <memory>
 
 namespace stampede::app {
 namespace {
@@ -32,6 +37,28 @@ TEST(PsfSetup, AutoIsExactForAMoffatAndUpsampledForAnAiryDisc) {
   app::set_option(cfg, "renderer", "upsampled");
   app::set_option(cfg, "psf_input", "moffat");
   EXPECT_EQ(build_shared_psf(cfg, plans).kind, RendererKind::kUpsampled);
+}
+
+// A PSF image metacal cannot normalise (a NaN pixel) was reported as "metacal_psf_dilation = 0:
+// ...", an option the run had not set: the run's PSF is named instead; the option is named where
+// the run sets it.
+TEST(PsfSetup, AReconvolutionFailureNamesWhatTheRunSet) {
+  auto image = std::make_shared<PsfImage>();
+  image->nx = image->ny = 9;
+  image->pixels.assign(81, 1.0);
+  image->pixels[10] = NAN;
+  const PsfModel psf = PsfModel::Image(image);
+  app::RunConfig cfg;
+  app::set_option(cfg, "metacal", "true");
+  app::set_option(cfg, "psf_input", "image");
+  app::set_option(cfg, "psf_image", "nan_psf.fits");
+  const std::string message = testing::error_of<io::ConfigError>([&] { checked_reconvolution_psf(psf, cfg); });
+  EXPECT_TRUE(testing::Contains(message, "metacal = true cannot use the run's PSF (psf_input = image, psf_image = "
+                                         "'nan_psf.fits'): ")) << message;
+  EXPECT_FALSE(testing::Contains(message, "metacal_psf_dilation")) << message;
+  app::set_option(cfg, "metacal_psf_dilation", "1.5");
+  EXPECT_TRUE(testing::Contains(testing::error_of<io::ConfigError>([&] { checked_reconvolution_psf(psf, cfg); }),
+                                "metacal_psf_dilation = 1.5: "));
 }
 
 }  // namespace

@@ -185,6 +185,24 @@ TEST(RunConfigRegistry, MetacalModelAndWeightParseAndValidate) {
                        "metacal_weight_fwhm = 0.05: must be 0 (automatic) or in [0.1, 1000] (pixels; arcsec for MEDS tiles)"));
 }
 
+// metacal_weight_fwhm is the wmom moments' weight: with a model fit (bd, exp, gauss) it was
+// silently unused; refused, naming both options.
+TEST(RunConfigValidate, AMomentsWeightWithAModelFitIsRefused) {
+  RunConfig c;
+  set_option(c, "metacal", "true");
+  set_option(c, "metacal_weight_fwhm", "4.5");
+  EXPECT_NO_THROW(validate(c));  // wmom, the default
+  for (const char* model : {"bd", "exp", "gauss"}) {
+    set_option(c, "metacal_model", model);
+    EXPECT_TRUE(Contains(error_of<ConfigError>([&] { validate(c); }),
+                         std::string("metacal_weight_fwhm = 4.5 with metacal_model = ") + model +
+                             ": it is the wmom moments' weight, and a model fit has none"))
+        << model;
+  }
+  set_option(c, "metacal_weight_fwhm", "0");  // automatic: nothing to ignore
+  EXPECT_NO_THROW(validate(c));
+}
+
 // metacal_step was accepted in (0, 0.1], but at 1e-4 .. 1e-8 errors in e over 2 step swamped R, with
 // status ok (bd at 1e-4: mean R11 3.2). Refused below the measured floor (docs/metacal.md, "The
 // step's floor"), naming the option, its value and the bound.

@@ -210,8 +210,23 @@ def test_a_table_given_twice_or_grid_with_survey_tables_is_refused(run, tmp_path
     refused(run, "survey_grid", [survey, run["fits"][0]], survey, run["fits"][0], "survey (MEDS)")
 
 
+def test_a_survey_table_with_another_simulations_truth_is_refused(run, tmp_path):
+    """A `sim meds` tile and its truth carry the simulation's SIMID, which the fit records as
+    INSETID: the truth of another simulation (same ids, same row count) is refused by name, as by
+    `stampede metrics`; the tile's own truth is accepted."""
+    survey = survey_table(tmp_path)
+    other = tmp_path / "other"
+    run_cli("sim", "meds", "--out", str(other), "--objects", "4", "--epochs", "2", "--snr", "30", "--seed", "12")
+    err = refused(run, "other_simulation", [survey, "--truth", other / "truth.fits"], survey, other / "truth.fits",
+                  "(INSETID)")
+    assert err.count("SIMID=") == 2
+    own = tmp_path / "own"
+    r = report(survey, "--truth", tmp_path / "meds" / "truth.fits", "-o", own)
+    assert r.returncode == 0, r.stderr
+
+
 def with_column(source, path, name, value):
-    """A copy of the result table `source` with every row's double column `name` set to `value`."""
+    """A copy of the result table `source` with every row's real column `name` set to `value`."""
     import struct
     data = bytearray(source.read_bytes())
     start = data.index(b"XTENSION")
@@ -229,12 +244,13 @@ def with_column(source, path, name, value):
     offset, column = 0, None
     for k in range(1, int(cards["TFIELDS"]) + 1):
         if cards[f"TTYPE{k}"] == name:
-            assert cards[f"TFORM{k}"] == "1D"
-            column = offset
+            assert cards[f"TFORM{k}"] in ("1D", "1E")
+            column, form = offset, ">d" if cards[f"TFORM{k}"] == "1D" else ">f"
         offset += widths[cards[f"TFORM{k}"][-1]]
     assert column is not None and offset == int(cards["NAXIS1"])
+    size = struct.calcsize(form)
     for row in range(int(cards["NAXIS2"])):
-        data[data_start + row * offset + column:data_start + row * offset + column + 8] = struct.pack(">d", value)
+        data[data_start + row * offset + column:data_start + row * offset + column + size] = struct.pack(form, value)
     path.write_bytes(bytes(data))
     return path
 
@@ -249,3 +265,83 @@ def test_huge_fluxes_give_a_report_not_a_traceback(run, tmp_path):
     assert r.returncode == 0 and "Traceback" not in r.stderr and "Warning" not in r.stderr, r.stderr
     text = html.unescape((out / "report.html").read_text(encoding="utf-8"))
     assert "1.5e+162" in text
+
+
+def edited(source, path, *replacements):
+    """A copy of `source` with header bytes replaced (each old and new of one length, so the file's
+    layout is kept)."""
+    data = source.read_bytes()
+    for old, new in replacements:
+        assert len(old) == len(new) and data.count(old) == 1, old
+        data = data.replace(old, new)
+    path.write_bytes(data)
+    return path
+
+
+def as_reals(source, path, name):
+    """A copy of `source` whose integer column `name` is declared real of its width ('1J' -> '1E',
+    '1K' -> '1D')."""
+    return declared(source, path, name, {b"J": b"E", b"K": b"D"})
+
+
+def declared(source, path, name, forms):
+    """A copy of `source` whose column `name` is declared of another type of the same width (forms:
+    old TFORM letter -> new), its bytes unchanged."""
+    data = source.read_bytes()
+    at, number = data.index(b"XTENSION"), None
+    while not data[at:at + 80].startswith(b"END "):
+        c = data[at:at + 80].decode()
+        if c.startswith("TTYPE") and c[10:].split("/")[0].strip().strip("'").strip() == name:
+            number = c[5:8].strip()
+        at += 80
+    form = data.index(f"TFORM{number}".ljust(8).encode() + b"= '1")
+    path.write_bytes(data[:form + 12] + forms[data[form + 12:form + 13]] + data[form + 13:])
+    return path
+
+
+def card(key, value):
+    return f"{key:<8s}= {value:>20s}".encode().ljust(80)
+
+
+def test_damaged_tables_are_refused_by_name_or_reported(run, tmp_path):
+    """Found by fuzz/fuzz_metrics_report.py: damaged or unusual tables ended the report in a
+    traceback or in warnings; each is now a report or a refusal naming file, column and row."""
+    table = run["fits"][1]
+    # No disc_flux column (not a required one): KeyError before; now reported without it.
+    renamed = edited(table, tmp_path / "no_disc_flux.fits", (b"'disc_flux'", b"'disc_flxx'"))
+    r = report(renamed, "-o", tmp_path / "no_disc_flux")
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    # Every e1 at 1e308: an OverflowError (and overflow warnings) drawing the histograms before.
+    huge = with_column(table, tmp_path / "huge_e.fits", "e1", 1e308)
+    r = report(huge, "--truth", run["sim"], "-o", tmp_path / "huge_e")
+    assert r.returncode == 0 and "Traceback" not in r.stderr and "Warning" not in r.stderr, r.stderr
+    # A status column of reals holding NaN: a TypeError on the flag bits before; now named.
+    nan_status = with_column(as_reals(table, tmp_path / "status_reals.fits", "status"), tmp_path / "status_nan.fits",
+                             "status", float("nan"))
+    refused(run, "status_nan", [nan_status], nan_status, "column 'status' row 0 = nan is not an integer in [0, ")
+    # An e2 column declared 64-bit integer (found by the fuzzer, case 69/41): a TypeError in set_shear.
+    integer_e = declared(table, tmp_path / "integer_e2.fits", "e2", {b"D": b"K"})
+    r = report(integer_e, "--truth", run["sim"], "-o", tmp_path / "integer_e2")
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    # A truth whose shear is text: a ValueError traceback before.
+    truth = run["sim"] / "truth_1.fits"
+    text_truth = truth.read_bytes()
+    at = text_truth.index(b"SHEAR1  =")
+    bad = tmp_path / "text_shear_truth.fits"
+    bad.write_bytes(text_truth[:at] + card("SHEAR1", "'x'").ljust(80) + text_truth[at + 80:])
+    refused(run, "text_shear", [table, "--truth", bad], bad, "SHEAR1, SHEAR2 = 'x'", "is not a shear")
+
+
+def test_two_fits_of_one_set_have_no_line(run, tmp_path):
+    """A plain and a metacal fit of one set, with the simulation's truth: one true shear, so no m and
+    c (`fit_linear_bias` raised through the report before); said as `stampede metrics` says it."""
+    mcal = tmp_path / "metacal_0.fits"
+    run_cli("fit", str(run["sim"] / "set_0.fits"), "-o", str(mcal), "--set", "metacal=true", "--threads", "2", "--quiet")
+    out = tmp_path / "page"
+    r = report(mcal, run["fits"][0], "--truth", run["sim"], "-o", out)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    text = html.unescape((out / "report.html").read_text(encoding="utf-8"))
+    assert "m, c: need at least two sets with different shears" in text
+    printed = run_cli("metrics", "--fit", str(mcal), "--truth", str(run["sim"] / "truth_0.fits"), "--fit",
+                      str(run["fits"][0]), "--truth", str(run["sim"] / "truth_0.fits")).stdout
+    assert "m, c: need at least two sets with different shears" in printed

@@ -651,6 +651,14 @@ TEST_F(FitCommand, OptionsGivenTwiceAreRefused) {
   EXPECT_EQ(t.exit_code, 1);
   EXPECT_NE(t.err.find("--threads is given twice"), std::string::npos) << t.err;
   for (const char* name : {"a.fits", "b.fits", "a.fits.partial", "o.fits"}) EXPECT_FALSE(fs::exists(path(name))) << name;
+  // The same class in `sim meds`, whose --bands also name the tiles: the last used to win.
+  const RunResult sim = finish(spawn({"meds", "--out", path("sim"), "--bands", "g,r", "--objects", "2", "--bands", "i"},
+                                     path("sim.txt"), "sim"),
+                               path("sim.txt"));
+  EXPECT_EQ(sim.exit_code, 1);
+  EXPECT_NE(sim.err.find("--bands is given twice: give it once (see stampede sim meds --help)"), std::string::npos)
+      << sim.err;
+  EXPECT_FALSE(fs::exists(path("sim")));
 }
 
 }  // namespace

@@ -149,6 +149,38 @@ TEST_F(FitMeds, PsfexModelsAreFingerprintedAndProtected) {
   EXPECT_TRUE(contains(resumed.err, "se_e1.psf")) << resumed.err;
 }
 
+// A resume that is another run is refused by what differs, not by a line at the same place of the
+// fingerprint: other band names (the partial used to be "corrupt: column 38 is not 'n_epochs_i'")
+// and another meds_psf_dir (other PSFEx files: the message compared unrelated lines).
+TEST_F(FitMeds, AResumeOfAnotherRunNamesWhatDiffers) {
+  const std::string sim = path("sim");
+  RunResult r = stampede::testing::finish(
+      spawn({"meds", "--out", sim, "--objects", "64", "--epochs", "1", "--noise-free", "--bands", "g,r"}, path("sim.txt"),
+            "sim"),
+      path("sim.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::vector<std::string> tiles = {"--meds", sim + "/g/meds.fits", "--meds", sim + "/r/meds.fits"};
+  const std::vector<std::string> opts = {"--set", "batch_size=1", "--threads", "1", "--quiet"};
+  const std::string out = path("out.fits");
+  const pid_t pid = spawn(tiles + std::vector<std::string>{"--bands", "g,r", "-o", out} + opts, path("stderr.txt"));
+  kill_after_a_commit(pid, out, path("stderr.txt"));
+  if (::testing::Test::HasFatalFailure()) return;
+  const RunResult bands = run(tiles + std::vector<std::string>{"--bands", "g,i", "-o", out, "--resume"} + opts);
+  EXPECT_EQ(bands.exit_code, 1);
+  EXPECT_TRUE(contains(bands.err, "was written by a different run (input or configuration changed): it records "
+                                  "'bands=g,r', this run has 'bands=g,i'"))
+      << bands.err;
+  fs::create_directories(path("elsewhere"));
+  const RunResult psf = run(tiles + std::vector<std::string>{"--bands", "g,r", "-o", out, "--resume", "--set",
+                                                             "meds_psf_dir=" + path("elsewhere")} + opts);
+  EXPECT_EQ(psf.exit_code, 1);
+  EXPECT_TRUE(contains(psf.err, "it records 'meds_psf_dir=', this run has 'meds_psf_dir=" + path("elsewhere") + "'"))
+      << psf.err;
+  ASSERT_TRUE(fs::exists(out + ".partial")) << "a refused resume keeps the run resumable";
+  const RunResult resumed = run(tiles + std::vector<std::string>{"--bands", "g,r", "-o", out, "--resume"} + opts);
+  EXPECT_EQ(resumed.exit_code, 0) << resumed.err;
+}
+
 // Issue 31: grid options --meds does not use are named, and a run in which no object could be
 // fitted (here: PSFEx models looked for in the wrong directory) says so and exits non-zero.
 TEST_F(FitMeds, UnusedOptionsAreNamedAndARunWithNothingFittedFails) {
@@ -319,6 +351,62 @@ TEST_F(FitMeds, SimulatedTilesFittedAndMeasuredByMetrics) {
   // Noise-free, against the applied g: only the 4 ring pairs' own O(g e^2) response remains.
   EXPECT_LT(std::abs(m1), 0.1) << text;
   EXPECT_LT(std::abs(c1), 5e-3) << text;
+
+  // Each table records its tile's simulation (SIMID, as INSETID), which the truth file carries too:
+  // the other simulation's truth (same ids, same row count) is refused by name.
+  std::string simid[2];
+  for (int k = 0; k < 2; ++k) {
+    const std::string dir = path(k == 0 ? "t0" : "t1");
+    stampede::io::FitsFile truth = stampede::io::FitsFile::open_read(dir + "/truth.fits");
+    simid[k] = truth.key_string("SIMID");
+    EXPECT_EQ(simid[k].size(), 16u) << simid[k];
+    stampede::io::FitsFile tile = stampede::io::FitsFile::open_read(dir + "/meds.fits");
+    EXPECT_EQ(tile.key_string("SIMID"), simid[k]);
+    stampede::io::FitsFile fit = stampede::io::FitsFile::open_read(dir + "/fit.fits");
+    fit.move_to("RESULTS");
+    EXPECT_EQ(fit.key_string("INSETID"), "SIMID=" + simid[k]);
+  }
+  EXPECT_NE(simid[0], simid[1]);
+  const std::string t0 = path("t0"), t1 = path("t1");
+  const RunResult swapped = stampede::testing::finish(
+      spawn({"--fit", t0 + "/fit.fits", "--truth", t1 + "/truth.fits", "--fit", t1 + "/fit.fits", "--truth",
+             t0 + "/truth.fits"},
+            path("metrics.txt"), "metrics", path("out.txt")),
+      path("metrics.txt"));
+  EXPECT_EQ(swapped.exit_code, 1) << swapped.err;
+  EXPECT_TRUE(contains(swapped.err, t0 + "/fit.fits[HDU 1 'RESULTS'] is a fit of set 'SIMID=" + simid[0] +
+                                        "' (INSETID), but " + t1 + "/truth.fits is the truth of set 'SIMID=" + simid[1] + "'"))
+      << swapped.err;
+
+  // Tiles of two simulations share ids and positions, but are not two bands of one set of galaxies.
+  const RunResult mixed =
+      run({"--meds", t0 + "/meds.fits", "--meds", t1 + "/meds.fits", "--bands", "g,r", "-o", path("mixed.fits"), "--quiet"});
+  EXPECT_EQ(mixed.exit_code, 1) << mixed.err;
+  EXPECT_FALSE(fs::exists(path("mixed.fits")));
+  EXPECT_TRUE(contains(mixed.err, "--meds '" + t1 + "/meds.fits' (band r) is of simulation 'SIMID=" + simid[1] +
+                                      "' but --meds '" + t0 + "/meds.fits' (band g) of 'SIMID=" + simid[0] + "'"))
+      << mixed.err;
+}
+
+// The bands of one `sim meds --bands` simulation share its SIMID: fitted together, and each band's
+// truth is the fit's.
+TEST_F(FitMeds, TheBandsOfOneSimulationShareItsIdentity) {
+  const std::string dir = path("bands");
+  RunResult r = stampede::testing::finish(
+      spawn({"meds", "--out", dir, "--objects", "4", "--epochs", "1", "--noise-free", "--bands", "g,r"}, path("sim.txt"),
+            "sim"),
+      path("sim.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = run({"--meds", dir + "/g/meds.fits", "--meds", dir + "/r/meds.fits", "--bands", "g,r", "-o", path("gr.fits"),
+           "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* band : {"g", "r"}) {
+    const RunResult m = stampede::testing::finish(
+        spawn({"--fit", path("gr.fits"), "--truth", dir + "/" + band + "/truth.fits"}, path("metrics.txt"), "metrics",
+              path("out.txt")),
+        path("metrics.txt"));
+    EXPECT_EQ(m.exit_code, 0) << band << ": " << m.err;
+  }
 }
 
 }  // namespace

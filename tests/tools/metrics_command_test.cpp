@@ -3,10 +3,12 @@
 // set whose rows are all excluded (it used to give NaN m and c beside a finite Q).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "io/fits_file.hpp"
@@ -221,6 +223,119 @@ TEST_F(MetricsCommand, ARepeatedFitIsRefused) {
                                    "2"});
   EXPECT_EQ(seeds.exit_code, 1);
   EXPECT_TRUE(Contains(seeds.err, "--seed is given twice")) << seeds.err;
+}
+
+// --json naming one of the inputs truncated it (the table was gone, exit 0): refused before any
+// work, by path or by file identity; a directory is refused by name. A JSON replaces the old one
+// whole.
+TEST_F(MetricsCommand, TheJsonIsNeverAnInput) {
+  write_metacal_table();
+  const std::string table = text_of(path("mcal.fits"));
+  std::filesystem::create_hard_link(path("mcal.fits"), path("link.fits"));
+  for (const std::string& json : {path("mcal.fits"), path("link.fits")}) {
+    const RunResult r = metrics({"--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--json", json});
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_TRUE(Contains(r.err, "--json '" + json + "' is the --fit '" + path("mcal.fits") + "': writing it would destroy it"))
+        << r.err;
+    EXPECT_EQ(text_of(path("mcal.fits")), table);
+  }
+  const RunResult truth = metrics({"--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--json", data("truth_0.fits")});
+  EXPECT_EQ(truth.exit_code, 1);
+  EXPECT_TRUE(Contains(truth.err, "is the --truth")) << truth.err;
+  const RunResult dir = metrics({"--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--json", path("")});
+  EXPECT_EQ(dir.exit_code, 1);
+  EXPECT_TRUE(Contains(dir.err, "is a directory; name the file to write")) << dir.err;
+  {
+    std::ofstream old(path("m.json"));
+    old << std::string(100000, '#');  // longer than the new JSON: replaced whole, not overwritten in place
+  }
+  ASSERT_EQ(metrics({"--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--json", path("m.json")}).exit_code, 0);
+  const std::string json = text_of(path("m.json"));
+  EXPECT_EQ(json.find('#'), std::string::npos);
+  EXPECT_EQ(json.substr(json.size() - 2), "}\n");
+}
+
+// The same for metrics --metadetect: its --json naming the catalogue it reads is refused before
+// the catalogue is read (it was truncated once the figures were computed).
+TEST_F(MetricsCommand, TheMetadetectJsonIsNeverAnInput) {
+  { std::ofstream(path("md.fits")) << "a catalogue"; }
+  const RunResult r = metrics({"--metadetect", path("md.fits"), "--json", path("md.fits")});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_TRUE(Contains(r.err, "--json '" + path("md.fits") + "' is the --metadetect '" + path("md.fits") +
+                                  "': writing it would destroy it"))
+      << r.err;
+  EXPECT_EQ(text_of(path("md.fits")), "a catalogue");
+}
+
+// A status or flag that no fit writes (NaN, 2.5, a status past the last), or an e no fit gives, is
+// a damaged table, named by file, column and row; the integers used to be cast (undefined for NaN)
+// and the row silently kept or dropped.
+TEST_F(MetricsCommand, IntegersNoFitWritesAreNamed) {
+  auto write_fit = [&](const std::string& file, const std::string& column, double bad) {
+    std::vector<double> id, e, st(400, 0.0), flags(400, 0.0), psf(400, 0.05);
+    for (int i = 0; i < 400; ++i) {
+      id.push_back(i);
+      e.push_back(0.01 * (i % 7));
+    }
+    (column == "status" ? st : column == "flags" ? flags : e)[17] = bad;
+    FitsFile f = FitsFile::create(file, true);
+    f.write_empty_image();
+    f.write_table("RESULTS", {{"id", true, id}, {"e1", false, e}, {"e2", false, e}, {"status", false, st},
+                              {"flags", false, flags}, {"psf_e1", false, psf}, {"psf_e2", false, psf}});
+  };
+  for (const auto& [column, bad, text] : {std::tuple{"status", double(NAN), "nan"}, std::tuple{"status", 2.5, "2.5"},
+                                          std::tuple{"status", 99.0, "99"}, std::tuple{"flags", -1.0, "-1"},
+                                          std::tuple{"flags", 1e300, "1e+300"}}) {
+    write_fit(path("bad.fits"), column, bad);
+    const RunResult r = metrics({"--fit", path("bad.fits"), "--truth", data("truth_0.fits")});
+    EXPECT_EQ(r.exit_code, 1) << column << " " << text;
+    EXPECT_TRUE(Contains(r.err, "bad.fits[HDU 1 'RESULTS']: column '" + std::string(column) + "' row 17 = " + text +
+                                    " is not an integer in ["))
+        << r.err;
+  }
+  // An e of -1e308 made the set's mean overflow: g2 = -inf printed as a result, exit 0.
+  write_fit(path("bad.fits"), "e1", -1e308);
+  const RunResult r = metrics({"--fit", path("bad.fits"), "--truth", data("truth_0.fits")});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_TRUE(Contains(r.err, "bad.fits[HDU 1 'RESULTS']: column 'e1' row 17 = -1e+308 is not an ellipticity (|e| <= 10)"))
+      << r.err;
+}
+
+// The PSF frame is the first row's PSF e: a damaged one (psf_e2 = -inf) was printed as the frame,
+// "PSF frame (e = 0.000, -inf)" (found by fuzz/fuzz_metrics_report.py); now it is not taken.
+TEST_F(MetricsCommand, ADamagedPsfEllipticityIsNotTheFrame) {
+  auto write_fit = [&](const std::string& file, double psf_e2) {
+    std::vector<double> id, e, zero(400, 0.0), psf(400, 0.05);
+    for (int i = 0; i < 400; ++i) id.push_back(i), e.push_back(0.01 * (i % 7));
+    psf[0] = psf_e2;
+    FitsFile f = FitsFile::create(file, true);
+    f.write_empty_image();
+    f.write_table("RESULTS", {{"id", true, id}, {"e1", false, e}, {"e2", false, e}, {"status", true, zero},
+                              {"flags", true, zero}, {"psf_e1", false, zero}, {"psf_e2", false, psf}});
+  };
+  write_fit(path("a.fits"), 0.05);
+  write_fit(path("b.fits"), -INFINITY);
+  const RunResult r = metrics({"--fit", path("a.fits"), "--truth", data("truth_0.fits"), "--fit", path("b.fits"),
+                               "--truth", data("truth_1.fits")});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string out = text_of(path("report.txt"));
+  EXPECT_TRUE(Contains(out, "PSF frame (e = 0.000, 0.050)")) << out;  // set 0's, the last finite one
+  EXPECT_FALSE(Contains(out, "inf")) << out;
+}
+
+// Metacal's R calibrates the noshear e (e1, e2); applied to calibrate apply's e1_cal, e2_cal it
+// calibrated twice, with only calibrate apply's warning: refused. The same columns by another case
+// are e1, e2.
+TEST_F(MetricsCommand, MetacalCalibratesOnlyTheNoshearE) {
+  write_metacal_table();
+  const RunResult r = metrics({"--metacal", "--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--e-columns",
+                               "e1_cal,e2_cal"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_TRUE(Contains(r.err, "--metacal with --e-columns 'e1_cal,e2_cal': metacal's R is the response of the noshear e"))
+      << r.err;
+  EXPECT_EQ(metrics({"--metacal", "--fit", path("mcal.fits"), "--truth", data("truth_0.fits"), "--e-columns", "E1,E2"})
+                .exit_code,
+            0);
 }
 
 }  // namespace

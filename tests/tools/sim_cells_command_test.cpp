@@ -86,6 +86,7 @@ TEST_F(SimCellsCommand, BadOptionsAreClearErrorsNamingTheOption) {
       {{"--bands", "g,g"}, "--bands: band 'g' is given twice"},
       {{"--bands", "g,G"}, "--bands: bands 'g' and 'G' differ only in case"},
       {{"--frobnicate"}, "unknown option '--frobnicate'"},
+      {{"--bands", "g,r", "--bands", "i"}, "--bands is given twice: give it once (see stampede sim cells --help)"},
   };
   for (const auto& [args, message] : cases) {
     std::vector<std::string> full = {"--out", out};

@@ -56,7 +56,8 @@ class Accumulators:
         self.counts.add(c["status"], c["flags"], usable, c.get("time_us", np.full(c["e1"].size, np.nan)))
         fitted = np.isin(c["status"], (0, 1))  # statuses with fitted parameters (others are NaN)
         for name in ("e1", "e2", "snr", "radius", "flux", "bulge_flux", "disc_flux"):
-            self.hist[name].add(c[name][fitted])
+            if name in c:  # the fluxes are not required columns (REQUIRED_COLUMNS)
+                self.hist[name].add(c[name][fitted])
         self.hist["|e|"].add(np.hypot(c["e1"], c["e2"])[fitted])
         self.hist["chi2dof"].add(c["chi2"][fitted] / dof)
         self.hist["n_iter"].add(c["n_iter"][fitted].astype(np.float64))
@@ -65,7 +66,7 @@ class Accumulators:
         if self.metacal:
             for name in ("R11", "R22"):
                 self.hist[name].add(c[name][usable])
-        if "psf_e1" in c:
+        if "psf_e1" in c and "psf_e2" in c:
             for k in (0, 1):
                 self.leakage[k].add(c[f"psf_e{k + 1}"][usable], c[f"e{k + 1}"][usable])
         if self.sky is not None and "ra" in c:
@@ -97,7 +98,9 @@ def sky_box(tables):
     hi = -lo
     for t in survey:
         for _, c in t.chunks(("ra", "dec"), CHUNK_ROWS):
-            ra, dec = c["ra"][np.isfinite(c["ra"])], c["dec"][np.isfinite(c["dec"])]
+            # Positions on the sky only: a damaged table's ra of 1e308 would make the map's cells infinite.
+            on_sky = (np.abs(c["ra"]) <= 360.0) & (np.abs(c["dec"]) <= 90.0)
+            ra, dec = c["ra"][on_sky], c["dec"][on_sky]
             if ra.size:
                 shifted = np.where(ra > 180.0, ra - 360.0, ra)
                 lo = np.minimum(lo, [ra.min(), shifted.min(), dec.min()])
@@ -206,7 +209,7 @@ def write_report(tables, truths, saved, out, progress):
             if progress:
                 progress(t.path, start + chunk["id"].size, t.rows)
     if any(t.pixels_per_object() is None for t in tables):
-        acc.hist["chi2dof"].label = "χ² (survey tables: pixels per object not recorded)"
+        acc.hist["chi2dof"].label = "χ² (pixels per object not recorded: survey tables, or no STAMP_SIZE)"
     page = Page(f"stampede report: {', '.join(os.path.basename(t.path) for t in tables)}")
     summary_section(page, tables, acc, out, free)
     histogram_section(page, acc, out)

@@ -42,6 +42,17 @@ def histograms(hists, path, columns=3):
     save(fig, path)
 
 
+def points(ax, x, y, err, **style):
+    """Points with error bars; a point whose error could not be computed (NaN: one ring pair or one
+    object in its bin) is drawn hollow without a bar, not handed to errorbar as NaN (which warns)."""
+    shown = np.isfinite(x) & np.isfinite(y)
+    known = shown & np.isfinite(err)
+    ax.errorbar(x[known], y[known], yerr=err[known], **style)
+    if (shown & ~known).any():
+        ax.plot(x[shown & ~known], y[shown & ~known], linestyle="none", marker="o", mfc="none", color=style["color"],
+                ms=style["ms"])
+
+
 def leakage(binned, lines, labels, path):
     """<e_i> against the PSF's e_i per component, the fitted line where the PSF's e varies."""
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.6), layout="constrained")
@@ -49,7 +60,7 @@ def leakage(binned, lines, labels, path):
         rows = binned[c]
         if rows:
             x, y, err, _ = np.array(rows).T
-            ax.errorbar(x, y, yerr=err, fmt="o", color=COLOURS[c], ms=4, capsize=2)
+            points(ax, x, y, err, fmt="o", color=COLOURS[c], ms=4, capsize=2)
             fit = lines[c]
             if math.isfinite(fit["alpha"]):
                 xs = np.linspace(x.min(), x.max(), 2)
@@ -95,11 +106,11 @@ def e_against_truth(hist2d, binned, path):
         h = hist2d[c]
         counts = np.where(h.counts > 0, h.counts, np.nan)
         ax.imshow(counts.T, origin="lower", extent=(*h.x_range, *h.y_range), cmap="Greys", aspect="equal",
-                  interpolation="nearest", norm=matplotlib.colors.LogNorm() if np.nanmax(counts) > 10 else None)
+                  interpolation="nearest", norm=matplotlib.colors.LogNorm() if h.counts.max() > 10 else None)
         rows = binned[c].display(bins=12, min_count=2)
         if rows:
             x, y, err, _ = np.array(rows).T
-            ax.errorbar(x, y, yerr=err, fmt="o", ms=3, color=COLOURS[c], label="binned mean")
+            points(ax, x, y, err, fmt="o", ms=3, color=COLOURS[c], label="binned mean")
         ax.plot([-1, 1], [-1, 1], "r-", lw=0.8, label="e = e_true")
         limit = 0.8
         ax.set_xlim(-limit, limit)
@@ -121,8 +132,8 @@ def binned_biases(groups, path):
                 pts = [(x, v[key], v[key + "_err"]) for x, v in zip(centres, values) if v is not None]
                 if pts:
                     x, y, err = np.array(pts).T
-                    ax.errorbar(x * (1 + 0.02 * (c - 0.5)), y, yerr=err, fmt="o", ms=4, capsize=2,
-                                color=COLOURS[c], label=key)
+                    points(ax, x * (1 + 0.02 * (c - 0.5)), y, err, fmt="o", ms=4, capsize=2, color=COLOURS[c],
+                           label=key)
             ax.axhline(0, color="0.7", lw=0.8)
             if min(centres) > 0 and max(centres) / min(centres) > 10:
                 ax.set_xscale("log")

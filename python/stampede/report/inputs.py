@@ -3,7 +3,10 @@ files of simulated sets, and a `save_images` file. Every refusal is a ReportErro
 (and HDU or column)."""
 
 import glob
+import math
 import os
+
+import numpy as np
 
 from stampede import FitsError
 
@@ -25,8 +28,19 @@ class ReportError(Exception):
 
 def simulation_identity(header):
     """The simulated set a truth file describes, as `stampede fit` records its input's (INSETID):
-    'SEED=s SETIDX=k NOISESD=n' from the keys present (io/simulation_identity.cpp)."""
-    return " ".join(f"{k}={int(header[k])}" for k in ("SEED", "SETIDX", "NOISESD") if k in header)
+    'SEED=s SETIDX=k NOISESD=n' (a grid's) or 'SIMID=hex' (a `sim meds` tile's) from the keys
+    present (io/simulation_identity.cpp)."""
+    def integer(v):  # as FitsFile::read_key_long: an integer, or a real with an integer value
+        if isinstance(v, float) and v.is_integer():
+            return int(v)
+        if isinstance(v, int) and not isinstance(v, bool):
+            return v
+        raise ValueError(v)
+
+    parts = [f"{k}={integer(header[k])}" for k in ("SEED", "SETIDX", "NOISESD") if k in header]
+    if "SIMID" in header:
+        parts.append(f"SIMID={header['SIMID']}")
+    return " ".join(parts)
 
 
 class ResultTable:
@@ -52,9 +66,19 @@ class ResultTable:
         self.rows = self.table.rows
         self.survey = self.table.has("ra") and self.table.has("dec")
         self.metacal = self.table.has("R11")
+        if self.metacal:
+            missing = [c for c in ("R12", "R21", "R22") if not self.table.has(c)]
+            if missing:
+                raise ReportError(f"{self.table.where}: metacal column 'R11' without {', '.join(map(repr, missing))}: "
+                                  "not a `stampede fit` metacal table")
         # The sheared images' step (metacal_step, 0.01 by default), which R is measured over.
         step = self.header.get("metacal_step", self.header.get("METACAL_STEP", 0.01)) if self.metacal else 0.01
-        self.metacal_step = float(step)
+        try:
+            self.metacal_step = float(step)
+        except (TypeError, ValueError):
+            self.metacal_step = math.nan
+        if not 0 < self.metacal_step <= 0.1:
+            raise ReportError(f"{self.table.where}: metacal_step = {step!r} is not a metacal step in (0, 0.1]")
         self.positions = "survey" if self.survey else "catalogue" if self.table.has("x_image") else "grid"
         self.set_identity = str(self.header.get("INSETID", ""))
 
@@ -63,15 +87,37 @@ class ResultTable:
 
     def chunks(self, columns, chunk_rows):
         try:
-            yield from self.table.chunks([c for c in columns if self.table.has(c)], chunk_rows)
+            for start, chunk in self.table.chunks([c for c in columns if self.table.has(c)], chunk_rows):
+                yield start, self._integers(chunk, start)
         except FitsError as e:
             raise ReportError(str(e)) from None
 
     def read(self, columns):
         try:
-            return self.table.read([c for c in columns if self.table.has(c)])
+            return self._integers(self.table.read([c for c in columns if self.table.has(c)]), 0)
         except FitsError as e:
             raise ReportError(str(e)) from None
+
+    def _integers(self, chunk, first_row):
+        """status and flags as the fit wrote them, int64: a value none writes (NaN, 2.5, a status past
+        the table's STATUSn keys, a negative flag word) is a damaged table, named by column and row;
+        the other columns as float64."""
+        last_status = max(self.status_names(), default=6)
+        for name, lo, hi in (("status", 0, last_status), ("flags", 0, 2**32 - 1)):
+            if name not in chunk:
+                continue
+            v = np.asarray(chunk[name])
+            with np.errstate(invalid="ignore"):
+                good = (v >= lo) & (v <= hi) & ((v == np.floor(v)) if v.dtype.kind == "f" else True)
+            if not np.all(good):
+                i = int(np.argmin(good))
+                raise ReportError(f"{self.table.where}: column '{name}' row {first_row + i} = {v[i]} is not an "
+                                  f"integer in [{lo}, {hi}]")
+            chunk[name] = v.astype(np.int64)
+        for name in chunk:  # the measured columns as reals, whatever type a table gives them (an e of J)
+            if name not in ("id", "status", "flags"):
+                chunk[name] = np.asarray(chunk[name], dtype=np.float64)
+        return chunk
 
     def status_names(self):
         return {int(k[6:]): str(v) for k, v in self.header.values.items() if k.startswith("STATUS") and k[6:].isdigit()}
@@ -103,7 +149,10 @@ class ResultTable:
         """Pixels in one stamp (grid and catalogue input: STAMP_SIZE^2); None for survey tables,
         whose pixel count per object depends on its epochs and is not recorded."""
         size = self.header.get("STAMP_SIZE")
-        return None if self.survey or not isinstance(size, int) else size * size
+        # A size without room for the free parameters is a damaged header: no pixel count, as a survey's.
+        if self.survey or not isinstance(size, int) or isinstance(size, bool) or size * size <= self.free_parameters():
+            return None
+        return size * size
 
 
 def check_tables(tables):
@@ -140,16 +189,35 @@ class Truth:
             raise ReportError(f"truth {e}") from None
         if "SHEAR1" not in primary or "SHEAR2" not in primary:
             raise ReportError(f"{self.path}[HDU 0]: no SHEAR1/SHEAR2 keys: not the truth file of a simulated set")
-        self.g1, self.g2 = float(primary["SHEAR1"]), float(primary["SHEAR2"])
-        self.identity = simulation_identity(primary)
+        try:
+            self.g1, self.g2 = float(primary["SHEAR1"]), float(primary["SHEAR2"])
+        except (TypeError, ValueError):
+            self.g1 = self.g2 = math.nan
+        if not (abs(self.g1) < 1 and abs(self.g2) < 1):
+            raise ReportError(f"{self.path}[HDU 0]: SHEAR1, SHEAR2 = {primary['SHEAR1']!r}, {primary['SHEAR2']!r} is "
+                              "not a shear (numbers with |g| < 1)")
+        try:
+            self.identity = simulation_identity(primary)
+        except (TypeError, ValueError):
+            raise ReportError(f"{self.path}[HDU 0]: SEED, SETIDX or NOISESD is not an integer: not a simulation's "
+                              "identity") from None
         if self.table is None or not self.table.has("index"):
             raise ReportError(f"{self.path}: no TRUTH table with an 'index' column: not the truth file of a simulated set")
 
     def read(self, columns):
         try:
-            return self.table.read([c for c in columns if self.table.has(c)])
+            out = self.table.read([c for c in columns if self.table.has(c)])
         except FitsError as e:
             raise ReportError(f"truth {e}") from None
+        if "pair" in out:  # ring-pair labels are integers; NaN or 2.5 is a damaged file
+            v = np.asarray(out["pair"])
+            good = np.isfinite(v) & (v == np.floor(v)) & (np.abs(v) < 2.0**53) if v.dtype.kind == "f" else \
+                np.ones(v.shape, bool)
+            if not np.all(good):
+                i = int(np.argmin(good))
+                raise ReportError(f"{self.table.where}: column 'pair' row {i} = {v[i]} is not an integer")
+            out["pair"] = v.astype(np.int64)
+        return out
 
 
 def match_truth(tables, truth_arg):

@@ -71,7 +71,10 @@ def fit_line(sets, psf_e):
     good = [s for s in sets if s["used"] > 0 and math.isfinite(s["g1"])]
     if len(good) < 2:
         return None
-    return stampede.shear_metrics(good, *psf_e)
+    m = stampede.shear_metrics(good, *psf_e)
+    # Sets of one true shear (two fits of one set) define no line: m and c NaN, the page says so as
+    # `stampede metrics` does.
+    return m if math.isfinite(m["m1"]) and math.isfinite(m["m2"]) else None
 
 
 class ShearAgainstTruth:
@@ -103,7 +106,7 @@ class ShearAgainstTruth:
                               f"({truth.table.where}) is object {true['index'][row]}: not the truth of this fit")
         pair = true["pair"] if "pair" in true else np.arange(table.rows)
         usable = usable_for_shear(fit["status"], fit["flags"], fit["e1"], fit["e2"])
-        if "psf_e1" in fit and math.isfinite(fit["psf_e1"][0]):
+        if "psf_e1" in fit and "psf_e2" in fit and abs(fit["psf_e1"][0]) < 1 and abs(fit["psf_e2"][0]) < 1:
             self.psf_e = (float(fit["psf_e1"][0]), float(fit["psf_e2"][0]))  # as metrics: the last set's
         shear = stampede.set_shear(fit["e1"], fit["e2"], usable.astype(np.int32), pair, truth.g1, truth.g2,
                                    bootstrap=BOOTSTRAP, seed=SEED + k)
@@ -120,6 +123,8 @@ class ShearAgainstTruth:
                     out[b].append(stampede.set_shear(fit["e1"], fit["e2"], inside.astype(np.int32), pair, truth.g1,
                                                      truth.g2, bootstrap=BOOTSTRAP, seed=SEED + k))
         for c in (0, 1):
+            if f"e{c + 1}_obs" not in true:  # a truth without the sheared shapes: no e against e_true
+                continue
             e, e_true = fit[f"e{c + 1}"][usable], true[f"e{c + 1}_obs"][usable]
             self.e_vs_true[c].add(e_true, e)
             self.e_vs_true_mean[c].add(e_true, e)

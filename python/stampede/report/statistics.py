@@ -63,7 +63,8 @@ class Histogram:
             self.sum += float(y.sum())
             self.sum2 += float(np.dot(y, y))
         self.min, self.max = min(self.min, float(x.min())), max(self.max, float(x.max()))
-        t = (self.forward(x) - self.lo) * (self.bins / (self.hi - self.lo))
+        with np.errstate(over="ignore"):  # x near 1e308 in a linear histogram: t is inf, clipped to "above"
+            t = (self.forward(x) - self.lo) * (self.bins / (self.hi - self.lo))
         index = np.clip(np.floor(t), -1, self.bins).astype(np.int64) + 1
         self.counts += np.bincount(index, minlength=self.bins + 2)
 
@@ -110,8 +111,12 @@ class Histogram:
             lo, hi = math.floor(lo) - 0.5, math.ceil(hi) + 0.5
         t_lo, t_hi = float(self.forward(lo)), float(self.forward(hi))
         width = (self.hi - self.lo) / self.bins
-        first = int(np.clip(math.floor((t_lo - self.lo) / width), 0, self.bins - 1))
-        last = int(np.clip(math.ceil((t_hi - self.lo) / width), first + 1, self.bins))
+        # In fine bins, held to the range first: (t - lo) / width is infinite for x near 1e308.
+        def fine(t):
+            return min(max((t - self.lo) / width, -1.0), self.bins + 1.0)
+
+        first = int(np.clip(math.floor(fine(t_lo)), 0, self.bins - 1))
+        last = int(np.clip(math.ceil(fine(t_hi)), first + 1, self.bins))
         step = max(1, int(math.ceil((last - first) / bins)))
         last = min(self.bins, first + step * int(math.ceil((last - first) / step)))
         inner = self.counts[1 + first:1 + last]
@@ -150,18 +155,20 @@ class BinnedMean:
             return
         if self.shift_x is None:  # sums about a typical point: no cancellation in the variances
             self.shift_x, self.shift_y = float(x[0]), float(y[0])
-        dx, dy = x - self.shift_x, y - self.shift_y
-        self.sums += [x.size, dx.sum(), dy.sum(), np.dot(dx, dx), np.dot(dx, dy), np.dot(dy, dy)]
-        index = np.clip(np.floor((x - self.lo) * (self.bins / (self.hi - self.lo))), 0, self.bins - 1).astype(np.int64)
-        self.n += np.bincount(index, minlength=self.bins)
-        self.sx += np.bincount(index, weights=x, minlength=self.bins)
-        self.sy += np.bincount(index, weights=y, minlength=self.bins)
-        self.syy += np.bincount(index, weights=y * y, minlength=self.bins)
+        # Values near 1e308 (a damaged table) overflow the sums to inf, which the page shows as such.
+        with np.errstate(over="ignore", invalid="ignore"):
+            dx, dy = x - self.shift_x, y - self.shift_y
+            self.sums += [x.size, dx.sum(), dy.sum(), np.dot(dx, dx), np.dot(dx, dy), np.dot(dy, dy)]
+            index = np.clip(np.floor((x - self.lo) * (self.bins / (self.hi - self.lo))), 0, self.bins - 1).astype(np.int64)
+            self.n += np.bincount(index, minlength=self.bins)
+            self.sx += np.bincount(index, weights=x, minlength=self.bins)
+            self.sy += np.bincount(index, weights=y, minlength=self.bins)
+            self.syy += np.bincount(index, weights=y * y, minlength=self.bins)
 
     def line(self):
         """{'n', 'alpha', 'alpha_err', 'intercept', 'intercept_err', 'x_spread'}; alpha NaN when x
         does not vary (one PSF for the whole table). Errors treat the rows as independent."""
-        n, sx, sy, sxx, sxy, syy = self.sums
+        n, sx, sy, sxx, sxy, syy = map(float, self.sums)  # Python floats: sums of 1e308s give inf, not warnings
         out = {"n": int(n), "alpha": math.nan, "alpha_err": math.nan, "intercept": math.nan,
                "intercept_err": math.nan, "x_spread": math.nan}
         if n < 3:
@@ -169,14 +176,14 @@ class BinnedMean:
         mx, my = sx / n, sy / n
         vxx, vxy, vyy = sxx / n - mx * mx, sxy / n - mx * my, syy / n - my * my
         out["x_spread"] = math.sqrt(max(0.0, vxx))
-        if not vxx > 1e-12 * max(1.0, (mx + self.shift_x) ** 2):
+        if not vxx > 1e-12 * max(1.0, (mx + self.shift_x) * (mx + self.shift_x)):  # * not **: inf, no OverflowError
             return out
         alpha = vxy / vxx
         residual = max(0.0, (vyy - alpha * vxy) * n / (n - 2))
         mean_x = mx + self.shift_x
         out["alpha"], out["alpha_err"] = alpha, math.sqrt(residual / (n * vxx))
         out["intercept"] = my + self.shift_y - alpha * mean_x
-        out["intercept_err"] = math.sqrt(residual * (1.0 / n + mean_x ** 2 / (n * vxx)))
+        out["intercept_err"] = math.sqrt(residual * (1.0 / n + mean_x * mean_x / (n * vxx)))
         return out
 
     def display(self, bins=10, min_count=1):
@@ -189,12 +196,14 @@ class BinnedMean:
         groups = np.split(np.arange(self.bins), np.unique(cuts))
         rows = []
         for g in groups:
-            n = self.n[g].sum()
+            with np.errstate(over="ignore", invalid="ignore"):  # sums of e near 1e308 are inf, shown as such
+                sx, sy, syy = float(self.sx[g].sum()), float(self.sy[g].sum()), float(self.syy[g].sum())
+            n = float(self.n[g].sum())
             if n < min_count:
                 continue
-            y = self.sy[g].sum() / n
-            var = max(0.0, self.syy[g].sum() / n - y * y)
-            rows.append((self.sx[g].sum() / n, y, math.sqrt(var / n) if n > 1 else math.nan, int(n)))
+            y = sy / n
+            var = max(0.0, syy / n - y * y)
+            rows.append((sx / n, y, math.sqrt(var / n) if n > 1 else math.nan, int(n)))
         return rows
 
 
@@ -211,8 +220,11 @@ class Histogram2D:
         for w in weights.values():
             keep &= np.isfinite(w)
         x, y = x[keep], y[keep]
-        ix = np.floor((x - self.x_range[0]) / (self.x_range[1] - self.x_range[0]) * self.bins[0]).astype(np.int64)
-        iy = np.floor((y - self.y_range[0]) / (self.y_range[1] - self.y_range[0]) * self.bins[1]).astype(np.int64)
+        with np.errstate(over="ignore"):  # held to one cell outside, so that x near 1e308 casts
+            ix = np.clip(np.floor((x - self.x_range[0]) / (self.x_range[1] - self.x_range[0]) * self.bins[0]),
+                         -1, self.bins[0]).astype(np.int64)
+            iy = np.clip(np.floor((y - self.y_range[0]) / (self.y_range[1] - self.y_range[0]) * self.bins[1]),
+                         -1, self.bins[1]).astype(np.int64)
         inside = (ix >= 0) & (ix < self.bins[0]) & (iy >= 0) & (iy < self.bins[1])
         flat = (ix * self.bins[1] + iy)[inside]
         size = self.bins[0] * self.bins[1]

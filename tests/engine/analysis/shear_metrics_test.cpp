@@ -124,5 +124,20 @@ TEST(ShearMetrics, AnErrorFromFewerThanTwoRingPairsIsNotComputed) {
   EXPECT_TRUE(std::isnan(estimate_set_shear(e, e, all, pair, 0, 0, 1, 3).err1));
 }
 
+// Two fits of one set (a plain and a metacal table, pooled by the report) have one true shear: no
+// line through them. m and c are NaN, not an exception that ended the report in a traceback.
+TEST(ShearMetrics, SetsOfOneTrueShearHaveNoLine) {
+  SetShear a, b;
+  a.g1_true = b.g1_true = 0.02, a.g2_true = b.g2_true = -0.01;
+  a.g1 = 0.021, b.g1 = 0.019, a.g2 = -0.011, b.g2 = -0.009;
+  a.err1 = a.err2 = b.err1 = b.err2 = 1e-3;
+  a.used = b.used = 10;
+  const ShearMetrics m = combine_sets({a, b}, 0.0, 0.0);
+  for (const BiasFit& f : m.component) EXPECT_TRUE(std::isnan(f.m) && std::isnan(f.c)) << f.m << " " << f.c;
+  EXPECT_GT(m.q, 0.0);  // Q needs no line
+  b.g2_true = 0.03;     // one component's true shears still equal: still no line
+  EXPECT_TRUE(std::isnan(combine_sets({a, b}, 0.0, 0.0).component[1].m));
+}
+
 }  // namespace
 }  // namespace stampede
