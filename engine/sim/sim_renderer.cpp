@@ -262,6 +262,17 @@ void SimRenderer::draw(std::span<const SimComponent> components, bool psf_only, 
         }
       }
   }
+  // The galaxy's transform at (kx, ky): its components' profiles at their shapes and positions.
+  auto galaxy = [&](double kx, double ky, std::size_t ix, std::size_t iy) {
+    std::complex<double> gal = 0;
+    for (std::size_t c = 0; c < prepared.size(); ++c) {
+      const SimWorkspace::Component& p = prepared[c];
+      const double u = p.s[0] * kx + p.s[1] * ky, v = p.s[1] * kx + p.s[2] * ky;
+      gal += p.flux * sersic_transform(p.table, std::sqrt(u * u + v * v) * p.hlr) *
+             (ws.phase_x_[c * nx + ix] * ws.phase_y_[c * ny + iy]);
+    }
+    return gal;
+  };
   if (!psf_only && with_pixel && step == 1.0) {
     // A galaxy's draw: the terms below with the PSF's factors from the workspace.
     const SimWorkspace::PsfTerms& terms = galaxy_psf_terms(n, ws);
@@ -272,49 +283,35 @@ void SimRenderer::draw(std::span<const SimComponent> components, bool psf_only, 
       for (const std::size_t end = terms.end[f]; t < end; ++t) {
         const std::size_t ix = terms.ix[t], iy = terms.iy[t];
         const double kx = terms.k_x[ix], ky = terms.k_y[iy];
-        std::complex<double> gal = 0;
-        for (std::size_t c = 0; c < prepared.size(); ++c) {
-          const SimWorkspace::Component& p = prepared[c];
-          const double u = p.s[0] * kx + p.s[1] * ky, v = p.s[1] * kx + p.s[2] * ky;
-          gal += p.flux * sersic_transform(p.table, std::sqrt(u * u + v * v) * p.hlr) *
-                 (ws.phase_x_[c * nx + ix] * ws.phase_y_[c * ny + iy]);
-        }
-        sum += terms.psf[t] * gal;
+        sum += terms.psf[t] * galaxy(kx, ky, ix, iy);
       }
       spectrum[f] = sum * scale;
     }
   } else {
-  for (int jy = 0; jy < n; ++jy) {
-    for (int jx = 0; jx < half; ++jx) {
-      std::complex<double> sum = 0;
-      for (int my = -m_max; my <= m_max; ++my) {
-        const std::size_t iy = static_cast<std::size_t>(jy) * aliases + (my + m_max);
-        const double ky = axis_k(jy, my, true);
-        if (std::abs(ky) > k_bound) continue;
-        for (int mx = -m_max; mx <= m_max; ++mx) {
-          const std::size_t ix = static_cast<std::size_t>(jx) * aliases + (mx + m_max);
-          const double kx = axis_k(jx, mx, false);
-          if (kx * kx + ky * ky > k_bound * k_bound) continue;
-          double psf = psf_transform(kx, ky);
-          if (psf == 0.0) continue;
-          psf *= ws.sinc_x_[ix] * ws.sinc_y_[iy];
-          if (psf_only) {
-            sum += psf * (ws.phase_x_[ix] * ws.phase_y_[iy]);
-            continue;
+    for (int jy = 0; jy < n; ++jy) {
+      for (int jx = 0; jx < half; ++jx) {
+        std::complex<double> sum = 0;
+        for (int my = -m_max; my <= m_max; ++my) {
+          const std::size_t iy = static_cast<std::size_t>(jy) * aliases + (my + m_max);
+          const double ky = axis_k(jy, my, true);
+          if (std::abs(ky) > k_bound) continue;
+          for (int mx = -m_max; mx <= m_max; ++mx) {
+            const std::size_t ix = static_cast<std::size_t>(jx) * aliases + (mx + m_max);
+            const double kx = axis_k(jx, mx, false);
+            if (kx * kx + ky * ky > k_bound * k_bound) continue;
+            double psf = psf_transform(kx, ky);
+            if (psf == 0.0) continue;
+            psf *= ws.sinc_x_[ix] * ws.sinc_y_[iy];
+            if (psf_only) {
+              sum += psf * (ws.phase_x_[ix] * ws.phase_y_[iy]);
+              continue;
+            }
+            sum += psf * galaxy(kx, ky, ix, iy);
           }
-          std::complex<double> gal = 0;
-          for (std::size_t c = 0; c < prepared.size(); ++c) {
-            const SimWorkspace::Component& p = prepared[c];
-            const double u = p.s[0] * kx + p.s[1] * ky, v = p.s[1] * kx + p.s[2] * ky;
-            gal += p.flux * sersic_transform(p.table, std::sqrt(u * u + v * v) * p.hlr) *
-                   (ws.phase_x_[c * nx + ix] * ws.phase_y_[c * ny + iy]);
-          }
-          sum += psf * gal;
         }
+        spectrum[static_cast<std::size_t>(jy) * half + jx] = sum * scale;
       }
-      spectrum[static_cast<std::size_t>(jy) * half + jx] = sum * scale;
     }
-  }
   }
   fftw_execute_dft_c2r(static_cast<fftw_plan>(grid.plan), reinterpret_cast<fftw_complex*>(spectrum),
                        static_cast<double*>(grid.image.data()));
