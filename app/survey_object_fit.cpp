@@ -183,11 +183,11 @@ void SurveyObjectFitter::fit_bands(const ObservationArena& arena, int object, lo
   out.fit = fitter_.fit(epochs_, n, out.bands);
   if (bulge_fitter_) {
     // The PSFs were prepared by fitter_'s renderers: the same kind, options and box sizes.
-    std::vector<BandFit> bulge_bands(static_cast<std::size_t>(n));
-    FitResult bulge = bulge_fitter_->fit(epochs_, n, bulge_bands);
+    bulge_bands_.resize(static_cast<std::size_t>(n));
+    FitResult bulge = bulge_fitter_->fit(epochs_, n, bulge_bands_);
     const bool disc_ok = IsUsable(out.fit.status), bulge_ok = IsUsable(bulge.status);
     const bool take_bulge = bulge_ok && (!disc_ok || bulge.likelihood > out.fit.likelihood);
-    if (take_bulge) std::swap(out.fit, bulge), std::swap(out.bands, bulge_bands);
+    if (take_bulge) std::swap(out.fit, bulge), std::swap(out.bands, bulge_bands_);
     out.is_bulge = take_bulge;
     out.other_likelihood = bulge.likelihood;  // the loser's, after the swap
   }

@@ -81,6 +81,7 @@ class SurveyObjectFitter {
   std::vector<Observation> epochs_;                // the current object's, reused
   std::vector<const PsfModel*> epoch_psfs_;       // metacal: their PSFs, unprepared
   std::vector<MetacalEpoch> metacal_epochs_;
+  std::vector<BandFit> bulge_bands_;  // bord over bands: the pure bulge's band parts, reused
 };
 
 class SurveyBatchFitter final : public BatchFitter {
