@@ -26,17 +26,17 @@ class ArraySource final : public StampSource {
   long long total_objects() const override { return in_.count; }
   void skip_to(long long index) override { next_ = index; }
   bool fill(StampBatch& batch) override {
-    const std::size_t npix = batch.npix();
-    batch.count = 0;
-    batch.first_object = next_;
-    batch.has_weights = !in_.weights.empty();
-    batch.weights_are_mask = false;
+    const std::size_t npix = static_cast<std::size_t>(in_.stamp_size) * in_.stamp_size;
+    batch.begin(next_);
     while (batch.count < batch.capacity() && next_ < in_.count) {
       const int k = batch.count++;
       const std::size_t at = static_cast<std::size_t>(next_) * npix;
-      std::copy_n(in_.pixels.data() + at, npix, batch.stamp(k));
-      if (batch.has_weights) std::copy_n(in_.weights.data() + at, npix, batch.weight(k));
-      if (in_.psfs.size() > 1) batch.psf[k] = in_.psfs[static_cast<std::size_t>(next_)];
+      std::span<double> pixels, weights;
+      ArenaObservation& o = batch.observations.add_stamp(in_.stamp_size, &pixels, &weights);
+      o.weighted = !in_.weights.empty();
+      std::copy_n(in_.pixels.data() + at, npix, pixels.begin());
+      if (o.weighted) std::copy_n(in_.weights.data() + at, npix, weights.begin());
+      if (in_.psfs.size() > 1) o.psf = in_.psfs[static_cast<std::size_t>(next_)];
       ObjectRecord& r = batch.records[k];
       r = ObjectRecord{};
       r.id = in_.first_id + next_;
@@ -120,8 +120,9 @@ void check_metacal_psfs(const app::RunConfig& cfg, const std::vector<PsfModel>& 
 }  // namespace
 
 SingleStampFitter::SingleStampFitter(const app::RunConfig& config, int stamp_size, std::optional<PsfModel> psf)
-    : batch_(1, (config_for(config, std::max(stamp_size, 1), false), std::max(stamp_size, 1)), false) {
-  // (config_for first: a stamp size out of the options' range is their error, not an allocation's.)
+    : stamp_size_(stamp_size), batch_(1) {
+  // The options first: a stamp size out of their range is their error, before the arrays' checks.
+  config_for(config, std::max(stamp_size, 1), false);
   ArrayStamps shape;
   shape.stamp_size = stamp_size;
   if (psf) shape.psfs.push_back(*psf);
@@ -135,18 +136,18 @@ SingleStampFitter::SingleStampFitter(const app::RunConfig& config, int stamp_siz
 SingleStampFitter::~SingleStampFitter() = default;
 
 ObjectRecord SingleStampFitter::fit(std::span<const double> pixels, std::span<const double> weights, std::int64_t id) {
-  const std::size_t npix = batch_.npix();
+  const std::size_t npix = static_cast<std::size_t>(stamp_size_) * stamp_size_;
   if (pixels.size() != npix || (!weights.empty() && weights.size() != npix))
-    throw std::invalid_argument("a stamp of " + std::to_string(batch_.stamp_size) + " x " +
-                                std::to_string(batch_.stamp_size) + " pixels was expected, not " +
+    throw std::invalid_argument("a stamp of " + std::to_string(stamp_size_) + " x " + std::to_string(stamp_size_) +
+                                " pixels was expected, not " +
                                 std::to_string(weights.empty() || pixels.size() != npix ? pixels.size() : weights.size()) +
                                 " values");
+  batch_.begin(0);
   batch_.count = 1;
-  batch_.first_object = 0;
-  batch_.has_weights = !weights.empty();
-  batch_.weights_are_mask = false;
-  std::copy(pixels.begin(), pixels.end(), batch_.stamp(0));
-  if (batch_.has_weights) std::copy(weights.begin(), weights.end(), batch_.weight(0));
+  std::span<double> into_pixels, into_weights;
+  batch_.observations.add_stamp(stamp_size_, &into_pixels, &into_weights).weighted = !weights.empty();
+  std::copy(pixels.begin(), pixels.end(), into_pixels.begin());
+  std::copy(weights.begin(), weights.end(), into_weights.begin());
   ObjectRecord& r = batch_.records[0];
   r = ObjectRecord{};
   r.id = id;
@@ -174,8 +175,6 @@ std::vector<ObjectRecord> fit_array_stamps(const app::RunConfig& config, const A
   PipelineOptions po;
   po.threads = threads;
   po.batch_size = cfg.batch_size;
-  po.per_object_psf = static_cast<bool>(recipe.psf_cache);
-  po.stamp_size = in.stamp_size;
   auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> { return recipe.make(FftPlanning::kEstimate); };
   run_pipeline(source, sink, make_fitter, po);
   return rows;

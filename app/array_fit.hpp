@@ -49,11 +49,12 @@ class SingleStampFitter {
   // Validates as fit_array_stamps (psf empty: the configuration's PSF; moffat_catalog refused).
   SingleStampFitter(const app::RunConfig& config, int stamp_size, std::optional<PsfModel> psf);
   ~SingleStampFitter();
-  int stamp_size() const { return batch_.stamp_size; }
+  int stamp_size() const { return stamp_size_; }
   // pixels (and weights, if not empty) hold stamp_size^2 values; throws std::invalid_argument if not.
   ObjectRecord fit(std::span<const double> pixels, std::span<const double> weights, std::int64_t id = 0);
 
  private:
+  int stamp_size_;
   std::unique_ptr<StampFitter> fitter_;
   StampBatch batch_;
 };

@@ -195,7 +195,6 @@ CalibrationBuildSummary CalibrationBuild::run(const std::function<void(const Cal
     PipelineOptions po;
     po.threads = options_.threads;
     po.batch_size = cfg.batch_size;
-    po.stamp_size = options_.grid.stamp_size;
     FitterOptions fitter_options = cfg.fitter;
     fitter_options.renderer = psf_.kind;
     const app::SharedPsf& psf = psf_;

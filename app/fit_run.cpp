@@ -111,19 +111,22 @@ class WriterSink final : public BatchSink {
   void save(const StampBatch& batch, int k) {
     const ObjectRecord& r = batch.records[k];
     if (!renderer_) renderer_ = make_renderer(cfg_.fitter.renderer, cfg_.fitter.render, cfg_.fitter.model, plans_);
+    const ArenaObservation& stamp = batch.observations.first_of(k);
     std::shared_ptr<const PreparedPsf> psf = shared_psf_;
     std::string error;
-    if (psf_cache_) psf = psf_cache_->get(batch.psf[k], *renderer_, &error);
+    if (psf_cache_) psf = psf_cache_->get(stamp.psf, *renderer_, &error);
     if (!psf) return;
     renderer_->set_psf(psf);
-    const std::size_t npix = batch.npix();
-    std::vector<double> data(batch.stamp(k), batch.stamp(k) + npix), model(npix), resid(npix);
+    const std::span<const double> pixels = batch.observations.pixels(stamp);
+    const std::size_t npix = pixels.size();
+    std::vector<double> data(pixels.begin(), pixels.end()), model(npix), resid(npix);
     if (renderer_->render(r.fit.params, model) != RenderStatus::kOk) return;
     for (std::size_t i = 0; i < npix; ++i) resid[i] = data[i] - model[i];
     const std::string id = std::to_string(r.id);
-    images_->write_image(batch.stamp_size, batch.stamp_size, data, "DATA_" + id);
-    images_->write_image(batch.stamp_size, batch.stamp_size, model, "MODEL_" + id);
-    images_->write_image(batch.stamp_size, batch.stamp_size, resid, "RESID_" + id);
+    const int s = stamp.box_size;
+    images_->write_image(s, s, data, "DATA_" + id);
+    images_->write_image(s, s, model, "MODEL_" + id);
+    images_->write_image(s, s, resid, "RESID_" + id);
   }
 
   io::CatalogWriter* writer_;
@@ -279,8 +282,6 @@ struct RunInput {
   StampSource& source() { return shard ? *shard : *whole; }
   long long objects = 0;               // the whole input's
   std::vector<io::OutputLock> locks;   // held until the writer is done
-  int stamp_size = 0;                  // 0: objects travel as observations (the batch's arena)
-  bool per_object_psf = false;
   std::function<std::unique_ptr<BatchFitter>()> make_fitter;
   std::vector<std::string> meds, bands;  // survey input: for the workers of a distributed run
   FftPlanning planning = FftPlanning::kEstimate;
@@ -396,7 +397,7 @@ RunInput open_stamp_input(const FitRunOptions& a, const Warn& warn) {
   // The machine must hold the run: refused now rather than swapping or killed mid-run.
   const int threads = a.threads > 0 ? a.threads : tbb::this_task_arena::max_concurrency();
   if (const auto available = io::available_memory_bytes())
-    check_fit_memory(estimate_fit_memory(cfg, threads, cfg.psf_from_catalogue), *available);
+    check_fit_memory(estimate_fit_memory(cfg, threads), *available);
   // Measured plans are chosen per process (by timing), so ranks could round differently.
   if (a.distribute && !cfg.fft_wisdom.empty())
     throw io::ConfigError("option 'fft_wisdom' with stampede-mpi: each rank would measure its own FFTW plans and "
@@ -418,8 +419,6 @@ RunInput open_stamp_input(const FitRunOptions& a, const Warn& warn) {
              ". The fit uses the run's PSF; set those options to fit with the recorded one.");
     }
   }
-  in.stamp_size = cfg.fitter.render.stamp_size;
-  in.per_object_psf = static_cast<bool>(in.recipe->psf_cache);
   in.make_fitter = [recipe = in.recipe, planning = in.planning]() -> std::unique_ptr<BatchFitter> {
     return recipe->make(planning);
   };
@@ -619,8 +618,6 @@ RunSummary run_input(const FitRunOptions& a, RunInput& in, Clock::time_point sta
     PipelineOptions po;
     po.threads = a.threads;
     po.batch_size = cfg.batch_size;
-    po.per_object_psf = in.per_object_psf;
-    po.stamp_size = in.stamp_size;
     po.stop = a.stop;
     std::function<std::unique_ptr<BatchFitter>()> make_fitter = in.make_fitter;
     if (a.distribute) {

@@ -323,7 +323,6 @@ std::vector<MetadetectRow> metadetect_image(const io::CellImage& image, const Me
   PipelineOptions po;
   po.threads = threads;
   po.batch_size = 2;
-  po.stamp_size = 0;
   run_pipeline(source, sink, [&] { return std::make_unique<CellFitter>(options); }, po);
   if (cells_failed) *cells_failed = sink.failed;
   return std::move(sink.rows);
@@ -398,7 +397,6 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
     PipelineOptions po;
     po.threads = options.threads;
     po.batch_size = options.cells_per_batch;
-    po.stamp_size = 0;  // the cells travel in the batches' arenas
     po.stop = options.stop;
     const long long resumed = summary.cells_resumed;
     const PipelineSummary ran = run_pipeline(

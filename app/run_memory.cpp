@@ -4,18 +4,20 @@
 #include <algorithm>
 #include <cstdio>
 
-#include "engine/model/psf_model.hpp"
 #include "engine/pipeline/object_record.hpp"
+#include "engine/pipeline/observation_arena.hpp"
 #include "engine/pipeline/pipeline.hpp"
 #include "engine/render/render_options.hpp"
 
 namespace stampede::app {
 
-RunMemoryEstimate estimate_fit_memory(const app::RunConfig& config, int threads, bool per_object_psf) {
+RunMemoryEstimate estimate_fit_memory(const app::RunConfig& config, int threads) {
   RunMemoryEstimate e;
   e.threads = threads;
   const double npix = static_cast<double>(config.fitter.render.stamp_size) * config.fitter.render.stamp_size;
-  const double per_stamp = 2 * npix * sizeof(double) + sizeof(ObjectRecord) + (per_object_psf ? sizeof(PsfModel) : 0);
+  // A stamp in the batch: its pixels and weights, its observation and reading entries, its row.
+  const double per_stamp = 2 * npix * sizeof(double) + sizeof(ArenaObservation) + sizeof(BandReading) +
+                           sizeof(std::string) + sizeof(ObjectRecord);
   e.batch_bytes = config.batch_size * per_stamp;
   e.batches = std::max(2, PipelineOptions{}.batches_per_thread * threads);
   // The upsampled renderer keeps 7 model-grid images (two components, five shape derivatives) and

@@ -17,7 +17,7 @@ struct RunMemoryEstimate {
 };
 
 // For `threads` workers (> 0) with the configuration's batch_size, stamp_size and model grid.
-RunMemoryEstimate estimate_fit_memory(const app::RunConfig& config, int threads, bool per_object_psf);
+RunMemoryEstimate estimate_fit_memory(const app::RunConfig& config, int threads);
 
 // Throws ConfigError naming the thread count when the estimate exceeds `available_bytes`.
 void check_fit_memory(const RunMemoryEstimate& estimate, double available_bytes);

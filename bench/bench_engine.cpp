@@ -52,11 +52,12 @@ class MemorySource final : public StampSource {
   long long total_objects() const override { return kStamps; }
   void skip_to(long long i) override { next_ = i; }
   bool fill(StampBatch& b) override {
-    const std::size_t npix = b.npix();
-    b.count = 0;
-    b.has_weights = false;
+    const std::size_t npix = static_cast<std::size_t>(d_.size) * d_.size;
+    b.begin(next_);
     while (b.count < b.capacity() && next_ < kStamps) {
-      std::copy_n(d_.stamps.data() + next_ * npix, npix, b.stamp(b.count));
+      std::span<double> pixels, weights;
+      b.observations.add_stamp(d_.size, &pixels, &weights).weighted = false;
+      std::copy_n(d_.stamps.data() + next_ * npix, npix, pixels.begin());
       b.records[b.count] = ObjectRecord{};
       b.records[b.count].id = next_++;
       ++b.count;
@@ -91,7 +92,6 @@ void BM_Engine(benchmark::State& state) {
   PipelineOptions po;
   po.threads = static_cast<int>(state.range(0));
   po.batch_size = kBatchSize;
-  po.stamp_size = d.size;
   for (auto _ : state) {
     MemorySource source(d);
     CountingSink sink;

@@ -227,10 +227,13 @@ void CatalogueStampSource::skip_to(long long index) {
 void CatalogueStampSource::cut(const Entry& e, int k, StampBatch& batch) {
   const auto shape = image_.image_shape();
   const std::size_t npix = static_cast<std::size_t>(stamp_) * stamp_;
-  double* pix = batch.stamp(k);
-  double* w = batch.weight(k);
-  std::fill_n(pix, npix, 0.0);
-  std::fill_n(w, npix, 0.0);
+  std::span<double> pix, w;
+  ArenaObservation& o = batch.observations.add_stamp(stamp_, &pix, &w);
+  // The mask of the image edge lives in the weights: a weight map's, else a mask on noise_sigma's.
+  o.weight_kind = weight_ ? WeightKind::kInverseVariance : WeightKind::kMask;
+  if (columns_.with_psf) o.psf = PsfModel::Moffat({e.beta, e.fwhm, e.e1, e.e2, 0.0});
+  std::fill_n(pix.begin(), npix, 0.0);
+  std::fill_n(w.begin(), npix, 0.0);
   ObjectRecord& r = batch.records[k];
   r = ObjectRecord{};
   r.id = e.id;
@@ -259,7 +262,7 @@ void CatalogueStampSource::cut(const Entry& e, int k, StampBatch& batch) {
     for (long i = 0; i < nx; ++i) {
       const std::size_t d = static_cast<std::size_t>(ya - y0 + j) * stamp_ + (xa - x0 + i);
       pix[d] = region[j * nx + i];
-      w[d] = 1.0;  // replaced by the weight map; else a mask, on noise_sigma's weight (fill())
+      w[d] = 1.0;  // replaced by the weight map; else a mask, on noise_sigma's weight
     }
   if (weight_) {
     weight_->read_image_region(xa, ya, nx, ny, region);
@@ -269,15 +272,11 @@ void CatalogueStampSource::cut(const Entry& e, int k, StampBatch& batch) {
 }
 
 bool CatalogueStampSource::fill(StampBatch& batch) {
-  batch.count = 0;
-  batch.first_object = next_;
-  batch.has_weights = true;  // always: the mask of the image edge lives in the weights
-  batch.weights_are_mask = !weight_;
+  batch.begin(next_);
   Entry e;
   while (batch.count < batch.capacity() && next_ < total_ && next_entry(&e)) {
     const int k = batch.count++;
     cut(e, k, batch);
-    if (columns_.with_psf) batch.psf[k] = PsfModel::Moffat({e.beta, e.fwhm, e.e1, e.e2, 0.0});
     ++next_;
   }
   return batch.count > 0;

@@ -26,9 +26,7 @@ GridStampSource::GridStampSource(const std::string& image_path, const std::strin
 bool GridStampSource::fill(StampBatch& batch) {
   const int s = image_.stamp_size(), nx = image_.grid_nx();
   const std::size_t npix = static_cast<std::size_t>(s) * s;
-  batch.count = 0;
-  batch.first_object = next_;
-  batch.has_weights = static_cast<bool>(weight_);
+  batch.begin(next_);
   while (batch.count < batch.capacity() && next_ < total_objects()) {
     const int iy = static_cast<int>(next_ / nx), ix = static_cast<int>(next_ % nx);
     if (iy != loaded_row_) {
@@ -37,8 +35,10 @@ bool GridStampSource::fill(StampBatch& batch) {
       loaded_row_ = iy;
     }
     const int k = batch.count++;
-    std::copy_n(row_.data() + ix * npix, npix, batch.stamp(k));
-    if (weight_) std::copy_n(weight_row_.data() + ix * npix, npix, batch.weight(k));
+    std::span<double> pixels, weights;
+    batch.observations.add_stamp(s, &pixels, &weights).weighted = static_cast<bool>(weight_);
+    std::copy_n(row_.data() + ix * npix, npix, pixels.begin());
+    if (weight_) std::copy_n(weight_row_.data() + ix * npix, npix, weights.begin());
     ObjectRecord& r = batch.records[k];
     r = ObjectRecord{};
     r.id = next_;

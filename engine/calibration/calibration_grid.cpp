@@ -110,11 +110,7 @@ CalibrationSource::CalibrationSource(const CalibrationGrid& grid)
     : grid_(grid), stamp_(static_cast<std::size_t>(grid.options().stamp_size) * grid.options().stamp_size) {}
 
 bool CalibrationSource::fill(StampBatch& batch) {
-  if (batch.stamp_size != grid_.options().stamp_size)
-    throw std::invalid_argument("CalibrationSource: batch stamp size differs from the grid's");
-  batch.first_object = next_;
-  batch.count = 0;
-  batch.has_weights = false;
+  batch.begin(next_);
   const long long per_point = grid_.objects_per_point();
   while (batch.count < batch.capacity() && next_ < grid_.objects()) {
     const int point = static_cast<int>(next_ / per_point);
@@ -124,8 +120,9 @@ bool CalibrationSource::fill(StampBatch& batch) {
       drawn_point_ = point;
     }
     const int k = batch.count;
-    grid_.add_noise(point, within / 2, within % 2 == 0 ? 1.0 : -1.0, stamp_,
-                    std::span<double>(batch.stamp(k), batch.npix()));
+    std::span<double> pixels, weights;
+    batch.observations.add_stamp(grid_.options().stamp_size, &pixels, &weights).weighted = false;
+    grid_.add_noise(point, within / 2, within % 2 == 0 ? 1.0 : -1.0, stamp_, pixels);
     ObjectRecord& r = batch.records[static_cast<std::size_t>(k)];
     r = ObjectRecord{};
     r.id = next_;

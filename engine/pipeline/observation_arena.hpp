@@ -1,12 +1,12 @@
-// The observations a batch carries for its objects when an object is more than one stamp (a MEDS
-// tile's cutouts, over one band or several): ragged, each object with any number of them, of any
-// box size, their pixels and weights in one arena per batch. A batch is reused for the whole run,
-// so the arena grows to the largest batch seen and then allocates nothing.
+// The observations a batch carries for its objects: ragged, each object with any number of them (a
+// grid or catalogue stamp: one, in its pixel grid; a MEDS object: its cutouts over one band or
+// several), of any box size, their pixels and weights in one arena per batch. A batch is reused for
+// the whole run, so the arena grows to the largest batch seen and then allocates nothing.
 //
-// The serial reader stage fills it (io/meds_object_source: pixels read, masks applied, PSFs looked
-// up); the parallel fit stage prepares each PSF for its renderer and fits. What reading found
-// (flags, the first problem, pixel counts) travels with each object and band, so the fit stage
-// decides the row from the whole story.
+// The serial reader stage fills it (pixels read, masks applied, PSFs looked up); the parallel fit
+// stage prepares each PSF for its renderer and fits. What reading found (flags, the first problem,
+// pixel counts) travels with each object and band, so the fit stage decides the row from the whole
+// story.
 #pragma once
 
 #include <cstddef>
@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/fit/observation.hpp"
 #include "engine/model/pixel_frame.hpp"
 #include "engine/model/psf_model.hpp"
 
@@ -29,8 +30,12 @@ struct ArenaObservation {
   int band = 0;
   PixelFrame frame;
   double flux_scale = 1;   // data = flux_scale x model (the zero point's factor)
-  PsfModel psf;            // in the cutout's pixels
+  PsfModel psf;            // in the cutout's pixels (a stamp's: its catalogue or caller's PSF, if any)
   bool psf_from_image = false;  // psf is the tile's PSF cutout or a PSFEx model's image
+  // A grid or catalogue stamp's weights may be a mask, or absent (no weight map: the fit's
+  // noise_sigma on every pixel).
+  WeightKind weight_kind = WeightKind::kInverseVariance;
+  bool weighted = true;
 };
 
 // What reading one band of one object found.
@@ -79,6 +84,17 @@ class ObservationArena {
     *weights = std::span<double>(weights_.data() + o.offset, npix);
     return o;
   }
+  // The next object as one stamp in its pixel grid (one band, one observation): its entry and
+  // spans to fill, as add().
+  ArenaObservation& add_stamp(int box_size, std::span<double>* pixels, std::span<double>* weights) {
+    begin_object(1);
+    BandReading& r = reading(objects_ - 1, 0);
+    r.first = size();
+    r.count = 1;
+    return add(box_size, pixels, weights);
+  }
+  // Object `object`'s first observation (a stamp's only one).
+  const ArenaObservation& first_of(int object) const { return (*this)[reading(object, 0).first]; }
   // Drops the last observation added (a cutout found unusable after its pixels were read).
   void drop_last() {
     used_ = observations_.back().offset;
@@ -90,7 +106,9 @@ class ObservationArena {
   std::span<const double> pixels(const ArenaObservation& o) const {
     return {pixels_.data() + o.offset, static_cast<std::size_t>(o.box_size) * o.box_size};
   }
+  // Empty for an observation without weights (ArenaObservation::weighted).
   std::span<const double> weights(const ArenaObservation& o) const {
+    if (!o.weighted) return {};
     return {weights_.data() + o.offset, static_cast<std::size_t>(o.box_size) * o.box_size};
   }
   std::size_t pixels_used() const { return used_; }

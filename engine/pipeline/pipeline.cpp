@@ -62,7 +62,7 @@ PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
   BatchPool pool;
   pool.reserve(pool_size);
   for (int i = 0; i < pool_size; ++i) {
-    batches.push_back(std::make_unique<StampBatch>(options.batch_size, options.stamp_size, options.per_object_psf));
+    batches.push_back(std::make_unique<StampBatch>(options.batch_size));
     pool.put(batches.back().get());
   }
   MpscStack<StampBatch> finished;  // fit tasks -> writer, lock-free

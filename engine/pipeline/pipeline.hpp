@@ -30,8 +30,6 @@ struct PipelineOptions {
   int threads = 0;          // fit threads, in a task arena of the run's own; 0: the caller's arena's (all cores)
   int batch_size = 32;      // stamps per batch
   int batches_per_thread = 3;
-  bool per_object_psf = false;
-  int stamp_size = 39;
   // Set from another thread to end the run early: no batch is read after it is seen, those in
   // flight are fitted and written (PipelineSummary::stopped).
   const std::atomic<bool>* stop = nullptr;

@@ -25,37 +25,35 @@ StampFitter::StampFitter(const FitterOptions& options, std::shared_ptr<const Pre
 }
 
 void StampFitter::fit(StampBatch& batch) {
-  const std::size_t npix = batch.npix();
   for (int k = 0; k < batch.count; ++k) {
     ObjectRecord& rec = batch.records[k];
+    const ArenaObservation& stamp = batch.observations.first_of(k);
     const auto t0 = std::chrono::steady_clock::now();
     std::uint32_t input_flags = rec.flags;
     rec.psf_e1 = psf_e1_;
     rec.psf_e2 = psf_e2_;
     rec.psf_fwhm = psf_fwhm_;
     if (per_object_) {
-      const PsfModel& psf = batch.psf[k];
       if (!metacal_fitter_) {  // metacal fits with its reconvolution PSF, never this one
         std::string error;
-        auto prepared = per_object_->get(psf, fitter_.renderer_for(batch.stamp_size), &error);
+        auto prepared = per_object_->get(stamp.psf, fitter_.renderer_for(stamp.box_size), &error);
         if (!prepared) input_flags |= kFlagPsfFailure;
         observation_.psf = std::move(prepared);
       }
-      rec.psf_e1 = psf.e1();
-      rec.psf_e2 = psf.e2();
-      rec.psf_fwhm = psf.fwhm();
+      rec.psf_e1 = stamp.psf.e1();
+      rec.psf_e2 = stamp.psf.e2();
+      rec.psf_fwhm = stamp.psf.fwhm();
     }
-    const std::span<const double> pixels(batch.stamp(k), npix);
-    const std::span<const double> weight = batch.has_weights ? std::span<const double>(batch.weight(k), npix)
-                                                             : std::span<const double>();
-    const WeightKind kind = batch.weights_are_mask ? WeightKind::kMask : WeightKind::kInverseVariance;
+    const std::span<const double> pixels = batch.observations.pixels(stamp);
+    const std::span<const double> weight = batch.observations.weights(stamp);
     if (metacal_fitter_) {
       std::string ignored;
-      if (per_object_ && !metacal_fitter_->set_psf(batch.psf[k], &ignored)) input_flags |= kFlagPsfFailure;
-      metacal_fitter_->fit(pixels, weight, kind, rec.id, kFlagMetacalFailure, &rec.fit, &rec.metacal, &input_flags);
+      if (per_object_ && !metacal_fitter_->set_psf(stamp.psf, &ignored)) input_flags |= kFlagPsfFailure;
+      metacal_fitter_->fit(pixels, weight, stamp.weight_kind, rec.id, kFlagMetacalFailure, &rec.fit, &rec.metacal,
+                           &input_flags);
     } else {
-      observation_.pixels = pixels, observation_.weight = weight, observation_.weight_kind = kind;
-      observation_.box_size = batch.stamp_size;
+      observation_.pixels = pixels, observation_.weight = weight, observation_.weight_kind = stamp.weight_kind;
+      observation_.box_size = stamp.box_size;
       if (!per_object_) observation_.psf = shared_psf_;
       rec.fit = fitter_.fit({&observation_, 1});
     }

@@ -36,7 +36,7 @@ MedsFitOptions options() {
 class OneObject {
  public:
   OneObject(const std::string& tile, const MedsFitOptions& o)
-      : source_({tile}, o, o.psf_model), fitter_(o, {tile}, {}), batch_(1, 0, false) {}
+      : source_({tile}, o, o.psf_model), fitter_(o, {tile}, {}), batch_(1) {}
   long long size() const { return source_.total_objects(); }
   MedsObjectResult fit(long long row) {
     source_.skip_to(row);

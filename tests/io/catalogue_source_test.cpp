@@ -37,22 +37,26 @@ TEST(CatalogueSource, AnyPositionGivesAFlaggedRecordWithoutOverflow) {
   }
   io::CatalogueStampSource source(scratch.path("image.fits"), "", scratch.path("cat.txt"), 9, io::CatalogueColumns{});
   ASSERT_EQ(source.total_objects(), static_cast<long long>(far.size() + 1));
-  StampBatch batch(64, 9, false);
+  StampBatch batch(64);
   ASSERT_TRUE(source.fill(batch));
   ASSERT_EQ(batch.count, source.total_objects());
-  EXPECT_TRUE(batch.has_weights && batch.weights_are_mask);
+  const ObservationArena& stamps = batch.observations;
+  for (int k = 0; k < batch.count; ++k) {  // no weight map: the image edge masks the stamp
+    EXPECT_TRUE(stamps.first_of(k).weighted);
+    EXPECT_EQ(stamps.first_of(k).weight_kind, WeightKind::kMask);
+  }
   for (std::size_t i = 0; i < far.size(); ++i) {
     const ObjectRecord& r = batch.records[i];
     EXPECT_EQ(r.id, static_cast<std::int64_t>(i));
     EXPECT_TRUE(r.flags & kFlagEdge) << far[i].first << ", " << far[i].second;
     double weight = 0;
-    for (std::size_t p = 0; p < batch.npix(); ++p) weight += batch.weight(static_cast<int>(i))[p];
+    for (double w : stamps.weights(stamps.first_of(static_cast<int>(i)))) weight += w;
     EXPECT_EQ(weight, 0.0) << "nothing of the image is in the stamp";
   }
   const ObjectRecord& inside = batch.records[far.size()];
   EXPECT_EQ(inside.id, std::numeric_limits<std::int64_t>::max());
   EXPECT_EQ(inside.flags & kFlagEdge, 0u);
-  EXPECT_EQ(batch.weight(static_cast<int>(far.size()))[40], 1.0);
+  EXPECT_EQ(stamps.weights(stamps.first_of(static_cast<int>(far.size())))[40], 1.0);
 }
 
 // Found by the Python argument fuzzer: a "text catalogue" with no newline (/dev/zero, or a binary

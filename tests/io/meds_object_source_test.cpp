@@ -26,7 +26,7 @@ TEST(MedsObjectSource, ABatchCarriesEveryObjectsCutoutsAndIdentity) {
   MedsOptions options;
   MedsObjectSource source({kSample + "/meds.fits"}, options, PsfModel{});
   MedsFile meds = MedsFile::open(kSample + "/meds.fits");
-  StampBatch batch(5, 0, false);
+  StampBatch batch(5);
   source.skip_to(3);
   ASSERT_TRUE(source.fill(batch));
   ASSERT_EQ(batch.count, 5);
@@ -62,7 +62,7 @@ TEST(MedsObjectSource, AShardsEndStopsTheReading) {
   MedsOptions options;
   MedsObjectSource source({kSample + "/meds.fits"}, options, PsfModel{});
   RangeSource shard(source, 2, 9);
-  StampBatch batch(5, 0, false);
+  StampBatch batch(5);
   ASSERT_TRUE(shard.fill(batch));
   EXPECT_EQ(batch.count, 5);
   ASSERT_TRUE(shard.fill(batch));

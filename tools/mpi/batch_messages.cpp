@@ -12,13 +12,12 @@ namespace stampede::mpi_driver {
 namespace {
 
 static_assert(std::is_trivially_copyable_v<ObjectRecord>, "rows travel as bytes");
-static_assert(std::is_trivially_copyable_v<kernels::MoffatProfile>, "per-object PSFs travel as bytes");
+static_assert(std::is_trivially_copyable_v<kernels::MoffatProfile>, "PSFs travel as bytes");
 static_assert(std::is_trivially_copyable_v<kernels::AiryProfile>, "PSFs travel as bytes");
 static_assert(std::is_trivially_copyable_v<PixelFrame>, "frames travel as bytes");
 
 struct Header {
-  int count, stamp_size, has_weights, weights_are_mask, per_object_psf;
-  int arena_objects, arena_bands, arena_observations;
+  int count, arena_objects, arena_bands, arena_observations;
   long long sequence, first_object, arena_pixels;
 };
 
@@ -33,7 +32,7 @@ struct ReadingWire {
 // One observation less its PSF image's samples (which follow it).
 struct ObservationWire {
   std::uint64_t offset;
-  int box_size, cutout, band, psf_from_image, psf_kind;
+  int box_size, cutout, band, psf_from_image, psf_kind, weight_kind, weighted;
   PixelFrame frame;
   double flux_scale;
   kernels::MoffatProfile moffat;
@@ -95,23 +94,11 @@ class Reader {
 }  // namespace
 
 void pack_batch(const StampBatch& b, std::vector<char>* out) {
-  const bool per_object = !b.psf.empty();
   const ObservationArena& arena = b.observations;
-  const bool survey = b.stamp_size == 0;
-  const std::size_t n = static_cast<std::size_t>(b.count) * b.npix();
   Writer w(out);
-  w.put(Header{b.count, b.stamp_size, b.has_weights, b.weights_are_mask, per_object, survey ? arena.objects() : 0,
-               survey ? arena.bands() : 0, survey ? arena.size() : 0, b.sequence, b.first_object,
-               survey ? static_cast<long long>(arena.pixels_used()) : 0});
-  w.put(b.pixels.data(), n);
-  if (b.has_weights) w.put(b.weights.data(), n);
+  w.put(Header{b.count, arena.objects(), arena.bands(), arena.size(), b.sequence, b.first_object,
+               static_cast<long long>(arena.pixels_used())});
   w.put(b.records.data(), static_cast<std::size_t>(b.count));
-  for (int k = 0; per_object && k < b.count; ++k) {
-    if (b.psf[k].kind != PsfKind::kMoffat)
-      throw std::runtime_error("the MPI driver sends per-object PSFs only as Moffat profiles");
-    w.put(b.psf[k].moffat);
-  }
-  if (!survey) return;
   for (int o = 0; o < arena.objects(); ++o)
     for (int band = 0; band < arena.bands(); ++band) {
       const BandReading& r = arena.reading(o, band);
@@ -123,6 +110,7 @@ void pack_batch(const StampBatch& b, std::vector<char>* out) {
     ObservationWire ow{};
     ow.offset = o.offset, ow.box_size = o.box_size, ow.cutout = o.cutout, ow.band = o.band;
     ow.psf_from_image = o.psf_from_image, ow.psf_kind = static_cast<int>(o.psf.kind);
+    ow.weight_kind = static_cast<int>(o.weight_kind), ow.weighted = o.weighted;
     ow.frame = o.frame, ow.flux_scale = o.flux_scale, ow.moffat = o.psf.moffat, ow.airy = o.psf.airy;
     const PsfImage* image = o.psf.kind == PsfKind::kImage ? o.psf.image.get() : nullptr;
     if (image) {
@@ -143,22 +131,13 @@ void pack_batch(const StampBatch& b, std::vector<char>* out) {
 void unpack_batch(const char* data, std::size_t size, StampBatch* b) {
   Reader r(data, size);
   const Header h = r.get<Header>();
-  if (h.stamp_size != b->stamp_size || h.count < 0 || h.count > b->capacity() ||
-      (h.per_object_psf != 0) != !b->psf.empty())
+  if (h.count < 0 || h.count > b->capacity() || h.arena_objects < h.count)
     throw std::runtime_error("MPI batch message does not fit this rank's batches");
+  b->begin(h.first_object);
   b->count = h.count;
   b->sequence = h.sequence;
-  b->first_object = h.first_object;
-  b->has_weights = h.has_weights != 0;
-  b->weights_are_mask = h.weights_are_mask != 0;
-  const std::size_t n = static_cast<std::size_t>(h.count) * b->npix();
-  r.get(b->pixels.data(), n);
-  if (b->has_weights) r.get(b->weights.data(), n);
   r.get(b->records.data(), static_cast<std::size_t>(h.count));
-  for (int k = 0; h.per_object_psf && k < h.count; ++k) b->psf[k] = PsfModel::Moffat(r.get<kernels::MoffatProfile>());
   ObservationArena& arena = b->observations;
-  arena.clear();
-  if (b->stamp_size != 0) return;
   for (int o = 0; o < h.arena_objects; ++o) {
     arena.begin_object(h.arena_bands);
     for (int band = 0; band < h.arena_bands; ++band) {
@@ -176,6 +155,7 @@ void unpack_batch(const char* data, std::size_t size, StampBatch* b) {
     if (o.offset != ow.offset) throw std::runtime_error("MPI batch message: observations out of order");
     o.cutout = ow.cutout, o.band = ow.band, o.psf_from_image = ow.psf_from_image != 0;
     o.frame = ow.frame, o.flux_scale = ow.flux_scale;
+    o.weight_kind = static_cast<WeightKind>(ow.weight_kind), o.weighted = ow.weighted != 0;
     o.psf.kind = static_cast<PsfKind>(ow.psf_kind);
     o.psf.moffat = ow.moffat, o.psf.airy = ow.airy;
     o.psf.image.reset();

@@ -1,8 +1,7 @@
-// A batch on the wire between the MPI driver's ranks: rank 0 packs a batch (a grid's stamps:
-// pixels, weights, per-object Moffat PSFs; a survey batch: its observation arena, each cutout's
-// pixels, weights, frame and PSF, and what reading found) with the rows' identity into one byte
-// message; a worker unpacks it into a batch of its own, fits it, and returns the rows (and a survey
-// batch's problem texts), which rank 0 copies back. The buffers are reused, so steady state
+// A batch on the wire between the MPI driver's ranks: rank 0 packs a batch (its observation arena:
+// each stamp's or cutout's pixels, weights, frame and PSF, and what reading found) with the rows'
+// identity into one byte message; a worker unpacks it into a batch of its own, fits it, and returns
+// the rows and the problem texts, which rank 0 copies back. The buffers are reused, so steady state
 // allocates nothing. All ranks run the same binary (a homogeneous cluster): records travel as their
 // bytes.
 #pragma once
@@ -16,7 +15,7 @@ namespace stampede::mpi_driver {
 
 // Appends nothing: *out is resized to the message and overwritten.
 void pack_batch(const StampBatch& batch, std::vector<char>* out);
-// Fills `batch` (capacity and stamp size as the sender's) from a message of pack_batch. Throws
+// Fills `batch` (capacity as the sender's) from a message of pack_batch. Throws
 // std::runtime_error for a message that is not one (a bug, not bad input: ranks run one binary).
 void unpack_batch(const char* data, std::size_t size, StampBatch* batch);
 

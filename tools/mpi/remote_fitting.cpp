@@ -106,10 +106,8 @@ class DispatchingFitter final : public BatchFitter {
                         rows_tag(s.index), MPI_COMM_WORLD, &request),
               "receive rows");
         wait_idle(&request, MPI_STATUS_IGNORE, "receive rows");
-        if (batch.stamp_size == 0) {  // a survey batch: its problem texts follow its rows
-          receive_any_size(s.rank, problems_tag(s.index), &message_);
-          unpack_problems(message_.data(), message_.size(), &batch);
-        }
+        receive_any_size(s.rank, problems_tag(s.index), &message_);  // the problem texts follow the rows
+        unpack_problems(message_.data(), message_.size(), &batch);
       }
     } catch (...) {
       pool_->release(s);
@@ -196,9 +194,7 @@ void run_worker(int /*threads*/) {
     }
   }
   app::validate(cfg);
-  // A survey run's batches carry their objects' cutouts and PSFs (stamp size 0); a grid's, stamps.
   const bool survey = !meds.empty();
-  const int stamp_size = survey ? 0 : cfg.fitter.render.stamp_size;
   FftPlanCache setup_plans(FftPlanning::kEstimate);
   std::optional<app::StampFitterRecipe> recipe;
   if (!survey) recipe = app::stamp_fitter_recipe(cfg, setup_plans, cfg.psf_from_catalogue);
@@ -209,7 +205,7 @@ void run_worker(int /*threads*/) {
 
   auto serve_slot = [&](int j) {
       const std::unique_ptr<BatchFitter> fitter = make_fitter();
-      StampBatch batch(cfg.batch_size, stamp_size, !survey && cfg.psf_from_catalogue);
+      StampBatch batch(cfg.batch_size);
       std::vector<char> message;
       for (;;) {
         receive_any_size(0, batch_tag(j), &message);
@@ -219,11 +215,9 @@ void run_worker(int /*threads*/) {
         check(MPI_Send(batch.records.data(), static_cast<int>(batch.count * sizeof(ObjectRecord)), MPI_BYTE, 0,
                        rows_tag(j), MPI_COMM_WORLD),
               "send rows");
-        if (survey) {
-          pack_problems(batch, &message);
-          check(MPI_Send(message.data(), static_cast<int>(message.size()), MPI_BYTE, 0, problems_tag(j), MPI_COMM_WORLD),
-                "send problems");
-        }
+        pack_problems(batch, &message);
+        check(MPI_Send(message.data(), static_cast<int>(message.size()), MPI_BYTE, 0, problems_tag(j), MPI_COMM_WORLD),
+              "send problems");
       }
   };
   std::vector<std::thread> threads;

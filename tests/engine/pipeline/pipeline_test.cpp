@@ -17,10 +17,12 @@ class CountingSource final : public StampSource {
   long long total_objects() const override { return n_; }
   void skip_to(long long i) override { next_ = i; }
   bool fill(StampBatch& b) override {
-    b.count = 0;
+    b.begin(next_);
     while (b.count < b.capacity() && next_ < n_) {
       if (next_ == fail_at_) throw std::runtime_error("read error at object " + std::to_string(next_));
-      b.stamp(b.count)[0] = static_cast<double>(next_);
+      std::span<double> pixels, weights;
+      b.observations.add_stamp(1, &pixels, &weights);
+      pixels[0] = static_cast<double>(next_);
       b.records[b.count] = ObjectRecord{};
       b.records[b.count].id = next_++;
       ++b.count;
@@ -54,7 +56,7 @@ class SlowSquare final : public BatchFitter {
  public:
   void fit(StampBatch& b) override {
     for (int k = 0; k < b.count; ++k) {
-      const double v = b.stamp(k)[0];
+      const double v = b.observations.pixels(b.observations.first_of(k))[0];
       if (static_cast<long long>(v) % 7 == 0) std::this_thread::sleep_for(std::chrono::microseconds(200));
       b.records[k].time_us = v * v;  // the "result"
     }
@@ -69,7 +71,6 @@ TEST(Pipeline, EveryObjectOnceInOrderForAnyThreadsAndBatchSize) {
       PipelineOptions o;
       o.threads = threads;
       o.batch_size = batch;
-      o.stamp_size = 3;
       long long last_done = -1;
       bool monotone = true;
       const PipelineSummary s = run_pipeline(
@@ -96,7 +97,6 @@ TEST(Pipeline, ResumesFromAnObject) {
   PipelineOptions o;
   o.threads = 2;
   o.batch_size = 8;
-  o.stamp_size = 3;
   run_pipeline(source, sink, [] { return std::make_unique<SlowSquare>(); }, o);
   ASSERT_EQ(sink.ids.size(), 60u);
   EXPECT_EQ(sink.ids.front(), 40);
@@ -109,7 +109,6 @@ TEST(Pipeline, ReaderErrorStopsTheRunAndSurfaces) {
   PipelineOptions o;
   o.threads = 2;
   o.batch_size = 4;
-  o.stamp_size = 3;
   EXPECT_THROW(
       {
         try {
@@ -131,7 +130,6 @@ TEST(Pipeline, WriterErrorStopsTheRunAndSurfaces) {
   PipelineOptions o;
   o.threads = 2;
   o.batch_size = 4;
-  o.stamp_size = 3;
   EXPECT_THROW(run_pipeline(source, sink, [] { return std::make_unique<SlowSquare>(); }, o), std::runtime_error);
   EXPECT_EQ(sink.ids.size(), 300u);
 }
