@@ -12,7 +12,7 @@ double power_of_two_below(double v) { return v > 0.0 && std::isfinite(v) ? std::
 
 }  // namespace
 
-FitUnits FitUnits::for_stamp(double max_abs_pixel, double max_weight) {
+FitUnits FitUnits::for_data(double max_abs_pixel, double max_weight) {
   return FitUnits{power_of_two_below(max_abs_pixel), power_of_two_below(max_weight)};
 }
 

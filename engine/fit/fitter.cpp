@@ -329,7 +329,7 @@ FitStatus Fitter::prepare_weights(std::span<const double> pixels, std::span<cons
   }
   if (used == 0 || flat) return FitStatus::kNoData;
   // Fit in units where the largest |pixel| and weight are in [1, 2): see fit_units.hpp.
-  units_ = FitUnits::for_stamp(max_abs, max_weight);
+  units_ = FitUnits::for_data(max_abs, max_weight);
   for (double& w : weight_) w /= units_.weight;
   problem_->set_data(pixels, units_.data, used);
   return FitStatus::kOk;
@@ -522,7 +522,7 @@ FitResult Fitter::run(const ParamVector& start, std::uint32_t flags) {
   for (int k = 0; k < num_free_; ++k) {
     const int i = index(free_[k]);
     const double unit = units_.of(free_[k]);
-    if (cov_ok) r.errors[i] = unit * std::sqrt(cov(k, k) / units_.chi2());
+    if (cov_ok) r.errors[i] = units_.error(free_[k], cov(k, k));
     // Within 1e-6 of a bound in the fit's units, so the test does not depend on the data's scale.
     if (std::abs(p[i] - lower_[i] / unit) < 1e-6 || std::abs(p[i] - upper_[i] / unit) < 1e-6) flags |= kFlagAtBound;
   }

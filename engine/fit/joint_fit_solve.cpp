@@ -36,36 +36,51 @@ bool CutoutScratch::sums(const kernels::LeastSquaresKernels& k, std::span<const 
   return true;
 }
 
-void KernelCutouts::reset(std::span<const Observation> epochs) {
+void KernelCutouts::reset(std::span<const Observation> epochs, const FitUnits& units) {
   data_.resize(epochs.size());
   weight_.resize(epochs.size());
   if (scaled_data_.size() < epochs.size()) scaled_data_.resize(epochs.size()), scaled_weight_.resize(epochs.size());
+  const double to_data = 1.0 / units.data, to_weight = 1.0 / units.weight;  // powers of two: exact
   for (std::size_t c = 0; c < epochs.size(); ++c) {
     const Observation& e = epochs[c];
     const double s = e.flux_scale;
-    if (s == 1) {
+    if (s == 1 && to_data == 1 && to_weight == 1) {
       data_[c] = e.pixels, weight_[c] = e.weight;
       continue;
     }
     std::vector<double>& d = scaled_data_[c];
     std::vector<double>& w = scaled_weight_[c];
     d.resize(e.pixels.size()), w.resize(e.weight.size());
-    for (std::size_t i = 0; i < e.pixels.size(); ++i) d[i] = e.pixels[i] / s, w[i] = e.weight[i] * s * s;
+    for (std::size_t i = 0; i < e.pixels.size(); ++i)
+      d[i] = e.pixels[i] / s * to_data, w[i] = e.weight[i] * s * s * to_weight;
     data_[c] = d, weight_[c] = w;
   }
 }
 
 void JointCutouts::reset(std::span<const Observation> epochs) {
   epochs_ = epochs;
-  data_.reset(epochs);
   pixels_ = 0;
-  double sum = 0;
-  for (const Observation& e : epochs)
+  double sum = 0, max_abs = 0, max_weight = 0;
+  for (const Observation& e : epochs) {
+    // The largest |d| and w of a cutout; over s and s^2 they are the largest of its kernel data
+    // (division and multiplication by a positive number keep the order).
+    double cutout_abs = 0, cutout_weight = 0;
     for (std::size_t i = 0; i < e.weight.size(); ++i) {
-      pixels_ += e.weight[i] > 0;
-      sum += e.weight[i] * e.pixels[i] * e.pixels[i];
+      const double w = e.weight[i], d = e.pixels[i];
+      pixels_ += w > 0;
+      sum += w * d * d;
+      if (w > 0 && std::isfinite(w) && std::isfinite(d)) {
+        cutout_abs = std::max(cutout_abs, std::abs(d));
+        cutout_weight = std::max(cutout_weight, w);
+      }
     }
-  negligible_chi2_ = 1e-14 * sum;
+    const double s = std::abs(e.flux_scale);
+    max_abs = std::max(max_abs, cutout_abs / s);
+    max_weight = std::max(max_weight, cutout_weight * s * s);
+  }
+  units_ = FitUnits::for_data(max_abs, max_weight);
+  data_.reset(epochs, units_);
+  negligible_chi2_ = 1e-14 * sum / units_.chi2();
 }
 
 bool JointCutouts::chi2(std::size_t c, const ParamVector& p, double* chi2) {

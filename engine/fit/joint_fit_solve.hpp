@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "engine/fit/fit_result.hpp"
+#include "engine/fit/fit_units.hpp"
 #include "engine/fit/fitter.hpp"
 #include "engine/fit/observation.hpp"
 #include "engine/fit/solve.hpp"
@@ -16,14 +17,14 @@
 
 namespace stampede {
 
-
 // The cutouts' data and weights as the least-squares kernels take them, each cutout's flux scale s
 // folded in: sum w (d - s m)^2 = sum (w s^2) (d/s - m)^2, and the normal equations of the columns
-// s c likewise, so one kernel call per cutout serves every joint fit. Copies only the cutouts whose
-// scale is not 1, into storage that grows to the largest object seen and is then reused.
+// s c likewise, so one kernel call per cutout serves every joint fit; then in the fit's units
+// (d/s and w s^2 over powers of two, an exact change). Copies only the cutouts whose scale or units
+// are not 1, into storage that grows to the largest object seen and is then reused.
 class KernelCutouts {
  public:
-  void reset(std::span<const Observation> epochs);
+  void reset(std::span<const Observation> epochs, const FitUnits& units);
   std::span<const double> data(std::size_t c) const { return data_[c]; }
   std::span<const double> weight(std::size_t c) const { return weight_[c]; }
 
@@ -65,8 +66,14 @@ class CutoutScratch {
   std::array<double*, kNumParams> columns_{};
 };
 
-// What every joint problem holds of its cutouts (ObjectFitter's and the projected one): the cutouts and their kernel data, the renderer per box size, the scratch they
-// are drawn into, the unmasked pixel count and the chi2 that counts as exact.
+// What every joint problem holds of its cutouts (ObjectFitter's and the projected one): the cutouts,
+// the fit's units and the kernel data in them, the renderer per box size, the scratch they are
+// drawn into, the unmasked pixel count and the chi2 that counts as exact.
+//
+// The units (FitUnits) are one pair per object, over every cutout's used pixels as the model sees
+// them (d/s, w s^2): the amplitudes are in the reference zero point's units, so that is the scale
+// they take. Every chi2, sum and amplitude the problems see is in these units; the caller states
+// the start in them (FitUnits::to_internal) and reports back in data units.
 class JointCutouts {
  public:
   using RendererFor = std::function<Renderer&(int box_size)>;
@@ -74,9 +81,11 @@ class JointCutouts {
       : renderer_for_(std::move(renderer_for)), kernels_(kernels) {}
   void reset(std::span<const Observation> epochs);
   std::span<const Observation> epochs() const { return epochs_; }
+  const FitUnits& units() const { return units_; }
   int pixels() const { return pixels_; }
   // As the single-stamp fit's: a model within ~1e-7 rms of the data, relative to it, is exact for
-  // any purpose (noise-free data would otherwise keep chi2 halving to the iteration limit).
+  // any purpose (noise-free data would otherwise keep chi2 halving to the iteration limit). In the
+  // fit's units.
   double negligible_chi2() const { return negligible_chi2_; }
   // Draw with each cutout renderer's surrogate where it has one (the surrogate stage).
   void use_surrogates(bool on) { surrogates_ = on; }
@@ -92,6 +101,7 @@ class JointCutouts {
   RendererFor renderer_for_;
   const kernels::LeastSquaresKernels& kernels_;
   std::span<const Observation> epochs_;
+  FitUnits units_;
   KernelCutouts data_;
   CutoutScratch scratch_;
   int pixels_ = 0;

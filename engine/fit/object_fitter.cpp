@@ -24,19 +24,20 @@ bool is_single_stamp(std::span<const Observation> observations) {
 }  // namespace
 
 // The joint problem over every observation, bands as slots: the free parameters in ParameterSet
-// order with the first slot's amplitudes, then each further slot's free amplitudes.
+// order with the first slot's amplitudes, then each further slot's free amplitudes. The solver's
+// vector, chi2 and the sums are in the cutouts' units (JointCutouts::units).
 class ObjectFitter::Problem final : public SolveProblem {
  public:
   explicit Problem(ObjectFitter& f)
       : cutouts_([&f](int box) -> Renderer& { return f.renderer_for(box); },
                  kernels::least_squares_kernels(f.options_.render.simd)) {}
 
-  // The fit's observations, the full parameter vector of fixed values, the free parameters and
-  // the slot of each band in the solver's vector (-1: not fitted).
+  // The fit's observations, the full parameter vector of fixed values (data units), the free
+  // parameters and the slot of each band in the solver's vector (-1: not fitted).
   void reset(std::span<const Observation> observations, const ParamVector& base, std::span<const Param> free,
              std::span<const int> slot_of_band, int slots) {
     cutouts_.reset(observations);
-    base_ = base;
+    base_ = cutouts_.units().to_internal(base);
     free_ = free;
     slot_of_band_ = slot_of_band;
     slots_ = slots;
@@ -44,6 +45,14 @@ class ObjectFitter::Problem final : public SolveProblem {
     for (std::size_t a = 0; a < free.size(); ++a) amplitude_[a] = is_amplitude(free[a]) ? n_amp_++ : -1;
   }
   int size() const { return static_cast<int>(free_.size()) + (slots_ - 1) * n_amp_; }
+  const FitUnits& units() const { return cutouts_.units(); }
+  // The units the solver's tolerances are stated in: each variable's and chi2's data units.
+  LmUnits lm_units() const {
+    LmUnits u{units().chi2(), LmVector(size())};
+    for (std::size_t a = 0; a < free_.size(); ++a)
+      for (int s = 0; s < slots_; ++s) u.param[global(a, s)] = units().of(free_[a]);
+    return u;
+  }
   int num_pixels() const override { return cutouts_.pixels(); }
   double negligible_chi2() const override { return cutouts_.negligible_chi2(); }
 
@@ -52,18 +61,19 @@ class ObjectFitter::Problem final : public SolveProblem {
     return slot == 0 || amplitude_[a] < 0 ? static_cast<int>(a)
                                           : static_cast<int>(free_.size()) + (slot - 1) * n_amp_ + amplitude_[a];
   }
-  // Band slot s's full parameter vector at x.
+  // Band slot s's full parameter vector at x (internal units).
   ParamVector full(const LmVector& x, int slot) const {
     ParamVector p = base_;
     for (std::size_t a = 0; a < free_.size(); ++a) p[index(free_[a])] = x[global(a, slot)];
     return p;
   }
-  // x from a shape start and per-slot amplitude starts.
+  // x (internal units) from a shape start and per-slot amplitude starts (data units).
   LmVector vector_of(const ParamVector& shape, std::span<const ParamVector> amplitudes) const {
     LmVector x(size());
     for (std::size_t a = 0; a < free_.size(); ++a)
       for (int s = 0; s < slots_; ++s)
-        x[global(a, s)] = (amplitude_[a] < 0 ? shape : amplitudes[static_cast<std::size_t>(s)])[index(free_[a])];
+        x[global(a, s)] = (amplitude_[a] < 0 ? shape : amplitudes[static_cast<std::size_t>(s)])[index(free_[a])] /
+                          units().of(free_[a]);
     return x;
   }
 
@@ -104,7 +114,7 @@ class ObjectFitter::Problem final : public SolveProblem {
     return std::isfinite(sum);
   }
 
-  // sum w m^2 of slot s's observations at the last normal_equations.
+  // sum w m^2 of slot s's observations at the last normal_equations (internal units).
   double signal(int slot) const { return signal_[static_cast<std::size_t>(slot)]; }
   void use_surrogates(bool on) override { cutouts_.use_surrogates(on); }
 
@@ -348,6 +358,10 @@ FitResult ObjectFitter::fit_joint(std::span<const Observation> observations, con
     r.status = FitStatus::kNoData;
     return r;
   }
+  // The fit runs in the object's units (the start converted exactly, powers of two), so the
+  // solver's damping and tolerances see the same numbers whatever the data's scale; everything
+  // reported below is back in data units.
+  const FitUnits& units = problem_->units();
   const LmVector x0 = problem_->vector_of(start, amplitude_start);
   const bool coarse = any_surrogate(observations, [this](int box) -> Renderer& { return renderer_for(box); });
   SolveResult solved;
@@ -356,26 +370,32 @@ FitResult ObjectFitter::fit_joint(std::span<const Observation> observations, con
     for (const Observation& e : observations) slot_of_cutout_.push_back(slot_of_band[static_cast<std::size_t>(e.band)]);
     projected_->reset(observations, start, free, slot_of_cutout_, slots,
                       [this](std::size_t a, int s) { return problem_->global(a, s); }, problem_->size());
-    if (!solve(*projected_, projected_->shape_of(x0), options_, LmUnits{}, coarse, &r, &solved)) return r;
-  } else if (!solve(*problem_, x0, options_, LmUnits{}, coarse, &r, &solved)) {
+    // The solver's vector is the shape alone: only chi2 has a unit.
+    if (!solve(*projected_, projected_->shape_of(x0), options_, LmUnits{units.chi2(), LmVector()}, coarse, &r, &solved))
+      return r;
+  } else if (!solve(*problem_, x0, options_, problem_->lm_units(), coarse, &r, &solved)) {
     return r;
   }
   const LmSummary& sum = solved.summary;
   std::uint32_t flags = 0;
   if (!solved.cov_ok) flags |= kFlagNoErrors;
   // Errors of the shape and, in a one-band fit, of its amplitudes (several bands: per band, unreported).
-  for (int k = 0; k < nf; ++k)
-    if (solved.cov_ok && !(per_band && is_amplitude(free[static_cast<std::size_t>(k)])))
-      r.errors[index(free[static_cast<std::size_t>(k)])] = std::sqrt(solved.cov(k, k));
+  for (int k = 0; k < nf; ++k) {
+    const Param q = free[static_cast<std::size_t>(k)];
+    if (solved.cov_ok && !(per_band && is_amplitude(q))) r.errors[index(q)] = units.error(q, solved.cov(k, k));
+  }
   const ParamVector p0 = problem_->full(sum.x, 0);
   if (std::hypot(p0[index(Param::kE1)], p0[index(Param::kE2)]) > options_.model.ellipticity_mirror) flags |= kFlagMirrored;
   Renderer& any = renderer_for(observations.front().box_size);
-  any.effective_params(p0, &r.params);
+  ParamVector effective{};
+  any.effective_params(p0, &effective);
+  r.params = units.to_data(effective);
   r.e1_err = r.errors[index(Param::kE1)];
   r.e2_err = r.errors[index(Param::kE2)];
   double signal = 0;
   if (!per_band) {
     any.component_fluxes(p0, &r.bulge_flux, &r.disc_flux);
+    r.bulge_flux *= units.data, r.disc_flux *= units.data;
     signal = project_ ? projected_->signal(0) : problem_->signal(0);
   } else {
     r.params[index(Param::kBulgeA)] = r.params[index(Param::kDiscA)] = NAN;
@@ -384,22 +404,22 @@ FitResult ObjectFitter::fit_joint(std::span<const Observation> observations, con
       BandFit one;
       BandFit& band = bands.empty() ? one : bands[static_cast<std::size_t>(band_of_slot[static_cast<std::size_t>(s)])];
       const ParamVector ps = problem_->full(sum.x, s);
-      ParamVector effective{};
       any.effective_params(ps, &effective);
-      band.bulge_a = effective[index(Param::kBulgeA)], band.disc_a = effective[index(Param::kDiscA)];
+      band.bulge_a = effective[index(Param::kBulgeA)] * units.data, band.disc_a = effective[index(Param::kDiscA)] * units.data;
       any.component_fluxes(ps, &band.bulge_flux, &band.disc_flux);
+      band.bulge_flux *= units.data, band.disc_flux *= units.data;
       band.flux = band.bulge_flux + band.disc_flux;
       const double band_signal = project_ ? projected_->signal(s) : problem_->signal(s);
-      band.snr = std::sqrt(band_signal);
+      band.snr = std::sqrt(band_signal * units.chi2());
       r.bulge_flux += band.bulge_flux;
       r.disc_flux += band.disc_flux;
       signal += band_signal;
     }
   }
   r.flux = r.bulge_flux + r.disc_flux;
-  r.chi2 = solved.chi2;
-  r.likelihood = -0.5 * solved.chi2;
-  r.snr = std::sqrt(signal);
+  r.chi2 = solved.chi2 * units.chi2();
+  r.likelihood = -0.5 * r.chi2;
+  r.snr = std::sqrt(signal * units.chi2());
   r.status = status_of_stop(sum.reason, &flags);
   r.flags = flags;
   return r;

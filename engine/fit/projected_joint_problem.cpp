@@ -12,8 +12,8 @@ void ProjectedJointProblem::reset(std::span<const Observation> epochs, const Par
   if (slots < 1 || slots > kMaxBands || slot_of_cutout.size() != epochs.size())
     throw std::invalid_argument("ProjectedJointProblem::reset: slots do not match the cutouts");
   epochs_ = epochs;
-  cutouts_.reset(epochs);  // pixels, the negligible chi2, the kernels' data
-  base_ = base;
+  cutouts_.reset(epochs);  // the units, pixels, the negligible chi2, the kernels' data
+  base_ = cutouts_.units().to_internal(base);
   free_ = free;
   slot_of_cutout_.assign(slot_of_cutout.begin(), slot_of_cutout.end());
   slots_ = slots;
@@ -53,6 +53,8 @@ bool ProjectedJointProblem::chi2(const LmVector& x, double* chi2) {
   const ParamVector p = params(x, LinearAmplitudes{});
   std::array<std::array<double, 4>, kMaxBands> g{};
   std::array<std::array<double, 2>, kMaxBands> h{};
+  // The data and weights in the fit's units, as the kernels' (powers of two: exact).
+  const double to_data = 1.0 / cutouts_.units().data, to_weight = 1.0 / cutouts_.units().weight;
   for (std::size_t c = 0; c < epochs_.size(); ++c) {
     const Observation& e = epochs_[c];
     const std::size_t n = e.pixels.size();
@@ -65,14 +67,14 @@ bool ProjectedJointProblem::chi2(const LmVector& x, double* chi2) {
     for (std::size_t i = 0; i < n; ++i) {
       b[i] *= s;
       d[i] *= s;
-      const double w = e.weight[i];
-      if (w == 0) continue;
+      if (e.weight[i] == 0) continue;
+      const double w = e.weight[i] * to_weight, data = e.pixels[i] * to_data;
       const double wb = w * b[i], wd = w * d[i];
       gs[0] += wb * b[i];
       gs[1] += wb * d[i];
       gs[3] += wd * d[i];
-      hs[0] += wb * e.pixels[i];
-      hs[1] += wd * e.pixels[i];
+      hs[0] += wb * data;
+      hs[1] += wd * data;
     }
   }
   for (int s = 0; s < slots_; ++s) {
@@ -89,9 +91,9 @@ bool ProjectedJointProblem::chi2(const LmVector& x, double* chi2) {
     const double* d = b + n;
     const LinearAmplitudes& la = amplitudes_[static_cast<std::size_t>(slot_of_cutout_[c])];
     for (std::size_t i = 0; i < n; ++i) {
-      const double w = e.weight[i];
-      if (w == 0) continue;
-      const double r = e.pixels[i] - (la.a[0] * b[i] + la.a[1] * d[i]);
+      if (e.weight[i] == 0) continue;
+      const double w = e.weight[i] * to_weight;
+      const double r = e.pixels[i] * to_data - (la.a[0] * b[i] + la.a[1] * d[i]);
       sum += w * r * r;
     }
   }

@@ -32,8 +32,10 @@ class ProjectedJointProblem final : public SolveProblem {
       : cutouts_(std::move(renderer_for), kernels) {}
 
   // The fit's cutouts (cutout c in band slot slot_of_cutout[c] < slots), the full parameter vector
-  // of fixed values, the free parameters (one band's list) and the fitter's index of free
-  // parameter a of slot s, global(a, s), in a layout of `n_global` parameters.
+  // of fixed values (data units), the free parameters (one band's list) and the fitter's index of
+  // free parameter a of slot s, global(a, s), in a layout of `n_global` parameters. From here on
+  // the problem is in the cutouts' units (JointCutouts::units): the solver's vector, chi2, the sums,
+  // signal() and expand()'s amplitudes.
   void reset(std::span<const Observation> epochs, const ParamVector& base, std::span<const Param> free,
              std::span<const int> slot_of_cutout, int slots, const std::function<int(std::size_t, int)>& global,
              int n_global);

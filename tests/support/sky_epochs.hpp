@@ -38,6 +38,7 @@ struct SkyEpoch {
   PixelFrame frame;
   PsfModel psf;
   std::vector<double> pixels, weight;
+  double flux_scale = 1;  // data = flux_scale x model (Observation::flux_scale)
 };
 
 // A DES-like frame: 0.263"/px within +-3 %, any rotation, a WCS shear within +-0.02, the object
@@ -86,7 +87,7 @@ inline std::vector<Observation> epoch_data(Renderer& renderer, std::vector<SkyEp
     std::string error;
     auto psf = renderer.prepare_psf(e.psf, &error);
     if (!psf) throw std::runtime_error(error);
-    data.push_back({e.pixels, e.weight, kEpochBox, e.frame, psf, 1.0, band});
+    data.push_back({e.pixels, e.weight, kEpochBox, e.frame, psf, e.flux_scale, band});
   }
   return data;
 }
