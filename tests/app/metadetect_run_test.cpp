@@ -54,21 +54,27 @@ std::vector<std::string> sim_cells(const std::string& dir, int n, CellSimOptions
   return paths;
 }
 
+// Runs `o` on one thread into DIR/one.fits and on two into DIR/two.fits, a cell per batch: the
+// tables must be byte-identical, `cells` cells of 49 detections per image, none failed.
+void expect_one_table_for_one_and_two_threads(MetadetectRunOptions o, const testing::ScratchDir& dir, int cells) {
+  o.output = dir.path("one.fits");
+  o.threads = 1;
+  o.cells_per_batch = 1;
+  const MetadetectRunSummary one = run_metadetect(o);
+  EXPECT_EQ(one.cells, cells);
+  EXPECT_EQ(one.cells_failed, 0);
+  EXPECT_EQ(one.rows, cells * 5 * 49);
+  o.output = dir.path("two.fits");
+  o.threads = 2;
+  run_metadetect(o);
+  EXPECT_EQ(bytes(dir.path("one.fits")), bytes(dir.path("two.fits")));
+}
+
 TEST(MetadetectRun, TableIsTheSameForOneAndTwoThreads) {
   testing::ScratchDir scratch("stampede_mdet_threads_");
   MetadetectRunOptions o;
   o.inputs = sim_cells(scratch.path("sims"), 4);
-  o.output = scratch.path("one.fits");
-  o.threads = 1;
-  o.cells_per_batch = 1;
-  const MetadetectRunSummary one = run_metadetect(o);
-  EXPECT_EQ(one.cells, 4);
-  EXPECT_EQ(one.cells_failed, 0);
-  EXPECT_EQ(one.rows, 4 * 5 * 49);
-  o.output = scratch.path("two.fits");
-  o.threads = 2;
-  run_metadetect(o);
-  EXPECT_EQ(bytes(scratch.path("one.fits")), bytes(scratch.path("two.fits")));
+  expect_one_table_for_one_and_two_threads(o, scratch, 4);
 }
 
 TEST(MetadetectRun, StoppedRunResumesToTheUninterruptedTable) {
@@ -247,17 +253,7 @@ TEST(MetadetectRun, BandTilesGiveBandColumnsTheSameForAnyThreadsAndShards) {
   o.inputs = {scratch.path("sims/g/cells_meds.fits"), scratch.path("sims/r/cells_meds.fits")};
   o.tile = true;
   o.bands = {"g", "r"};
-  o.output = scratch.path("one.fits");
-  o.threads = 1;
-  o.cells_per_batch = 1;
-  const MetadetectRunSummary r = run_metadetect(o);
-  EXPECT_EQ(r.cells, 3);
-  EXPECT_EQ(r.cells_failed, 0);
-  EXPECT_EQ(r.rows, 3 * 5 * 49);
-  o.output = scratch.path("two.fits");
-  o.threads = 2;
-  run_metadetect(o);
-  EXPECT_EQ(bytes(scratch.path("one.fits")), bytes(scratch.path("two.fits")));
+  expect_one_table_for_one_and_two_threads(o, scratch, 3);
   io::FitsFile f = io::FitsFile::open_read(scratch.path("one.fits"));
   f.move_to("METADETECT");
   EXPECT_EQ(f.read_key_string("BANDS").value_or(""), "g,r");

@@ -26,27 +26,46 @@ struct CellRun {
   std::string problem;
 };
 
+// One simulated cell with its PSF and a constant weight of its noise, as a run reads it.
+struct SimulatedCell {
+  SimCell cell;
+  PsfModel psf;
+  std::vector<double> weight;
+  MetadetectCell in;  // band 0: pixels, weight, psf; its keep region the inner region
+  SimulatedCell(const CellSimOptions& so, int index, double g1) {
+    CellSimulator sim(so);
+    auto ws = sim.make_workspace();
+    cell = sim.simulate(index, g1, 0.0, *ws);
+    PsfImage img;
+    img.nx = img.ny = so.psf_size;
+    img.pixels = sim.bands()[0].psf;
+    psf = PsfModel::Image(std::make_shared<const PsfImage>(img));
+    weight.assign(cell.bands[0].image.size(), 1.0 / std::pow(sim.bands()[0].noise_sigma, 2));
+    in.index = index;
+    in.size = so.size;
+    in.pixels = cell.bands[0].image;
+    in.weight = weight;
+    in.pixel_scale = so.pixel_scale;
+    in.psf = &psf;
+    in.keep_x0 = in.keep_y0 = so.buffer - 0.5;
+    in.keep_x1 = in.keep_y1 = so.size - so.buffer - 0.5;
+  }
+  SimulatedCell(const SimulatedCell&) = delete;  // `in` points into its own members
+};
+
+// An S/N 20 cell at random positions (blends), the shear test's.
+CellSimOptions random_s20() {
+  CellSimOptions so;
+  so.snr = 20;
+  so.layout = CellLayout::kRandom;
+  return so;
+}
+
 CellRun measure_sim_cell(const CellSimOptions& so, int cell, double g1, const MetadetectOptions& mo = {}) {
-  CellSimulator sim(so);
-  auto ws = sim.make_workspace();
-  const SimCell c = sim.simulate(cell, g1, 0.0, *ws);
-  PsfImage img;
-  img.nx = img.ny = so.psf_size;
-  img.pixels = sim.bands()[0].psf;
-  const PsfModel psf = PsfModel::Image(std::make_shared<const PsfImage>(img));
-  const std::vector<double> weight(c.bands[0].image.size(), 1.0 / std::pow(sim.bands()[0].noise_sigma, 2));
-  MetadetectCell in;
-  in.index = cell;
-  in.size = so.size;
-  in.pixels = c.bands[0].image;
-  in.weight = weight;
-  in.pixel_scale = so.pixel_scale;
-  in.psf = &psf;
-  in.keep_x0 = in.keep_y0 = so.buffer;
-  in.keep_x1 = in.keep_y1 = so.size - so.buffer;
+  const SimulatedCell c(so, cell, g1);
   CellMeasurer m(mo);
   CellRun run;
-  run.ok = m.measure(in, &run.rows, &run.problem);
+  run.ok = m.measure(c.in, &run.rows, &run.problem);
   return run;
 }
 
@@ -105,35 +124,6 @@ TEST(CellMeasurer, ShearPairRecoversTheShear) {
   EXPECT_LT(std::abs(m), 2e-3);
 }
 
-// One simulated S/N 20 cell with its PSF and weight, to measure by hand.
-struct SimulatedCell {
-  CellSimOptions options;
-  SimCell cell;
-  PsfModel psf;
-  std::vector<double> weight;
-  MetadetectCell in;  // band 0: pixels, weight, psf
-  SimulatedCell(int index, CellLayout layout) {
-    options.snr = 20;
-    options.layout = layout;
-    CellSimulator sim(options);
-    auto ws = sim.make_workspace();
-    cell = sim.simulate(index, *ws);
-    PsfImage img;
-    img.nx = img.ny = options.psf_size;
-    img.pixels = sim.bands()[0].psf;
-    psf = PsfModel::Image(std::make_shared<const PsfImage>(img));
-    weight.assign(cell.bands[0].image.size(), 1.0 / std::pow(sim.bands()[0].noise_sigma, 2));
-    in.index = index;
-    in.size = options.size;
-    in.pixels = cell.bands[0].image;
-    in.weight = weight;
-    in.pixel_scale = options.pixel_scale;
-    in.psf = &psf;
-    in.keep_x0 = in.keep_y0 = options.buffer - 0.5;
-    in.keep_x1 = in.keep_y1 = options.size - options.buffer - 0.5;
-  }
-};
-
 std::vector<MetadetectRow> measure_rows(const MetadetectCell& in, const MetadetectOptions& mo = {}) {
   CellMeasurer m(mo);
   std::vector<MetadetectRow> rows;
@@ -158,7 +148,7 @@ std::vector<double> drawn_field(const MetadetectOptions& mo, long long index, st
 }
 
 TEST(CellMeasurer, FixnoiseTakesTheNoisePlaneAsItsField) {
-  const SimulatedCell c(2, CellLayout::kRandom);
+  const SimulatedCell c(random_s20(), 2, random_s20().g1);
   const MetadetectOptions mo;
   const std::vector<MetadetectRow> drawn = measure_rows(c.in, mo);
   ASSERT_GT(drawn.size(), 100u);
@@ -185,7 +175,7 @@ TEST(CellMeasurer, TwoBandsOfOneSceneScaledDetectAndMeasureAsItsOneBand) {
   // 0.8 sqrt(1 + 1/c^2) / (1 + 1/c). The moments of the two stamps together weigh band 2's sums by
   // 1/c^2 and are c times band 1's: the same shapes and centroids.
   const double c = 2;
-  const SimulatedCell sc(1, CellLayout::kRandom);
+  const SimulatedCell sc(random_s20(), 1, random_s20().g1);
   const std::size_t npix = sc.weight.size();
   const std::vector<double> noise = sc.cell.bands[0].noise;
   std::vector<double> pixels2(npix), weight2(npix), noise2(npix);
