@@ -25,6 +25,7 @@
 #include "io/durable_file.hpp"
 #include "io/fits_file.hpp"
 #include "io/metadetect_reader.hpp"
+#include "support/metadetect_shards.hpp"
 #include "support/scratch_dir.hpp"
 
 namespace stampede::app {
@@ -271,15 +272,8 @@ TEST(MetadetectRun, BandTilesGiveBandColumnsTheSameForAnyThreadsAndShards) {
   }
   EXPECT_GT(usable, 3 * 5 * 40);
   // Shards of a band run merge to its table, band columns included.
-  std::vector<std::string> parts;
-  for (int k = 0; k < 2; ++k) {
-    o.shard = k, o.shards = 2;
-    o.output = scratch.path("part" + std::to_string(k) + ".fits");
-    run_metadetect(o);
-    parts.push_back(o.output);
-  }
   MetadetectMergeOptions mo;
-  mo.shards = parts;
+  mo.shards = testing::run_metadetect_shards(o, 2, scratch, "part");
   mo.output = scratch.path("merged.fits");
   merge_metadetect_shards(mo);
   EXPECT_EQ(bytes(scratch.path("merged.fits")), bytes(scratch.path("one.fits")));
