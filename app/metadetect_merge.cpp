@@ -104,6 +104,7 @@ MetadetectMergeSummary merge_metadetect_shards(const MetadetectMergeOptions& opt
   wo.header = first.keys;
   for (std::size_t i = 0; i < first.keys.size(); ++i) wo.header_types[first.keys[i].first] = first.types[i];
   wo.fingerprint = "stampede metadetect merge";
+  wo.bands = io::metadetect_table_bands(first.path);
   auto writer = io::MetadetectWriter::create(wo);
   MetadetectMergeSummary summary;
   try {

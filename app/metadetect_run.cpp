@@ -22,6 +22,7 @@
 #include "io/metadetect_writer.hpp"
 #include "io/output_check.hpp"
 #include "io/output_lock.hpp"
+#include "io/result_columns.hpp"
 
 namespace stampede::app {
 namespace {
@@ -34,10 +35,23 @@ struct CellBatch : BatchExtension {
     int file = 0;
     CellPlacement place;
     double pixel_scale = 0;
+    int first_observation = 0, bands = 1;  // its bands' observations in the arena, in band order
+    // Its bands' NOISE planes, consecutive in `noise` from here (none: -1).
+    long long noise_offset = -1;
   };
   std::vector<Cell> cells;
+  std::vector<double> noise;  // the batch's noise planes (kept between batches)
+  std::size_t noise_used = 0;
   std::vector<MetadetectRow> rows;
   std::vector<std::string> problems;  // per cell, "" none
+
+  // Space for the next cell's `bands` noise planes of npix pixels: their first value's offset.
+  std::size_t add_noise(std::size_t npix, int bands) {
+    const std::size_t at = noise_used;
+    noise_used += npix * static_cast<std::size_t>(bands);
+    if (noise.size() < noise_used) noise.resize(noise_used);
+    return at;
+  }
 };
 
 CellBatch& cell_batch(StampBatch& b) {
@@ -61,32 +75,50 @@ class CellSource : public StampSource {
     add_layout(image.width, image.height, "");
   }
   // A cell tile (DES Y6's "pizza slices"): each object_data row a cell, cutout 0 its coadd with a
-  // weight (and bmask) cutout and its PSF in the psf HDU; the cell's place in the tile from
+  // weight (and bmask, noise) cutout and its PSF in the psf HDU; the cell's place in the tile from
   // orig_start_row/col, its pixel scale from the WCS Jacobian (which must be the scale times the
-  // unit matrix: the metacal shear is applied in the cell's pixels).
+  // unit matrix: the metacal shear is applied in the cell's pixels). Several bands: a tile per
+  // band, whose rows are the same cells (the same box and place in each).
   struct Tile {
-    std::string path;
+    std::vector<std::string> paths;  // a tile per band
   };
-  CellSource(const Tile& t, const MetadetectOptions& options) : inputs_{t.path}, options_(options) {
-    const std::string& tile = t.path;
-    tile_ = std::make_unique<io::MedsFile>(io::MedsFile::open(tile));
-    if (!tile_->has(io::MedsCutoutType::kWeight))
-      throw io::ConfigError(tile + ": no weight_cutouts HDU: detection needs the noise level");
-    if (!tile_->has_psf_cutouts()) throw io::ConfigError(tile + ": no PSF cutouts: " + tile_->psf_cutouts_problem());
+  CellSource(const Tile& t, const MetadetectOptions& options) : inputs_(t.paths), options_(options) {
+    for (const std::string& tile : t.paths) {
+      tiles_.push_back(std::make_unique<io::MedsFile>(io::MedsFile::open(tile)));
+      const io::MedsFile& m = *tiles_.back();
+      if (!m.has(io::MedsCutoutType::kWeight))
+        throw io::ConfigError(tile + ": no weight_cutouts HDU: detection needs the noise level");
+      if (!m.has_psf_cutouts()) throw io::ConfigError(tile + ": no PSF cutouts: " + m.psf_cutouts_problem());
+      if (m.size() != tiles_[0]->size())
+        throw io::ConfigError(tile + ": " + std::to_string(m.size()) + " cells (object_data rows), " + t.paths[0] +
+                              " " + std::to_string(tiles_[0]->size()) + ": a band's tile must hold the same cells");
+    }
     std::vector<CellPlacement> places;
-    for (long long row = 0; row < tile_->size(); ++row) {
-      const io::MedsObject o = tile_->object(row);
-      if (!o.problem.empty()) throw io::ConfigError(tile + ": object_data row " + std::to_string(row) + ": " + o.problem);
-      if (o.cutouts.empty()) throw io::ConfigError(tile + ": object_data row " + std::to_string(row) + " has no cutout");
-      const io::MedsCutout& c = o.cutouts[0];
-      if (2L * options.cell_buffer >= o.box_size)
-        throw io::ConfigError(tile + ": cell " + std::to_string(row) + " is " + std::to_string(o.box_size) +
-                              " pixels, not more than twice --cell-buffer " + std::to_string(options.cell_buffer));
-      max_tile_box_ = std::max(max_tile_box_, o.box_size);
+    for (long long row = 0; row < tiles_[0]->size(); ++row) {
       CellPlacement p;
-      p.x0 = static_cast<int>(c.orig_start_col), p.y0 = static_cast<int>(c.orig_start_row);
-      p.keep_x0 = p.keep_y0 = options.cell_buffer - 0.5;
-      p.keep_x1 = p.keep_y1 = o.box_size - options.cell_buffer - 0.5;
+      for (std::size_t b = 0; b < tiles_.size(); ++b) {
+        const std::string& tile = t.paths[b];
+        const io::MedsObject o = tiles_[b]->object(row);
+        if (!o.problem.empty()) throw io::ConfigError(tile + ": object_data row " + std::to_string(row) + ": " + o.problem);
+        if (o.cutouts.empty()) throw io::ConfigError(tile + ": object_data row " + std::to_string(row) + " has no cutout");
+        const io::MedsCutout& c = o.cutouts[0];
+        if (b == 0) {
+          if (2L * options.cell_buffer >= o.box_size)
+            throw io::ConfigError(tile + ": cell " + std::to_string(row) + " is " + std::to_string(o.box_size) +
+                                  " pixels, not more than twice --cell-buffer " + std::to_string(options.cell_buffer));
+          max_tile_box_ = std::max(max_tile_box_, o.box_size);
+          p.x0 = static_cast<int>(c.orig_start_col), p.y0 = static_cast<int>(c.orig_start_row);
+          p.keep_x0 = p.keep_y0 = options.cell_buffer - 0.5;
+          p.keep_x1 = p.keep_y1 = o.box_size - options.cell_buffer - 0.5;
+          boxes_.push_back(o.box_size);
+        } else if (o.box_size != boxes_.back() || c.orig_start_col != p.x0 || c.orig_start_row != p.y0) {
+          throw io::ConfigError(tile + ": cell " + std::to_string(row) + " is " + std::to_string(o.box_size) +
+                                " pixels from (" + std::to_string(c.orig_start_col) + ", " +
+                                std::to_string(c.orig_start_row) + "), in " + t.paths[0] + " " +
+                                std::to_string(boxes_.back()) + " from (" + std::to_string(p.x0) + ", " +
+                                std::to_string(p.y0) + "): a band's tile must hold the same cells");
+        }
+      }
       places.push_back(p);
     }
     total_ = static_cast<long long>(places.size());
@@ -110,6 +142,7 @@ class CellSource : public StampSource {
   bool fill(StampBatch& batch) override {
     CellBatch& data = cell_batch(batch);
     data.cells.clear();
+    data.noise_used = 0;
     batch.observations.clear();
     batch.first_object = next_;
     batch.count = 0;
@@ -118,7 +151,7 @@ class CellSource : public StampSource {
         ++file_, in_file_ = 0;
         continue;
       }
-      if (tile_) {
+      if (!tiles_.empty()) {
         fill_tile_cell(batch, data);
         continue;
       }
@@ -130,15 +163,21 @@ class CellSource : public StampSource {
       const CellPlacement& place = layouts_[file_][in_file_];
       const int s = options_.cell_size;
       batch.observations.begin_object(1);
+      CellBatch::Cell cell{file_, place, image().pixel_scale, static_cast<int>(batch.observations.size()), 1, -1};
       std::span<double> pixels, weights;
       ArenaObservation& o = batch.observations.add(s, &pixels, &weights);
       o.psf = psf_;
+      const bool noise = options_.noise_plane && !image().noise.empty();
+      if (noise) cell.noise_offset = static_cast<long long>(data.add_noise(static_cast<std::size_t>(s) * s, 1));
       for (int y = 0; y < s; ++y) {
         const std::size_t from = static_cast<std::size_t>(place.y0 + y) * image().width + place.x0;
         std::copy_n(image().pixels.begin() + from, s, pixels.begin() + static_cast<std::size_t>(y) * s);
         std::copy_n(image().weight.begin() + from, s, weights.begin() + static_cast<std::size_t>(y) * s);
+        if (noise)
+          std::copy_n(image().noise.begin() + from, s,
+                      data.noise.begin() + cell.noise_offset + static_cast<long long>(y) * s);
       }
-      data.cells.push_back({file_, place, image().pixel_scale});
+      data.cells.push_back(cell);
       batch.records[batch.count].id = next_;
       ++batch.count, ++in_file_, ++next_;
     }
@@ -146,45 +185,68 @@ class CellSource : public StampSource {
   }
 
  private:
-  // The tile's next cell into the batch.
+  // The tile's next cell into the batch: a band per tile, each an observation, with its noise
+  // cutout where the tiles have them.
   void fill_tile_cell(StampBatch& batch, CellBatch& data) {
-    const std::string where = inputs_[0] + ": cell " + std::to_string(in_file_);
-    const io::MedsObject o = tile_->object(in_file_);
-    const io::MedsCutout& c = o.cutouts[0];
-    const double det = c.dudcol * c.dvdrow - c.dudrow * c.dvdcol, scale = std::sqrt(std::abs(det));
-    if (!(scale > 0) || std::abs(c.dudrow) > 1e-6 * scale || std::abs(c.dvdcol) > 1e-6 * scale ||
-        std::abs(c.dudcol - c.dvdrow) > 1e-6 * scale)
-      throw io::ConfigError(where + ": its WCS Jacobian is not the pixel scale times the unit matrix "
-                            "(du/dcol = dv/drow, no rotation): not supported yet");
-    const int size = static_cast<int>(o.box_size);
+    const int bands = static_cast<int>(tiles_.size());
+    const int size = static_cast<int>(boxes_[static_cast<std::size_t>(in_file_)]);
     const std::size_t npix = static_cast<std::size_t>(size) * size;
-    cell_.width = cell_.height = size;
-    cell_.pixel_scale = scale;
-    cell_.pixels.resize(npix), cell_.weight.resize(npix), mask_.clear();
-    tile_->read_cutout(o, 0, io::MedsCutoutType::kImage, cell_.pixels);
-    tile_->read_cutout(o, 0, io::MedsCutoutType::kWeight, cell_.weight);
-    if (tile_->has(io::MedsCutoutType::kBmask)) {
-      mask_.resize(npix);
-      tile_->read_cutout(o, 0, io::MedsCutoutType::kBmask, mask_);
+    CellBatch::Cell cell{0, layouts_[0][in_file_], 0.0, static_cast<int>(batch.observations.size()), bands, -1};
+    const bool noise = options_.noise_plane &&
+                       std::all_of(tiles_.begin(), tiles_.end(), [](const auto& t) { return t->has(io::MedsCutoutType::kNoise); });
+    if (noise) cell.noise_offset = static_cast<long long>(data.add_noise(npix, bands));
+    batch.observations.begin_object(bands);
+    for (int b = 0; b < bands; ++b) {
+      io::MedsFile& tile = *tiles_[static_cast<std::size_t>(b)];
+      const std::string where = inputs_[static_cast<std::size_t>(b)] + ": cell " + std::to_string(in_file_);
+      const io::MedsObject o = tile.object(in_file_);
+      const io::MedsCutout& c = o.cutouts[0];
+      const double det = c.dudcol * c.dvdrow - c.dudrow * c.dvdcol, scale = std::sqrt(std::abs(det));
+      if (!(scale > 0) || std::abs(c.dudrow) > 1e-6 * scale || std::abs(c.dvdcol) > 1e-6 * scale ||
+          std::abs(c.dudcol - c.dvdrow) > 1e-6 * scale)
+        throw io::ConfigError(where + ": its WCS Jacobian is not the pixel scale times the unit matrix "
+                              "(du/dcol = dv/drow, no rotation): not supported yet");
+      if (b == 0) {
+        cell.pixel_scale = scale;
+      } else if (std::abs(scale / cell.pixel_scale - 1) > 1e-6) {
+        throw io::ConfigError(where + ": its pixel scale " + std::to_string(scale) + " arcsec differs from " +
+                              inputs_[0] + "'s " + std::to_string(cell.pixel_scale) + ": the bands must share the cell's pixels");
+      }
+      cell_.width = cell_.height = size;
+      cell_.pixel_scale = scale;
+      cell_.pixels.resize(npix), cell_.weight.resize(npix), mask_.clear(), cell_.noise.clear();
+      tile.read_cutout(o, 0, io::MedsCutoutType::kImage, cell_.pixels);
+      tile.read_cutout(o, 0, io::MedsCutoutType::kWeight, cell_.weight);
+      if (tile.has(io::MedsCutoutType::kBmask)) {
+        mask_.resize(npix);
+        tile.read_cutout(o, 0, io::MedsCutoutType::kBmask, mask_);
+      }
+      if (noise) {
+        cell_.noise.resize(npix);
+        tile.read_cutout(o, 0, io::MedsCutoutType::kNoise, cell_.noise);
+      }
+      try {
+        io::apply_cell_masks(mask_, &cell_);
+      } catch (const std::invalid_argument& e) {
+        throw io::ConfigError(where + ": " + e.what());
+      }
+      if (!c.psf_problem.empty()) throw io::ConfigError(where + ": " + c.psf_problem);
+      auto img = std::make_shared<PsfImage>();
+      img->nx = static_cast<int>(c.psf_cols), img->ny = static_cast<int>(c.psf_rows);
+      img->pixels.resize(static_cast<std::size_t>(c.psf_rows * c.psf_cols));
+      tile.read_psf_cutout(o, 0, img->pixels);
+      img->centre_x = c.psf_cutout_col, img->centre_y = c.psf_cutout_row;
+      std::span<double> pixels, weights;
+      ArenaObservation& obs = batch.observations.add(size, &pixels, &weights);
+      obs.band = b;
+      obs.psf = PsfModel::Image(std::move(img));
+      std::copy(cell_.pixels.begin(), cell_.pixels.end(), pixels.begin());
+      std::copy(cell_.weight.begin(), cell_.weight.end(), weights.begin());
+      if (noise)
+        std::copy(cell_.noise.begin(), cell_.noise.end(),
+                  data.noise.begin() + cell.noise_offset + static_cast<long long>(b * npix));
     }
-    try {
-      io::apply_cell_masks(mask_, &cell_);
-    } catch (const std::invalid_argument& e) {
-      throw io::ConfigError(where + ": " + e.what());
-    }
-    if (!c.psf_problem.empty()) throw io::ConfigError(where + ": " + c.psf_problem);
-    auto img = std::make_shared<PsfImage>();
-    img->nx = static_cast<int>(c.psf_cols), img->ny = static_cast<int>(c.psf_rows);
-    img->pixels.resize(static_cast<std::size_t>(c.psf_rows * c.psf_cols));
-    tile_->read_psf_cutout(o, 0, img->pixels);
-    img->centre_x = c.psf_cutout_col, img->centre_y = c.psf_cutout_row;
-    batch.observations.begin_object(1);
-    std::span<double> pixels, weights;
-    ArenaObservation& obs = batch.observations.add(size, &pixels, &weights);
-    obs.psf = PsfModel::Image(std::move(img));
-    std::copy(cell_.pixels.begin(), cell_.pixels.end(), pixels.begin());
-    std::copy(cell_.weight.begin(), cell_.weight.end(), weights.begin());
-    data.cells.push_back({0, layouts_[0][in_file_], scale});
+    data.cells.push_back(cell);
     batch.records[batch.count].id = next_;
     ++batch.count, ++in_file_, ++next_;
   }
@@ -200,8 +262,9 @@ class CellSource : public StampSource {
   std::vector<std::string> inputs_;
   MetadetectOptions options_;
   const io::CellImage* memory_ = nullptr;
-  std::unique_ptr<io::MedsFile> tile_;
-  long long max_tile_box_ = 0;  // the tile's largest cell side, found while laying out its cells
+  std::vector<std::unique_ptr<io::MedsFile>> tiles_;  // a cell tile per band
+  std::vector<long long> boxes_;  // the tiles' cell sides
+  long long max_tile_box_ = 0;    // the largest, found while laying out the cells
   io::CellImage cell_;  // a tile's cell as read
   std::vector<double> mask_;
   std::vector<std::vector<CellPlacement>> layouts_;
@@ -219,13 +282,25 @@ class CellFitter : public BatchFitter {
     data.rows.clear();
     data.problems.assign(static_cast<std::size_t>(batch.count), "");
     for (int k = 0; k < batch.count; ++k) {
-      const ArenaObservation& o = batch.observations[k];
       const CellBatch::Cell& c = data.cells[static_cast<std::size_t>(k)];
+      const ArenaObservation& o = batch.observations[c.first_observation];
+      const std::size_t npix = static_cast<std::size_t>(o.box_size) * o.box_size;
+      auto noise = [&](int b) {
+        return c.noise_offset < 0 ? std::span<const double>()
+                                  : std::span<const double>(data.noise).subspan(c.noise_offset + b * npix, npix);
+      };
       MetadetectCell cell;
       cell.index = batch.records[k].id;
       cell.size = o.box_size;
       cell.pixels = batch.observations.pixels(o);
       cell.weight = batch.observations.weights(o);
+      cell.noise = noise(0);
+      other_bands_.clear();
+      for (int b = 1; b < c.bands; ++b) {
+        const ArenaObservation& ob = batch.observations[c.first_observation + b];
+        other_bands_.push_back({batch.observations.pixels(ob), batch.observations.weights(ob), noise(b), &ob.psf});
+      }
+      cell.other_bands = other_bands_;
       cell.origin_x = c.place.x0, cell.origin_y = c.place.y0;
       cell.pixel_scale = c.pixel_scale;
       cell.psf = &o.psf;
@@ -237,6 +312,7 @@ class CellFitter : public BatchFitter {
 
  private:
   CellMeasurer measurer_;
+  std::vector<MetadetectBand> other_bands_;
 };
 
 class CellSink : public BatchSink {
@@ -294,6 +370,7 @@ std::vector<std::pair<std::string, std::string>> option_keys(const MetadetectOpt
           {"MCPSFDIL", number_text(o.psf_dilation)},
           {"FIXNOISE", o.fixnoise ? "T" : "F"},
           {"PEROBJMC", o.per_object_metacal ? "T" : "F"},
+          {"NOISEPLN", o.noise_plane ? "T" : "F"},
           {"MCSEED", std::to_string(o.seed)},
           {"WFWHM", number_text(o.weight_fwhm)},
           {"DETTHR", number_text(d.threshold)},
@@ -312,6 +389,38 @@ std::vector<std::pair<std::string, std::string>> option_keys(const MetadetectOpt
 }
 
 }  // namespace
+
+std::vector<std::string> metadetect_bands(const MetadetectRunOptions& options) {
+  if (!options.tile) {
+    if (!options.bands.empty())
+      throw io::ConfigError("--bands names the bands of --meds cell tiles (one tile per band): image files are one band");
+    return {};
+  }
+  const std::size_t n = options.inputs.size();
+  if (n > static_cast<std::size_t>(kMaxMetadetectBands))
+    throw io::ConfigError(std::to_string(n) + " --meds tiles: at most " + std::to_string(kMaxMetadetectBands) + " bands");
+  if (!options.bands.empty() && options.bands.size() != n)
+    throw io::ConfigError("--bands names " + std::to_string(options.bands.size()) + " band" +
+                          (options.bands.size() == 1 ? "" : "s") + " but " + std::to_string(n) + " --meds tile" +
+                          (n == 1 ? " is" : "s are") + " given: one tile per band, in the order of --bands");
+  if (options.bands.empty() && n == 1) return {};
+  std::vector<std::string> names = options.bands;
+  if (names.empty())
+    for (std::size_t b = 0; b < n; ++b) {
+      // Appended, not "b" + to_string(b): GCC 12 warns (-Wrestrict) falsely on that concatenation.
+      std::string name = "b";
+      name += std::to_string(b);
+      names.push_back(std::move(name));
+    }
+  if (std::string why; !io::are_band_names(names, &why)) throw io::ConfigError("--bands: " + why);
+  for (std::size_t b = 0; b < n; ++b)
+    for (std::size_t a = 0; a < b; ++a)
+      if (io::same_file(options.inputs[a], options.inputs[b]))
+        throw io::ConfigError("--meds " + options.inputs[b] + " is given twice (bands " + names[a] + " and " + names[b] + ")");
+  if (options.metadetect.per_object_metacal && n > 1)
+    throw io::ConfigError("--per-object-metacal measures one band: give one --meds tile");
+  return names;
+}
 
 std::vector<MetadetectRow> metadetect_image(const io::CellImage& image, const MetadetectOptions& options, int threads,
                                             long long* cells_failed) {
@@ -345,15 +454,21 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
   const io::OutputLock lock = io::OutputLock::acquire(options.output);
   if (!options.resume) io::refuse_to_replace(options.output, options.overwrite);
 
-  if (options.tile && options.inputs.size() != 1)
-    throw io::ConfigError("--meds takes one cell tile (the bands of a tile are not supported yet)");
-  CellSource source = options.tile ? CellSource(CellSource::Tile{options.inputs[0]}, options.metadetect)
+  const std::vector<std::string> bands = metadetect_bands(options);
+  CellSource source = options.tile ? CellSource(CellSource::Tile{options.inputs}, options.metadetect)
                                    : CellSource(options.inputs, options.metadetect);
   io::MetadetectWriterOptions wo;
   wo.path = options.output;
+  wo.bands = bands;
   std::string fingerprint = "stampede " + std::string(program_version()) + " metadetect\n";
   wo.header.emplace_back("INPUTS", options.tile ? "cell tile" : "images");
   fingerprint += options.tile ? "cell tile\n" : "images\n";
+  if (!bands.empty()) {
+    std::string names;
+    for (const std::string& b : bands) names += (names.empty() ? "" : ",") + b;
+    wo.header.emplace_back("BANDS", names);
+    fingerprint += "bands " + names + "\n";
+  }
   for (const auto& [key, value] : option_keys(options.metadetect)) {
     wo.header.emplace_back(key, value);
     fingerprint += key + "=" + value + "\n";

@@ -22,6 +22,10 @@ struct MetadetectRunOptions {
   // its coadd with weight (and bmask) cutouts and its PSF cutout; x, y are the tile's pixels
   // (orig_start_row/col + the cell's); --cell-size is the tile's box size.
   bool tile = false;
+  // With several tiles (`--meds g.fits --meds r.fits --bands g,r`): a tile per band, in this order
+  // (empty: b0, b1, ...); the table gains flux_<band> and snr_<band>. One tile with a name: its
+  // band's columns. Image files are one band.
+  std::vector<std::string> bands;
   std::string output;
   MetadetectOptions metadetect;
   int threads = 0;     // 0: all cores
@@ -48,6 +52,11 @@ struct MetadetectRunSummary {
   bool stopped = false;
   std::vector<std::string> problems;  // "FILE cell K: why" for each failed cell (first 100)
 };
+
+// The run's band names (empty: one band, no band columns), checked: one per tile, distinct
+// whatever their case, column-name characters, at most kMaxMetadetectBands; throws
+// io::ConfigError naming the option.
+std::vector<std::string> metadetect_bands(const MetadetectRunOptions& options);
 
 // An image in memory (Python's numpy arrays) cut into cells and measured on `threads` threads (0:
 // all cores) through the same pipeline; the rows in cell order, as a file run writes them (cells

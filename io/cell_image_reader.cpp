@@ -57,10 +57,15 @@ void apply_cell_masks(std::span<const double> bmask, CellImage* image) {
   for (double w : image->weight)
     if (w < 0) throw std::invalid_argument("negative weights: the weights must be inverse variances (0 masks)");
   image->masked = 0;
+  const bool noise = !image->noise.empty();
   for (std::size_t i = 0; i < image->pixels.size(); ++i) {
     if (!bmask.empty() && bmask[i] != 0) image->weight[i] = 0;
     if (!std::isfinite(image->pixels[i]) || !std::isfinite(image->weight[i])) image->weight[i] = 0;
-    if (image->weight[i] == 0) image->pixels[i] = 0, ++image->masked;
+    if (noise && !std::isfinite(image->noise[i])) image->weight[i] = 0;
+    if (image->weight[i] == 0) {
+      image->pixels[i] = 0, ++image->masked;
+      if (noise) image->noise[i] = 0;
+    }
   }
 }
 
@@ -81,6 +86,7 @@ CellImage read_cell_image(const std::string& path) {
   out.weight = plane(f, shape);
   std::vector<double> mask;
   if (f.move_to_if_present("BMASK")) mask = plane(f, shape);
+  if (f.move_to_if_present("NOISE")) out.noise = plane(f, shape);
   f.move_to("WEIGHT");
   try {
     apply_cell_masks(mask, &out);

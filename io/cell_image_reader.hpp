@@ -1,9 +1,10 @@
 // Reads an image for metadetection (`stampede metadetect IMAGE.fits`): HDU 0 the image, with the
 // pixel scale in header keyword SCALE (arcsec per pixel) or a WCS (CD matrix or CDELT, degrees);
 // extensions found by EXTNAME: WEIGHT (inverse variance, required: detection thresholds on the
-// noise), BMASK (non-zero masks a pixel), PSF (a centred PSF image at the image's pixel scale,
-// required; a SCALE keyword there must equal the image's). NaN or infinite pixels and weights are
-// masked (weight 0). What `stampede sim cells` writes (io/cell_image_writer) reads back.
+// noise), BMASK (non-zero masks a pixel), NOISE (a realisation of the image's noise: metacal's
+// fixnoise field, else one is drawn from the weight), PSF (a centred PSF image at the image's pixel
+// scale, required; a SCALE keyword there must equal the image's). NaN or infinite pixels, weights
+// and noise values are masked (weight 0). What `stampede sim cells` writes (io/cell_image_writer) reads back.
 //
 // Every failure throws FitsError naming the file, the HDU and the keyword or the rule.
 #pragma once
@@ -24,13 +25,14 @@ struct CellImage {
   long width = 0, height = 0;
   double pixel_scale = 0;  // arcsec per pixel
   std::vector<double> pixels, weight;  // width x height, row-major; weight 0 masks
+  std::vector<double> noise;           // the NOISE plane (0 where masked); empty: none
   std::shared_ptr<const PsfImage> psf;
   long long masked = 0;  // pixels masked (weight 0, BMASK, non-finite)
 };
 
 // The masking rules a read applies, for an image built in memory (Python): a non-zero bmask value
-// (bmask empty: none), a non-finite pixel or weight, or a zero weight masks the pixel: its weight
-// and value become 0, and `masked` counts it. Throws std::invalid_argument for a negative weight.
+// (bmask empty: none), a non-finite pixel, weight or noise value, or a zero weight masks the pixel:
+// its weight, value and noise become 0, and `masked` counts it. Throws std::invalid_argument for a negative weight.
 void apply_cell_masks(std::span<const double> bmask, CellImage* image);
 
 // HDU 0's size alone (cheap: the run lays out its cells before reading pixels).

@@ -41,6 +41,32 @@ MetadetectTable read_metadetect_table(const std::string& path) {
   return t;
 }
 
+namespace {
+
+std::vector<std::string> bands_of(FitsFile& f) {
+  std::vector<std::string> out;
+  const std::string v = f.read_key_string("BANDS").value_or("");
+  for (std::size_t begin = 0; !v.empty();) {
+    const std::size_t comma = v.find(',', begin);
+    out.push_back(v.substr(begin, comma == std::string::npos ? std::string::npos : comma - begin));
+    if (comma == std::string::npos) break;
+    begin = comma + 1;
+  }
+  if (out.size() > static_cast<std::size_t>(kMaxMetadetectBands))
+    throw FitsError(f.describe() + ": header key BANDS '" + v + "' names more than " +
+                    std::to_string(kMaxMetadetectBands) + " bands");
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::string> metadetect_table_bands(const std::string& path) {
+  FitsFile f = FitsFile::open_read(path);
+  if (!f.move_to_if_present("METADETECT"))
+    throw FitsError(path + ": no METADETECT table (is it a `stampede metadetect` catalogue?)");
+  return bands_of(f);
+}
+
 std::vector<MetadetectRow> read_metadetect_rows(const std::string& path) {
   const MetadetectTable t = read_metadetect_table(path);
   FitsFile f = FitsFile::open_read(path);
@@ -76,6 +102,11 @@ std::vector<MetadetectRow> read_metadetect_rows(const std::string& path) {
   integers("isophotal_area", &MetadetectRow::isophotal_area);
   integers("sep_flags", &MetadetectRow::sep_flags);
   integers("flags", &MetadetectRow::flags);
+  const std::vector<std::string> bands = bands_of(f);
+  for (std::size_t b = 0; b < bands.size(); ++b) {
+    const std::vector<double> flux = f.read_column("flux_" + bands[b]), snr = f.read_column("snr_" + bands[b]);
+    for (std::size_t i = 0; i < n; ++i) rows[i].band_flux[b] = flux[i], rows[i].band_snr[b] = snr[i];
+  }
   return rows;
 }
 

@@ -19,7 +19,10 @@ struct MetadetectTable {
 
 MetadetectTable read_metadetect_table(const std::string& path);
 
-// Every row with every column (a shard's, for a merge).
+// The band names of header key BANDS ("g,r"; empty: none).
+std::vector<std::string> metadetect_table_bands(const std::string& path);
+
+// Every row with every column (a shard's, for a merge), the bands' flux_<band> and snr_<band> too.
 std::vector<MetadetectRow> read_metadetect_rows(const std::string& path);
 
 }  // namespace stampede::io

@@ -93,9 +93,11 @@ Checkpoint parse(std::string_view text, const std::string& path) {
 
 }  // namespace
 
-std::vector<std::string> metadetect_columns() {
+std::vector<std::string> metadetect_columns(const std::vector<std::string>& bands) {
   std::vector<std::string> out;
   for (const Column& c : kColumns) out.emplace_back(c.name);
+  for (const std::string& b : bands) out.push_back("flux_" + b);
+  for (const std::string& b : bands) out.push_back("snr_" + b);
   return out;
 }
 
@@ -177,20 +179,32 @@ struct MetadetectWriter::State {
     ints(19, [](const MetadetectRow& x) { return x.isophotal_area; });
     ints(20, [](const MetadetectRow& x) { return x.sep_flags; });
     ints(21, [](const MetadetectRow& x) { return x.flags; });
+    const int nb = static_cast<int>(options.bands.size());
+    for (int b = 0; b < nb; ++b) {
+      doubles(kNumColumns + 1 + b, [b](const MetadetectRow& x) { return x.band_flux[static_cast<std::size_t>(b)]; });
+      doubles(kNumColumns + 1 + nb + b, [b](const MetadetectRow& x) { return x.band_snr[static_cast<std::size_t>(b)]; });
+    }
     check(status, "write rows to", errno);
   }
+  int columns() const { return kNumColumns + 2 * static_cast<int>(options.bands.size()); }
   void create_table(const StringKeys& header) {
-    std::vector<char*> ttype(kNumColumns), tform(kNumColumns), tunit(kNumColumns);
-    for (int i = 0; i < kNumColumns; ++i) {
-      ttype[i] = const_cast<char*>(kColumns[i].name);
-      tform[i] = const_cast<char*>(kColumns[i].tform);
-      tunit[i] = const_cast<char*>(kColumns[i].unit);
+    const std::vector<std::string> names = metadetect_columns(options.bands);
+    std::vector<std::string> comments;
+    for (const Column& c : kColumns) comments.emplace_back(c.comment);
+    for (const std::string& b : options.bands) comments.push_back("band " + b + ": its stamp's flux under the weight");
+    for (const std::string& b : options.bands) comments.push_back("band " + b + ": its stamp's flux over its error");
+    const int n = columns();
+    std::vector<char*> ttype(n), tform(n), tunit(n);
+    for (int i = 0; i < n; ++i) {
+      ttype[i] = const_cast<char*>(names[i].c_str());
+      tform[i] = const_cast<char*>(i < kNumColumns ? kColumns[i].tform : "1D");
+      tunit[i] = const_cast<char*>(i < kNumColumns ? kColumns[i].unit : "");
     }
     int status = 0;
-    fits_create_tbl(fits, BINARY_TBL, 0, kNumColumns, ttype.data(), tform.data(), tunit.data(), "METADETECT", &status);
-    for (int i = 0; i < kNumColumns && status == 0; ++i) {
+    fits_create_tbl(fits, BINARY_TBL, 0, n, ttype.data(), tform.data(), tunit.data(), "METADETECT", &status);
+    for (int i = 0; i < n && status == 0; ++i) {
       const std::string key = "TCOMM" + std::to_string(i + 1);
-      fits_update_key_str(fits, key.c_str(), kColumns[i].comment, nullptr, &status);
+      fits_update_key_str(fits, key.c_str(), comments[i].c_str(), nullptr, &status);
     }
     check(status, "write the table description to");
     std::map<std::string, HeaderValueType> types;
@@ -219,7 +233,7 @@ struct MetadetectWriter::State {
     fits_get_num_cols(fits, &ncols, &status);
     fits_get_num_rowsll(fits, &naxis2, &status);
     if (status) fail(partial + " is corrupt: no readable METADETECT table: " + cfitsio_status_text(status));
-    if (ncols != kNumColumns) fail(partial + " is corrupt: its table does not have this writer's columns");
+    if (ncols != columns()) fail(partial + " is corrupt: its table does not have this writer's columns");
     if (naxis2 < committed)
       fail(partial + " is corrupt: it has " + std::to_string(naxis2) + " rows but " + checkpoint + " commits " +
            std::to_string(committed));

@@ -9,7 +9,7 @@
 // fingerprint: inputs' digests, options, version).
 //
 // Columns (TUNITn, TCOMMn in the header): cell shear_type id x y u v e1 e2 e1_err e2_err T T_ratio
-// psf_T flux snr mfrac box_size isophotal_area sep_flags flags. Not thread-safe: the pipeline's
+// psf_T flux snr mfrac box_size isophotal_area sep_flags flags [flux_<band>... snr_<band>...]. Not thread-safe: the pipeline's
 // serial output stage drives it.
 #pragma once
 #include <map>
@@ -30,10 +30,13 @@ struct MetadetectWriterOptions {
   std::vector<std::pair<std::string, std::string>> header;  // string keys, as CatalogWriterOptions::header
   std::map<std::string, HeaderValueType> header_types;
   std::string fingerprint;
+  // Band names (several bands, or one named): columns flux_<band> and snr_<band> after the
+  // others, from each row's band_flux and band_snr.
+  std::vector<std::string> bands;
 };
 
 // The column names in order (readers and tests).
-std::vector<std::string> metadetect_columns();
+std::vector<std::string> metadetect_columns(const std::vector<std::string>& bands = {});
 
 class MetadetectWriter {
  public:

@@ -26,6 +26,7 @@ void print_help() {
       "usage: stampede metadetect IMAGE.fits [IMAGE.fits ...] -o OUT.fits [options]\n"
       "       stampede metadetect --input-list LIST -o OUT.fits [options]\n"
       "       stampede metadetect --meds CELLS_MEDS.fits -o OUT.fits [options]\n"
+      "       stampede metadetect --meds G.fits --meds R.fits ... [--bands g,r,...] -o OUT.fits [options]\n"
       "\n"
       "Metadetection (Sheldon et al. 2020, 2023): each cell's five metacal images (noshear, 1p, 1m,\n"
       "2p, 2m, with fixnoise) are made, objects are detected anew on each with SEP, and each detection\n"
@@ -39,7 +40,15 @@ void print_help() {
       "PSF (a centred PSF image at the image's pixel scale, required). `stampede sim cells` writes such\n"
       "files. LIST: one image path per line (# comments). --meds: a cell tile (DES Y6's \"pizza slices\":\n"
       "a MEDS file whose object_data rows are cells, cutout 0 each cell's coadd with weight, bmask and\n"
-      "psf cutouts; `sim cells --tile` writes one); x, y are then the tile's pixels.\n"
+      "psf cutouts; `sim cells --tile` writes one); x, y are then the tile's pixels. A NOISE HDU or\n"
+      "noise cutouts (a realisation of the image's noise) are fixnoise's field; without, one is drawn\n"
+      "from the weight.\n"
+      "\n"
+      "several bands: --meds once per band, the tiles holding the same cells (same rows, boxes and\n"
+      "places), --bands naming them in that order (default b0, b1, ...; at most 8, distinct in more\n"
+      "than case). Each band's metacal images (one reconvolution PSF for all), detection on their sum\n"
+      "weighted by each band's inverse noise variance, wmom over every band's stamp together (weighted\n"
+      "by the same), and columns flux_B snr_B per band (its stamp alone under the same weight).\n"
       "\n"
       "output: OUT.fits, table METADETECT, a row per (cell, shear type, detection): cell shear_type id\n"
       "x y (0-based pixels of the input image) u v (arcsec) e1 e2 e1_err e2_err T (arcsec^2) T_ratio\n"
@@ -55,6 +64,8 @@ void print_help() {
       "  --step S                   metacal shear step (%g)\n"
       "  --psf-dilation F           reconvolution PSF FWHM over the PSF's; 0: the narrowest bounded (%g)\n"
       "  --no-fixnoise              do not add the rotated noise field\n"
+      "  --no-noise-plane           draw the fixnoise field from the weight even where the input has\n"
+      "                             a NOISE HDU or noise cutouts (which are used by default)\n"
       "  --per-object-metacal       not metadetection, for comparison: per-object metacal at the\n"
       "                             positions detected on the noshear image (each a 49 px stamp)\n"
       "  --seed N                   keys each cell's fixnoise field with the cell's number (%llu)\n"
@@ -100,12 +111,13 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
   MetadetectOptions& m = o.metadetect;
   bool& quiet = command->quiet;
   std::set<std::string> seen;  // one-value options given twice are refused
+  std::vector<std::string> meds;  // --meds tiles, a band each
   for (int i = 1; i < argc; ++i) {
     const std::string s = argv[i];
     auto value = [&] { return tools::option_value(argc, argv, &i); };
     auto number = [&] { return tools::number_value(argc, argv, &i); };
     auto integer = [&](long long lo, long long hi) { return static_cast<int>(tools::integer_in(argc, argv, &i, lo, hi)); };
-    if (s.starts_with("-") && s != "--help" && s != "-h" && !seen.insert(s == "-o" ? "--output" : s).second)
+    if (s.starts_with("-") && s != "--help" && s != "-h" && s != "--meds" && !seen.insert(s == "-o" ? "--output" : s).second)
       throw std::invalid_argument("option " + s + " is given twice");
     if (s == "--help" || s == "-h") {
       if (print) print_help();
@@ -113,8 +125,17 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
     } else if (s == "-o" || s == "--output") {
       o.output = value();
     } else if (s == "--meds") {
-      o.inputs.push_back(value());
+      meds.push_back(value());
       o.tile = true;
+    } else if (s == "--bands") {
+      const std::string v = value();
+      o.bands.clear();
+      for (std::size_t begin = 0;;) {
+        const std::size_t comma = v.find(',', begin);
+        o.bands.push_back(v.substr(begin, comma == std::string::npos ? std::string::npos : comma - begin));
+        if (comma == std::string::npos) break;
+        begin = comma + 1;
+      }
     } else if (s == "--input-list") {
       for (std::string& p : read_list(value())) o.inputs.push_back(std::move(p));
     } else if (s == "--cell-size") {
@@ -129,6 +150,8 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
       m.per_object_metacal = true;
     } else if (s == "--no-fixnoise") {
       m.fixnoise = false;
+    } else if (s == "--no-noise-plane") {
+      m.noise_plane = false;
     } else if (s == "--seed") {
       m.seed = static_cast<std::uint64_t>(tools::integer_in(argc, argv, &i, 0, (1LL << 62)));
     } else if (s == "--weight-fwhm") {
@@ -171,9 +194,12 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
     }
   }
   if (o.output.empty()) throw std::invalid_argument("-o OUT.fits is required (see stampede metadetect --help)");
-  if (o.inputs.empty()) throw std::invalid_argument("no input image (see stampede metadetect --help)");
-  if (o.tile && o.inputs.size() != 1)
-    throw std::invalid_argument("--meds takes one cell tile and no image files (see stampede metadetect --help)");
+  if (o.inputs.empty() && meds.empty()) throw std::invalid_argument("no input image (see stampede metadetect --help)");
+  if (o.tile && !o.inputs.empty())
+    throw std::invalid_argument("--meds takes cell tiles and no image files (see stampede metadetect --help)");
+  if (!o.bands.empty() && !o.tile)
+    throw std::invalid_argument("--bands names the bands of --meds cell tiles, one tile per band (see stampede metadetect --help)");
+  if (o.tile) o.inputs = meds;
   if (o.resume && o.overwrite) throw std::invalid_argument("--resume and --overwrite exclude each other");
   return -1;
 }

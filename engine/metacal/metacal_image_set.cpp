@@ -34,9 +34,10 @@ MetacalImageSet::MetacalImageSet(int stamp_size, FftPlanning planning, int perio
 bool MetacalImageSet::make(std::span<const double> pixels, std::span<const double> weight, WeightKind kind,
                            double noise_sigma, const MetacalFilters& filters, const MetacalOptions& options,
                            RandomStream noise, std::span<double> out, double* image_variance, double fixnoise_sign,
-                           std::vector<double>* noise_power) {
+                           std::vector<double>* noise_power, std::span<const double> noise_field) {
   const std::size_t npix = static_cast<std::size_t>(s_) * s_;
-  if (pixels.size() != npix || (!weight.empty() && weight.size() != npix) || out.size() != kNumMetacalTypes * npix)
+  if (pixels.size() != npix || (!weight.empty() && weight.size() != npix) || out.size() != kNumMetacalTypes * npix ||
+      (!noise_field.empty() && noise_field.size() != npix))
     throw std::invalid_argument("MetacalImageSet::make: sizes do not match the stamp");
   double variance_sum = 0;
   bool masked = false;
@@ -61,7 +62,10 @@ bool MetacalImageSet::make(std::span<const double> pixels, std::span<const doubl
   const double mean_variance = variance_sum / static_cast<double>(npix);
   const bool fixnoise = options.fixnoise && mean_variance > 0;
   if (fixnoise) {
-    for (std::size_t i = 0; i < npix; ++i) noise_[i] *= fixnoise_sign * noise.normal();
+    if (noise_field.empty())
+      for (std::size_t i = 0; i < npix; ++i) noise_[i] *= fixnoise_sign * noise.normal();
+    else
+      for (std::size_t i = 0; i < npix; ++i) noise_[i] = noise_[i] > 0 ? fixnoise_sign * noise_field[i] : 0.0;
     rotate(noise_, rotated_, s_);
     imager_.make_images(rotated_, filters, centre, centre, noise_images_);
     for (int t = 0; t < kNumMetacalTypes; ++t)

@@ -36,10 +36,13 @@ class MetacalImageSet {
   // for noise-free data). `noise` draws the fixnoise field (used only with options.fixnoise),
   // multiplied by fixnoise_sign (-1 for the noise-negated member of a simulated noise pair).
   // noise_power (when not null): the images' noise power (metacal_noise_power; empty for
-  // noise-free data), for noise_spectrum()'s variances.
+  // noise-free data), for noise_spectrum()'s variances. noise_field (stamp_size^2, when not empty):
+  // the fixnoise field itself, a realisation of the data's noise the input carries (a NOISE plane),
+  // used instead of drawing one from `noise` (zero at masked pixels).
   bool make(std::span<const double> pixels, std::span<const double> weight, WeightKind kind, double noise_sigma,
             const MetacalFilters& filters, const MetacalOptions& options, RandomStream noise, std::span<double> out,
-            double* image_variance, double fixnoise_sign = 1.0, std::vector<double>* noise_power = nullptr);
+            double* image_variance, double fixnoise_sign = 1.0, std::vector<double>* noise_power = nullptr,
+            std::span<const double> noise_field = {});
 
   // The variances of linear combinations of this stamp size's images' pixels.
   NoiseSpectrum& noise_spectrum() { return spectrum_; }

@@ -59,40 +59,65 @@ bool same_psf(const PsfModel& a, const PsfModel& b) {
          (p.centre_y == q.centre_y || (std::isnan(p.centre_y) && std::isnan(q.centre_y)));
 }
 
+// Band b's fixnoise stream: the first band's is the one-band cell's (so that one band gives its
+// rows), the others' are keyed by the band as the multi-epoch metacal keys its cutouts.
+RandomStream fixnoise_stream(std::uint64_t seed, long long cell, std::size_t band) {
+  const auto c = static_cast<std::uint64_t>(cell);
+  return band == 0 ? RandomStream({seed, c, kFixnoisePurpose}) : RandomStream({seed, c, kFixnoisePurpose, band});
+}
+
 }  // namespace
 
-bool CellMeasurer::prepare_psf(const PsfModel& psf, double pixel_scale, std::string* problem) {
-  if (have_psf_ && same_psf(psf, psf_) && pixel_scale == psf_scale_) return filters_ != nullptr;
+bool CellMeasurer::prepare_psf(double pixel_scale, std::string* problem) {
+  bool same = have_psf_ && pixel_scale == psf_scale_ && psfs_.size() == bands_.size();
+  for (std::size_t b = 0; same && b < bands_.size(); ++b) same = same_psf(*bands_[b].psf, psfs_[b]);
+  if (same) return !filters_.empty();
   have_psf_ = true;
-  psf_ = psf;
+  psfs_.clear();
+  for (const MetadetectBand& b : bands_) psfs_.push_back(*b.psf);
   psf_scale_ = pixel_scale;
+  filters_.clear();
   MetacalOptions metacal;
   metacal.enabled = true;
   metacal.step = options_.step;
   metacal.psf_dilation = options_.psf_dilation;
   std::string why;
-  filters_ = reconvolution_filters(psf, metacal, images_set_->period(), &why);
-  if (!filters_) {
-    *problem = "no metacal reconvolution PSF serves this PSF: " + why;
-    return false;
+  if (bands_.size() == 1) {
+    auto f = reconvolution_filters(psfs_[0], metacal, images_set_->period(), &why);
+    if (!f) {
+      *problem = "no metacal reconvolution PSF serves this PSF: " + why;
+      return false;
+    }
+    filters_.push_back(std::move(f));
+  } else {
+    // One Gamma for every band, so that the bands' images share their PSF and their moments
+    // combine: the widest any band needs (the cell's pixels are every band's frame).
+    std::vector<MetacalEpochPsf> epochs;
+    for (const PsfModel& p : psfs_) epochs.push_back({&p, PixelFrame{}, images_set_->period()});
+    SkyReconvolution gamma;
+    if (!sky_reconvolution(epochs, metacal, &gamma, &why)) {
+      *problem = "no metacal reconvolution PSF serves every band's PSF: " + why;
+      return false;
+    }
+    filters_ = std::move(gamma.filters);
   }
   weight_fwhm_px_ = options_.weight_fwhm / pixel_scale;
   // The point source's T under the same weight, as the detections' T is measured.
   const int n = 2 * static_cast<int>(std::ceil(4 * weight_fwhm_px_)) + 1;
-  const std::vector<double> image = pixelated_psf_image(filters_->reconvolution(), n, 5);
+  const std::vector<double> image = pixelated_psf_image(filters_[0]->reconvolution(), n, 5);
   std::vector<double> scratch(2 * static_cast<std::size_t>(n));
   const kernels::WeightedMoments m = kernels::weighted_moments(image, n, weight_fwhm_px_, 0.0, scratch);
   if (!m.valid) {
-    filters_.reset();
+    filters_.clear();
     *problem = "the reconvolution PSF's weighted moments are not valid";
     return false;
   }
   psf_t_ = m.t;
   if (options_.per_object_metacal) {
     if (!stamp_set_) stamp_set_ = std::make_unique<MetacalImageSet>(kPerObjectStamp, planning_);
-    stamp_filters_ = reconvolution_filters(psf, metacal, stamp_set_->period(), &why);
+    stamp_filters_ = reconvolution_filters(psfs_[0], metacal, stamp_set_->period(), &why);
     if (!stamp_filters_) {
-      filters_.reset();
+      filters_.clear();
       *problem = "no metacal reconvolution PSF serves this PSF on a stamp: " + why;
       return false;
     }
@@ -114,42 +139,77 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
     images_set_ = std::make_unique<MetacalImageSet>(cell.size, planning_,
                                                     MetacalImager::padded_size(cell.size, kCellMargin)),
     have_psf_ = false;
-  if (!cell.psf) return fail("no PSF");
-  if (!prepare_psf(*cell.psf, cell.pixel_scale, problem)) return fail(*problem);
+  if (static_cast<int>(cell.other_bands.size()) >= kMaxMetadetectBands)
+    return fail("more than " + std::to_string(kMaxMetadetectBands) + " bands");
+  if (options_.per_object_metacal && !cell.other_bands.empty())
+    return fail("per-object metacal measures one band");
+  bands_.clear();
+  bands_.push_back({cell.pixels, cell.weight, cell.noise, cell.psf});
+  bands_.insert(bands_.end(), cell.other_bands.begin(), cell.other_bands.end());
+  for (std::size_t b = 0; b < bands_.size(); ++b)
+    if (!bands_[b].psf) return fail(b == 0 ? std::string("no PSF") : "no PSF for band " + std::to_string(b));
+  if (!prepare_psf(cell.pixel_scale, problem)) return fail(*problem);
   const std::size_t npix = static_cast<std::size_t>(cell.size) * cell.size;
-  images_.resize(kNumMetacalTypes * npix);
   MetacalOptions metacal;
   metacal.enabled = true;
   metacal.step = options_.step;
   metacal.fixnoise = options_.fixnoise;
-  double variance = 0;
-  images_set_->make(cell.pixels, cell.weight, WeightKind::kInverseVariance, 0.0, *filters_, metacal,
-                    RandomStream({options_.seed, static_cast<std::uint64_t>(cell.index), kFixnoisePurpose}), images_,
-                    &variance);
-  if (!(variance > 0) || !std::isfinite(variance)) return fail("the cell's weights give no positive finite noise variance");
+  if (images_.size() < bands_.size()) images_.resize(bands_.size());
+  variances_.assign(bands_.size(), 0.0);
+  for (std::size_t b = 0; b < bands_.size(); ++b) {
+    images_[b].resize(kNumMetacalTypes * npix);
+    images_set_->make(bands_[b].pixels, bands_[b].weight, WeightKind::kInverseVariance, 0.0, *filters_[b], metacal,
+                      fixnoise_stream(options_.seed, cell.index, b), images_[b], &variances_[b], 1.0, nullptr,
+                      bands_[b].noise);
+    if (!(variances_[b] > 0) || !std::isfinite(variances_[b]))
+      return fail(bands_.size() == 1 ? std::string("the cell's weights give no positive finite noise variance")
+                                     : "band " + std::to_string(b) + "'s weights give no positive finite noise variance");
+  }
+  // Several bands are detected on their sum weighted by each band's inverse noise variance,
+  // normalised (sum w_b I_b / sum w_b): its noise variance is 1 / sum w_b for independent noise.
+  double detection_variance = variances_[0];
+  if (bands_.size() > 1) {
+    double wsum = 0;
+    for (double v : variances_) wsum += 1.0 / v;
+    detection_variance = 1.0 / wsum;
+  }
   image_f_.resize(npix);
   // Per-object metacal detects on the noshear image only, then makes each detection's own metacal
   // stamps from the cell's pixels.
   const int types = options_.per_object_metacal ? 1 : kNumMetacalTypes;
   for (int t = 0; t < types; ++t) {
-    const std::span<const double> image(images_.data() + t * npix, npix);
-    std::transform(image.begin(), image.end(), image_f_.begin(), [](double v) { return static_cast<float>(v); });
+    const std::size_t at = static_cast<std::size_t>(t) * npix;
+    if (bands_.size() == 1) {
+      std::transform(images_[0].begin() + at, images_[0].begin() + at + npix, image_f_.begin(),
+                     [](double v) { return static_cast<float>(v); });
+    } else {
+      detection_image_.assign(npix, 0.0);
+      for (std::size_t b = 0; b < bands_.size(); ++b) {
+        const double w = detection_variance / variances_[b];
+        const double* image = images_[b].data() + at;
+        for (std::size_t p = 0; p < npix; ++p) detection_image_[p] += w * image[p];
+      }
+      std::transform(detection_image_.begin(), detection_image_.end(), image_f_.begin(),
+                     [](double v) { return static_cast<float>(v); });
+    }
     std::string why;
-    if (!detect_objects(image_f_, cell.size, cell.size, std::sqrt(variance), options_.detection, filter_, &detection_scratch_,
-                        &detections_, &why))
+    if (!detect_objects(image_f_, cell.size, cell.size, std::sqrt(detection_variance), options_.detection, filter_,
+                        &detection_scratch_, &detections_, &why))
       return fail(std::string(metacal_type_name(kMetacalTypes[t])) + " image: " + why);
     if (options_.per_object_metacal)
       per_object_rows(cell, rows);
     else
-      measure_image(cell, t, image, variance, rows);
+      measure_image(cell, t, rows);
   }
   return true;
 }
 
-void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::span<const double> image, double variance,
-                                 std::vector<MetadetectRow>* rows) {
+void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::vector<MetadetectRow>* rows) {
   const DetectionStampOptions& so = options_.stamp;
   const int s = cell.size;
+  const std::size_t npix = static_cast<std::size_t>(s) * s, nb = bands_.size();
+  const std::span<const double> image(images_[0].data() + static_cast<std::size_t>(type) * npix, npix);
+  if (band_stamps_.size() < nb) band_stamps_.resize(nb);
   int id = 0;
   for (const Detection& d : detections_) {
     if (!owns(cell, type, d)) continue;
@@ -177,13 +237,32 @@ void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::span
           continue;
         }
         const std::size_t p = static_cast<std::size_t>(y) * s + x;
-        if (!cell.weight.empty() && !(cell.weight[p] > 0)) ++masked;
+        bool masked_here = false;
+        for (const MetadetectBand& b : bands_) masked_here = masked_here || (!b.weight.empty() && !(b.weight[p] > 0));
+        masked += masked_here;
         stamp_[static_cast<std::size_t>(j) * box + i] = image[p];
       }
     }
     r.mfrac = static_cast<double>(masked) / (static_cast<double>(box) * box);
     if (masked > 0 && !(r.flags & kMetadetectEdge)) r.flags |= kMetadetectMasked;
-    fill_moments(cell, stamp_, box, x0, y0, variance, d, &r);
+    if (nb == 1) {
+      fill_moments(cell, stamp_, box, x0, y0, variances_[0], d, &r);
+    } else {
+      // The other bands' stamps, cut as the first's (zeros beyond the cell).
+      band_stamps_[0].assign(stamp_.begin(), stamp_.end());
+      for (std::size_t b = 1; b < nb; ++b) {
+        std::vector<double>& st = band_stamps_[b];
+        st.assign(static_cast<std::size_t>(box) * box, 0.0);
+        const double* img = images_[b].data() + static_cast<std::size_t>(type) * npix;
+        for (int j = 0; j < box; ++j)
+          for (int i = 0; i < box; ++i) {
+            const int x = x0 + i, y = y0 + j;
+            if (x >= 0 && y >= 0 && x < s && y < s)
+              st[static_cast<std::size_t>(j) * box + i] = img[static_cast<std::size_t>(y) * s + x];
+          }
+      }
+      fill_band_moments(cell, box, x0, y0, d, &r);
+    }
     rows->push_back(r);
   }
 }
@@ -194,18 +273,20 @@ bool CellMeasurer::owns(const MetadetectCell& cell, int type, const Detection& d
   // centre c. Tested in the sheared image, an object near the edge of the inner region would leave
   // or enter it with the metacal shear: a term in R from cell boundaries alone, which the next
   // cell's image (sheared about another centre) does not cancel.
-  const std::array<double, 4>& a = filters_->inverse_shear(kMetacalTypes[type]);
+  const std::array<double, 4>& a = filters_[0]->inverse_shear(kMetacalTypes[type]);
   const double c = 0.5 * (cell.size - 1), dx = d.x - c, dy = d.y - c;
   const double x = c + a[0] * dx + a[1] * dy, y = c + a[2] * dx + a[3] * dy;
   return x >= cell.keep_x0 && x < cell.keep_x1 && y >= cell.keep_y0 && y < cell.keep_y1;
 }
 
-void CellMeasurer::fill_moments(const MetadetectCell& cell, std::span<const double> stamp, int box, int x0, int y0,
-                                double variance, const Detection& d, MetadetectRow* r) {
-  scratch_.resize(2 * static_cast<std::size_t>(box));
-  const kernels::WeightedMoments m = kernels::weighted_moments(stamp, box, weight_fwhm_px_, variance, scratch_);
+namespace {
+
+// A detection's moments m of the stamp whose pixel (0, 0) is the cell's (x0, y0) into its row;
+// psf_t: the reconvolution PSF's T under the weight, pixels^2.
+void store_moments(const MetadetectCell& cell, const kernels::WeightedMoments& m, double psf_t, int x0, int y0,
+                   const Detection& d, MetadetectRow* r) {
   const double scale2 = cell.pixel_scale * cell.pixel_scale;
-  r->psf_t = psf_t_ * scale2;
+  r->psf_t = psf_t * scale2;
   if (!m.valid) {
     r->flags |= kMetadetectMomentsFailed;
     r->x = cell.origin_x + d.x, r->y = cell.origin_y + d.y;
@@ -213,10 +294,41 @@ void CellMeasurer::fill_moments(const MetadetectCell& cell, std::span<const doub
     r->x = cell.origin_x + x0 + m.x, r->y = cell.origin_y + y0 + m.y;
     r->e1 = m.e1, r->e2 = m.e2, r->e1_err = m.e1_err, r->e2_err = m.e2_err;
     r->t = m.t * scale2;
-    r->t_ratio = m.t / psf_t_;
+    r->t_ratio = m.t / psf_t;
     r->flux = m.flux, r->snr = m.snr;
   }
   r->u = r->x * cell.pixel_scale, r->v = r->y * cell.pixel_scale;
+}
+
+}  // namespace
+
+void CellMeasurer::fill_moments(const MetadetectCell& cell, std::span<const double> stamp, int box, int x0, int y0,
+                                double variance, const Detection& d, MetadetectRow* r) {
+  scratch_.resize(2 * static_cast<std::size_t>(box));
+  store_moments(cell, kernels::weighted_moments(stamp, box, weight_fwhm_px_, variance, scratch_), psf_t_, x0, y0, d, r);
+  r->band_flux[0] = r->flux, r->band_snr[0] = r->snr;
+}
+
+void CellMeasurer::fill_band_moments(const MetadetectCell& cell, int box, int x0, int y0, const Detection& d,
+                                     MetadetectRow* r) {
+  // As `stampede fit`'s multi-band wmom: one weight, the bands' sums averaged with weights of
+  // their inverse noise variance; each band's flux and S/N under the same weight about its own
+  // centroid.
+  stamps_.clear();
+  for (std::size_t b = 0; b < bands_.size(); ++b) {
+    kernels::MomentsStamp st;
+    st.image = band_stamps_[b];
+    st.size = box;
+    st.variance = variances_[b];
+    stamps_.push_back(st);
+  }
+  store_moments(cell, kernels::weighted_moments(stamps_, weight_fwhm_px_, scratch_), psf_t_, x0, y0, d, r);
+  scratch_.resize(std::max(scratch_.size(), 2 * static_cast<std::size_t>(box)));
+  for (std::size_t b = 0; b < bands_.size(); ++b) {
+    const kernels::WeightedMoments mb =
+        kernels::weighted_moments(band_stamps_[b], box, weight_fwhm_px_, variances_[b], scratch_);
+    if (mb.valid) r->band_flux[b] = mb.flux, r->band_snr[b] = mb.snr;
+  }
 }
 
 void CellMeasurer::per_object_rows(const MetadetectCell& cell, std::vector<MetadetectRow>* rows) {
@@ -225,6 +337,7 @@ void CellMeasurer::per_object_rows(const MetadetectCell& cell, std::vector<Metad
   stamp_images_.resize(kNumMetacalTypes * npix);
   stamp_pixels_.resize(npix);
   stamp_weight_.resize(npix);
+  stamp_noise_.resize(cell.noise.empty() ? 0 : npix);
   MetacalOptions metacal;
   metacal.enabled = true;
   metacal.step = options_.step;
@@ -241,10 +354,12 @@ void CellMeasurer::per_object_rows(const MetadetectCell& cell, std::vector<Metad
         const std::size_t q = static_cast<std::size_t>(j) * box + i;
         if (x < 0 || y < 0 || x >= s || y >= s) {
           stamp_pixels_[q] = 0, stamp_weight_[q] = 0, flags |= kMetadetectEdge, ++masked;
+          if (!stamp_noise_.empty()) stamp_noise_[q] = 0;
           continue;
         }
         const std::size_t p = static_cast<std::size_t>(y) * s + x;
         stamp_pixels_[q] = cell.pixels[p];
+        if (!stamp_noise_.empty()) stamp_noise_[q] = cell.noise[p];
         stamp_weight_[q] = cell.weight.empty() ? 1.0 : cell.weight[p];
         if (!(stamp_weight_[q] > 0)) ++masked;
       }
@@ -253,7 +368,7 @@ void CellMeasurer::per_object_rows(const MetadetectCell& cell, std::vector<Metad
     stamp_set_->make(stamp_pixels_, stamp_weight_, WeightKind::kInverseVariance, 0.0, *stamp_filters_, metacal,
                      RandomStream({options_.seed, static_cast<std::uint64_t>(cell.index), kFixnoisePurpose,
                                    static_cast<std::uint64_t>(id)}),
-                     stamp_images_, &variance);
+                     stamp_images_, &variance, 1.0, nullptr, stamp_noise_);
     for (int t = 0; t < kNumMetacalTypes; ++t) {
       MetadetectRow r;
       r.cell = cell.index;

@@ -1,6 +1,8 @@
 // Metadetection of one cell (Sheldon et al. 2020): its five metacal images (noshear, 1p, 1m, 2p,
 // 2m; fixnoise), detection on each with SEP, and each detection measured on the image it was found
-// on with weighted moments under a round Gaussian weight (wmom); or, for comparison, per-object
+// on with weighted moments under a round Gaussian weight (wmom). Several bands: each band's metacal
+// images (one reconvolution PSF for all), detection on their sum weighted by each band's inverse
+// noise variance, wmom over every band's stamp together, flux and S/N per band. Or, for comparison, per-object
 // metacal at the positions detected on the noshear image (per_object_metacal). One per thread: it owns the FFT
 // plans and every buffer, so a run of cells of one size allocates nothing but SEP's own work.
 #pragma once
@@ -16,17 +18,32 @@
 #include "engine/metadetect/metadetect_row.hpp"
 #include "engine/metadetect/sep_detection.hpp"
 #include "engine/model/psf_model.hpp"
+#include "kernels/weighted_moments.hpp"
 
 namespace stampede {
+
+// One band of a cell beyond the first: the same pixels seen in another filter.
+struct MetadetectBand {
+  std::span<const double> pixels;  // size^2, row-major (x fastest)
+  std::span<const double> weight;  // inverse variance; 0 masks
+  std::span<const double> noise;   // a noise realisation (the input's NOISE plane); empty: drawn from the weight
+  const PsfModel* psf = nullptr;   // in the cell's pixels
+};
 
 struct MetadetectCell {
   long long index = 0;  // the cell's number in the run: keys its fixnoise field
   int size = 0;
+  // The first (or only) band.
   std::span<const double> pixels;  // size^2, row-major (x fastest)
   std::span<const double> weight;  // inverse variance; 0 masks
+  // A realisation of the pixels' noise (the input's NOISE plane), fixnoise's field; empty: a field
+  // drawn from the weight with the cell's stream.
+  std::span<const double> noise;
   double origin_x = 0, origin_y = 0;  // the input image's pixel of the cell's (0, 0)
   double pixel_scale = 0;             // arcsec per pixel
   const PsfModel* psf = nullptr;      // in the cell's pixels
+  // The bands after the first (at most kMaxMetadetectBands - 1); empty: one band.
+  std::span<const MetadetectBand> other_bands;
   // Detections kept: barycentre, carried back through the image's metacal shear to the unsheared
   // cell, in [keep_x0, keep_x1) x [keep_y0, keep_y1) (cell pixels); the rest belong to a
   // neighbouring cell or to the image's buffer.
@@ -44,30 +61,38 @@ class CellMeasurer {
   double psf_t_pixels() const { return psf_t_; }
 
  private:
-  bool prepare_psf(const PsfModel& psf, double pixel_scale, std::string* problem);
-  void measure_image(const MetadetectCell& cell, int type, std::span<const double> image, double variance,
-                     std::vector<MetadetectRow>* rows);
+  bool prepare_psf(double pixel_scale, std::string* problem);
+  // Detections of image `type` (every band's) measured into rows; `variances` per band.
+  void measure_image(const MetadetectCell& cell, int type, std::vector<MetadetectRow>* rows);
   // Whether the cell keeps detection d of image `type` (its unsheared position in the keep region).
   bool owns(const MetadetectCell& cell, int type, const Detection& d) const;
   // The weighted moments of a box x box stamp whose pixel (0, 0) is the cell's (x0, y0) into *r.
   void fill_moments(const MetadetectCell& cell, std::span<const double> stamp, int box, int x0, int y0,
                     double variance, const Detection& d, MetadetectRow* r);
+  // Several bands: the moments of the bands' stamps together (stamps_), each band's flux and S/N.
+  void fill_band_moments(const MetadetectCell& cell, int box, int x0, int y0, const Detection& d, MetadetectRow* r);
   // options.per_object_metacal: each noshear detection's metacal stamps, five rows each.
   void per_object_rows(const MetadetectCell& cell, std::vector<MetadetectRow>* rows);
 
   MetadetectOptions options_;
   FftPlanning planning_;
   std::unique_ptr<MetacalImageSet> images_set_;
-  std::shared_ptr<const MetacalFilters> filters_;
-  PsfModel psf_;
+  // The cell's bands (the first and other_bands), their PSFs' filters (one Gamma) and images.
+  std::vector<MetadetectBand> bands_;
+  std::vector<std::shared_ptr<const MetacalFilters>> filters_;
+  std::vector<PsfModel> psfs_;
   bool have_psf_ = false;
   double psf_scale_ = 0, psf_t_ = 0, weight_fwhm_px_ = 0;
   std::vector<float> filter_, image_f_;
   DetectionScratch detection_scratch_;
-  std::vector<double> images_, stamp_, scratch_;
+  std::vector<std::vector<double>> images_;  // per band: kNumMetacalTypes x size^2
+  std::vector<double> variances_;            // per band: its images' noise variance per pixel
+  std::vector<double> stamp_, scratch_, detection_image_;
+  std::vector<std::vector<double>> band_stamps_;
+  std::vector<kernels::MomentsStamp> stamps_;
   std::unique_ptr<MetacalImageSet> stamp_set_;  // per_object_metacal
   std::shared_ptr<const MetacalFilters> stamp_filters_;
-  std::vector<double> stamp_images_, stamp_pixels_, stamp_weight_;
+  std::vector<double> stamp_images_, stamp_pixels_, stamp_weight_, stamp_noise_;
   std::vector<Detection> detections_;
 };
 

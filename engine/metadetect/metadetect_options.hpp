@@ -35,6 +35,10 @@ struct MetadetectOptions {
   double step = 0.01;     // metacal shear
   double psf_dilation = 0.0;  // reconvolution PSF FWHM over the PSF's (0: the narrowest bounded)
   bool fixnoise = true;
+  // Fixnoise's field from the input's noise realisation (an image file's NOISE HDU, a tile's
+  // noise cutouts) where it has one, as the reference package does; false, or no such plane: a
+  // field drawn from the weight, keyed by the cell's number (and band).
+  bool noise_plane = true;
   std::uint64_t seed = 20170101;  // keys each cell's fixnoise field with the cell's index
   double weight_fwhm = 1.2;       // arcsec: wmom's round Gaussian weight
   // Not metadetection: per-object metacal at the positions detected on the noshear image (each

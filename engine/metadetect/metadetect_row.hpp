@@ -1,10 +1,14 @@
 // One row of a metadetection catalogue: a detection on one of a cell's five metacal images, measured
 // on that image. Objects are never matched between images (each image's catalogue stands alone).
 #pragma once
+#include <array>
 #include <cmath>
 #include <cstdint>
 
 namespace stampede {
+
+// The bands a metadetection row carries flux and S/N for.
+inline constexpr int kMaxMetadetectBands = 8;
 
 enum MetadetectFlag : std::uint32_t {
   kMetadetectMomentsFailed = 1u << 0,  // the weighted moments are not valid (no positive flux or size, |e| >= 1)
@@ -23,7 +27,11 @@ struct MetadetectRow {
   double t = NAN;               // weighted moments' T = Mxx + Myy, arcsec^2
   double t_ratio = NAN;         // T over the reconvolved PSF's T (the same weight)
   double psf_t = NAN;
-  double flux = NAN, snr = NAN;
+  double flux = NAN, snr = NAN;  // several bands: the bands' stamps measured together
+  // Per band (several bands; the first band's for one): its stamp's weighted flux and S/N about its
+  // own centroid under the same weight.
+  std::array<double, kMaxMetadetectBands> band_flux{NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
+  std::array<double, kMaxMetadetectBands> band_snr{NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
   double mfrac = 0;             // masked fraction of the stamp
   std::int32_t box_size = 0;
   std::int32_t isophotal_area = 0;

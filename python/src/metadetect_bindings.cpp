@@ -67,6 +67,7 @@ py::object rows_array(const std::vector<MetadetectRow>& rows) {
 py::object metadetect(py::args args, py::kwargs kwargs) {
   const Arguments a("metadetect", args, kwargs,
                     {{"image", true}, {"weight", true}, {"psf", true}, {"pixel_scale", true}, {"bmask"}, {"threads"},
+                     {"noise", false, true},
                      {"cell_size", false, true}, {"cell_buffer", false, true}, {"step", false, true},
                      {"psf_dilation", false, true}, {"fixnoise", false, true}, {"seed", false, true},
                      {"weight_fwhm", false, true}, {"detect_threshold", false, true}, {"detect_min_area", false, true},
@@ -117,6 +118,12 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
     if (m.shape(0) != image.shape(0) || m.shape(1) != image.shape(1))
       throw py::value_error(a.where("bmask") + ": shape differs from the image's");
     mask.assign(m.data(), m.data() + m.size());
+  }
+  if (a.given("noise")) {
+    const DoubleArray n = as_float64(a.object("noise"), {2}, "noise");
+    if (n.shape(0) != image.shape(0) || n.shape(1) != image.shape(1))
+      throw py::value_error(a.where("noise") + ": shape differs from the image's");
+    im.noise.assign(n.data(), n.data() + n.size());
   }
   try {
     io::apply_cell_masks(mask, &im);
@@ -184,14 +191,15 @@ void bind_metadetect(py::module_& m) {
            cell_size=251, cell_buffer=34, step=0.01, psf_dilation=0, fixnoise=True, seed=20170101,
            weight_fwhm=1.2, detect_threshold=0.8, detect_min_area=4, deblend_contrast=1e-5,
            deblend_thresholds=32, filter_fwhm=3, filter_size=7, clean=True, box_min=33, box_max=255,
-           per_object_metacal=False)
+           per_object_metacal=False, noise=None)
 
 Metadetection (Sheldon et al. 2020) of one image as `stampede metadetect` does it: the image
 (2-D, at least one cell) is cut into cells; each cell's five metacal images (noshear, 1p, 1m,
 2p, 2m, fixnoise) are detected anew with SEP and every detection is measured with weighted moments
 (a round Gaussian weight of weight_fwhm arcsec). `weight`: inverse variances (0 masks); `psf`: a
 centred PSF image at the image's pixel scale; `pixel_scale`: arcsec per pixel; `bmask`: non-zero
-masks. Returns a structured array with the METADETECT table's columns (shear_type a string; x, y
+masks; `noise`: a realisation of the image's noise (a NOISE plane), fixnoise's field (else one
+is drawn from the weight). Returns a structured array with the METADETECT table's columns (shear_type a string; x, y
 0-based pixels of the image), rows in cell order; a cell that cannot be measured is one row with
 id -1 and flags 8. The rows equal `stampede metadetect`'s for the same image and options.
 )doc");

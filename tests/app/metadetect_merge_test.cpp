@@ -13,6 +13,7 @@
 #include "app/cell_simulation.hpp"
 #include "app/metadetect_run.hpp"
 #include "engine/common/error.hpp"
+#include "support/metadetect_shards.hpp"
 #include "support/scratch_dir.hpp"
 
 namespace stampede::app {
@@ -46,13 +47,7 @@ TEST(MetadetectMerge, ShardsJoinToTheWholeRunsTable) {
   for (int k = 0; k < 5; ++k) o.inputs.push_back(scratch.path("sims/cell_000" + std::to_string(k) + ".fits"));
   o.output = scratch.path("whole.fits");
   run_metadetect(o);
-  std::vector<std::string> shards;
-  for (int i = 0; i < 3; ++i) {
-    o.shard = i, o.shards = 3;
-    o.output = scratch.path("shard" + std::to_string(i) + ".fits");
-    run_metadetect(o);
-    shards.push_back(o.output);
-  }
+  const std::vector<std::string> shards = testing::run_metadetect_shards(o, 3, scratch, "shard");
   const MetadetectMergeSummary s = merge_metadetect_shards({{shards[2], shards[0], shards[1]}, scratch.path("joined.fits")});
   EXPECT_EQ(s.shards, 3);
   EXPECT_EQ(s.cells, 5);
@@ -64,7 +59,7 @@ TEST(MetadetectMerge, ShardsJoinToTheWholeRunsTable) {
   EXPECT_NE(twice.find("given twice"), std::string::npos) << twice;
   const std::string whole = refusal({{scratch.path("whole.fits")}, scratch.path("m.fits")});
   EXPECT_NE(whole.find("not a shard"), std::string::npos) << whole;
-  o.shard = 1, o.output = scratch.path("other1.fits");
+  o.shard = 1, o.shards = 3, o.output = scratch.path("other1.fits");
   o.metadetect.weight_fwhm = 1.5;  // another run
   run_metadetect(o);
   const std::string other = refusal({{shards[0], scratch.path("other1.fits"), shards[2]}, scratch.path("m.fits")});

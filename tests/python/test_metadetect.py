@@ -1,5 +1,6 @@
-"""stampede.metadetect on numpy arrays: the rows equal `stampede metadetect`'s on the same image, a
-cell of a grid finds every galaxy once per image, and bad arguments are errors naming them."""
+"""stampede.metadetect on numpy arrays: the rows equal `stampede metadetect`'s on the same image
+(with its NOISE plane as fixnoise's field, or without: a field drawn from the weight), a cell of a
+grid finds every galaxy once per image, and bad arguments are errors naming them."""
 
 import os
 
@@ -18,18 +19,33 @@ def cell(tmp_path_factory):
     return path, stampede.read_image(path, 0), stampede.read_image(path, "WEIGHT"), stampede.read_image(path, "PSF")
 
 
+COLUMNS = ["cell", "id", "x", "y", "e1", "e2", "T", "T_ratio", "snr", "flux", "flags"]
+
+
 def test_rows_equal_the_command_line_run(cell, tmp_path):
     path, image, weight, psf = cell
-    rows = stampede.metadetect(image, weight, psf, 0.25, threads=2)
+    rows = stampede.metadetect(image, weight, psf, 0.25, threads=2, noise=stampede.read_image(path, "NOISE"))
     assert len(rows) == 5 * 49
     assert sorted(set(rows["shear_type"])) == ["1m", "1p", "2m", "2p", "noshear"]
     assert np.all(rows["flags"] == 0)
     out = str(tmp_path / "out.fits")
     run_cli("metadetect", path, "-o", out, "--quiet")
-    columns = ["cell", "id", "x", "y", "e1", "e2", "T", "T_ratio", "snr", "flux", "flags"]
-    table = stampede.read_table(out, "METADETECT", columns)
-    for name in columns:
+    table = stampede.read_table(out, "METADETECT", COLUMNS)
+    for name in COLUMNS:
         assert np.array_equal(np.asarray(rows[name], dtype=table[name].dtype), table[name]), name
+
+
+def test_without_the_noise_plane_rows_equal_a_run_that_draws_the_field(cell, tmp_path):
+    path, image, weight, psf = cell
+    rows = stampede.metadetect(image, weight, psf, 0.25)
+    out = str(tmp_path / "drawn.fits")
+    run_cli("metadetect", path, "-o", out, "--quiet", "--no-noise-plane")
+    table = stampede.read_table(out, "METADETECT", COLUMNS)
+    for name in COLUMNS:
+        assert np.array_equal(np.asarray(rows[name], dtype=table[name].dtype), table[name]), name
+    # The file's own NOISE plane is another field: other rows.
+    with_plane = stampede.metadetect(image, weight, psf, 0.25, noise=stampede.read_image(path, "NOISE"))
+    assert not np.array_equal(with_plane["e1"], rows["e1"])
 
 
 def test_bad_arguments_name_themselves(cell):
@@ -44,6 +60,8 @@ def test_bad_arguments_name_themselves(cell):
         stampede.metadetect(image[:100, :100], weight[:100, :100], psf, 0.25)
     with pytest.raises(stampede.ConfigError, match="--cell-buffer"):
         stampede.metadetect(image, weight, psf, 0.25, cell_buffer=200)
+    with pytest.raises(ValueError, match="noise"):
+        stampede.metadetect(image, weight, psf, 0.25, noise=weight[:10])
     with pytest.raises(TypeError, match="unknown_option"):
         stampede.metadetect(image, weight, psf, 0.25, unknown_option=1)
 

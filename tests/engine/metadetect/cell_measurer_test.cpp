@@ -1,7 +1,8 @@
 // Metadetection of one cell (engine/metadetect/cell_measurer): every galaxy of a grid cell is
 // detected once per image at its position, the sheared images' detections respond to the shear
 // (R11 ~ 0.22 for these galaxies), a shear pair's response-corrected shear is the one applied, and
-// a cell that cannot be measured is one flagged row.
+// a cell that cannot be measured is one flagged row; fixnoise takes a given noise plane as its
+// field, and several bands of one scene detect and measure as its one band.
 #include "engine/metadetect/cell_measurer.hpp"
 
 #include <gtest/gtest.h>
@@ -11,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "engine/common/random_stream.hpp"
+#include "engine/metacal/metacal_image_set.hpp"
 #include "engine/metacal/metacal_type.hpp"
 #include "engine/sim/cell_sim.hpp"
 
@@ -23,27 +26,46 @@ struct CellRun {
   std::string problem;
 };
 
+// One simulated cell with its PSF and a constant weight of its noise, as a run reads it.
+struct SimulatedCell {
+  SimCell cell;
+  PsfModel psf;
+  std::vector<double> weight;
+  MetadetectCell in;  // band 0: pixels, weight, psf; its keep region the inner region
+  SimulatedCell(const CellSimOptions& so, int index, double g1) {
+    CellSimulator sim(so);
+    auto ws = sim.make_workspace();
+    cell = sim.simulate(index, g1, 0.0, *ws);
+    PsfImage img;
+    img.nx = img.ny = so.psf_size;
+    img.pixels = sim.bands()[0].psf;
+    psf = PsfModel::Image(std::make_shared<const PsfImage>(img));
+    weight.assign(cell.bands[0].image.size(), 1.0 / std::pow(sim.bands()[0].noise_sigma, 2));
+    in.index = index;
+    in.size = so.size;
+    in.pixels = cell.bands[0].image;
+    in.weight = weight;
+    in.pixel_scale = so.pixel_scale;
+    in.psf = &psf;
+    in.keep_x0 = in.keep_y0 = so.buffer - 0.5;
+    in.keep_x1 = in.keep_y1 = so.size - so.buffer - 0.5;
+  }
+  SimulatedCell(const SimulatedCell&) = delete;  // `in` points into its own members
+};
+
+// An S/N 20 cell at random positions (blends), the shear test's.
+CellSimOptions random_s20() {
+  CellSimOptions so;
+  so.snr = 20;
+  so.layout = CellLayout::kRandom;
+  return so;
+}
+
 CellRun measure_sim_cell(const CellSimOptions& so, int cell, double g1, const MetadetectOptions& mo = {}) {
-  CellSimulator sim(so);
-  auto ws = sim.make_workspace();
-  const SimCell c = sim.simulate(cell, g1, 0.0, *ws);
-  PsfImage img;
-  img.nx = img.ny = so.psf_size;
-  img.pixels = sim.bands()[0].psf;
-  const PsfModel psf = PsfModel::Image(std::make_shared<const PsfImage>(img));
-  const std::vector<double> weight(c.bands[0].image.size(), 1.0 / std::pow(sim.bands()[0].noise_sigma, 2));
-  MetadetectCell in;
-  in.index = cell;
-  in.size = so.size;
-  in.pixels = c.bands[0].image;
-  in.weight = weight;
-  in.pixel_scale = so.pixel_scale;
-  in.psf = &psf;
-  in.keep_x0 = in.keep_y0 = so.buffer;
-  in.keep_x1 = in.keep_y1 = so.size - so.buffer;
+  const SimulatedCell c(so, cell, g1);
   CellMeasurer m(mo);
   CellRun run;
-  run.ok = m.measure(in, &run.rows, &run.problem);
+  run.ok = m.measure(c.in, &run.rows, &run.problem);
   return run;
 }
 
@@ -100,6 +122,97 @@ TEST(CellMeasurer, ShearPairRecoversTheShear) {
   // Measured -1.1e-3 on these two pairs (the scene's positions sheared with it; unsheared positions
   // gave +4.8e-3): docs/metadetect.md has the many-cell figure.
   EXPECT_LT(std::abs(m), 2e-3);
+}
+
+std::vector<MetadetectRow> measure_rows(const MetadetectCell& in, const MetadetectOptions& mo = {}) {
+  CellMeasurer m(mo);
+  std::vector<MetadetectRow> rows;
+  std::string problem;
+  EXPECT_TRUE(m.measure(in, &rows, &problem)) << problem;
+  return rows;
+}
+
+bool same_row(const MetadetectRow& a, const MetadetectRow& b) {
+  return a.cell == b.cell && a.shear_type == b.shear_type && a.id == b.id && a.x == b.x && a.y == b.y &&
+         a.e1 == b.e1 && a.e2 == b.e2 && a.t == b.t && a.flux == b.flux && a.snr == b.snr && a.flags == b.flags &&
+         a.isophotal_area == b.isophotal_area;
+}
+
+// The field fixnoise draws from a constant weight w for cell `index` (MetacalImageSet::make's
+// draw: sqrt(1 / w) x a normal deviate per pixel from the cell's stream, in pixel order).
+std::vector<double> drawn_field(const MetadetectOptions& mo, long long index, std::size_t npix, double w) {
+  RandomStream stream({mo.seed, static_cast<std::uint64_t>(index), kFixnoisePurpose});
+  std::vector<double> out(npix);
+  for (double& v : out) v = std::sqrt(1.0 / w) * (1.0 * stream.normal());
+  return out;
+}
+
+TEST(CellMeasurer, FixnoiseTakesTheNoisePlaneAsItsField) {
+  const SimulatedCell c(random_s20(), 2, random_s20().g1);
+  const MetadetectOptions mo;
+  const std::vector<MetadetectRow> drawn = measure_rows(c.in, mo);
+  ASSERT_GT(drawn.size(), 100u);
+  // The plane equal to the field the weight would draw: the same rows, bit for bit.
+  const std::vector<double> same = drawn_field(mo, c.in.index, c.weight.size(), c.weight[0]);
+  MetadetectCell in = c.in;
+  in.noise = same;
+  const std::vector<MetadetectRow> given = measure_rows(in, mo);
+  ASSERT_EQ(given.size(), drawn.size());
+  for (std::size_t i = 0; i < drawn.size(); ++i) EXPECT_TRUE(same_row(given[i], drawn[i])) << "row " << i;
+  // Another realisation (the simulation's own NOISE plane): other rows.
+  in.noise = c.cell.bands[0].noise;
+  const std::vector<MetadetectRow> other = measure_rows(in, mo);
+  int differ = other.size() != drawn.size();
+  for (std::size_t i = 0; i < std::min(other.size(), drawn.size()); ++i) differ += !same_row(other[i], drawn[i]);
+  EXPECT_GT(differ, 100) << "of " << drawn.size() << " rows";
+}
+
+TEST(CellMeasurer, TwoBandsOfOneSceneScaledDetectAndMeasureAsItsOneBand) {
+  // Band 2 is band 1 times 2 (pixels, noise plane; weights / 4): by powers of two the metacal
+  // images scale exactly. Detection on the inverse-variance-weighted mean of the bands, whose
+  // noise is taken as independent per band, has sigma_D = sigma_1 / sqrt(1 + 1/c^2) for a signal
+  // (1 + 1/c) / (1 + 1/c^2) x band 1's: the one-band threshold to compare with is
+  // 0.8 sqrt(1 + 1/c^2) / (1 + 1/c). The moments of the two stamps together weigh band 2's sums by
+  // 1/c^2 and are c times band 1's: the same shapes and centroids.
+  const double c = 2;
+  const SimulatedCell sc(random_s20(), 1, random_s20().g1);
+  const std::size_t npix = sc.weight.size();
+  const std::vector<double> noise = sc.cell.bands[0].noise;
+  std::vector<double> pixels2(npix), weight2(npix), noise2(npix);
+  for (std::size_t i = 0; i < npix; ++i)
+    pixels2[i] = c * sc.cell.bands[0].image[i], weight2[i] = sc.weight[i] / (c * c), noise2[i] = c * noise[i];
+  const MetadetectBand band2{pixels2, weight2, noise2, &sc.psf};
+  MetadetectCell two = sc.in;
+  two.noise = noise;
+  two.other_bands = std::span<const MetadetectBand>(&band2, 1);
+  const MetadetectOptions mo;
+  const std::vector<MetadetectRow> rows2 = measure_rows(two, mo);
+  MetadetectOptions mo1 = mo;
+  mo1.detection.threshold = mo.detection.threshold * std::sqrt(1 + 1 / (c * c)) / (1 + 1 / c);
+  MetadetectCell one = sc.in;
+  one.noise = noise;
+  const std::vector<MetadetectRow> rows1 = measure_rows(one, mo1);
+  ASSERT_GT(rows1.size(), 100u);
+  ASSERT_EQ(rows2.size(), rows1.size());
+  for (std::size_t i = 0; i < rows1.size(); ++i) {
+    const MetadetectRow &a = rows1[i], &b = rows2[i];
+    ASSERT_EQ(a.shear_type, b.shear_type) << i;
+    ASSERT_EQ(a.id, b.id) << i;
+    EXPECT_EQ(a.isophotal_area, b.isophotal_area) << i;
+    EXPECT_EQ(a.flags, b.flags) << i;
+    if (a.flags & kMetadetectMomentsFailed) continue;
+    EXPECT_NEAR(a.x, b.x, 1e-9) << i;
+    EXPECT_NEAR(a.y, b.y, 1e-9) << i;
+    EXPECT_NEAR(a.e1, b.e1, 1e-12) << i;
+    EXPECT_NEAR(a.e2, b.e2, 1e-12) << i;
+    EXPECT_NEAR(a.t_ratio, b.t_ratio, 1e-12) << i;
+    EXPECT_NEAR(b.band_flux[0], a.flux, 1e-9 * std::abs(a.flux)) << i;
+    EXPECT_NEAR(b.band_flux[1], c * a.flux, 1e-9 * std::abs(a.flux)) << i;
+    EXPECT_NEAR(b.band_snr[1], a.snr, 1e-9 * std::abs(a.snr)) << i;
+    // Together the stamps' sums are averaged with weights 1 and 1/c^2: flux (1 + 1/c) / (1 + 1/c^2)
+    // of band 1's with an error 1 / sqrt(1 + 1/c^2) of its: S/N x (1 + 1/c) / sqrt(1 + 1/c^2).
+    EXPECT_NEAR(b.snr, a.snr * (1 + 1 / c) / std::sqrt(1 + 1 / (c * c)), 1e-9 * a.snr) << i;
+  }
 }
 
 TEST(CellMeasurer, ACellWithoutNoiseIsOneFlaggedRow) {
