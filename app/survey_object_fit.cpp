@@ -59,7 +59,7 @@ bool SurveyObjectFitter::collect(const ObservationArena& arena, int object, int 
       if (out.problem.empty())
         out.problem = tiles_[static_cast<std::size_t>(band)] + ": object " + std::to_string(row) + ", cutout " +
                       std::to_string(o.cutout) + ": PSF: " + why;
-      out.flags |= kFlagPsfFailure;
+      out.flags |= kFlagPsfCutoutDropped;  // the object is fitted on its other cutouts
       continue;
     }
     epochs_.push_back({arena.pixels(o), arena.weights(o), o.box_size, o.frame, prepared, o.flux_scale, o.band});
@@ -73,7 +73,10 @@ bool SurveyObjectFitter::collect(const ObservationArena& arena, int object, int 
                             : NAN;
   if (out.n_epochs == 0) {
     out.flags |= kFlagNoUsableEpoch;
-    if (out.flags & kFlagPsfFailure) out.fit.status = FitStatus::kPsfFailure;
+    if (out.flags & kFlagPsfCutoutDropped) {
+      out.flags |= kFlagPsfFailure;
+      out.fit.status = FitStatus::kPsfFailure;
+    }
     return false;
   }
   if (reading.pixels_unmasked < reading.pixels_total) out.flags |= kFlagMaskedPixels;
@@ -149,9 +152,12 @@ void SurveyObjectFitter::fit_bands(const ObservationArena& arena, int object, lo
     if (!band.problem.empty() && out.problem.empty()) out.problem = "band " + bands_[static_cast<std::size_t>(b)] + ": " + band.problem;
     if (!usable) {
       epochs_.resize(first), epoch_psfs_.resize(first);  // a band left out contributes no cutout
-      unusable |= band.flags & (kFlagNoUsableEpoch | kFlagTooMasked);
+      // Why the band was left out excludes the row only when no band is left (below); a band
+      // without PSFs keeps kFlagPsfCutoutDropped, which the shear estimates do not cut on.
+      constexpr std::uint32_t kWhyLeftOut = kFlagNoUsableEpoch | kFlagTooMasked | kFlagPsfFailure;
+      unusable |= band.flags & kWhyLeftOut;
       // Said in the row: a band masked in every cutout otherwise left it reading ok, its flux NaN.
-      out.flags |= (band.flags & ~(kFlagNoUsableEpoch | kFlagTooMasked)) | kFlagBandLeftOut;
+      out.flags |= (band.flags & ~kWhyLeftOut) | kFlagBandLeftOut;
       continue;
     }
     out.flags |= band.flags;

@@ -61,7 +61,7 @@ static_assert(kFlagMaskedPixels == 1u << 0 && kFlagDefaultStart == 1u << 1 &&
               kFlagNotConverged == 1u << 5 && kFlagUnweighted == 1u << 6 &&
               kFlagEdge == 1u << 16 && kFlagPsfFailure == 1u << 17 && kFlagMetacalFailure == 1u << 18 &&
               kFlagNoUsableEpoch == 1u << 19 && kFlagTooMasked == 1u << 20 && kFlagBadZeroPoint == 1u << 21 &&
-                  kFlagBandLeftOut == 1u << 22,
+                  kFlagBandLeftOut == 1u << 22 && kFlagPsfCutoutDropped == 1u << 23,
               "flag bits changed: update kFlagDocs");
 const FlagDoc kFlagDocs[] = {
     {kFlagMaskedPixels, "some pixels had zero weight"},
@@ -78,6 +78,7 @@ const FlagDoc kFlagDocs[] = {
     {kFlagTooMasked, "survey: unmasked fraction below the minimum"},
     {kFlagBadZeroPoint, "survey: a cutout dropped for its image's magzp"},
     {kFlagBandLeftOut, "multi-band: a band unusable and left out"},
+    {kFlagPsfCutoutDropped, "survey: a cutout dropped for its PSF"},
 };
 constexpr int kNumStatuses = 7;  // FitStatus::kOk .. kPsfFailure
 static_assert(static_cast<int>(FitStatus::kPsfFailure) == kNumStatuses - 1,

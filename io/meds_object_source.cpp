@@ -256,7 +256,7 @@ void MedsObjectReader::read(long long row, int band, ObservationArena* arena, Ob
     std::string why;
     if (!cutout_psf(o, k, &obs, &why)) {
       note(where(k) + ": PSF: " + why);
-      reading.flags |= kFlagPsfFailure;
+      reading.flags |= kFlagPsfCutoutDropped;
       arena->drop_last();
       continue;
     }

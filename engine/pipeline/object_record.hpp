@@ -29,6 +29,10 @@ enum InputFlag : std::uint32_t {
   // unmasked pixels, and the shape was fitted without it (its columns NaN, n_epochs_<band> 0). Not
   // shear-excluding: the other bands measured the shape, and metacal's R is that fit's.
   kFlagBandLeftOut = 1u << 22,
+  // Survey input: a cutout dropped because its PSF could not be built (a missing or broken PSFEx
+  // file), the object fitted on its other cutouts. Not shear-excluding: the shape is the other
+  // epochs' fit. An object left with no cutout is flagged kFlagNoUsableEpoch and kFlagPsfFailure.
+  kFlagPsfCutoutDropped = 1u << 23,
 };
 
 // Rows whose ellipticity may enter a shear estimate (`stampede metrics`, the noise-bias

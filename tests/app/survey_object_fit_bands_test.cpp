@@ -285,8 +285,9 @@ TEST(MultiBandObjectFit, BadInputsAreRefusedOrFlagged) {
   EXPECT_TRUE(testing::Contains(cut, "truncated"));
   EXPECT_FALSE(std::filesystem::exists(out));
 
-  // The r band's PSFEx models gone: every row says so, is fitted from g alone, and its r columns
-  // say it had no cutouts.
+  // The r band's PSFEx models gone: every row says so, is fitted from g alone (usable for shear:
+  // a PSF failure excludes a row only when no band is left), and its r columns say it had no
+  // cutouts.
   std::filesystem::copy(dir.path("t"), dir.path("nopsf"), std::filesystem::copy_options::recursive);
   std::filesystem::remove_all(dir.path("nopsf/r/psfex"));
   FitRun(run_of(dir.path("nopsf"), bands, out)).run();
@@ -294,7 +295,9 @@ TEST(MultiBandObjectFit, BadInputsAreRefusedOrFlagged) {
   const auto n_r = column(out, "RESULTS", "n_epochs_r"), n_g = column(out, "RESULTS", "n_epochs_g");
   const auto flux_r = column(out, "RESULTS", "flux_r"), flux_g = column(out, "RESULTS", "flux_g");
   for (std::size_t i = 0; i < flags.size(); ++i) {
-    EXPECT_TRUE(static_cast<std::uint32_t>(flags[i]) & kFlagPsfFailure) << i;
+    EXPECT_TRUE(static_cast<std::uint32_t>(flags[i]) & kFlagPsfCutoutDropped) << i;
+    EXPECT_FALSE(static_cast<std::uint32_t>(flags[i]) & kFlagPsfFailure) << i;
+    EXPECT_TRUE(usable_for_shear(FitStatus::kOk, static_cast<std::uint32_t>(flags[i]))) << i;
     EXPECT_EQ(status[i], 0) << i;
     EXPECT_EQ(n_r[i], 0) << i;
     EXPECT_EQ(n_g[i], 2) << i;

@@ -320,7 +320,44 @@ TEST_F(FitMeds, BadObjectsAreFlaggedRowsNeverMissingOnes) {
   for (std::size_t i = 0; i < psf_flags.size(); ++i) {
     if (i == 2 || i == 5 || i == 23) continue;
     EXPECT_TRUE(static_cast<std::uint32_t>(psf_flags[i]) & stampede::kFlagPsfFailure) << i;
+    EXPECT_TRUE(static_cast<std::uint32_t>(psf_flags[i]) & stampede::kFlagNoUsableEpoch) << i;
     EXPECT_EQ(psf_status[i], static_cast<int>(stampede::FitStatus::kPsfFailure)) << i;
+  }
+}
+
+// Issue 43 item 11: one epoch's PSFEx model missing drops that cutout, not the object. The rows
+// are fitted on their other three epochs, say so (flag 8388608 and the warning naming the file)
+// and stay usable for shear; an object whose other cutouts are unusable too has no epoch left and
+// is a PSF failure, excluded.
+TEST_F(FitMeds, AMissingPsfexModelDropsItsCutoutsNotTheObjects) {
+  fs::create_directories(path("tile"));
+  fs::copy(kSample + "/psfex", path("tile/psfex"));
+  fs::remove(path("tile/psfex/se_e2.psf"));  // image_info row 2, one of the four single epochs
+  const std::string tile = path("tile/meds.fits");
+  fs::copy_file(kSample + "/meds.fits", tile);
+  const int lost = 11;  // its cutouts from images 1, 3 and 4 point past the pixel array
+  for (int k : {1, 3, 4}) stampede::testing::MedsEditor(tile).set_cell("object_data", "start_row", lost, k, 276480LL - 48 * 48 + 1);
+  const RunResult r = run({"--meds", tile, "-o", path("out.fits")});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(contains(r.err, "se_e2.psf")) << r.err;
+  const auto flags = column(path("out.fits"), "flags"), status = column(path("out.fits"), "status"),
+             n_epochs = column(path("out.fits"), "n_epochs");
+  ASSERT_EQ(flags.size(), 24u);
+  for (std::size_t i = 0; i < flags.size(); ++i) {
+    const auto f = static_cast<std::uint32_t>(flags[i]);
+    EXPECT_TRUE(f & stampede::kFlagPsfCutoutDropped) << i;
+    if (static_cast<int>(i) == lost) {
+      EXPECT_EQ(n_epochs[i], 0);
+      EXPECT_TRUE(f & stampede::kFlagNoUsableEpoch);
+      EXPECT_TRUE(f & stampede::kFlagPsfFailure);
+      EXPECT_EQ(status[i], static_cast<int>(stampede::FitStatus::kPsfFailure));
+      EXPECT_FALSE(stampede::usable_for_shear(static_cast<stampede::FitStatus>(status[i]), f));
+      continue;
+    }
+    EXPECT_EQ(n_epochs[i], 3) << i;
+    EXPECT_EQ(status[i], 0) << i;
+    EXPECT_FALSE(f & (stampede::kFlagPsfFailure | stampede::kFlagNoUsableEpoch)) << i;
+    EXPECT_TRUE(stampede::usable_for_shear(stampede::FitStatus::kOk, f)) << i;
   }
 }
 

@@ -2,12 +2,13 @@
 // cutouts with random WCS Jacobians and PSFs the response is the sky's (the derivative of the
 // reduced-shear transformation at the galaxy's e, in (u, v)); cutouts with masked pixels are left
 // out, an object that cannot be calibrated is a flagged row that says why, and with weighted
-// moments (wmom) R is the moments' own response to a shear of the galaxy on the sky, and its errors
-// and S/N match the scatter over noise.
+// moments (wmom) R is the moments' own response to a shear of the galaxy on the sky; wmom's and bd's
+// errors and S/N match the scatter over noise.
 #include "engine/metacal/multi_epoch_metacal_fitter.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -183,54 +184,95 @@ TEST(MultiEpochMetacalFitter, WeightedMomentsResponseIsTheirResponseToASkyShear)
   EXPECT_NEAR(rec.r22, r22, 2e-6);
 }
 
-// Issue 43 item 3 on four cutouts (random WCS and PSFs, each with its own weight map): the
-// noshear row's e errors and S/N against the scatter over independent noise realisations (the
-// cutouts' noise and the fixnoise fields drawn afresh), with the default Gamma and a 1.5x one.
-// Before, they took the images' noise as white: sd / error ~1.3 and ~4. 800 realisations measure a
-// standard deviation to ~2.5 %; the bound is issue 43's 0.9 .. 1.1.
-TEST(MultiEpochMetacalFitter, WmomErrorsAndSnrMatchTheScatterOverNoise) {
+// The scatter over noise realisations against the stated errors and S/N: sd(e1)/err, sd(e2)/err and
+// the flux's measured S/N over the stated one, for a disc seen in four cutouts at S/N ~30; the
+// same for e's robust sd (1.4826 median absolute deviation), and the realisations whose e1 or e2
+// lies beyond 4 stated errors of the mean.
+struct ScatterRatios {
+  double e1 = NAN, e2 = NAN, snr = NAN, stated_snr = NAN, e1_robust = NAN, e2_robust = NAN;
+  int beyond_4 = 0;
+};
+
+double robust_sd(std::vector<double> v) {
+  auto median = [](std::vector<double>& x) {
+    std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
+    return x[x.size() / 2];
+  };
+  const double m = median(v);
+  for (double& x : v) x = std::abs(x - m);
+  return 1.4826 * median(v);
+}
+ScatterRatios scatter_over_noise(MetacalModel model, double dilation, int n) {
   const std::vector<Cutout> clean = cutouts(0.2, -0.1, 0.5, 11);
   // S/N ~30 over the four cutouts: sigma = sqrt(sum over cutouts of sum I^2) / 30.
   double power = 0;
   for (const Cutout& c : clean)
     for (double v : c.pixels) power += v * v;
   const double sigma = std::sqrt(power) / 30;
-  for (double dilation : {0.0, 1.5}) {
-    MetacalOptions mo = metacal(true);
-    mo.model = MetacalModel::kWeightedMoments;
-    mo.psf_dilation = dilation;
-    MultiEpochMetacalFitter fitter(options(), mo);
-    std::vector<Cutout> noisy = clean;
-    for (Cutout& c : noisy) c.weight.assign(kBox * kBox, 1 / (sigma * sigma));
-    const int n = 800;
-    double s1 = 0, s11 = 0, s2 = 0, s22 = 0, sf = 0, sff = 0, err1 = 0, err2 = 0, snr = 0;
-    int used = 0;
-    for (int k = 0; k < n; ++k) {
-      std::mt19937 rng(4303 + k);
-      std::normal_distribution<double> z(0, sigma);
-      for (std::size_t c = 0; c < noisy.size(); ++c)
-        for (std::size_t i = 0; i < noisy[c].pixels.size(); ++i) noisy[c].pixels[i] = clean[c].pixels[i] + z(rng);
-      FitResult r;
-      MetacalRecord rec;
-      std::uint32_t flags = 0;
-      std::string problem;
-      fitter.fit(epochs(noisy), k, kFailure, &r, &rec, &flags, &problem);
-      if (r.status != FitStatus::kOk) continue;
-      const double e1 = r.params[index(Param::kE1)], e2 = r.params[index(Param::kE2)];
-      s1 += e1, s11 += e1 * e1, s2 += e2, s22 += e2 * e2, sf += r.flux, sff += r.flux * r.flux;
-      err1 += r.e1_err, err2 += r.e2_err, snr += r.snr;
-      ++used;
-    }
-    ASSERT_GT(used, 0.99 * n);
-    auto sd = [&](double s, double ss) { return std::sqrt((ss - s * s / used) / (used - 1)); };
-    const double r1 = sd(s1, s11) / (err1 / used), r2 = sd(s2, s22) / (err2 / used);
-    const double rs = (sf / used) / sd(sf, sff) / (snr / used);
-    std::printf("4 cutouts, wmom, dilation %.1f: sd(e1)/err %.3f, sd(e2)/err %.3f, S/N measured/stated %.3f (stated %.1f)\n",
-                dilation, r1, r2, rs, snr / used);
-    EXPECT_NEAR(r1, 1.0, 0.1) << dilation;
-    EXPECT_NEAR(r2, 1.0, 0.1) << dilation;
-    EXPECT_NEAR(rs, 1.0, 0.1) << dilation;
+  MetacalOptions mo = metacal(true);
+  mo.model = model;
+  mo.psf_dilation = dilation;
+  MultiEpochMetacalFitter fitter(options(), mo);
+  std::vector<Cutout> noisy = clean;
+  for (Cutout& c : noisy) c.weight.assign(kBox * kBox, 1 / (sigma * sigma));
+  double s1 = 0, s11 = 0, s2 = 0, s22 = 0, sf = 0, sff = 0, err1 = 0, err2 = 0, snr = 0;
+  int used = 0;
+  std::vector<double> v1, v2;
+  for (int k = 0; k < n; ++k) {
+    std::mt19937 rng(4303 + k);
+    std::normal_distribution<double> z(0, sigma);
+    for (std::size_t c = 0; c < noisy.size(); ++c)
+      for (std::size_t i = 0; i < noisy[c].pixels.size(); ++i) noisy[c].pixels[i] = clean[c].pixels[i] + z(rng);
+    FitResult r;
+    MetacalRecord rec;
+    std::uint32_t flags = 0;
+    std::string problem;
+    fitter.fit(epochs(noisy), k, kFailure, &r, &rec, &flags, &problem);
+    if (r.status != FitStatus::kOk) continue;
+    const double e1 = r.params[index(Param::kE1)], e2 = r.params[index(Param::kE2)];
+    s1 += e1, s11 += e1 * e1, s2 += e2, s22 += e2 * e2, sf += r.flux, sff += r.flux * r.flux;
+    err1 += r.e1_err, err2 += r.e2_err, snr += r.snr;
+    v1.push_back(e1), v2.push_back(e2);
+    ++used;
   }
+  EXPECT_GT(used, 0.99 * n);
+  auto sd = [&](double s, double ss) { return std::sqrt((ss - s * s / used) / (used - 1)); };
+  ScatterRatios out{sd(s1, s11) / (err1 / used), sd(s2, s22) / (err2 / used), (sf / used) / sd(sf, sff) / (snr / used),
+                    snr / used, robust_sd(v1) / (err1 / used), robust_sd(v2) / (err2 / used)};
+  for (int k = 0; k < used; ++k)
+    out.beyond_4 += std::abs(v1[k] - s1 / used) > 4 * err1 / used || std::abs(v2[k] - s2 / used) > 4 * err2 / used;
+  return out;
+}
+
+// Issue 43 item 3 on four cutouts (random WCS and PSFs, each with its own weight map): the
+// noshear row's e errors and S/N against the scatter over independent noise realisations (the
+// cutouts' noise and the fixnoise fields drawn afresh), with the default Gamma and a 1.5x one.
+// Before, they took the images' noise as white: sd / error ~1.3 and ~4. 800 realisations measure a
+// standard deviation to ~2.5 %; the bound is issue 43's 0.9 .. 1.1.
+TEST(MultiEpochMetacalFitter, WmomErrorsAndSnrMatchTheScatterOverNoise) {
+  for (double dilation : {0.0, 1.5}) {
+    const ScatterRatios r = scatter_over_noise(MetacalModel::kWeightedMoments, dilation, 800);
+    std::printf("4 cutouts, wmom, dilation %.1f: sd(e1)/err %.3f, sd(e2)/err %.3f, S/N measured/stated %.3f (stated %.1f)\n",
+                dilation, r.e1, r.e2, r.snr, r.stated_snr);
+    EXPECT_NEAR(r.e1, 1.0, 0.1) << dilation;
+    EXPECT_NEAR(r.e2, 1.0, 0.1) << dilation;
+    EXPECT_NEAR(r.snr, 1.0, 0.1) << dilation;
+  }
+}
+
+// The same for the bd fit, whose errors are its curvature's scaled by equivalent linear estimators
+// (metacal_noise.hpp), chosen on single stamps: across cutouts with their own frames and PSFs they
+// match the core of the scatter (its robust sd). The plain sd is not asserted: a few realisations
+// of this nonlinear fit land far out (heavy tails no single error describes), nor is the flux's
+// S/N, which the bd model's matched-filter snr does not state for a disc this small against the
+// PSF (both measured in docs/metacal.md, "4-epoch MEDS tiles by noise pairs").
+TEST(MultiEpochMetacalFitter, BdErrorsMatchTheCoreOfTheScatterOverNoise) {
+  const ScatterRatios r = scatter_over_noise(MetacalModel::kBulgeDisc, 0.0, 300);
+  std::printf("4 cutouts, bd: robust sd(e1)/err %.3f, sd(e2)/err %.3f (sd %.3f, %.3f), beyond 4 errors %d of 300, "
+              "flux S/N measured/stated %.3f (stated %.1f)\n",
+              r.e1_robust, r.e2_robust, r.e1, r.e2, r.beyond_4, r.snr, r.stated_snr);
+  EXPECT_NEAR(r.e1_robust, 1.0, 0.1);
+  EXPECT_NEAR(r.e2_robust, 1.0, 0.1);
 }
 
 
