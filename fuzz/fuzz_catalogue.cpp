@@ -29,7 +29,7 @@ extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t siz
     const std::int64_t saved[] = {1};
     stampede::io::CatalogueStampSource source(image().path(), "", catalogue.path(), 8, columns,
                                               size % 3 == 0 ? std::span<const std::int64_t>(saved) : std::span<const std::int64_t>());
-    stampede::StampBatch batch(4, 8, columns.with_psf);
+    stampede::StampBatch batch(4);
     while (source.fill(batch)) {
     }
   } catch (const std::runtime_error&) {

@@ -9,7 +9,7 @@ extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t siz
   try {
     // Stamp size from the header (STAMPSZ), as `stampede fit` takes it when the run sets none.
     stampede::io::GridStampSource source(input.path(), "", 0);
-    stampede::StampBatch batch(4, source.stamp_size(), false);
+    stampede::StampBatch batch(4);
     while (source.fill(batch)) {
     }
   } catch (const std::runtime_error&) {

@@ -23,7 +23,7 @@ extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t siz
   const stampede::fuzz::FuzzFile weight({data, size});
   try {
     stampede::io::GridStampSource source(grid_image().path(), weight.path(), 0);
-    stampede::StampBatch batch(3, source.stamp_size(), false);
+    stampede::StampBatch batch(3);
     while (source.fill(batch)) {
     }
   } catch (const std::runtime_error&) {
