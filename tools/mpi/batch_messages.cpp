@@ -17,7 +17,7 @@ static_assert(std::is_trivially_copyable_v<kernels::AiryProfile>, "PSFs travel a
 static_assert(std::is_trivially_copyable_v<PixelFrame>, "frames travel as bytes");
 
 struct Header {
-  int count, arena_objects, arena_bands, arena_observations;
+  int count, arena_objects, arena_bands, arena_observations, any_weighted;
   long long sequence, first_object, arena_pixels;
 };
 
@@ -95,8 +95,11 @@ class Reader {
 
 void pack_batch(const StampBatch& b, std::vector<char>* out) {
   const ObservationArena& arena = b.observations;
+  // A grid without a weight map has no weights to send (its arena's weight slots are unused).
+  int any_weighted = 0;
+  for (int k = 0; k < arena.size(); ++k) any_weighted |= arena[k].weighted ? 1 : 0;
   Writer w(out);
-  w.put(Header{b.count, arena.objects(), arena.bands(), arena.size(), b.sequence, b.first_object,
+  w.put(Header{b.count, arena.objects(), arena.bands(), arena.size(), any_weighted, b.sequence, b.first_object,
                static_cast<long long>(arena.pixels_used())});
   w.put(b.records.data(), static_cast<std::size_t>(b.count));
   for (int o = 0; o < arena.objects(); ++o)
@@ -125,7 +128,7 @@ void pack_batch(const StampBatch& b, std::vector<char>* out) {
     }
   }
   w.put(arena.pixel_data(), arena.pixels_used());
-  w.put(arena.weight_data(), arena.pixels_used());
+  if (any_weighted) w.put(arena.weight_data(), arena.pixels_used());
 }
 
 void unpack_batch(const char* data, std::size_t size, StampBatch* b) {
@@ -174,7 +177,7 @@ void unpack_batch(const char* data, std::size_t size, StampBatch* b) {
   if (static_cast<long long>(arena.pixels_used()) != h.arena_pixels)
     throw std::runtime_error("MPI batch message: the observations' pixels do not add up");
   r.get(arena.pixel_data(), arena.pixels_used());
-  r.get(arena.weight_data(), arena.pixels_used());
+  if (h.any_weighted) r.get(arena.weight_data(), arena.pixels_used());
 }
 
 void pack_problems(const StampBatch& b, std::vector<char>* out) {
