@@ -12,22 +12,34 @@
 #include <sstream>
 
 #include "app/version.hpp"
+#include "engine/metacal/metacal_type.hpp"
 #include "engine/metadetect/cell_layout.hpp"
 #include "engine/metadetect/cell_measurer.hpp"
 #include "engine/pipeline/pipeline.hpp"
 #include "io/cell_image_reader.hpp"
 #include "io/config_error.hpp"
 #include "io/file_digest.hpp"
+#include "io/fits_error.hpp"
 #include "io/meds_file.hpp"
 #include "io/metadetect_writer.hpp"
 #include "io/output_check.hpp"
 #include "io/output_lock.hpp"
+#include "io/psfex_file.hpp"
 #include "io/result_columns.hpp"
 
 namespace stampede::app {
 namespace {
 
 constexpr int kMaxProblems = 100;
+
+std::string number_text(double v, int digits = 17) {
+  std::ostringstream s;
+  s.precision(digits);
+  s << v;
+  return s.str();
+}
+// For messages: enough digits to tell apart what the 1e-6 checks refuse.
+std::string short_number(double v) { return number_text(v, 9); }
 
 // A batch's cells (what the source read) and the rows they yield (what the fit stage measured).
 struct CellBatch : BatchExtension {
@@ -38,6 +50,7 @@ struct CellBatch : BatchExtension {
     int first_observation = 0, bands = 1;  // its bands' observations in the arena, in band order
     // Its bands' NOISE planes, consecutive in `noise` from here (none: -1).
     long long noise_offset = -1;
+    std::string problem;  // why it cannot be measured (its PSFEx model fails there); "" none
   };
   std::vector<Cell> cells;
   std::vector<double> noise;  // the batch's noise planes (kept between batches)
@@ -63,15 +76,47 @@ const CellBatch& cell_batch(const StampBatch& b) { return static_cast<const Cell
 // The serial reader: every file's cells in order, a file read whole when its first cell is due.
 class CellSource : public StampSource {
  public:
-  CellSource(const std::vector<std::string>& inputs, const MetadetectOptions& options) : inputs_(inputs), options_(options) {
-    for (const std::string& path : inputs_) {
-      const io::CellImageShape shape = io::read_cell_image_shape(path);
-      add_layout(shape.width, shape.height, path + ": ");
+  // Image files: each scene a file per band (the bands' images the same size and pixel scale),
+  // named in messages by `names` (its path or template); `psfex` a PSFEx model file per band, or
+  // none (each file's PSF HDU).
+  struct Images {
+    std::vector<std::string> names;
+    std::vector<std::vector<std::string>> files;
+    std::vector<std::string> psfex;
+  };
+  CellSource(const Images& in, const MetadetectOptions& options)
+      : inputs_(in.names), options_(options), files_(in.files) {
+    for (const std::vector<std::string>& bands : files_) {
+      const io::CellImageShape shape = io::read_cell_image_shape(bands[0]);
+      for (std::size_t b = 1; b < bands.size(); ++b) {
+        const io::CellImageShape other = io::read_cell_image_shape(bands[b]);
+        if (other.width != shape.width || other.height != shape.height)
+          throw io::ConfigError(bands[b] + " is " + std::to_string(other.width) + " x " + std::to_string(other.height) +
+                                " pixels, " + bands[0] + " " + std::to_string(shape.width) + " x " +
+                                std::to_string(shape.height) + ": a scene's bands must share its pixels");
+        if (std::abs(other.pixel_scale / shape.pixel_scale - 1) > 1e-6)
+          throw io::ConfigError(bands[b] + "'s pixel scale " + short_number(other.pixel_scale) + " arcsec differs from " +
+                                bands[0] + "'s " + short_number(shape.pixel_scale) + ": a scene's bands must share its pixels");
+      }
+      add_layout(shape.width, shape.height, bands[0] + ": ");
+    }
+    for (const std::string& path : in.psfex) {
+      try {
+        models_.push_back(io::read_psfex_model(path));
+      } catch (const io::FitsError& e) {
+        throw io::FitsError(std::string("--psfex: ") + e.what());
+      }
+      // Evaluated once here, so that a sampling the metacal images cannot use (PSF_SAMP is image
+      // pixels per sample: only 1 / integer is an image of the cells' pixels) stops the run, not each cell.
+      std::string why;
+      if (!models_.back().image_at(models_.back().zero_x, models_.back().zero_y, &why))
+        throw io::ConfigError("--psfex " + path + ": " + why);
+      psfex_files_.push_back(path);
     }
   }
   // One image in memory (not copied: it must outlive the source).
   CellSource(const io::CellImage& image, const MetadetectOptions& options)
-      : inputs_{"image"}, options_(options), memory_(&image) {
+      : inputs_{"image"}, options_(options), files_{{"image"}}, memory_(&image) {
     add_layout(image.width, image.height, "");
   }
   // A cell tile (DES Y6's "pizza slices"): each object_data row a cell, cutout 0 its coadd with a
@@ -155,31 +200,7 @@ class CellSource : public StampSource {
         fill_tile_cell(batch, data);
         continue;
       }
-      if (loaded_ != file_) {
-        if (!memory_) image_ = io::read_cell_image(inputs_[file_]);
-        psf_ = PsfModel::Image(image().psf);
-        loaded_ = file_;
-      }
-      const CellPlacement& place = layouts_[file_][in_file_];
-      const int s = options_.cell_size;
-      batch.observations.begin_object(1);
-      CellBatch::Cell cell{file_, place, image().pixel_scale, static_cast<int>(batch.observations.size()), 1, -1};
-      std::span<double> pixels, weights;
-      ArenaObservation& o = batch.observations.add(s, &pixels, &weights);
-      o.psf = psf_;
-      const bool noise = options_.noise_plane && !image().noise.empty();
-      if (noise) cell.noise_offset = static_cast<long long>(data.add_noise(static_cast<std::size_t>(s) * s, 1));
-      for (int y = 0; y < s; ++y) {
-        const std::size_t from = static_cast<std::size_t>(place.y0 + y) * image().width + place.x0;
-        std::copy_n(image().pixels.begin() + from, s, pixels.begin() + static_cast<std::size_t>(y) * s);
-        std::copy_n(image().weight.begin() + from, s, weights.begin() + static_cast<std::size_t>(y) * s);
-        if (noise)
-          std::copy_n(image().noise.begin() + from, s,
-                      data.noise.begin() + cell.noise_offset + static_cast<long long>(y) * s);
-      }
-      data.cells.push_back(cell);
-      batch.records[batch.count].id = next_;
-      ++batch.count, ++in_file_, ++next_;
+      fill_image_cell(batch, data);
     }
     return batch.count > 0;
   }
@@ -191,7 +212,9 @@ class CellSource : public StampSource {
     const int bands = static_cast<int>(tiles_.size());
     const int size = static_cast<int>(boxes_[static_cast<std::size_t>(in_file_)]);
     const std::size_t npix = static_cast<std::size_t>(size) * size;
-    CellBatch::Cell cell{0, layouts_[0][in_file_], 0.0, static_cast<int>(batch.observations.size()), bands, -1};
+    CellBatch::Cell cell;
+    cell.place = layouts_[0][in_file_];
+    cell.first_observation = static_cast<int>(batch.observations.size()), cell.bands = bands;
     const bool noise = options_.noise_plane &&
                        std::all_of(tiles_.begin(), tiles_.end(), [](const auto& t) { return t->has(io::MedsCutoutType::kNoise); });
     if (noise) cell.noise_offset = static_cast<long long>(data.add_noise(npix, bands));
@@ -246,7 +269,58 @@ class CellSource : public StampSource {
         std::copy(cell_.noise.begin(), cell_.noise.end(),
                   data.noise.begin() + cell.noise_offset + static_cast<long long>(b * npix));
     }
-    data.cells.push_back(cell);
+    data.cells.push_back(std::move(cell));
+    batch.records[batch.count].id = next_;
+    ++batch.count, ++in_file_, ++next_;
+  }
+
+  // The scene's next cell into the batch: a band per file, each an observation, with its NOISE
+  // plane where every band has one; its PSF the file's or the PSFEx model's at the cell.
+  void fill_image_cell(StampBatch& batch, CellBatch& data) {
+    const int bands = static_cast<int>(files_[static_cast<std::size_t>(file_)].size());
+    if (loaded_ != file_) {
+      images_.resize(static_cast<std::size_t>(bands));
+      psfs_.clear();
+      for (int b = 0; b < bands; ++b) {
+        if (!memory_) images_[static_cast<std::size_t>(b)] = io::read_cell_image(files_[file_][b], models_.empty());
+        if (models_.empty()) psfs_.push_back(PsfModel::Image(image(b).psf));
+      }
+      loaded_ = file_;
+    }
+    const CellPlacement& place = layouts_[file_][in_file_];
+    const int s = options_.cell_size;
+    const std::size_t npix = static_cast<std::size_t>(s) * s;
+    CellBatch::Cell cell;
+    cell.file = file_, cell.place = place, cell.pixel_scale = image(0).pixel_scale;
+    cell.first_observation = static_cast<int>(batch.observations.size()), cell.bands = bands;
+    bool noise = options_.noise_plane;
+    for (int b = 0; b < bands; ++b) noise = noise && !image(b).noise.empty();
+    if (noise) cell.noise_offset = static_cast<long long>(data.add_noise(npix, bands));
+    batch.observations.begin_object(bands);
+    for (int b = 0; b < bands; ++b) {
+      const io::CellImage& im = image(b);
+      std::span<double> pixels, weights;
+      ArenaObservation& o = batch.observations.add(s, &pixels, &weights);
+      o.band = b;
+      if (models_.empty()) {
+        o.psf = psfs_[static_cast<std::size_t>(b)];
+      } else {
+        const PsfexPosition at = cell_psfex_position(place, s);
+        std::string why;
+        if (auto psf = models_[static_cast<std::size_t>(b)].image_at(at.x_image, at.y_image, &why))
+          o.psf = PsfModel::Image(std::move(psf));
+        else if (cell.problem.empty())
+          cell.problem = psfex_files_[static_cast<std::size_t>(b)] + ": " + why;
+      }
+      const long long band_noise = cell.noise_offset + static_cast<long long>(b * npix);
+      for (int y = 0; y < s; ++y) {
+        const std::size_t from = static_cast<std::size_t>(place.y0 + y) * im.width + place.x0;
+        std::copy_n(im.pixels.begin() + from, s, pixels.begin() + static_cast<std::size_t>(y) * s);
+        std::copy_n(im.weight.begin() + from, s, weights.begin() + static_cast<std::size_t>(y) * s);
+        if (noise) std::copy_n(im.noise.begin() + from, s, data.noise.begin() + band_noise + static_cast<long long>(y) * s);
+      }
+    }
+    data.cells.push_back(std::move(cell));
     batch.records[batch.count].id = next_;
     ++batch.count, ++in_file_, ++next_;
   }
@@ -257,10 +331,13 @@ class CellSource : public StampSource {
     if (layouts_.back().empty()) throw io::ConfigError(where + why);
     total_ += static_cast<long long>(layouts_.back().size());
   }
-  const io::CellImage& image() const { return memory_ ? *memory_ : image_; }
+  const io::CellImage& image(int band) const { return memory_ ? *memory_ : images_[static_cast<std::size_t>(band)]; }
 
   std::vector<std::string> inputs_;
   MetadetectOptions options_;
+  std::vector<std::vector<std::string>> files_;  // image files: per scene, a file per band
+  std::vector<PsfexModel> models_;               // a PSFEx model per band; empty: the files' PSFs
+  std::vector<std::string> psfex_files_;
   const io::CellImage* memory_ = nullptr;
   std::vector<std::unique_ptr<io::MedsFile>> tiles_;  // a cell tile per band
   std::vector<long long> boxes_;  // the tiles' cell sides
@@ -270,8 +347,8 @@ class CellSource : public StampSource {
   std::vector<std::vector<CellPlacement>> layouts_;
   long long total_ = 0, next_ = 0, in_file_ = 0, end_ = std::numeric_limits<long long>::max();
   int file_ = 0, loaded_ = -1;
-  io::CellImage image_;
-  PsfModel psf_;
+  std::vector<io::CellImage> images_;  // the loaded scene's, a band each
+  std::vector<PsfModel> psfs_;         // their PSF HDUs'
 };
 
 class CellFitter : public BatchFitter {
@@ -283,6 +360,15 @@ class CellFitter : public BatchFitter {
     data.problems.assign(static_cast<std::size_t>(batch.count), "");
     for (int k = 0; k < batch.count; ++k) {
       const CellBatch::Cell& c = data.cells[static_cast<std::size_t>(k)];
+      if (!c.problem.empty()) {  // one flagged row, as the measurer writes for a cell it cannot measure
+        MetadetectRow r;
+        r.cell = batch.records[k].id;
+        r.shear_type = static_cast<int>(MetacalType::kNoshear);
+        r.flags = kMetadetectCellFailed;
+        data.rows.push_back(r);
+        data.problems[static_cast<std::size_t>(k)] = c.problem;
+        continue;
+      }
       const ArenaObservation& o = batch.observations[c.first_observation];
       const std::size_t npix = static_cast<std::size_t>(o.box_size) * o.box_size;
       auto noise = [&](int b) {
@@ -352,13 +438,6 @@ class CollectingSink : public BatchSink {
   long long failed = 0;
 };
 
-std::string number_text(double v) {
-  std::ostringstream s;
-  s.precision(17);
-  s << v;
-  return s.str();
-}
-
 // The options as header keys and fingerprint lines (one list: what identifies the run is what the
 // header records).
 std::vector<std::pair<std::string, std::string>> option_keys(const MetadetectOptions& o) {
@@ -388,14 +467,63 @@ std::vector<std::pair<std::string, std::string>> option_keys(const MetadetectOpt
           {"BOXMAX", std::to_string(s.box_max)}};
 }
 
+// What stands for the band's name in an image path or --psfex.
+constexpr std::string_view kBandField = "{band}";
+
+bool has_band_field(const std::string& path) { return path.find(kBandField) != std::string::npos; }
+
+std::vector<std::string> image_bands(const MetadetectRunOptions& options);
+
+}  // namespace
+
+std::string expand_band(const std::string& path, const std::string& band) {
+  std::string out = path;
+  for (std::size_t at = out.find(kBandField); at != std::string::npos; at = out.find(kBandField, at + band.size()))
+    out.replace(at, kBandField.size(), band);
+  return out;
+}
+
+namespace {
+
+// Image files' bands: --bands names what `{band}` stands for in every path.
+std::vector<std::string> image_bands(const MetadetectRunOptions& options) {
+  std::vector<std::pair<std::string, std::string>> templates;  // (what, path)
+  for (const std::string& in : options.inputs) templates.emplace_back("image path", in);
+  if (!options.psfex.empty()) templates.emplace_back("--psfex", options.psfex);
+  const std::vector<std::string>& names = options.bands;
+  const std::size_t n = names.size();
+  if (n == 0) {
+    for (const auto& [what, path] : templates)
+      if (has_band_field(path))
+        throw io::ConfigError(what + " '" + path + "' holds '{band}' but no --bands names the bands it stands for");
+    return {};
+  }
+  if (n > static_cast<std::size_t>(kMaxMetadetectBands))
+    throw io::ConfigError("--bands names " + std::to_string(n) + " bands: at most " + std::to_string(kMaxMetadetectBands));
+  if (std::string why; !io::are_band_names(names, &why)) throw io::ConfigError("--bands: " + why);
+  if (n > 1) {
+    for (const auto& [what, path] : templates)
+      if (!has_band_field(path))
+        throw io::ConfigError("--bands names " + std::to_string(n) + " bands but " + what + " '" + path +
+                              "' holds no '{band}': each is a template, read once per band with {band} its name");
+    for (const std::string& in : options.inputs)
+      for (std::size_t b = 0; b < n; ++b)
+        for (std::size_t a = 0; a < b; ++a)
+          if (io::same_file(expand_band(in, names[a]), expand_band(in, names[b])))
+            throw io::ConfigError("image " + expand_band(in, names[b]) + " is bands " + names[a] + " and " + names[b] +
+                                  " of '" + in + "'");
+  }
+  if (options.metadetect.per_object_metacal && n > 1)
+    throw io::ConfigError("--per-object-metacal measures one band: give --bands one band");
+  return names;
+}
+
 }  // namespace
 
 std::vector<std::string> metadetect_bands(const MetadetectRunOptions& options) {
-  if (!options.tile) {
-    if (!options.bands.empty())
-      throw io::ConfigError("--bands names the bands of --meds cell tiles (one tile per band): image files are one band");
-    return {};
-  }
+  if (!options.tile) return image_bands(options);
+  if (!options.psfex.empty())
+    throw io::ConfigError("--psfex gives image files' PSF: a --meds cell tile has its own PSF cutouts");
   const std::size_t n = options.inputs.size();
   if (n > static_cast<std::size_t>(kMaxMetadetectBands))
     throw io::ConfigError(std::to_string(n) + " --meds tiles: at most " + std::to_string(kMaxMetadetectBands) + " bands");
@@ -449,14 +577,33 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
   if (options.shards < 1 || options.shard < 0 || options.shard >= options.shards)
     throw io::ConfigError("--shard " + std::to_string(options.shard) + "/" + std::to_string(options.shards) +
                           ": must be I/N with 0 <= I < N");
-  for (const std::string& in : options.inputs)
+  const std::vector<std::string> bands = metadetect_bands(options);
+  // Every file the run reads: the inputs (each image path expanded per band, scene by scene), then
+  // the PSFEx models (one per band).
+  CellSource::Images images;
+  std::vector<std::string> files;
+  if (options.tile) {
+    files = options.inputs;
+  } else {
+    const std::vector<std::string> names = bands.empty() ? std::vector<std::string>{""} : bands;
+    for (const std::string& in : options.inputs) {
+      images.names.push_back(in);
+      images.files.emplace_back();
+      for (const std::string& b : names) images.files.back().push_back(expand_band(in, b));
+      files.insert(files.end(), images.files.back().begin(), images.files.back().end());
+    }
+    if (!options.psfex.empty())
+      for (const std::string& b : names) images.psfex.push_back(expand_band(options.psfex, b));
+  }
+  for (const std::string& in : files)
     if (io::same_file(in, options.output)) throw io::ConfigError("the output '" + options.output + "' is the input");
+  for (const std::string& p : images.psfex)
+    if (io::same_file(p, options.output)) throw io::ConfigError("the output '" + options.output + "' is --psfex");
   const io::OutputLock lock = io::OutputLock::acquire(options.output);
   if (!options.resume) io::refuse_to_replace(options.output, options.overwrite);
 
-  const std::vector<std::string> bands = metadetect_bands(options);
   CellSource source = options.tile ? CellSource(CellSource::Tile{options.inputs}, options.metadetect)
-                                   : CellSource(options.inputs, options.metadetect);
+                                   : CellSource(images, options.metadetect);
   io::MetadetectWriterOptions wo;
   wo.path = options.output;
   wo.bands = bands;
@@ -473,12 +620,19 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
     wo.header.emplace_back(key, value);
     fingerprint += key + "=" + value + "\n";
   }
-  for (std::size_t i = 0; i < options.inputs.size(); ++i) {
-    const io::FileDigest d = io::digest_file(options.inputs[i]);
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    const io::FileDigest d = io::digest_file(files[i]);
     const std::string n = std::to_string(i + 1);
-    wo.header.emplace_back("INPUT" + n, options.inputs[i]);
+    wo.header.emplace_back("INPUT" + n, files[i]);
     wo.header.emplace_back("DIGEST" + n, d.text());
-    fingerprint += "input " + options.inputs[i] + " " + d.text() + "\n";
+    fingerprint += "input " + files[i] + " " + d.text() + "\n";
+  }
+  for (std::size_t i = 0; i < images.psfex.size(); ++i) {
+    const io::FileDigest d = io::digest_file(images.psfex[i]);
+    const std::string n = std::to_string(i + 1);
+    wo.header.emplace_back("PSFEX" + n, images.psfex[i]);
+    wo.header.emplace_back("PSFEXD" + n, d.text());
+    fingerprint += "psfex " + images.psfex[i] + " " + d.text() + "\n";
   }
   wo.header.emplace_back("NCELLS", std::to_string(source.total_objects()));
   const long long total = source.total_objects();

@@ -1,4 +1,4 @@
-// A metadetection run (`stampede metadetect`, Python `stampede.metadetect_files`): image files cut
+// A metadetection run (`stampede metadetect`): image files cut
 // into cells (engine/metadetect/cell_layout), each cell measured by a CellMeasurer on the pipeline's
 // parallel stage, the rows written in cell order by a MetadetectWriter. The pipeline's batch is a
 // few cells; each cell yields a variable number of rows (the batch's extension carries them).
@@ -17,15 +17,23 @@
 namespace stampede::app {
 
 struct MetadetectRunOptions {
-  std::vector<std::string> inputs;  // image files (io/cell_image_reader), or with `tile` one cell tile
+  // Image files (io/cell_image_reader), or with `tile` a cell tile per band. With several bands an
+  // image path is a template: each `{band}` in it stands for the band's name (scene_{band}.fits:
+  // scene_g.fits, scene_r.fits), the bands' images of one scene the same size and pixel scale.
+  std::vector<std::string> inputs;
   // inputs[0] is a cell tile (MEDS, DES Y6's "pizza slices"): each object_data row a cell, cutout 0
   // its coadd with weight (and bmask) cutouts and its PSF cutout; x, y are the tile's pixels
   // (orig_start_row/col + the cell's); --cell-size is the tile's box size.
   bool tile = false;
   // With several tiles (`--meds g.fits --meds r.fits --bands g,r`): a tile per band, in this order
   // (empty: b0, b1, ...); the table gains flux_<band> and snr_<band>. One tile with a name: its
-  // band's columns. Image files are one band.
+  // band's columns. Image files: the names the inputs' `{band}` stands for (empty: one band, no
+  // `{band}`; one name: its columns, `{band}` optional).
   std::vector<std::string> bands;
+  // Image files only: a PSFEx model (a `{band}` template with several bands) of every input image;
+  // each cell's PSF is the model at the cell's centre (engine/metadetect/cell_layout's
+  // cell_psfex_position), and the files' PSF HDUs are neither needed nor read. Empty: the PSF HDUs.
+  std::string psfex;
   std::string output;
   MetadetectOptions metadetect;
   int threads = 0;     // 0: all cores
@@ -54,8 +62,9 @@ struct MetadetectRunSummary {
 };
 
 // The run's band names (empty: one band, no band columns), checked: one per tile, distinct
-// whatever their case, column-name characters, at most kMaxMetadetectBands; throws
-// io::ConfigError naming the option.
+// whatever their case, column-name characters, at most kMaxMetadetectBands; image paths (and
+// --psfex) that are templates exactly when several bands are named, no file a band of itself;
+// throws io::ConfigError naming the option.
 std::vector<std::string> metadetect_bands(const MetadetectRunOptions& options);
 
 // An image in memory (Python's numpy arrays) cut into cells and measured on `threads` threads (0:
@@ -63,6 +72,9 @@ std::vector<std::string> metadetect_bands(const MetadetectRunOptions& options);
 // numbered from 0). Throws io::ConfigError for bad options or an image smaller than a cell.
 std::vector<MetadetectRow> metadetect_image(const io::CellImage& image, const MetadetectOptions& options, int threads,
                                             long long* cells_failed = nullptr);
+
+// `path` with each `{band}` replaced by `band`.
+std::string expand_band(const std::string& path, const std::string& band);
 
 // Throws stampede::Error subclasses (io::FitsError, io::CatalogError, ConfigError) naming the file,
 // HDU, key or option.

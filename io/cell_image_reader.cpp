@@ -16,7 +16,7 @@ CellImageShape primary_shape(FitsFile& f) {
   f.move_to(0);
   if (f.hdu_kind() != FitsFile::HduKind::kImage) fail(f, "HDU 0 must hold the image (a 2-D image HDU)");
   const FitsFile::ImageShape s = f.image_shape();
-  return {s.nx, s.ny};
+  return {s.nx, s.ny, 0.0};
 }
 
 // Arcsec per pixel: SCALE, else the WCS's sqrt|det CD| (or |CDELT1| with |CDELT2| equal).
@@ -71,10 +71,12 @@ void apply_cell_masks(std::span<const double> bmask, CellImage* image) {
 
 CellImageShape read_cell_image_shape(const std::string& path) {
   FitsFile f = FitsFile::open_read(path);
-  return primary_shape(f);
+  CellImageShape shape = primary_shape(f);
+  shape.pixel_scale = pixel_scale(f);
+  return shape;
 }
 
-CellImage read_cell_image(const std::string& path) {
+CellImage read_cell_image(const std::string& path, bool with_psf) {
   FitsFile f = FitsFile::open_read(path);
   CellImage out;
   const CellImageShape shape = primary_shape(f);
@@ -93,6 +95,7 @@ CellImage read_cell_image(const std::string& path) {
   } catch (const std::invalid_argument& e) {
     fail(f, e.what());
   }
+  if (!with_psf) return out;
   if (!f.move_to_if_present("PSF")) fail(f, "no PSF HDU (a centred PSF image at the image's pixel scale)");
   if (auto scale = f.read_key_double("SCALE"); scale && std::abs(*scale / out.pixel_scale - 1) > 1e-6) {
     std::ostringstream m;

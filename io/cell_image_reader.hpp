@@ -19,6 +19,7 @@ namespace stampede::io {
 
 struct CellImageShape {
   long width = 0, height = 0;
+  double pixel_scale = 0;  // arcsec per pixel
 };
 
 struct CellImage {
@@ -26,7 +27,7 @@ struct CellImage {
   double pixel_scale = 0;  // arcsec per pixel
   std::vector<double> pixels, weight;  // width x height, row-major; weight 0 masks
   std::vector<double> noise;           // the NOISE plane (0 where masked); empty: none
-  std::shared_ptr<const PsfImage> psf;
+  std::shared_ptr<const PsfImage> psf;  // null when read without it
   long long masked = 0;  // pixels masked (weight 0, BMASK, non-finite)
 };
 
@@ -35,9 +36,11 @@ struct CellImage {
 // its weight, value and noise become 0, and `masked` counts it. Throws std::invalid_argument for a negative weight.
 void apply_cell_masks(std::span<const double> bmask, CellImage* image);
 
-// HDU 0's size alone (cheap: the run lays out its cells before reading pixels).
+// HDU 0's size and pixel scale alone (cheap: the run lays out its cells, and checks that several
+// bands' images match, before reading pixels).
 CellImageShape read_cell_image_shape(const std::string& path);
 
-CellImage read_cell_image(const std::string& path);
+// with_psf false: the PSF HDU is neither required nor read (a PSFEx model gives the PSF).
+CellImage read_cell_image(const std::string& path, bool with_psf = true);
 
 }  // namespace stampede::io

@@ -25,6 +25,7 @@ void print_help() {
   std::printf(
       "usage: stampede metadetect IMAGE.fits [IMAGE.fits ...] -o OUT.fits [options]\n"
       "       stampede metadetect --input-list LIST -o OUT.fits [options]\n"
+      "       stampede metadetect SCENE_{band}.fits ... --bands g,r,... -o OUT.fits [options]\n"
       "       stampede metadetect --meds CELLS_MEDS.fits -o OUT.fits [options]\n"
       "       stampede metadetect --meds G.fits --meds R.fits ... [--bands g,r,...] -o OUT.fits [options]\n"
       "\n"
@@ -37,18 +38,22 @@ void print_help() {
       "\n"
       "input: IMAGE.fits holds the image in HDU 0 with its pixel scale (keyword SCALE, arcsec/px, or\n"
       "a WCS), and extensions WEIGHT (inverse variance, required), BMASK (optional, non-zero masks) and\n"
-      "PSF (a centred PSF image at the image's pixel scale, required). `stampede sim cells` writes such\n"
-      "files. LIST: one image path per line (# comments). --meds: a cell tile (DES Y6's \"pizza slices\":\n"
-      "a MEDS file whose object_data rows are cells, cutout 0 each cell's coadd with weight, bmask and\n"
-      "psf cutouts; `sim cells --tile` writes one); x, y are then the tile's pixels. A NOISE HDU or\n"
-      "noise cutouts (a realisation of the image's noise) are fixnoise's field; without, one is drawn\n"
-      "from the weight.\n"
+      "PSF (a centred PSF image at the image's pixel scale, required unless --psfex). `stampede sim\n"
+      "cells` writes such files. LIST: one image path per line (# comments). --meds: a cell tile (DES\n"
+      "Y6's \"pizza slices\": a MEDS file whose object_data rows are cells, cutout 0 each cell's coadd\n"
+      "with weight, bmask and psf cutouts; `sim cells --tile` writes one); x, y are then the tile's\n"
+      "pixels. A NOISE HDU or noise cutouts (a realisation of the image's noise) are fixnoise's field;\n"
+      "without, one is drawn from the weight.\n"
       "\n"
       "several bands: --meds once per band, the tiles holding the same cells (same rows, boxes and\n"
       "places), --bands naming them in that order (default b0, b1, ...; at most 8, distinct in more\n"
-      "than case). Each band's metacal images (one reconvolution PSF for all), detection on their sum\n"
-      "weighted by each band's inverse noise variance, wmom over every band's stamp together (weighted\n"
-      "by the same), and columns flux_B snr_B per band (its stamp alone under the same weight).\n"
+      "than case). Or image files: --bands names the bands and each image path (and --input-list\n"
+      "line, and --psfex) is a template whose {band} is the band's name: scene_{band}.fits --bands g,r\n"
+      "reads scene_g.fits and scene_r.fits, a scene's bands of one size and pixel scale, each with its\n"
+      "own WEIGHT, BMASK, NOISE and PSF (`sim cells --bands g,r` writes DIR/{band}/cell_KKKK.fits).\n"
+      "Each band's metacal images (one reconvolution PSF for all), detection on their sum weighted by\n"
+      "each band's inverse noise variance, wmom over every band's stamp together (weighted by the\n"
+      "same), and columns flux_B snr_B per band (its stamp alone under the same weight).\n"
       "\n"
       "output: OUT.fits, table METADETECT, a row per (cell, shear type, detection): cell shear_type id\n"
       "x y (0-based pixels of the input image) u v (arcsec) e1 e2 e1_err e2_err T (arcsec^2) T_ratio\n"
@@ -59,6 +64,9 @@ void print_help() {
       "options:\n"
       "  -o, --output PATH          output table (required)\n"
       "  --input-list LIST          read the image paths from LIST (after any given as arguments)\n"
+      "  --psfex MODEL.psf          image files: each cell's PSF is this PSFEx model at the cell's centre\n"
+      "                             (X_IMAGE, Y_IMAGE of the image's pixels), not the PSF HDU (which may\n"
+      "                             be absent); one model for every image; PSF_SAMP 1/integer\n"
       "  --cell-size N              cell side, pixels (%d)\n"
       "  --cell-buffer N            pixels at each cell edge whose detections are not the cell's (%d)\n"
       "  --step S                   metacal shear step (%g)\n"
@@ -136,6 +144,8 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
         if (comma == std::string::npos) break;
         begin = comma + 1;
       }
+    } else if (s == "--psfex") {
+      o.psfex = value();
     } else if (s == "--input-list") {
       for (std::string& p : read_list(value())) o.inputs.push_back(std::move(p));
     } else if (s == "--cell-size") {
@@ -197,8 +207,6 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
   if (o.inputs.empty() && meds.empty()) throw std::invalid_argument("no input image (see stampede metadetect --help)");
   if (o.tile && !o.inputs.empty())
     throw std::invalid_argument("--meds takes cell tiles and no image files (see stampede metadetect --help)");
-  if (!o.bands.empty() && !o.tile)
-    throw std::invalid_argument("--bands names the bands of --meds cell tiles, one tile per band (see stampede metadetect --help)");
   if (o.tile) o.inputs = meds;
   if (o.resume && o.overwrite) throw std::invalid_argument("--resume and --overwrite exclude each other");
   return -1;

@@ -47,4 +47,9 @@ std::vector<CellPlacement> cell_layout(long width, long height, int size, int bu
   return out;
 }
 
+PsfexPosition cell_psfex_position(const CellPlacement& place, int size) {
+  const double centre = 0.5 * (size - 1);
+  return {place.x0 + centre + 1, place.y0 + centre + 1};
+}
+
 }  // namespace stampede

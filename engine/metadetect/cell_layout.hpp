@@ -20,4 +20,12 @@ struct CellPlacement {
 // the cell has no inner region (size <= 2 buffer).
 std::vector<CellPlacement> cell_layout(long width, long height, int size, int buffer, std::string* error);
 
+// Where a PSFEx model of the image is evaluated for a cell of `size` pixels: the cell's centre,
+// origin + (size - 1) / 2 in 0-based pixel centres, as SExtractor's 1-based X_IMAGE, Y_IMAGE (the
+// model's polynomial variables), so + 1.
+struct PsfexPosition {
+  double x_image = 0, y_image = 0;
+};
+PsfexPosition cell_psfex_position(const CellPlacement& place, int size);
+
 }  // namespace stampede

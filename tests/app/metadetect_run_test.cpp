@@ -2,15 +2,20 @@
 // a stopped run resumes to the uninterrupted table, an image larger than a cell keeps each galaxy
 // once, bad input is a clear error naming the file and HDU, or a flagged cell; several bands'
 // tiles give per-band columns (the same for any thread count, shards merging to the whole), bands
-// that do not match are refused by name, and the input's NOISE plane is fixnoise's field.
+// that do not match are refused by name, and the input's NOISE plane is fixnoise's field. Image
+// files of several bands ({band} templates) measure as the same bands' tiles, files that do not
+// match are refused by name; a PSFEx model (--psfex) of the PSF HDU's PSF measures as the PSF HDU,
+// a varying one gives each cell its own PSF, and a bad one is refused by name.
 #include "app/metadetect_run.hpp"
 
+#include <fitsio.h>
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -23,6 +28,9 @@
 #include "engine/metadetect/metadetect_row.hpp"
 #include "engine/sim/cell_sim.hpp"
 #include "io/durable_file.hpp"
+#include "io/fits_error.hpp"
+#include "io/meds_writer.hpp"
+#include "io/psfex_file.hpp"
 #include "io/fits_file.hpp"
 #include "io/metadetect_reader.hpp"
 #include "support/metadetect_shards.hpp"
@@ -168,11 +176,11 @@ TEST(MetadetectRun, CellTileMeasuresAsItsCellImages) {
 
 // A cell image written by hand: `extnames` of WEIGHT, BMASK, PSF to include; PSF SCALE psf_scale.
 std::string write_image(const std::string& path, int size, const std::vector<std::string>& extnames, double weight = 1.0,
-                        double psf_scale = 0.25, double pixel = 0.0) {
+                        double psf_scale = 0.25, double pixel = 0.0, double scale = 0.25) {
   io::FitsFile f = io::FitsFile::create(path, true);
   std::vector<double> image(static_cast<std::size_t>(size) * size, pixel);
   f.write_image(size, size, image);
-  f.write_key("SCALE", 0.25, "arcsec per pixel");
+  f.write_key("SCALE", scale, "arcsec per pixel");
   for (const std::string& e : extnames) {
     if (e == "PSF") {
       std::vector<double> psf(25 * 25);
@@ -308,8 +316,8 @@ TEST(MetadetectRun, BandsThatDoNotMatchTheTilesAreRefusedByName) {
   EXPECT_NE(chars.find("band name 'r-band' is not 1..16 letters"), std::string::npos) << chars;
   const std::string twice = error_of({g, g}, {"g", "r"});
   EXPECT_NE(twice.find("is given twice"), std::string::npos) << twice;
-  const std::string images = error_of({scratch.path("sims/g/cell_0000.fits")}, {"g"}, false);
-  EXPECT_NE(images.find("--bands names the bands of --meds"), std::string::npos) << images;
+  const std::string images = error_of({scratch.path("sims/g/cell_0000.fits")}, {"g", "r"}, false);
+  EXPECT_NE(images.find("holds no '{band}'"), std::string::npos) << images;
   const std::string cells = error_of({g, scratch.path("three/r/cells_meds.fits")}, {"g", "r"});
   EXPECT_NE(cells.find("three/r/cells_meds.fits: 3 cells"), std::string::npos) << cells;
   EXPECT_NE(cells.find("the same cells"), std::string::npos) << cells;
@@ -337,6 +345,242 @@ TEST(MetadetectRun, TheInputsNoisePlaneIsFixnoisesFieldUnlessTurnedOff) {
   io::FitsFile f = io::FitsFile::open_read(scratch.path("drawn.fits"));
   f.move_to("METADETECT");
   EXPECT_EQ(f.read_key_string("NOISEPLN").value_or(""), "F");
+}
+
+// Two bands of image files, read through a {band} template (DIR/{band}/cell_KKKK.fits, as `sim
+// cells --bands g,r` writes them), measure bit for bit as the same scenes' band tiles (x, y in the
+// tile's pixels aside), the same for one and two threads.
+TEST(MetadetectRun, BandImagesMeasureAsTheirBandTiles) {
+  testing::ScratchDir scratch("stampede_mdet_band_images_");
+  sim_band_tiles(scratch.path("sims"), 3);
+  MetadetectRunOptions o;
+  for (int k = 0; k < 3; ++k) o.inputs.push_back(scratch.path("sims/{band}/cell_000" + std::to_string(k) + ".fits"));
+  o.bands = {"g", "r"};
+  expect_one_table_for_one_and_two_threads(o, scratch, 3);
+  o.inputs = {scratch.path("sims/g/cells_meds.fits"), scratch.path("sims/r/cells_meds.fits")};
+  o.tile = true;
+  o.output = scratch.path("tile.fits");
+  EXPECT_EQ(run_metadetect(o).cells, 3);
+  io::FitsFile a = io::FitsFile::open_read(scratch.path("one.fits")), b = io::FitsFile::open_read(o.output);
+  a.move_to("METADETECT"), b.move_to("METADETECT");
+  EXPECT_EQ(a.read_key_string("BANDS").value_or(""), "g,r");
+  EXPECT_EQ(a.read_key_string("INPUT2").value_or(""), scratch.path("sims/r/cell_0000.fits"));
+  const std::vector<double> flux_g = a.read_column("flux_g");
+  ASSERT_GT(flux_g.size(), 3u * 5 * 40);
+  for (const char* c : {"cell", "e1", "e2", "T", "T_ratio", "psf_T", "snr", "flux", "flux_g", "flux_r", "snr_g", "snr_r", "flags"})
+    EXPECT_EQ(a.read_column(c), b.read_column(c)) << c;
+  const std::vector<double> xa = a.read_column("x"), xb = b.read_column("x"), cell = a.read_column("cell");
+  for (std::size_t i = 0; i < xa.size(); ++i)
+    EXPECT_NEAR(xb[i] - xa[i], (static_cast<int>(cell[i]) % 2) * (251 - 2 * 34), 1e-9);
+}
+
+TEST(MetadetectRun, BandImagesThatDoNotMatchAreRefusedByName) {
+  testing::ScratchDir scratch("stampede_mdet_band_image_errors_");
+  std::filesystem::create_directories(scratch.path("g")), std::filesystem::create_directories(scratch.path("r"));
+  auto error_of = [&](std::vector<std::string> inputs, std::vector<std::string> bands, const std::string& psfex = "") {
+    MetadetectRunOptions o;
+    o.inputs = std::move(inputs);
+    o.bands = std::move(bands);
+    o.psfex = psfex;
+    o.output = scratch.path("out.fits");
+    o.overwrite = true;
+    try {
+      run_metadetect(o);
+    } catch (const io::ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  write_image(scratch.path("g/a.fits"), 251, {"WEIGHT", "PSF"});
+  write_image(scratch.path("r/a.fits"), 260, {"WEIGHT", "PSF"});
+  write_image(scratch.path("g/b.fits"), 251, {"WEIGHT", "PSF"});
+  write_image(scratch.path("r/b.fits"), 251, {"WEIGHT", "PSF"}, 1.0, 0.2, 0.0, 0.2);
+  write_image(scratch.path("one.fits"), 251, {"WEIGHT", "PSF"});
+  const std::string size = error_of({scratch.path("{band}/a.fits")}, {"g", "r"});
+  EXPECT_NE(size.find(scratch.path("r/a.fits") + " is 260 x 260 pixels, " + scratch.path("g/a.fits") + " 251 x 251"),
+            std::string::npos) << size;
+  const std::string scale = error_of({scratch.path("{band}/b.fits")}, {"g", "r"});
+  EXPECT_NE(scale.find(scratch.path("r/b.fits") + "'s pixel scale 0.2 arcsec differs from " + scratch.path("g/b.fits") +
+                       "'s 0.25"), std::string::npos) << scale;
+  const std::string no_field = error_of({scratch.path("one.fits")}, {"g", "r"});
+  EXPECT_NE(no_field.find("--bands names 2 bands but image path '" + scratch.path("one.fits") + "' holds no '{band}'"),
+            std::string::npos) << no_field;
+  const std::string no_bands = error_of({scratch.path("{band}/b.fits")}, {});
+  EXPECT_NE(no_bands.find("holds '{band}' but no --bands names the bands"), std::string::npos) << no_bands;
+  const std::string psfex = error_of({scratch.path("{band}/b.fits")}, {"g", "r"}, scratch.path("model.psf"));
+  EXPECT_NE(psfex.find("--psfex '" + scratch.path("model.psf") + "' holds no '{band}'"), std::string::npos) << psfex;
+  const std::string names = error_of({scratch.path("{band}/b.fits")}, {"g", "G"});
+  EXPECT_NE(names.find("--bands: bands 'g' and 'G' differ only in case"), std::string::npos) << names;
+  const std::string twice = error_of({scratch.path("{band}/../one.fits")}, {"g", "r"});
+  EXPECT_NE(twice.find("is bands g and r of"), std::string::npos) << twice;
+  // One band named, no template: its columns.
+  MetadetectRunOptions o;
+  o.inputs = sim_cells(scratch.path("sims"), 1);
+  o.bands = {"i"};
+  o.output = scratch.path("named.fits");
+  run_metadetect(o);
+  io::FitsFile f = io::FitsFile::open_read(o.output);
+  f.move_to("METADETECT");
+  EXPECT_EQ(f.read_key_string("BANDS").value_or(""), "i");
+  EXPECT_EQ(f.read_column("flux_i"), f.read_column("flux"));
+}
+
+// A PSFEx model file (PSF_DATA, column PSF_MASK) of `degree` with `terms` basis images of n x n.
+void write_psfex(const std::string& path, int degree, int n, const std::vector<float>& cube, double zero, double scale,
+                 double sampling = 1.0) {
+  fitsfile* f = nullptr;
+  int status = 0;
+  fits_create_file(&f, ("!" + path).c_str(), &status);
+  char* ttype[] = {const_cast<char*>("PSF_MASK")};
+  const std::string form = std::to_string(cube.size()) + "E";
+  char* tform[] = {const_cast<char*>(form.c_str())};
+  fits_create_tbl(f, BINARY_TBL, 1, 1, ttype, tform, nullptr, "PSF_DATA", &status);
+  auto key_long = [&](const char* k, long v) { fits_update_key(f, TLONG, k, &v, nullptr, &status); };
+  auto key_double = [&](const char* k, double v) { fits_update_key(f, TDOUBLE, k, &v, nullptr, &status); };
+  auto key_string = [&](const char* k, const char* v) { fits_update_key(f, TSTRING, k, const_cast<char*>(v), nullptr, &status); };
+  key_long("POLNAXIS", 2), key_long("POLNGRP", 1), key_long("POLDEG1", degree), key_long("PSFNAXIS", 3);
+  key_string("POLNAME1", "X_IMAGE"), key_string("POLNAME2", "Y_IMAGE");
+  key_double("POLZERO1", zero), key_double("POLZERO2", zero), key_double("POLSCAL1", scale), key_double("POLSCAL2", scale);
+  key_double("PSF_SAMP", sampling);
+  key_long("PSFAXIS1", n), key_long("PSFAXIS2", n), key_long("PSFAXIS3", static_cast<long>(cube.size()) / (n * n));
+  fits_write_col(f, TFLOAT, 1, 1, 1, static_cast<LONGLONG>(cube.size()), const_cast<float*>(cube.data()), &status);
+  fits_close_file(f, &status);
+  ASSERT_EQ(status, 0) << path;
+}
+
+// A round Gaussian of `sigma` pixels on n x n samples about the middle one.
+std::vector<float> gaussian(int n, double sigma) {
+  std::vector<float> out(static_cast<std::size_t>(n) * n);
+  const int c = n / 2;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x)
+      out[static_cast<std::size_t>(y) * n + x] =
+          static_cast<float>(std::exp(-((x - c) * (x - c) + (y - c) * (y - c)) / (2 * sigma * sigma)));
+  return out;
+}
+
+// A constant PSFEx model of the cells' PSF HDU (`stampede sim meds` writes such models) measures as
+// the PSF HDU: the same detections, e within 1e-9 (the model's samples are the HDU's float32 ones,
+// normalised once more); and the PSF HDU is then not needed.
+TEST(MetadetectRun, APsfexModelOfThePsfHduMeasuresAsThePsfHdu) {
+  testing::ScratchDir scratch("stampede_mdet_psfex_");
+  MetadetectRunOptions o;
+  o.inputs = sim_cells(scratch.path("sims"), 2);
+  o.output = scratch.path("hdu.fits");
+  run_metadetect(o);
+  io::FitsFile cell = io::FitsFile::open_read(o.inputs[0]);
+  cell.move_to("PSF");
+  const int n = static_cast<int>(cell.image_shape().nx);
+  io::write_psfex_constant(scratch.path("cells.psf"), n, n, cell.read_image(), 0.9);
+  o.psfex = scratch.path("cells.psf");
+  o.output = scratch.path("psfex.fits");
+  const MetadetectRunSummary r = run_metadetect(o);
+  EXPECT_EQ(r.cells_failed, 0);
+  const std::vector<MetadetectRow> hdu = io::read_metadetect_rows(scratch.path("hdu.fits")),
+                                   psfex = io::read_metadetect_rows(o.output);
+  ASSERT_EQ(hdu.size(), psfex.size());
+  ASSERT_EQ(hdu.size(), 2u * 5 * 49);
+  double worst_x = 0, worst_e = 0;
+  for (std::size_t i = 0; i < hdu.size(); ++i) {
+    worst_x = std::max(worst_x, std::abs(hdu[i].x - psfex[i].x));
+    worst_e = std::max({worst_e, std::abs(hdu[i].e1 - psfex[i].e1), std::abs(hdu[i].e2 - psfex[i].e2)});
+    EXPECT_NEAR(hdu[i].x, psfex[i].x, 1e-9) << i;
+    EXPECT_EQ(hdu[i].flags, psfex[i].flags) << i;
+    EXPECT_NEAR(hdu[i].e1, psfex[i].e1, 1e-9) << i;
+    EXPECT_NEAR(hdu[i].e2, psfex[i].e2, 1e-9) << i;
+    EXPECT_NEAR(hdu[i].psf_t, psfex[i].psf_t, 1e-9 * hdu[i].psf_t) << i;
+  }
+  std::printf("PSFEx model against the PSF HDU: worst |dx| = %.1e px, |de| = %.1e\n", worst_x, worst_e);
+  io::FitsFile f = io::FitsFile::open_read(o.output);
+  f.move_to("METADETECT");
+  EXPECT_EQ(f.read_key_string("PSFEX1").value_or(""), o.psfex);
+  EXPECT_TRUE(f.read_key_string("PSFEXD1").has_value());
+  // An image without a PSF HDU runs with the model.
+  o.inputs = {write_image(scratch.path("nopsf.fits"), 251, {"WEIGHT"})};
+  o.output = scratch.path("nopsf_out.fits");
+  EXPECT_EQ(run_metadetect(o).cells, 1);
+}
+
+// A model whose width varies with X_IMAGE gives each cell the PSF at its centre: 2 x 2 cells of a
+// 400 px image (centres X_IMAGE 126 and 275), the reconvolution PSF (psf_T) the same for the cells
+// of one column and another in the other column, the right-hand column's that of a constant model
+// of the varying one at X_IMAGE 275; the rows are the same for one and two threads.
+TEST(MetadetectRun, AVaryingPsfexModelGivesEachCellItsPsf) {
+  testing::ScratchDir scratch("stampede_mdet_psfex_vary_");
+  CellSimOptions so;
+  so.size = 400;
+  so.grid = 12;
+  MetadetectRunOptions o;
+  o.inputs = sim_cells(scratch.path("sims"), 1, so);
+  const int n = 25;
+  // (1 - xs) / 2 narrow + (1 + xs) / 2 wide: positive for |xs| <= 1.
+  const std::vector<float> wide = gaussian(n, 2.4), narrow = gaussian(n, 1.6);
+  std::vector<float> cube;
+  for (int p = 0; p < n * n; ++p) cube.push_back(0.5f * (wide[p] + narrow[p]));
+  for (int p = 0; p < n * n; ++p) cube.push_back(0.5f * (wide[p] - narrow[p]));  // the x term
+  cube.resize(cube.size() + static_cast<std::size_t>(n) * n, 0.0f);              // no y term
+  write_psfex(scratch.path("vary.psf"), 1, n, cube, 200.5, 200);
+  o.psfex = scratch.path("vary.psf");
+  o.output = scratch.path("one.fits");
+  o.threads = 1;
+  o.cells_per_batch = 1;
+  const MetadetectRunSummary r = run_metadetect(o);
+  EXPECT_EQ(r.cells, 4);
+  EXPECT_EQ(r.cells_failed, 0);
+  o.output = scratch.path("two.fits");
+  o.threads = 2;
+  run_metadetect(o);
+  EXPECT_EQ(bytes(scratch.path("one.fits")), bytes(scratch.path("two.fits")));
+  double psf_t[4] = {NAN, NAN, NAN, NAN};
+  for (const MetadetectRow& row : io::read_metadetect_rows(scratch.path("one.fits"))) {
+    if (row.flags != 0) continue;
+    double& t = psf_t[row.cell];
+    if (std::isnan(t)) t = row.psf_t;
+    EXPECT_EQ(row.psf_t, t) << "cell " << row.cell;  // one PSF a cell
+  }
+  EXPECT_EQ(psf_t[0], psf_t[2]);
+  EXPECT_EQ(psf_t[1], psf_t[3]);
+  // The reconvolution PSF follows the PSF's Fourier tail (the narrow part's), not simply its width:
+  // measured 0.5 % apart.
+  EXPECT_GT(std::abs(psf_t[1] / psf_t[0] - 1), 1e-3);
+  std::vector<double> at_275(static_cast<std::size_t>(n) * n);
+  std::string why;
+  ASSERT_TRUE(io::read_psfex_model(o.psfex).evaluate(275, 126, at_275, &why)) << why;
+  io::write_psfex_constant(scratch.path("at_275.psf"), n, n, at_275, 0.9);
+  o.psfex = scratch.path("at_275.psf");
+  o.output = scratch.path("constant.fits");
+  run_metadetect(o);
+  for (const MetadetectRow& row : io::read_metadetect_rows(o.output)) {
+    if (row.flags != 0) continue;
+    if (row.cell % 2 == 1) EXPECT_NEAR(row.psf_t, psf_t[1], 1e-6 * psf_t[1]) << "cell " << row.cell;  // float32 samples
+    else EXPECT_NE(row.psf_t, psf_t[0]) << "cell " << row.cell;
+  }
+}
+
+TEST(MetadetectRun, ABadPsfexModelIsRefusedByName) {
+  testing::ScratchDir scratch("stampede_mdet_psfex_bad_");
+  MetadetectRunOptions o;
+  o.inputs = {write_image(scratch.path("cell.fits"), 251, {"WEIGHT"})};
+  o.output = scratch.path("out.fits");
+  auto error_of = [&](const std::string& psfex) {
+    o.psfex = psfex;
+    try {
+      run_metadetect(o);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string missing = error_of(scratch.path("missing.psf"));
+  EXPECT_NE(missing.find("--psfex"), std::string::npos) << missing;
+  EXPECT_NE(missing.find(scratch.path("missing.psf")), std::string::npos) << missing;
+  const std::string not_psfex = error_of(o.inputs[0]);
+  EXPECT_NE(not_psfex.find(o.inputs[0] + ": not a PSFEx model"), std::string::npos) << not_psfex;
+  write_psfex(scratch.path("coarse.psf"), 0, 13, gaussian(13, 1.0), 0, 1, 2.0);
+  const std::string coarse = error_of(scratch.path("coarse.psf"));
+  EXPECT_NE(coarse.find("--psfex " + scratch.path("coarse.psf") + ": PSF_SAMP = 2"), std::string::npos) << coarse;
+  EXPECT_NE(error_of("").find("no PSF HDU"), std::string::npos);  // no model: the PSF HDU is required again
+  EXPECT_FALSE(std::filesystem::exists(o.output));
 }
 
 }  // namespace
