@@ -207,6 +207,7 @@ def metadetect_cuts(snr, t_ratio, cut_snr, cut_t_ratio, per_cell, flag_bars, pat
         lo, hi = per_cell.min(), per_cell.max()
         ax.hist(per_cell, bins=np.arange(lo - 0.5, hi + 1.5, max(1, math.ceil((hi - lo + 1) / 40))),
                 color=COLOURS[0], alpha=0.6)
+        ax.set_xlim(min(lo - 2.5, 0.5 * (lo + hi) - 5), max(hi + 2.5, 0.5 * (lo + hi) + 5))  # whole numbers
     ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
     ax.set_xlabel("noshear detections per cell")
     ax.set_ylabel("cells")
@@ -216,6 +217,7 @@ def metadetect_cuts(snr, t_ratio, cut_snr, cut_t_ratio, per_cell, flag_bars, pat
         ax.invert_yaxis()
     else:
         ax.text(0.5, 0.5, "no flags set", ha="center", va="center", transform=ax.transAxes)
+        ax.set_xticks([])
         ax.set_yticks([])
     ax.set_xlabel("detections with the flag (all shear types)")
     save(fig, path)
