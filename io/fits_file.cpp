@@ -963,27 +963,58 @@ void FitsFile::read_rows(const std::string& name, long long first_row, std::span
   if (status != 0) fail_status(status, "cannot read column '" + name + "'");
 }
 
-std::string FitsFile::read_string(const std::string& name, long long row) {
+int FitsFile::string_column(const std::string& name, long long* chars) {
   require_table();
   const auto col = find_column(name);
   if (!col) fail("no column '" + name + "'");
-  fitsfile* f = as_fits(handle());
   int type = 0, status = 0;
   LONGLONG repeat = 0, width = 0;
-  fits_get_coltypell(f, *col, &type, &repeat, &width, &status);
+  fits_get_coltypell(as_fits(handle()), *col, &type, &repeat, &width, &status);
   if (status != 0) fail_status(status, "cannot read the type of column '" + name + "'");
   if (type != TSTRING) fail("column '" + name + "' is not a character column");
-  require_rows(name, row, 1, 1);
   // CFITSIO writes the string and its terminator: repeat characters at most.
   if (repeat > 1 << 20) fail("column '" + name + "' holds strings of " + std::to_string(repeat) + " characters");
-  std::string buffer(static_cast<std::size_t>(repeat) + 1, '\0');
-  char* value = buffer.data();
-  int anynul = 0;
-  fits_read_col(f, TSTRING, *col, row + 1, 1, 1, nullptr, &value, &anynul, &status);
+  *chars = repeat;
+  return *col;
+}
+
+bool FitsFile::is_string_column(const std::string& name) {
+  require_table();
+  const auto col = find_column(name);
+  if (!col) fail("no column '" + name + "'");
+  int type = 0, status = 0;
+  LONGLONG repeat = 0, width = 0;
+  fits_get_coltypell(as_fits(handle()), *col, &type, &repeat, &width, &status);
+  if (status != 0) fail_status(status, "cannot read the type of column '" + name + "'");
+  return type == TSTRING;
+}
+
+std::string FitsFile::read_string(const std::string& name, long long row) {
+  std::string out;
+  read_string_rows(name, row, std::span<std::string>(&out, 1));
+  return out;
+}
+
+void FitsFile::read_string_rows(const std::string& name, long long first_row, std::span<std::string> out) {
+  long long chars = 0;
+  const int col = string_column(name, &chars);
+  require_rows(name, first_row, out.size(), 1);
+  if (out.empty()) return;
+  // One read of every row: a buffer of (chars + 1) bytes per row, CFITSIO filling each in turn.
+  const auto stride = static_cast<std::size_t>(chars) + 1;
+  std::vector<char> buffer(stride * out.size(), '\0');
+  std::vector<char*> values(out.size());
+  for (std::size_t i = 0; i < out.size(); ++i) values[i] = buffer.data() + i * stride;
+  int anynul = 0, status = 0;
+  fits_read_col(as_fits(handle()), TSTRING, col, first_row + 1, 1, static_cast<LONGLONG>(out.size()), nullptr,
+                values.data(), &anynul, &status);
   if (status != 0) fail_status(status, "cannot read column '" + name + "'");
-  buffer.resize(std::strlen(buffer.c_str()));
-  while (!buffer.empty() && buffer.back() == ' ') buffer.pop_back();
-  return buffer;
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const void* end = std::memchr(values[i], '\0', stride);
+    std::string s(values[i], end ? static_cast<const char*>(end) - values[i] : static_cast<std::ptrdiff_t>(stride));
+    while (!s.empty() && s.back() == ' ') s.pop_back();
+    out[i] = std::move(s);
+  }
 }
 
 void FitsFile::write_table(const std::string& extname, const std::vector<OutputColumn>& columns) {

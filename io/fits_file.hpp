@@ -170,8 +170,12 @@ class FitsFile {
   long long column_repeat(const std::string& name);
   void read_vector_rows(const std::string& name, long long first_row, std::span<double> out);
   void read_vector_rows(const std::string& name, long long first_row, std::span<long long> out);
-  // Row `row` of a character column ('17A'), trailing blanks removed. Throws for other types.
+  // Whether a column is a character column ('17A'); throws for an absent one.
+  bool is_string_column(const std::string& name);
+  // Row `row` of a character column, trailing blanks removed. Throws for other types.
   std::string read_string(const std::string& name, long long row);
+  // Rows [first_row, first_row + out.size()) of a character column in one read, as read_string.
+  void read_string_rows(const std::string& name, long long first_row, std::span<std::string> out);
   // The nx x ny pixels whose lower-left pixel is (x_begin, y_begin), 0-based, row-major.
   void read_image_region(long x_begin, long y_begin, long nx, long ny, std::span<double> out);
   // Appends a binary table of scalar columns (all of one length) and makes it current. Integer
@@ -199,6 +203,8 @@ class FitsFile {
   // Column number of a scalar numeric column (throws otherwise); *nulval_if_integer is left
   // non-null for integer columns, whose TNULL values must read as NaN.
   int numeric_column(const std::string& name, void** nulval_if_integer, long long* repeat = nullptr);
+  // A character column's number, its characters per row in *chars; throws for other types.
+  int string_column(const std::string& name, long long* chars);
   // Rows of a numeric column as doubles (TNULL -> NaN for integer columns) or exact integers;
   // vector: any repeat (out holds whole rows), else a scalar column only.
   void read_rows(const std::string& name, long long first_row, std::span<double> out, bool vector);

@@ -30,8 +30,10 @@ MetadetectTable read_metadetect_table(const std::string& path) {
   t.snr = doubles("snr");
   t.t_ratio = doubles("T_ratio");
   t.shear_type.resize(static_cast<std::size_t>(n));
+  std::vector<std::string> names(static_cast<std::size_t>(n));
+  f.read_string_rows("shear_type", 0, names);
   for (long long i = 0; i < n; ++i) {
-    const std::string s = f.read_string("shear_type", i);
+    const std::string& s = names[static_cast<std::size_t>(i)];
     int type = -1;
     for (MetacalType m : kMetacalTypes)
       if (s == metacal_type_name(m)) type = static_cast<int>(m);

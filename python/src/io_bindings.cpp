@@ -221,13 +221,16 @@ void bind_io(py::module_& m) {
         const long long count = a.given("count") ? a.integer_in("count", 0, 0, LLONG_MAX) : -1;
         io::FitsFile f = open_at(path, hdu);
         long long rows = 0;
-        std::vector<char> integer(names.size());
+        std::vector<char> integer(names.size()), string(names.size());
         std::string where;
         {
           py::gil_scoped_release release;
           rows = f.table_rows();
           // Every column checked before any is read: an absent one is an error naming it at once.
-          for (std::size_t i = 0; i < names.size(); ++i) integer[i] = f.is_integer_column(names[i]);
+          for (std::size_t i = 0; i < names.size(); ++i) {
+            string[i] = f.is_string_column(names[i]);
+            if (!string[i]) integer[i] = f.is_integer_column(names[i]);
+          }
           where = f.describe();
         }
         if (first > rows || (count >= 0 && count > rows - first))
@@ -238,7 +241,9 @@ void bind_io(py::module_& m) {
         // Allocated here, with the GIL, and filled without it: no copy of a chunk's columns.
         std::vector<py::array> arrays;
         for (std::size_t i = 0; i < names.size(); ++i) {
-          if (integer[i]) {
+          if (string[i]) {
+            arrays.emplace_back();  // made below, from the strings read
+          } else if (integer[i]) {
             arrays.push_back(py::array_t<long long>(n));
           } else {
             arrays.push_back(py::array_t<double>(n));
@@ -247,6 +252,7 @@ void bind_io(py::module_& m) {
         std::vector<io::FitsFile::ColumnOutput> outputs;
         const auto size = static_cast<std::size_t>(n);
         for (std::size_t i = 0; i < names.size(); ++i) {
+          if (string[i]) continue;
           void* data = arrays[i].mutable_data();
           if (integer[i]) {
             outputs.push_back({names[i], std::span<long long>(static_cast<long long*>(data), size)});
@@ -254,20 +260,33 @@ void bind_io(py::module_& m) {
             outputs.push_back({names[i], std::span<double>(static_cast<double*>(data), size)});
           }
         }
+        std::vector<std::vector<std::string>> strings(names.size());
         {
           py::gil_scoped_release release;
-          f.read_columns_rows(first, outputs);  // all columns in one pass over the rows
+          if (!outputs.empty()) f.read_columns_rows(first, outputs);  // all columns in one pass over the rows
+          for (std::size_t i = 0; i < names.size(); ++i)
+            if (string[i]) {
+              strings[i].resize(size);
+              f.read_string_rows(names[i], first, strings[i]);
+            }
           f.close();
         }
+        for (std::size_t i = 0; i < names.size(); ++i)
+          if (string[i]) {
+            py::list values(size);
+            for (std::size_t k = 0; k < size; ++k) values[k] = text(strings[i][k]);
+            arrays[i] = py::module_::import("numpy").attr("array")(values, py::arg("dtype") = "U");
+          }
         py::dict out;
         for (std::size_t i = 0; i < names.size(); ++i) out[py::str(names[i])] = arrays[i];
         return out;
       },
       "read_table(path, hdu, columns, first_row=0, count=None)\n\nRows [first_row, first_row + count) (to the end "
-      "without count) of the named scalar numeric columns of a table HDU (an index or an EXTNAME), as a dict "
+      "without count) of the named scalar numeric or character columns of a table HDU (an index or an EXTNAME), as a dict "
       "{name: 1-D array}: int64 for integer columns (after TZERO: uint32 and int64 ids exact), float64 for real "
-      "ones. Names match case-insensitively. An absent HDU or column, "
-      "or one that is not scalar numeric (strings, logicals, vectors), is a stampede.FitsError naming the file, "
+      "ones, str (numpy 'U', trailing blanks removed) for character columns ('7A'). Names match "
+      "case-insensitively. An absent HDU or column, "
+      "or one of another kind (logicals, vectors), is a stampede.FitsError naming the file, "
       "HDU and column; rows beyond the table a ValueError. Read a large table in chunks of rows: only those rows "
       "are read.");
 }

@@ -487,6 +487,9 @@ TEST_F(FitsFileTmp, HduKindsColumnNamesAndIntegerColumns) {
     char* forms[] = {f0, f1, f2, f3, f4};
     fits_create_tbl(raw, BINARY_TBL, 2, 5, names, forms, nullptr, "MIXED", &status);
     fits_write_key_dbl(raw, "TSCAL2", 0.5, -3, "", &status);
+    char l0[] = "1p", l1[] = "noshear ";
+    char* labels[] = {l0, l1};
+    fits_write_col_str(raw, 5, 1, 1, 2, labels, &status);
     fits_close_file(raw, &status);
     ASSERT_EQ(status, 0);
   }
@@ -510,6 +513,17 @@ TEST_F(FitsFileTmp, HduKindsColumnNamesAndIntegerColumns) {
                        "kinds.fits[HDU 3 'MIXED']: column 'ok' is not numeric"));
   EXPECT_TRUE(Contains(error_of<FitsError>([&] { f.is_integer_column("label"); }), "column 'label' is not numeric"));
   EXPECT_TRUE(Contains(error_of<FitsError>([&] { f.is_integer_column("nope"); }), "[HDU 3 'MIXED']: no column 'nope'"));
+  // The character column: one read of its rows, trailing blanks removed, as read_string row by row.
+  EXPECT_TRUE(f.is_string_column("LABEL"));
+  EXPECT_FALSE(f.is_string_column("flags"));
+  std::vector<std::string> labels(2);
+  f.read_string_rows("label", 0, labels);
+  EXPECT_EQ(labels, (std::vector<std::string>{"1p", "noshear"}));
+  EXPECT_EQ(f.read_string("label", 1), "noshear");
+  std::vector<std::string> beyond(2);
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { f.read_string_rows("label", 1, beyond); }), "the table has 2 rows"));
+  EXPECT_TRUE(Contains(error_of<FitsError>([&] { f.read_string_rows("flags", 0, labels); }),
+                       "column 'flags' is not a character column"));
 }
 
 TEST_F(FitsFileTmp, ReadColumnsRowsEqualsOneColumnAtATime) {

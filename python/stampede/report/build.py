@@ -10,7 +10,8 @@ import tempfile
 import numpy as np
 
 from . import figures
-from .inputs import ReportError, ResultTable, SavedImages, check_tables, match_truth
+from . import metadetect
+from .inputs import ReportError, ResultTable, SavedImages, check_distinct, check_tables, match_truth
 from .page import Page, note, number, pre, table
 from .shear import METRICS_SET_HEADER, ShearAgainstTruth, metrics_lines, metrics_set_line
 from .statistics import BinnedMean, Histogram, Histogram2D, StatusCounts, usable_for_shear
@@ -131,7 +132,8 @@ def bin_labels(edges, hist):
 
 # The files a report writes: only these are ever replaced or removed in an existing directory.
 REPORT_FILES = frozenset({"report.html", "status.png", "distributions.png", "psf_leakage.png", "sky.png",
-                          "e_vs_truth.png", "bias_bins.png", "metacal_R.png", "residuals.png"})
+                          "e_vs_truth.png", "bias_bins.png", "metacal_R.png", "residuals.png", "metadetect_cuts.png",
+                          "metadetect_response.png"})
 
 
 def check_output(out_dir, overwrite):
@@ -172,16 +174,43 @@ def install(tmp, out_dir):
     os.rmdir(tmp)
 
 
-def build_report(table_paths, out_dir, truth=None, images=None, overwrite=False, progress=None):
-    """Writes out_dir/report.html (and its PNGs) for the result tables; returns the page's path.
+def build_report(table_paths, out_dir, truth=None, images=None, overwrite=False, progress=None, shear=None):
+    """Writes out_dir/report.html (and its PNGs) for the result tables, or for `stampede metadetect`
+    tables (recognised by their METADETECT HDU: one table, or a shear pair +g then -g, whose true
+    shear is `shear` (g1, g2) or the +g table's first input's G1, G2); returns the page's path.
     Raises ReportError for bad inputs, leaving no report behind."""
     if not table_paths:
         raise ReportError("give at least one result table")
     out_dir = os.path.normpath(str(out_dir))
     check_output(out_dir, overwrite)
-    tables = check_tables([ResultTable(p) for p in table_paths])
-    truths = match_truth(tables, str(truth)) if truth else None
-    saved = SavedImages(images, tables) if images else None
+    table_paths = [str(p) for p in table_paths]
+    kinds = [metadetect.is_metadetect(p) for p in table_paths]
+    if any(kinds):
+        if not all(kinds):
+            raise ReportError(f"{table_paths[kinds.index(True)]} is a `stampede metadetect` table but "
+                              f"{table_paths[kinds.index(False)]} is not: report them separately")
+        if truth or images:
+            raise ReportError("--truth and --images are for `stampede fit` tables: a metadetect shear pair's true "
+                              "shear is its first input's G1, G2 keys, or --shear")
+        inputs = metadetect.MetadetectInputs(table_paths, shear)
+        check_distinct(inputs.tables)
+        if shear is not None and len(inputs.tables) != 2:
+            raise ReportError("--shear is the true shear of a metadetect shear pair: give the +g table and the -g one")
+
+        def write(tmp):
+            page, _ = metadetect.write_page(inputs, tmp, CHUNK_ROWS, progress)
+            with open(os.path.join(tmp, "report.html"), "w", encoding="utf-8") as f:
+                f.write(page.html())
+    else:
+        if shear is not None:
+            raise ReportError("--shear is the true shear of a metadetect shear pair; the tables given are `stampede "
+                              "fit` tables (their truth: --truth)")
+        tables = check_tables([ResultTable(p) for p in table_paths])
+        truths = match_truth(tables, str(truth)) if truth else None
+        saved = SavedImages(images, tables) if images else None
+
+        def write(tmp):
+            write_report(tables, truths, saved, tmp, progress)
     # The temporary lies beside the new directory, or inside the existing one: the same filesystem
     # as the report's files either way, so every rename is atomic.
     existing = os.path.isdir(out_dir)
@@ -189,7 +218,7 @@ def build_report(table_paths, out_dir, truth=None, images=None, overwrite=False,
     os.makedirs(parent, exist_ok=True)
     tmp = tempfile.mkdtemp(prefix=".report-", dir=parent)
     try:
-        write_report(tables, truths, saved, tmp, progress)
+        write(tmp)
         os.chmod(tmp, 0o755)
         install(tmp, out_dir)
     except BaseException:

@@ -181,3 +181,68 @@ def status_bars(names, counts, path):
     ax.invert_yaxis()
     ax.set_xlabel("objects")
     save(fig, path)
+
+
+def metadetect_cuts(snr, t_ratio, cut_snr, cut_t_ratio, per_cell, flag_bars, path):
+    """Metadetection: the S/N and T_ratio of the noshear detections with the cuts drawn, the
+    detections per cell, and the detections per flag bit."""
+    fig, axes = plt.subplots(2, 2, figsize=(9, 6), layout="constrained")
+    for ax, h, cut in ((axes[0, 0], snr, cut_snr), (axes[0, 1], t_ratio, cut_t_ratio)):
+        ax.set_xlabel(h.label)
+        shown = h.display(bins=int(np.clip(2 * math.sqrt(h.n), 10, 60)))
+        if shown is None:
+            ax.text(0.5, 0.5, "no finite values", ha="center", va="center", transform=ax.transAxes)
+            continue
+        edges, counts, outside = shown
+        ax.stairs(counts, edges, fill=True, alpha=0.6, color=COLOURS[0])
+        if edges[0] > 0 and edges[-1] / edges[0] > 20:
+            ax.set_xscale("log")
+        ax.axvline(cut, color="tab:red", lw=1.2, label=f"cut: > {cut:g}")
+        ax.set_ylabel("detections")
+        ax.legend(fontsize=8, loc="upper right")
+        if outside:
+            ax.text(0.98, 0.80, f"{outside} outside", ha="right", va="top", fontsize=8, transform=ax.transAxes)
+    ax = axes[1, 0]
+    if per_cell.size:
+        lo, hi = per_cell.min(), per_cell.max()
+        ax.hist(per_cell, bins=np.arange(lo - 0.5, hi + 1.5, max(1, math.ceil((hi - lo + 1) / 40))),
+                color=COLOURS[0], alpha=0.6)
+        ax.set_xlim(min(lo - 2.5, 0.5 * (lo + hi) - 5), max(hi + 2.5, 0.5 * (lo + hi) + 5))  # whole numbers
+    ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
+    ax.set_xlabel("noshear detections per cell")
+    ax.set_ylabel("cells")
+    ax = axes[1, 1]
+    if flag_bars:
+        ax.barh([b[0] for b in flag_bars], [b[1] for b in flag_bars], color=COLOURS[1])
+        ax.invert_yaxis()
+    else:
+        ax.text(0.5, 0.5, "no flags set", ha="center", va="center", transform=ax.transAxes)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    ax.set_xlabel("detections with the flag (all shear types)")
+    save(fig, path)
+
+
+def metadetect_response(means, labels, types, responses, step, path):
+    """Metadetection: per shear type ⟨e_i⟩ of the kept rows minus noshear's, per table, with the
+    ±step × R the sheared types should show."""
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.6), layout="constrained")
+    x = np.arange(len(types))
+    for c, ax in enumerate(axes):
+        for k, (mean, label) in enumerate(zip(means, labels)):
+            y = mean[:, c] - mean[0, c]
+            shown = np.isfinite(y)
+            ax.plot(x[shown] + 0.08 * (k - 0.5 * (len(means) - 1)), y[shown], "o", ms=6, color=COLOURS[k % 2],
+                    label=f"{label} table".strip())
+            r = responses[k][c]
+            if math.isfinite(r):
+                for sign, at in ((1, 1 + 2 * c), (-1, 2 + 2 * c)):
+                    ax.plot([at - 0.3, at + 0.3], [sign * step * r] * 2, "--", color=COLOURS[k % 2], lw=1)
+        ax.axhline(0, color="0.7", lw=0.8)
+        ax.set_xticks(x, types)
+        ax.set_ylabel(f"⟨e{c + 1}⟩ − ⟨e{c + 1}⟩ noshear")
+        ax.set_title(f"e{c + 1}: {'1p, 1m' if c == 0 else '2p, 2m'} at ±MCSTEP × R{c + 1}{c + 1} (dashes)",
+                     fontsize=9)
+        if len(means) > 1:
+            ax.legend(fontsize=8)
+    save(fig, path)

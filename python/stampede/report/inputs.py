@@ -155,11 +155,9 @@ class ResultTable:
         return size * size
 
 
-def check_tables(tables):
-    """The tables pooled into one report: each file once (by its resolved path and its identity on
-    disk, so a link or a second name of one file counts too), and of one kind of input: a survey
-    (MEDS) table's radii are arcsec and its chi2 has no pixel count, a grid or catalogue table's are
-    pixels and chi2/dof, so the two are never pooled into one histogram."""
+def check_distinct(tables):
+    """Each file once, by its resolved path and its identity on disk (a link or a second name of one
+    file counts too)."""
     seen = {}
     for t in tables:
         st = os.stat(t.path)
@@ -167,6 +165,14 @@ def check_tables(tables):
             if key in seen:
                 raise ReportError(f"{t.path} is given twice (as {seen[key].path} too): each table is pooled once")
             seen[key] = t
+
+
+def check_tables(tables):
+    """The tables pooled into one report: each file once (by its resolved path and its identity on
+    disk, so a link or a second name of one file counts too), and of one kind of input: a survey
+    (MEDS) table's radii are arcsec and its chi2 has no pixel count, a grid or catalogue table's are
+    pixels and chi2/dof, so the two are never pooled into one histogram."""
+    check_distinct(tables)
     survey = [t for t in tables if t.survey]
     if survey and len(survey) != len(tables):
         other = next(t for t in tables if not t.survey)
