@@ -101,8 +101,12 @@ bool CellMeasurer::prepare_psf(double pixel_scale, std::string* problem) {
     }
     filters_ = std::move(gamma.filters);
   }
-  weight_fwhm_px_ = options_.weight_fwhm / pixel_scale;
-  // The point source's T under the same weight, as the detections' T is measured.
+  weight_fwhm_px_ = options_.weight_fwhm_arcsec() / pixel_scale;
+  psf_k_.clear();
+  // The point source's T under the same weight, as the detections' T is measured. pgauss's T_ratio
+  // divides by the same (ngmix measures the PSF with the pre-PSF weight but no PSF to remove: its
+  // weighted T): a pre-PSF T over the reconvolved point source's, so that T_ratio > 0.5 (DES Y6's
+  // pgauss cut) keeps objects resolved relative to Gamma.
   const int n = 2 * static_cast<int>(std::ceil(4 * weight_fwhm_px_)) + 1;
   const std::vector<double> image = pixelated_psf_image(filters_[0]->reconvolution(), n, 5);
   std::vector<double> scratch(2 * static_cast<std::size_t>(n));
@@ -300,12 +304,63 @@ void store_moments(const MetadetectCell& cell, const kernels::WeightedMoments& m
   r->u = r->x * cell.pixel_scale, r->v = r->y * cell.pixel_scale;
 }
 
+// pgauss: the pre-PSF moments p into the row, its position the wmom centroid c (the detection's
+// where that failed).
+void store_prepsf(const MetadetectCell& cell, const kernels::WeightedMoments& c, const kernels::PrepsfMoments& p,
+                  double psf_t, int x0, int y0, const Detection& d, MetadetectRow* r) {
+  const double scale2 = cell.pixel_scale * cell.pixel_scale;
+  r->psf_t = psf_t * scale2;
+  if (c.valid)
+    r->x = cell.origin_x + x0 + c.x, r->y = cell.origin_y + y0 + c.y;
+  else
+    r->x = cell.origin_x + d.x, r->y = cell.origin_y + d.y;
+  if (!p.valid) {
+    r->flags |= kMetadetectMomentsFailed;
+  } else {
+    r->e1 = p.e1, r->e2 = p.e2, r->e1_err = p.e1_err, r->e2_err = p.e2_err;
+    r->t = p.t * scale2;
+    r->t_ratio = p.t / psf_t;
+    r->flux = p.flux, r->snr = p.snr;
+  }
+  r->u = r->x * cell.pixel_scale, r->v = r->y * cell.pixel_scale;
+}
+
 }  // namespace
+
+std::span<const double> CellMeasurer::psf_transform(int box) {
+  const std::size_t slot = static_cast<std::size_t>(box) / 2;
+  if (psf_k_.size() <= slot) psf_k_.resize(slot + 1);
+  std::vector<double>& k = psf_k_[slot];
+  if (k.empty()) {
+    // What a point source is in the metacal images: Gamma x the pixel's top-hat (sinc(k / 2) per
+    // axis), so that the moments are of the galaxy before both. Gamma is a round Moffat: real.
+    const PsfModel& gamma = filters_[0]->reconvolution();
+    auto pixel = [](double k) { return k == 0 ? 1.0 : std::sin(0.5 * k) / (0.5 * k); };
+    k.resize(static_cast<std::size_t>(box) * box);
+    for (int j = 0; j < box; ++j)
+      for (int i = 0; i < box; ++i) {
+        const double kx = kernels::dft_frequency(i, box), ky = kernels::dft_frequency(j, box);
+        k[static_cast<std::size_t>(j) * box + i] = std::real(gamma.k_value(kx, ky)) * pixel(kx) * pixel(ky);
+      }
+  }
+  return k;
+}
+
+kernels::PrepsfMoments CellMeasurer::prepsf(std::span<const double> stamp, int box,
+                                            const kernels::WeightedMoments& centre, int x0, int y0, double variance,
+                                            const Detection& d) {
+  const double xc = centre.valid ? centre.x : d.x - x0, yc = centre.valid ? centre.y : d.y - y0;
+  return kernels::prepsf_moments(stamp, box, xc, yc, weight_fwhm_px_, psf_transform(box), variance, prepsf_scratch_);
+}
 
 void CellMeasurer::fill_moments(const MetadetectCell& cell, std::span<const double> stamp, int box, int x0, int y0,
                                 double variance, const Detection& d, MetadetectRow* r) {
   scratch_.resize(2 * static_cast<std::size_t>(box));
-  store_moments(cell, kernels::weighted_moments(stamp, box, weight_fwhm_px_, variance, scratch_), psf_t_, x0, y0, d, r);
+  const kernels::WeightedMoments m = kernels::weighted_moments(stamp, box, weight_fwhm_px_, variance, scratch_);
+  if (options_.measurement == MetadetectMeasurement::kPgauss)
+    store_prepsf(cell, m, prepsf(stamp, box, m, x0, y0, variance, d), psf_t_, x0, y0, d, r);
+  else
+    store_moments(cell, m, psf_t_, x0, y0, d, r);
   r->band_flux[0] = r->flux, r->band_snr[0] = r->snr;
 }
 
@@ -322,7 +377,27 @@ void CellMeasurer::fill_band_moments(const MetadetectCell& cell, int box, int x0
     st.variance = variances_[b];
     stamps_.push_back(st);
   }
-  store_moments(cell, kernels::weighted_moments(stamps_, weight_fwhm_px_, scratch_), psf_t_, x0, y0, d, r);
+  const kernels::WeightedMoments m = kernels::weighted_moments(stamps_, weight_fwhm_px_, scratch_);
+  if (options_.measurement == MetadetectMeasurement::kPgauss) {
+    // The moments are linear in the pixels and every band has the one Gamma, so the bands' sums
+    // averaged with weights 1 / variance_b are the moments of the bands' stamps so averaged, whose
+    // noise variance is 1 / sum_b (1 / variance_b). Each band's flux and S/N about the same centre.
+    const std::size_t npix = static_cast<std::size_t>(box) * box;
+    combined_.assign(npix, 0.0);
+    double wsum = 0;
+    for (double v : variances_) wsum += 1 / v;
+    for (std::size_t b = 0; b < bands_.size(); ++b) {
+      const double w = 1 / variances_[b] / wsum;
+      for (std::size_t p = 0; p < npix; ++p) combined_[p] += w * band_stamps_[b][p];
+    }
+    store_prepsf(cell, m, prepsf(combined_, box, m, x0, y0, 1 / wsum, d), psf_t_, x0, y0, d, r);
+    for (std::size_t b = 0; b < bands_.size(); ++b) {
+      const kernels::PrepsfMoments mb = prepsf(band_stamps_[b], box, m, x0, y0, variances_[b], d);
+      if (mb.valid) r->band_flux[b] = mb.flux, r->band_snr[b] = mb.snr;
+    }
+    return;
+  }
+  store_moments(cell, m, psf_t_, x0, y0, d, r);
   scratch_.resize(std::max(scratch_.size(), 2 * static_cast<std::size_t>(box)));
   for (std::size_t b = 0; b < bands_.size(); ++b) {
     const kernels::WeightedMoments mb =

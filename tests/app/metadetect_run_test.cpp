@@ -2,7 +2,8 @@
 // a stopped run resumes to the uninterrupted table, an image larger than a cell keeps each galaxy
 // once, bad input is a clear error naming the file and HDU, or a flagged cell; several bands'
 // tiles give per-band columns (the same for any thread count, shards merging to the whole), bands
-// that do not match are refused by name, and the input's NOISE plane is fixnoise's field.
+// that do not match are refused by name, and the input's NOISE plane is fixnoise's field. pgauss
+// runs give the same table for any thread count, one band or several, its name in the header.
 #include "app/metadetect_run.hpp"
 
 #include <gtest/gtest.h>
@@ -277,6 +278,45 @@ TEST(MetadetectRun, BandTilesGiveBandColumnsTheSameForAnyThreadsAndShards) {
   mo.output = scratch.path("merged.fits");
   merge_metadetect_shards(mo);
   EXPECT_EQ(bytes(scratch.path("merged.fits")), bytes(scratch.path("one.fits")));
+}
+
+TEST(MetadetectRun, PgaussTableIsTheSameForOneAndTwoThreadsAndNamesItsMeasurement) {
+  testing::ScratchDir scratch("stampede_mdet_pgauss_");
+  MetadetectRunOptions o;
+  o.inputs = sim_cells(scratch.path("sims"), 2);
+  o.metadetect.measurement = MetadetectMeasurement::kPgauss;
+  expect_one_table_for_one_and_two_threads(o, scratch, 2);
+  io::FitsFile f = io::FitsFile::open_read(scratch.path("one.fits"));
+  f.move_to("METADETECT");
+  EXPECT_EQ(f.read_key_string("MEASURE").value_or(""), "pgauss");
+  EXPECT_EQ(f.read_key_double("WFWHM").value_or(0), 2.0);  // pgauss's default weight
+  const std::vector<double> t_ratio = f.read_column("T_ratio"), flags = f.read_column("flags");
+  int usable = 0;
+  for (std::size_t i = 0; i < flags.size(); ++i) usable += flags[i] == 0 && t_ratio[i] > 0.5;
+  EXPECT_GT(usable, 2 * 5 * 45);
+}
+
+TEST(MetadetectRun, PgaussBandTilesAreTheSameForOneAndTwoThreads) {
+  testing::ScratchDir scratch("stampede_mdet_pgauss_bands_");
+  sim_band_tiles(scratch.path("sims"), 2);
+  MetadetectRunOptions o;
+  o.inputs = {scratch.path("sims/g/cells_meds.fits"), scratch.path("sims/r/cells_meds.fits")};
+  o.tile = true;
+  o.bands = {"g", "r"};
+  o.metadetect.measurement = MetadetectMeasurement::kPgauss;
+  expect_one_table_for_one_and_two_threads(o, scratch, 2);
+  io::FitsFile f = io::FitsFile::open_read(scratch.path("one.fits"));
+  f.move_to("METADETECT");
+  const std::vector<double> flux_g = f.read_column("flux_g"), flux_r = f.read_column("flux_r"),
+                            flags = f.read_column("flags");
+  // The pre-PSF flux of one galaxy in two bands of one Gamma: r/g = 1.5 as for wmom.
+  int usable = 0;
+  for (std::size_t i = 0; i < flux_g.size(); ++i) {
+    if (flags[i] != 0) continue;
+    ++usable;
+    EXPECT_NEAR(flux_r[i] / flux_g[i], 1.5, 3e-3) << "row " << i;
+  }
+  EXPECT_GT(usable, 2 * 5 * 40);
 }
 
 TEST(MetadetectRun, BandsThatDoNotMatchTheTilesAreRefusedByName) {
