@@ -420,6 +420,10 @@ std::vector<std::string> metadetect_bands(const MetadetectRunOptions& options) {
         throw io::ConfigError("--meds " + options.inputs[b] + " is given twice (bands " + names[a] + " and " + names[b] + ")");
   if (options.metadetect.per_object_metacal && n > 1)
     throw io::ConfigError("--per-object-metacal measures one band: give one --meds tile");
+  const MetadetectMeasurement m = options.metadetect.measurement;
+  if ((m == MetadetectMeasurement::kExp || m == MetadetectMeasurement::kBd) && n > 1)
+    throw io::ConfigError(std::string("--measurement ") + metadetect_measurement_name(m) +
+                          " fits one band: give one --meds tile, or measure the bands with wmom or pgauss");
   return names;
 }
 

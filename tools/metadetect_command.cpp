@@ -31,9 +31,10 @@ void print_help() {
       "Metadetection (Sheldon et al. 2020, 2023): each cell's five metacal images (noshear, 1p, 1m,\n"
       "2p, 2m, with fixnoise) are made, objects are detected anew on each with SEP, and each detection\n"
       "is measured on the image it was found on (--measurement): weighted moments under a round\n"
-      "Gaussian weight (wmom), or pre-PSF Gaussian moments (pgauss). An image larger than a cell is\n"
-      "cut into cells overlapping by twice the buffer; a detection is kept by the one cell whose inner\n"
-      "region holds it. `stampede metrics --metadetect` turns the table into a response and a shear.\n"
+      "Gaussian weight (wmom), pre-PSF Gaussian moments (pgauss) or a model fit (exp, bd). An image\n"
+      "larger than a cell is cut into cells overlapping by twice the buffer; a detection is kept by\n"
+      "the one cell whose inner region holds it. `stampede metrics --metadetect` turns the table into\n"
+      "a response and a shear.\n"
       "\n"
       "input: IMAGE.fits holds the image in HDU 0 with its pixel scale (keyword SCALE, arcsec/px, or\n"
       "a WCS), and extensions WEIGHT (inverse variance, required), BMASK (optional, non-zero masks) and\n"
@@ -73,8 +74,10 @@ void print_help() {
       "  --measurement M            wmom: moments of the metacal image under a round Gaussian weight;\n"
       "                             pgauss: the moments of the galaxy before the reconvolution PSF\n"
       "                             (and pixel) under the weight, in Fourier space; T_ratio is then\n"
-      "                             the pre-PSF T over the reconvolved PSF's weighted T (wmom)\n"
-      "  --weight-fwhm F            the measurement's weight FWHM, arcsec (1.2 wmom, 2.0 pgauss)\n"
+      "                             the pre-PSF T over the reconvolved PSF's weighted T (wmom);\n"
+      "                             exp, bd: a fit of that model convolved with the reconvolution\n"
+      "                             PSF (one band), T the model's, T_ratio over the same psf_T\n"
+      "  --weight-fwhm F            the moments' weight FWHM, arcsec (1.2 wmom, 2.0 pgauss)\n"
       "  --detect-threshold T       detection threshold, noise sigma (%g)\n"
       "  --detect-min-area N        minimum pixels above the threshold (%d)\n"
       "  --deblend-contrast C       SEP minimum deblending contrast (%g)\n"
@@ -162,7 +165,7 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
     } else if (s == "--measurement") {
       const std::string v = value();
       if (!parse_metadetect_measurement(v, &m.measurement))
-        throw std::invalid_argument("option --measurement " + tools::quoted_value(v) + ": must be wmom or pgauss");
+        throw std::invalid_argument("option --measurement " + tools::quoted_value(v) + ": must be wmom, pgauss, exp or bd");
     } else if (s == "--weight-fwhm") {
       m.weight_fwhm = number();
     } else if (s == "--detect-threshold") {

@@ -11,8 +11,10 @@ namespace stampede {
 enum class MetadetectMeasurement {
   kWmom,    // weighted moments of the metacal image under a round Gaussian weight
   kPgauss,  // pre-PSF Gaussian moments: the same weight applied before the reconvolution PSF
+  kExp,     // a fit of an exponential disc convolved with the reconvolution PSF (engine/fit)
+  kBd,      // a fit of a bulge + disc, as `stampede fit --metacal` with metacal_model = bd
 };
-// "wmom", "pgauss"; the table's MEASURE key.
+// "wmom", "pgauss", "exp", "bd"; the table's MEASURE key.
 const char* metadetect_measurement_name(MetadetectMeasurement m);
 // Case-insensitive inverse of metadetect_measurement_name; false for anything else.
 bool parse_metadetect_measurement(std::string_view name, MetadetectMeasurement* out);

@@ -88,7 +88,7 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
   o.fixnoise = a.flag("fixnoise", o.fixnoise);
   o.seed = static_cast<std::uint64_t>(a.integer_in("seed", static_cast<long long>(o.seed), 0, 1LL << 62));
   if (const std::string v = a.text("measurement", "wmom"); !parse_metadetect_measurement(v, &o.measurement))
-    throw py::value_error(a.where("measurement") + ": '" + v + "' must be wmom or pgauss");
+    throw py::value_error(a.where("measurement") + ": '" + v + "' must be wmom, pgauss, exp or bd");
   o.weight_fwhm = a.real("weight_fwhm", o.weight_fwhm);
   o.detection.threshold = a.real("detect_threshold", o.detection.threshold);
   o.detection.min_area = static_cast<int>(a.integer("detect_min_area", o.detection.min_area));
@@ -200,7 +200,8 @@ Metadetection (Sheldon et al. 2020) of one image as `stampede metadetect` does i
 (2-D, at least one cell) is cut into cells; each cell's five metacal images (noshear, 1p, 1m,
 2p, 2m, fixnoise) are detected anew with SEP and every detection is measured: `measurement` "wmom",
 weighted moments under a round Gaussian weight of weight_fwhm arcsec (0: 1.2), or "pgauss", the
-pre-PSF Gaussian moments under that weight (0: 2.0). `weight`: inverse variances (0 masks); `psf`: a
+pre-PSF Gaussian moments under that weight (0: 2.0), or "exp" / "bd", a fit of that model
+(one band; weight_fwhm then 0). `weight`: inverse variances (0 masks); `psf`: a
 centred PSF image at the image's pixel scale; `pixel_scale`: arcsec per pixel; `bmask`: non-zero
 masks; `noise`: a realisation of the image's noise (a NOISE plane), fixnoise's field (else one
 is drawn from the weight). Returns a structured array with the METADETECT table's columns (shear_type a string; x, y
