@@ -60,7 +60,8 @@ PrepsfMoments prepsf_moments(std::span<const double> image, int size, double xc,
     for (std::size_t ix = 0; ix < n; ++ix) {
       const double kx = dft_frequency(static_cast<int>(ix), size);
       const double w = 2 * std::numbers::pi * s2 * std::exp(-0.5 * s2 * (kx * kx + ky * ky));
-      if (w < 1e-15 * 2 * std::numbers::pi * s2) continue;  // no weight left at this k
+      // No weight left at this k (e^-34.5; callers may leave psf_k unset beyond it).
+      if (w < 1e-15 * 2 * std::numbers::pi * s2) continue;
       const double p = psf_k[jy * n + ix];
       if (!(p > 0) || !std::isfinite(p)) return m;
       // I~(kx, ky) = sum_j rows[j][kx] e^{-i ky j}.

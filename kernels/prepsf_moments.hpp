@@ -28,7 +28,8 @@ double dft_frequency(int i, int n);
 // image: size x size, row-major (x fastest), pixel centres at integers; (xc, yc): the weight's
 // centre (the phase centre), in pixels. psf_k: the PSF's transform on the stamp's DFT grid, real
 // (a centred, point-symmetric PSF; the pixel's response included when the image is pixel-
-// integrated), 1 at k = 0. fwhm: the weight's, pixels. The stamp is periodic to the DFT, so the
+// integrated), 1 at k = 0; read only where the weight's transform exceeds 1e-15 of its peak
+// (sigma^2 k^2 / 2 < 34.5). fwhm: the weight's, pixels. The stamp is periodic to the DFT, so the
 // object and its PSF-convolved light should lie well inside it. scratch grows to what is needed
 // and is kept: a caller that reuses it allocates nothing in steady state.
 PrepsfMoments prepsf_moments(std::span<const double> image, int size, double xc, double yc, double fwhm,

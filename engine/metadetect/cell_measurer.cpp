@@ -350,14 +350,26 @@ std::span<const double> CellMeasurer::psf_transform(int box) {
   if (k.empty()) {
     // What a point source is in the metacal images: Gamma x the pixel's top-hat (sinc(k / 2) per
     // axis), so that the moments are of the galaxy before both. Gamma is a round Moffat: real.
+    // A cell tile's every cell has its own Gamma, and a Moffat's transform costs a Bessel function:
+    // Gamma and the pixel are even in kx and ky, so one quadrant is evaluated and mirrored, and
+    // only where the weight's transform is not negligible (the kernel reads no other k; 1 there).
     const PsfModel& gamma = filters_[0]->reconvolution();
     auto pixel = [](double k) { return k == 0 ? 1.0 : std::sin(0.5 * k) / (0.5 * k); };
+    const double s = weight_fwhm_px_ / 2.3548200450309493;
+    const int h = box / 2 + 1;
     k.resize(static_cast<std::size_t>(box) * box);
-    for (int j = 0; j < box; ++j)
-      for (int i = 0; i < box; ++i) {
+    for (int j = 0; j < h; ++j)
+      for (int i = 0; i < h; ++i) {
         const double kx = kernels::dft_frequency(i, box), ky = kernels::dft_frequency(j, box);
-        k[static_cast<std::size_t>(j) * box + i] = std::real(gamma.k_value(kx, ky)) * pixel(kx) * pixel(ky);
+        const bool needed = 0.5 * s * s * (kx * kx + ky * ky) < 40;  // the kernel's cut: e^-34.5
+        k[static_cast<std::size_t>(j) * box + i] =
+            needed ? std::real(gamma.k_value(kx, ky)) * pixel(kx) * pixel(ky) : 1.0;
       }
+    for (int j = 0; j < box; ++j)
+      for (int i = 0; i < box; ++i)
+        if (i >= h || j >= h)
+          k[static_cast<std::size_t>(j) * box + i] =
+              k[static_cast<std::size_t>(j < h ? j : box - j) * box + (i < h ? i : box - i)];
   }
   return k;
 }
