@@ -16,7 +16,9 @@
 namespace stampede {
 namespace {
 
-bool fits_a_model(MetadetectMeasurement m) { return m == MetadetectMeasurement::kExp || m == MetadetectMeasurement::kBd; }
+bool fits_a_model(MetadetectMeasurement m) {
+  return m == MetadetectMeasurement::kExp || m == MetadetectMeasurement::kBd;
+}
 
 // Pixels of zeros on each side of a cell on the metacal grid. The operations are periodic: a
 // galaxy's light at one edge reaches the opposite edge's pixels through the filters' real-space
@@ -446,7 +448,8 @@ void CellMeasurer::fill_fit(const MetadetectCell& cell, std::span<const double> 
   // has T = <r^2>_round (1 + |e|^2) / (1 - |e|^2), <r^2>_round = sersic_mean_r2(n) h^2; bd's
   // components averaged by flux (the bulge of the disc's e: its delta_e held at 0 by default).
   const double h = f.params[index(Param::kRadius)], stretch = (1 + e2sum) / (1 - e2sum);
-  const double disc = std::isfinite(f.disc_flux) ? f.disc_flux : 0, bulge = std::isfinite(f.bulge_flux) ? f.bulge_flux : 0;
+  const double disc = std::isfinite(f.disc_flux) ? f.disc_flux : 0;
+  const double bulge = std::isfinite(f.bulge_flux) ? f.bulge_flux : 0;
   double m2 = kernels::sersic_mean_r2(f.params[index(Param::kDiscIndex)]) * h * h;
   if (bulge != 0 && disc + bulge != 0) {
     const double hb = h * f.params[index(Param::kRadiusRatio)];
