@@ -451,7 +451,8 @@ std::vector<std::pair<std::string, std::string>> option_keys(const MetadetectOpt
           {"PEROBJMC", o.per_object_metacal ? "T" : "F"},
           {"NOISEPLN", o.noise_plane ? "T" : "F"},
           {"MCSEED", std::to_string(o.seed)},
-          {"WFWHM", number_text(o.weight_fwhm)},
+          {"MEASURE", metadetect_measurement_name(o.measurement)},
+          {"WFWHM", number_text(o.weight_fwhm_arcsec())},
           {"DETTHR", number_text(d.threshold)},
           {"DETMINA", std::to_string(d.min_area)},
           {"DBLCONT", number_text(d.deblend_contrast)},
@@ -547,6 +548,10 @@ std::vector<std::string> metadetect_bands(const MetadetectRunOptions& options) {
         throw io::ConfigError("--meds " + options.inputs[b] + " is given twice (bands " + names[a] + " and " + names[b] + ")");
   if (options.metadetect.per_object_metacal && n > 1)
     throw io::ConfigError("--per-object-metacal measures one band: give one --meds tile");
+  const MetadetectMeasurement m = options.metadetect.measurement;
+  if ((m == MetadetectMeasurement::kExp || m == MetadetectMeasurement::kBd) && n > 1)
+    throw io::ConfigError(std::string("--measurement ") + metadetect_measurement_name(m) +
+                          " fits one band: give one --meds tile, or measure the bands with wmom or pgauss");
   return names;
 }
 

@@ -31,10 +31,11 @@ void print_help() {
       "\n"
       "Metadetection (Sheldon et al. 2020, 2023): each cell's five metacal images (noshear, 1p, 1m,\n"
       "2p, 2m, with fixnoise) are made, objects are detected anew on each with SEP, and each detection\n"
-      "is measured on the image it was found on with weighted moments under a round Gaussian weight\n"
-      "(wmom). An image larger than a cell is cut into cells overlapping by twice the buffer; a\n"
-      "detection is kept by the one cell whose inner region holds it. `stampede metrics --metadetect`\n"
-      "turns the table into a response and a shear.\n"
+      "is measured on the image it was found on (--measurement): weighted moments under a round\n"
+      "Gaussian weight (wmom), pre-PSF Gaussian moments (pgauss) or a model fit (exp, bd). An image\n"
+      "larger than a cell is cut into cells overlapping by twice the buffer; a detection is kept by\n"
+      "the one cell whose inner region holds it. `stampede metrics --metadetect` turns the table into\n"
+      "a response and a shear.\n"
       "\n"
       "input: IMAGE.fits holds the image in HDU 0 with its pixel scale (keyword SCALE, arcsec/px, or\n"
       "a WCS), and extensions WEIGHT (inverse variance, required), BMASK (optional, non-zero masks) and\n"
@@ -52,8 +53,8 @@ void print_help() {
       "reads scene_g.fits and scene_r.fits, a scene's bands of one size and pixel scale, each with its\n"
       "own WEIGHT, BMASK, NOISE and PSF (`sim cells --bands g,r` writes DIR/{band}/cell_KKKK.fits).\n"
       "Each band's metacal images (one reconvolution PSF for all), detection on their sum weighted by\n"
-      "each band's inverse noise variance, wmom over every band's stamp together (weighted by the\n"
-      "same), and columns flux_B snr_B per band (its stamp alone under the same weight).\n"
+      "each band's inverse noise variance, the measurement over every band's stamp together (weighted\n"
+      "by the same), and columns flux_B snr_B per band (its stamp alone under the same weight).\n"
       "\n"
       "output: OUT.fits, table METADETECT, a row per (cell, shear type, detection): cell shear_type id\n"
       "x y (0-based pixels of the input image) u v (arcsec) e1 e2 e1_err e2_err T (arcsec^2) T_ratio\n"
@@ -77,7 +78,13 @@ void print_help() {
       "  --per-object-metacal       not metadetection, for comparison: per-object metacal at the\n"
       "                             positions detected on the noshear image (each a 49 px stamp)\n"
       "  --seed N                   keys each cell's fixnoise field with the cell's number (%llu)\n"
-      "  --weight-fwhm F            wmom weight FWHM, arcsec (%g)\n"
+      "  --measurement M            wmom: moments of the metacal image under a round Gaussian weight;\n"
+      "                             pgauss: the moments of the galaxy before the reconvolution PSF\n"
+      "                             (and pixel) under the weight, in Fourier space; T_ratio is then\n"
+      "                             the pre-PSF T over the reconvolved PSF's weighted T (wmom);\n"
+      "                             exp, bd: a fit of that model convolved with the reconvolution\n"
+      "                             PSF (one band), T the model's, T_ratio over the same psf_T\n"
+      "  --weight-fwhm F            the moments' weight FWHM, arcsec (1.2 wmom, 2.0 pgauss)\n"
       "  --detect-threshold T       detection threshold, noise sigma (%g)\n"
       "  --detect-min-area N        minimum pixels above the threshold (%d)\n"
       "  --deblend-contrast C       SEP minimum deblending contrast (%g)\n"
@@ -92,7 +99,7 @@ void print_help() {
       "  --resume                   continue an interrupted run of the same inputs and options\n"
       "  --overwrite                replace an existing OUT.fits\n"
       "  --quiet                    no progress line\n",
-      d.cell_size, d.cell_buffer, d.step, d.psf_dilation, static_cast<unsigned long long>(d.seed), d.weight_fwhm,
+      d.cell_size, d.cell_buffer, d.step, d.psf_dilation, static_cast<unsigned long long>(d.seed),
       d.detection.threshold, d.detection.min_area, d.detection.deblend_contrast, d.detection.deblend_thresholds,
       d.detection.filter_fwhm, d.detection.filter_size, d.stamp.box_min, d.stamp.box_max);
 }
@@ -164,6 +171,10 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
       m.noise_plane = false;
     } else if (s == "--seed") {
       m.seed = static_cast<std::uint64_t>(tools::integer_in(argc, argv, &i, 0, (1LL << 62)));
+    } else if (s == "--measurement") {
+      const std::string v = value();
+      if (!parse_metadetect_measurement(v, &m.measurement))
+        throw std::invalid_argument("option --measurement " + tools::quoted_value(v) + ": must be wmom, pgauss, exp or bd");
     } else if (s == "--weight-fwhm") {
       m.weight_fwhm = number();
     } else if (s == "--detect-threshold") {

@@ -4,7 +4,8 @@
 # `stampede metadetect`, then `stampede metrics --metadetect` for m and c with bootstrap errors over
 # cells. With ROTATE=1 the same cells' scenes turned by 90 degrees (`sim cells --rotate`) join their
 # cells (ring-pair cancellation of the intrinsic shapes). Prints the metrics and writes
-# WORKDIR/LABEL.json; METADETECT_OPTIONS are passed to `stampede metadetect`.
+# WORKDIR/LABEL.json; METADETECT_OPTIONS are passed to `stampede metadetect`, METRICS_OPTIONS to
+# `stampede metrics` (e.g. --cut-t-ratio 0.5 for --measurement pgauss).
 #   usage: docs/metadetect/shear_test.sh BUILD_DIR WORKDIR CELLS LABEL [sim cells options ...]
 #   e.g.:  ROTATE=1 docs/metadetect/shear_test.sh build /tmp/mdet 200 random_nf --snr 1e4 --layout random
 set -euo pipefail
@@ -28,4 +29,4 @@ echo "$label: ${#variants[@]} x $((2 * cells)) cells simulated and measured in $
 rotated=()
 if [ "${ROTATE:-0}" = 1 ]; then rotated=(--rotated "$work/${label}_rot/plus.fits" --rotated-minus "$work/${label}_rot/minus.fits"); fi
 "$stampede" metrics --metadetect "$work/$label/plus.fits" --minus "$work/$label/minus.fits" "${rotated[@]}" \
-  --json "$work/$label.json"
+  --json "$work/$label.json" ${METRICS_OPTIONS:-}

@@ -1,23 +1,29 @@
 // Metadetection of one cell (Sheldon et al. 2020): its five metacal images (noshear, 1p, 1m, 2p,
 // 2m; fixnoise), detection on each with SEP, and each detection measured on the image it was found
-// on with weighted moments under a round Gaussian weight (wmom). Several bands: each band's metacal
+// on with weighted moments under a round Gaussian weight (wmom) or with pre-PSF Gaussian moments
+// (pgauss: the same kind of weight applied before the reconvolution PSF), or fitted with a model
+// convolved with it (exp, bd; one band). Several bands: each band's metacal
 // images (one reconvolution PSF for all), detection on their sum weighted by each band's inverse
 // noise variance, wmom over every band's stamp together, flux and S/N per band. Or, for comparison, per-object
 // metacal at the positions detected on the noshear image (per_object_metacal). One per thread: it owns the FFT
 // plans and every buffer, so a run of cells of one size allocates nothing but SEP's own work.
 #pragma once
+#include <array>
+#include <complex>
 #include <memory>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "engine/common/fftw_support.hpp"
+#include "engine/fit/object_fitter.hpp"
 #include "engine/metacal/metacal_filters.hpp"
 #include "engine/metacal/metacal_image_set.hpp"
 #include "engine/metadetect/metadetect_options.hpp"
 #include "engine/metadetect/metadetect_row.hpp"
 #include "engine/metadetect/sep_detection.hpp"
 #include "engine/model/psf_model.hpp"
+#include "kernels/prepsf_moments.hpp"
 #include "kernels/weighted_moments.hpp"
 
 namespace stampede {
@@ -71,6 +77,16 @@ class CellMeasurer {
                     double variance, const Detection& d, MetadetectRow* r);
   // Several bands: the moments of the bands' stamps together (stamps_), each band's flux and S/N.
   void fill_band_moments(const MetadetectCell& cell, int box, int x0, int y0, const Detection& d, MetadetectRow* r);
+  // pgauss: the pre-PSF moments of `stamp` (of noise variance `variance`) about the wmom centroid
+  // `centre` (the detection where that failed).
+  kernels::PrepsfMoments prepsf(std::span<const double> stamp, int box, const kernels::WeightedMoments& centre,
+                                int x0, int y0, double variance, const Detection& d);
+  // exp, bd: the model fit of `stamp` with Gamma (weights 1 / variance) into *r.
+  void fill_fit(const MetadetectCell& cell, std::span<const double> stamp, int box, int x0, int y0, double variance,
+                const Detection& d, MetadetectRow* r);
+  // The reconvolution PSF x pixel's transform on a box x box stamp's DFT grid, made once per box
+  // side and PSF.
+  std::span<const double> psf_transform(int box);
   // options.per_object_metacal: each noshear detection's metacal stamps, five rows each.
   void per_object_rows(const MetadetectCell& cell, std::vector<MetadetectRow>* rows);
 
@@ -94,6 +110,17 @@ class CellMeasurer {
   std::shared_ptr<const MetacalFilters> stamp_filters_;
   std::vector<double> stamp_images_, stamp_pixels_, stamp_weight_, stamp_noise_;
   std::vector<Detection> detections_;
+  // pgauss: psf_k_[box / 2] the transform for that box side (empty until needed), the kernel's
+  // scratch, the bands' stamps combined.
+  std::vector<std::vector<double>> psf_k_;
+  std::vector<std::complex<double>> prepsf_scratch_;
+  std::vector<double> combined_;
+  // exp, bd: the fitter (its renderers per box side), Gamma prepared per box side (fit_psfs_[box / 2],
+  // null until needed), the stamp's weights.
+  std::unique_ptr<ObjectFitter> fitter_;
+  std::vector<std::shared_ptr<const PreparedPsf>> fit_psfs_;
+  std::vector<double> fit_weight_;
+  std::vector<std::array<double, 2>> fit_neighbours_;  // detections near the stamp, cell pixels
 };
 
 }  // namespace stampede

@@ -1,10 +1,42 @@
 // Validation of MetadetectOptions; see metadetect_options.hpp.
 #include "engine/metadetect/metadetect_options.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <sstream>
 
 namespace stampede {
+
+const char* metadetect_measurement_name(MetadetectMeasurement m) {
+  switch (m) {
+    case MetadetectMeasurement::kPgauss: return "pgauss";
+    case MetadetectMeasurement::kExp: return "exp";
+    case MetadetectMeasurement::kBd: return "bd";
+    case MetadetectMeasurement::kWmom: break;
+  }
+  return "wmom";
+}
+
+bool parse_metadetect_measurement(std::string_view name, MetadetectMeasurement* out) {
+  for (MetadetectMeasurement m : {MetadetectMeasurement::kWmom, MetadetectMeasurement::kPgauss,
+                                  MetadetectMeasurement::kExp, MetadetectMeasurement::kBd}) {
+    const std::string_view known = metadetect_measurement_name(m);
+    bool same = name.size() == known.size();
+    for (std::size_t i = 0; same && i < name.size(); ++i)
+      same = std::tolower(static_cast<unsigned char>(name[i])) == known[i];
+    if (same) {
+      *out = m;
+      return true;
+    }
+  }
+  return false;
+}
+
+double MetadetectOptions::weight_fwhm_arcsec() const {
+  if (weight_fwhm != 0) return weight_fwhm;
+  return measurement == MetadetectMeasurement::kPgauss ? 2.0 : 1.2;
+}
+
 namespace {
 
 template <class T>
@@ -26,7 +58,17 @@ bool MetadetectOptions::IsValid(std::string* why) const {
   if (!(step >= 1e-3 && step <= 0.1)) return refuse(why, "--step", step, "must be in [0.001, 0.1]");
   if (!(psf_dilation == 0 || (psf_dilation >= 1 && psf_dilation <= 3)))
     return refuse(why, "--psf-dilation", psf_dilation, "must be 0 (automatic) or in [1, 3]");
-  if (!(weight_fwhm > 0 && std::isfinite(weight_fwhm))) return refuse(why, "--weight-fwhm", weight_fwhm, "must be > 0 arcsec");
+  if (measurement != MetadetectMeasurement::kWmom && measurement != MetadetectMeasurement::kPgauss &&
+      measurement != MetadetectMeasurement::kExp && measurement != MetadetectMeasurement::kBd)
+    return refuse(why, "--measurement", static_cast<int>(measurement), "must be wmom, pgauss, exp or bd");
+  if (!(weight_fwhm >= 0 && std::isfinite(weight_fwhm)))
+    return refuse(why, "--weight-fwhm", weight_fwhm, "must be > 0 arcsec, or 0 for the measurement's default");
+  if (per_object_metacal && measurement != MetadetectMeasurement::kWmom)
+    return refuse(why, "--measurement", metadetect_measurement_name(measurement),
+                  "--per-object-metacal measures with wmom only");
+  if (weight_fwhm != 0 && (measurement == MetadetectMeasurement::kExp || measurement == MetadetectMeasurement::kBd))
+    return refuse(why, "--weight-fwhm", weight_fwhm,
+                  "weighs wmom and pgauss; a model fit (--measurement exp or bd) has no weight");
   if (!(detection.threshold > 0 && std::isfinite(detection.threshold)))
     return refuse(why, "--detect-threshold", detection.threshold, "must be > 0 (sigma)");
   if (detection.min_area < 1) return refuse(why, "--detect-min-area", detection.min_area, "must be >= 1 pixel");

@@ -3,8 +3,21 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <string_view>
 
 namespace stampede {
+
+// How each detection is measured (docs/metadetect.md, "Measurements").
+enum class MetadetectMeasurement {
+  kWmom,    // weighted moments of the metacal image under a round Gaussian weight
+  kPgauss,  // pre-PSF Gaussian moments: the same weight applied before the reconvolution PSF
+  kExp,     // a fit of an exponential disc convolved with the reconvolution PSF (engine/fit)
+  kBd,      // a fit of a bulge + disc, as `stampede fit --metacal` with metacal_model = bd
+};
+// "wmom", "pgauss", "exp", "bd"; the table's MEASURE key.
+const char* metadetect_measurement_name(MetadetectMeasurement m);
+// Case-insensitive inverse of metadetect_measurement_name; false for anything else.
+bool parse_metadetect_measurement(std::string_view name, MetadetectMeasurement* out);
 
 // SEP's extraction ("sxdes" settings): a threshold in units of the image's noise sigma, on the image
 // convolved with a normalised Gaussian filter.
@@ -40,7 +53,9 @@ struct MetadetectOptions {
   // field drawn from the weight, keyed by the cell's number (and band).
   bool noise_plane = true;
   std::uint64_t seed = 20170101;  // keys each cell's fixnoise field with the cell's index
-  double weight_fwhm = 1.2;       // arcsec: wmom's round Gaussian weight
+  MetadetectMeasurement measurement = MetadetectMeasurement::kWmom;
+  // arcsec: the measurement's round Gaussian weight; 0: its default (weight_fwhm_arcsec()).
+  double weight_fwhm = 0;
   // Not metadetection: per-object metacal at the positions detected on the noshear image (each
   // detection's own 49 px stamp cut from the cell, its five metacal images, wmom), the estimator
   // metadetection replaces, kept to measure the bias it leaves in blends (docs/metadetect.md).
@@ -48,6 +63,10 @@ struct MetadetectOptions {
   DetectionOptions detection;
   DetectionStampOptions stamp;
   int inner_size() const { return cell_size - 2 * cell_buffer; }
+  // weight_fwhm, or the measurement's default where it is 0: the reference package's 1.2" for
+  // wmom, DES Y6's 2.0" for pgauss (a wider pre-PSF weight: the deconvolution's noise at high k is
+  // what the weight's transform cuts).
+  double weight_fwhm_arcsec() const;
   // Message names the option as on the command line, its value and the rule.
   bool IsValid(std::string* why) const;
 };

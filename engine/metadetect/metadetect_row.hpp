@@ -11,7 +11,8 @@ namespace stampede {
 inline constexpr int kMaxMetadetectBands = 8;
 
 enum MetadetectFlag : std::uint32_t {
-  kMetadetectMomentsFailed = 1u << 0,  // the weighted moments are not valid (no positive flux or size, |e| >= 1)
+  // The measurement failed: moments not valid (no positive flux or T, |e| >= 1), a fit not converged.
+  kMetadetectMomentsFailed = 1u << 0,
   kMetadetectEdge = 1u << 1,           // the detection's stamp reaches beyond the cell
   kMetadetectMasked = 1u << 2,         // the stamp holds masked pixels (mfrac > 0)
   kMetadetectCellFailed = 1u << 3,     // nothing could be detected in the cell: a row with id -1 says why
@@ -21,12 +22,12 @@ struct MetadetectRow {
   std::int64_t cell = 0;
   std::int32_t shear_type = 0;  // MetacalType
   std::int32_t id = -1;         // the detection's number in its cell and image; -1: the cell failed
-  double x = NAN, y = NAN;      // 0-based pixels of the input image (the weighted centroid)
+  double x = NAN, y = NAN;      // 0-based pixels of the input image (the weighted centroid; exp, bd: the fit's)
   double u = NAN, v = NAN;      // arcsec from the input image's pixel (0, 0) along x and y
   double e1 = NAN, e2 = NAN, e1_err = NAN, e2_err = NAN;
-  double t = NAN;               // weighted moments' T = Mxx + Myy, arcsec^2
-  double t_ratio = NAN;         // T over the reconvolved PSF's T (the same weight)
-  double psf_t = NAN;
+  double t = NAN;               // T = Mxx + Myy, arcsec^2: weighted (pgauss: pre-PSF), or the model's (exp, bd)
+  double t_ratio = NAN;         // T over psf_t
+  double psf_t = NAN;           // Gamma x pixel's T under the weight (wmom's for exp, bd), arcsec^2
   double flux = NAN, snr = NAN;  // several bands: the bands' stamps measured together
   // Per band (several bands; the first band's for one): its stamp's weighted flux and S/N about its
   // own centroid under the same weight.

@@ -73,7 +73,8 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
                      {"weight_fwhm", false, true}, {"detect_threshold", false, true}, {"detect_min_area", false, true},
                      {"deblend_contrast", false, true}, {"deblend_thresholds", false, true},
                      {"filter_fwhm", false, true}, {"filter_size", false, true}, {"clean", false, true},
-                     {"box_min", false, true}, {"box_max", false, true}, {"per_object_metacal", false, true}});
+                     {"box_min", false, true}, {"box_max", false, true}, {"per_object_metacal", false, true},
+                     {"measurement", false, true}});
   const DoubleArray image = as_float64(a.object("image"), {2}, "image");
   const DoubleArray weight = as_float64(a.object("weight"), {2}, "weight");
   const DoubleArray psf = as_float64(a.object("psf"), {2}, "psf");
@@ -86,6 +87,8 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
   o.psf_dilation = a.real("psf_dilation", o.psf_dilation);
   o.fixnoise = a.flag("fixnoise", o.fixnoise);
   o.seed = static_cast<std::uint64_t>(a.integer_in("seed", static_cast<long long>(o.seed), 0, 1LL << 62));
+  if (const std::string v = a.text("measurement", "wmom"); !parse_metadetect_measurement(v, &o.measurement))
+    throw py::value_error(a.where("measurement") + ": '" + v + "' must be wmom, pgauss, exp or bd");
   o.weight_fwhm = a.real("weight_fwhm", o.weight_fwhm);
   o.detection.threshold = a.real("detect_threshold", o.detection.threshold);
   o.detection.min_area = static_cast<int>(a.integer("detect_min_area", o.detection.min_area));
@@ -189,14 +192,16 @@ void bind_metadetect(py::module_& m) {
 )doc");
   m.def("metadetect", &metadetect, R"doc(metadetect(image, weight, psf, pixel_scale, bmask=None, threads=0, *,
            cell_size=251, cell_buffer=34, step=0.01, psf_dilation=0, fixnoise=True, seed=20170101,
-           weight_fwhm=1.2, detect_threshold=0.8, detect_min_area=4, deblend_contrast=1e-5,
-           deblend_thresholds=32, filter_fwhm=3, filter_size=7, clean=True, box_min=33, box_max=255,
-           per_object_metacal=False, noise=None)
+           measurement="wmom", weight_fwhm=0, detect_threshold=0.8, detect_min_area=4,
+           deblend_contrast=1e-5, deblend_thresholds=32, filter_fwhm=3, filter_size=7, clean=True,
+           box_min=33, box_max=255, per_object_metacal=False, noise=None)
 
 Metadetection (Sheldon et al. 2020) of one image as `stampede metadetect` does it: the image
 (2-D, at least one cell) is cut into cells; each cell's five metacal images (noshear, 1p, 1m,
-2p, 2m, fixnoise) are detected anew with SEP and every detection is measured with weighted moments
-(a round Gaussian weight of weight_fwhm arcsec). `weight`: inverse variances (0 masks); `psf`: a
+2p, 2m, fixnoise) are detected anew with SEP and every detection is measured: `measurement` "wmom",
+weighted moments under a round Gaussian weight of weight_fwhm arcsec (0: 1.2), or "pgauss", the
+pre-PSF Gaussian moments under that weight (0: 2.0), or "exp" / "bd", a fit of that model
+(one band; weight_fwhm then 0). `weight`: inverse variances (0 masks); `psf`: a
 centred PSF image at the image's pixel scale; `pixel_scale`: arcsec per pixel; `bmask`: non-zero
 masks; `noise`: a realisation of the image's noise (a NOISE plane), fixnoise's field (else one
 is drawn from the weight). Returns a structured array with the METADETECT table's columns (shear_type a string; x, y

@@ -2,10 +2,16 @@
 // a stopped run resumes to the uninterrupted table, an image larger than a cell keeps each galaxy
 // once, bad input is a clear error naming the file and HDU, or a flagged cell; several bands'
 // tiles give per-band columns (the same for any thread count, shards merging to the whole), bands
+<<<<<<< HEAD
 // that do not match are refused by name, and the input's NOISE plane is fixnoise's field. Image
 // files of several bands ({band} templates) measure as the same bands' tiles, files that do not
 // match are refused by name; a PSFEx model (--psfex) of the PSF HDU's PSF measures as the PSF HDU,
 // a varying one gives each cell its own PSF, and a bad one is refused by name.
+=======
+// that do not match are refused by name, and the input's NOISE plane is fixnoise's field. pgauss
+// runs give the same table for any thread count, one band or several, its name in the header; so
+// do exp fits (one band; several are refused by name).
+>>>>>>> mdmeas
 #include "app/metadetect_run.hpp"
 
 #include <fitsio.h>
@@ -285,6 +291,85 @@ TEST(MetadetectRun, BandTilesGiveBandColumnsTheSameForAnyThreadsAndShards) {
   mo.output = scratch.path("merged.fits");
   merge_metadetect_shards(mo);
   EXPECT_EQ(bytes(scratch.path("merged.fits")), bytes(scratch.path("one.fits")));
+}
+
+TEST(MetadetectRun, PgaussTableIsTheSameForOneAndTwoThreadsAndNamesItsMeasurement) {
+  testing::ScratchDir scratch("stampede_mdet_pgauss_");
+  MetadetectRunOptions o;
+  o.inputs = sim_cells(scratch.path("sims"), 2);
+  o.metadetect.measurement = MetadetectMeasurement::kPgauss;
+  expect_one_table_for_one_and_two_threads(o, scratch, 2);
+  io::FitsFile f = io::FitsFile::open_read(scratch.path("one.fits"));
+  f.move_to("METADETECT");
+  EXPECT_EQ(f.read_key_string("MEASURE").value_or(""), "pgauss");
+  EXPECT_EQ(f.read_key_double("WFWHM").value_or(0), 2.0);  // pgauss's default weight
+  const std::vector<double> t_ratio = f.read_column("T_ratio"), flags = f.read_column("flags");
+  int usable = 0;
+  for (std::size_t i = 0; i < flags.size(); ++i) usable += flags[i] == 0 && t_ratio[i] > 0.5;
+  EXPECT_GT(usable, 2 * 5 * 45);
+}
+
+TEST(MetadetectRun, PgaussBandTilesAreTheSameForOneAndTwoThreads) {
+  testing::ScratchDir scratch("stampede_mdet_pgauss_bands_");
+  sim_band_tiles(scratch.path("sims"), 2);
+  MetadetectRunOptions o;
+  o.inputs = {scratch.path("sims/g/cells_meds.fits"), scratch.path("sims/r/cells_meds.fits")};
+  o.tile = true;
+  o.bands = {"g", "r"};
+  o.metadetect.measurement = MetadetectMeasurement::kPgauss;
+  expect_one_table_for_one_and_two_threads(o, scratch, 2);
+  io::FitsFile f = io::FitsFile::open_read(scratch.path("one.fits"));
+  f.move_to("METADETECT");
+  const std::vector<double> flux_g = f.read_column("flux_g"), flux_r = f.read_column("flux_r"),
+                            flags = f.read_column("flags");
+  // The pre-PSF flux of one galaxy in two bands of one Gamma: r/g = 1.5 as for wmom.
+  int usable = 0;
+  for (std::size_t i = 0; i < flux_g.size(); ++i) {
+    if (flags[i] != 0) continue;
+    ++usable;
+    EXPECT_NEAR(flux_r[i] / flux_g[i], 1.5, 3e-3) << "row " << i;
+  }
+  EXPECT_GT(usable, 2 * 5 * 40);
+}
+
+TEST(MetadetectRun, ExpFitTableIsTheSameForOneAndTwoThreadsAndRefusesBands) {
+  testing::ScratchDir scratch("stampede_mdet_exp_");
+  CellSimOptions so;
+  so.grid = 3;  // 9 galaxies a cell: the fits are the run's cost
+  MetadetectRunOptions o;
+  o.inputs = sim_cells(scratch.path("sims"), 3, so);
+  o.metadetect.measurement = MetadetectMeasurement::kExp;
+  o.cells_per_batch = 1;
+  o.threads = 1;
+  o.output = scratch.path("one.fits");
+  const MetadetectRunSummary one = run_metadetect(o);
+  EXPECT_EQ(one.cells, 3);
+  EXPECT_EQ(one.cells_failed, 0);
+  EXPECT_EQ(one.rows, 3 * 5 * 9);
+  o.threads = 2;
+  o.output = scratch.path("two.fits");
+  run_metadetect(o);
+  EXPECT_EQ(bytes(scratch.path("one.fits")), bytes(scratch.path("two.fits")));
+  io::FitsFile f = io::FitsFile::open_read(scratch.path("one.fits"));
+  f.move_to("METADETECT");
+  EXPECT_EQ(f.read_key_string("MEASURE").value_or(""), "exp");
+  const std::vector<double> flags = f.read_column("flags"), snr = f.read_column("snr");
+  for (std::size_t i = 0; i < flags.size(); ++i) {
+    EXPECT_EQ(flags[i], 0) << "row " << i;
+    EXPECT_GT(snr[i], 1000) << "row " << i;
+  }
+  // Several bands: refused, naming the measurement.
+  sim_band_tiles(scratch.path("bands"), 1);
+  MetadetectRunOptions b = o;
+  b.inputs = {scratch.path("bands/g/cells_meds.fits"), scratch.path("bands/r/cells_meds.fits")};
+  b.tile = true;
+  b.output = scratch.path("bands.fits");
+  try {
+    run_metadetect(b);
+    ADD_FAILURE() << "two bands fitted";
+  } catch (const io::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("--measurement exp fits one band"), std::string::npos) << e.what();
+  }
 }
 
 TEST(MetadetectRun, BandsThatDoNotMatchTheTilesAreRefusedByName) {

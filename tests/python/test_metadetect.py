@@ -1,6 +1,7 @@
 """stampede.metadetect on numpy arrays: the rows equal `stampede metadetect`'s on the same image
 (with its NOISE plane as fixnoise's field, or without: a field drawn from the weight), a cell of a
-grid finds every galaxy once per image, and bad arguments are errors naming them."""
+grid finds every galaxy once per image, pgauss's rows equal the command line's too, and bad
+arguments are errors naming them."""
 
 import os
 
@@ -48,6 +49,19 @@ def test_without_the_noise_plane_rows_equal_a_run_that_draws_the_field(cell, tmp
     assert not np.array_equal(with_plane["e1"], rows["e1"])
 
 
+def test_pgauss_rows_equal_the_command_line_run(cell, tmp_path):
+    path, image, weight, psf = cell
+    rows = stampede.metadetect(image, weight, psf, 0.25, measurement="pgauss",
+                               noise=stampede.read_image(path, "NOISE"))
+    out = str(tmp_path / "pgauss.fits")
+    run_cli("metadetect", path, "-o", out, "--quiet", "--measurement", "pgauss")
+    table = stampede.read_table(out, "METADETECT", COLUMNS)
+    for name in COLUMNS:
+        assert np.array_equal(np.asarray(rows[name], dtype=table[name].dtype), table[name]), name
+    wmom = stampede.metadetect(image, weight, psf, 0.25, noise=stampede.read_image(path, "NOISE"))
+    assert not np.array_equal(wmom["e1"], rows["e1"])
+
+
 def test_bad_arguments_name_themselves(cell):
     _, image, weight, psf = cell
     with pytest.raises(ValueError, match="weight"):
@@ -62,6 +76,8 @@ def test_bad_arguments_name_themselves(cell):
         stampede.metadetect(image, weight, psf, 0.25, cell_buffer=200)
     with pytest.raises(ValueError, match="noise"):
         stampede.metadetect(image, weight, psf, 0.25, noise=weight[:10])
+    with pytest.raises(ValueError, match="measurement"):
+        stampede.metadetect(image, weight, psf, 0.25, measurement="gauss")
     with pytest.raises(TypeError, match="unknown_option"):
         stampede.metadetect(image, weight, psf, 0.25, unknown_option=1)
 
