@@ -2,16 +2,12 @@
 // a stopped run resumes to the uninterrupted table, an image larger than a cell keeps each galaxy
 // once, bad input is a clear error naming the file and HDU, or a flagged cell; several bands'
 // tiles give per-band columns (the same for any thread count, shards merging to the whole), bands
-<<<<<<< HEAD
 // that do not match are refused by name, and the input's NOISE plane is fixnoise's field. Image
 // files of several bands ({band} templates) measure as the same bands' tiles, files that do not
 // match are refused by name; a PSFEx model (--psfex) of the PSF HDU's PSF measures as the PSF HDU,
-// a varying one gives each cell its own PSF, and a bad one is refused by name.
-=======
-// that do not match are refused by name, and the input's NOISE plane is fixnoise's field. pgauss
-// runs give the same table for any thread count, one band or several, its name in the header; so
-// do exp fits (one band; several are refused by name).
->>>>>>> mdmeas
+// a varying one gives each cell its own PSF, and a bad one is refused by name. pgauss runs give
+// the same table for any thread count, one band or several, its name in the header; so do exp
+// fits (one band; several are refused by name).
 #include "app/metadetect_run.hpp"
 
 #include <fitsio.h>
