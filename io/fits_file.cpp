@@ -963,30 +963,33 @@ void FitsFile::read_rows(const std::string& name, long long first_row, std::span
   if (status != 0) fail_status(status, "cannot read column '" + name + "'");
 }
 
-int FitsFile::string_column(const std::string& name, long long* chars) {
+int FitsFile::column_type(const std::string& name, int* col, long long* repeat) {
   require_table();
-  const auto col = find_column(name);
-  if (!col) fail("no column '" + name + "'");
+  const auto c = find_column(name);
+  if (!c) fail("no column '" + name + "'");
   int type = 0, status = 0;
-  LONGLONG repeat = 0, width = 0;
-  fits_get_coltypell(as_fits(handle()), *col, &type, &repeat, &width, &status);
+  LONGLONG r = 0, width = 0;
+  fits_get_coltypell(as_fits(handle()), *c, &type, &r, &width, &status);
   if (status != 0) fail_status(status, "cannot read the type of column '" + name + "'");
-  if (type != TSTRING) fail("column '" + name + "' is not a character column");
+  *col = *c;
+  *repeat = r;
+  return type;
+}
+
+int FitsFile::string_column(const std::string& name, long long* chars) {
+  int col = 0;
+  long long repeat = 0;
+  if (column_type(name, &col, &repeat) != TSTRING) fail("column '" + name + "' is not a character column");
   // CFITSIO writes the string and its terminator: repeat characters at most.
   if (repeat > 1 << 20) fail("column '" + name + "' holds strings of " + std::to_string(repeat) + " characters");
   *chars = repeat;
-  return *col;
+  return col;
 }
 
 bool FitsFile::is_string_column(const std::string& name) {
-  require_table();
-  const auto col = find_column(name);
-  if (!col) fail("no column '" + name + "'");
-  int type = 0, status = 0;
-  LONGLONG repeat = 0, width = 0;
-  fits_get_coltypell(as_fits(handle()), *col, &type, &repeat, &width, &status);
-  if (status != 0) fail_status(status, "cannot read the type of column '" + name + "'");
-  return type == TSTRING;
+  int col = 0;
+  long long repeat = 0;
+  return column_type(name, &col, &repeat) == TSTRING;
 }
 
 std::string FitsFile::read_string(const std::string& name, long long row) {

@@ -203,6 +203,9 @@ class FitsFile {
   // Column number of a scalar numeric column (throws otherwise); *nulval_if_integer is left
   // non-null for integer columns, whose TNULL values must read as NaN.
   int numeric_column(const std::string& name, void** nulval_if_integer, long long* repeat = nullptr);
+  // A column's CFITSIO type code, its number in *col and values per row in *repeat; throws when
+  // there is no such column.
+  int column_type(const std::string& name, int* col, long long* repeat);
   // A character column's number, its characters per row in *chars; throws for other types.
   int string_column(const std::string& name, long long* chars);
   // Rows of a numeric column as doubles (TNULL -> NaN for integer columns) or exact integers;

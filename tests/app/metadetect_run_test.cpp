@@ -368,6 +368,16 @@ TEST(MetadetectRun, ExpFitTableIsTheSameForOneAndTwoThreadsAndRefusesBands) {
   }
 }
 
+// The ConfigError a run of `o` throws ("no error" when it runs).
+std::string config_error_of(const MetadetectRunOptions& o) {
+  try {
+    run_metadetect(o);
+  } catch (const io::ConfigError& e) {
+    return std::string(e.what());
+  }
+  return std::string("no error");
+}
+
 TEST(MetadetectRun, BandsThatDoNotMatchTheTilesAreRefusedByName) {
   testing::ScratchDir scratch("stampede_mdet_band_errors_");
   sim_band_tiles(scratch.path("sims"), 2);
@@ -380,12 +390,7 @@ TEST(MetadetectRun, BandsThatDoNotMatchTheTilesAreRefusedByName) {
     o.tile = tile;
     o.output = scratch.path("out.fits");
     o.overwrite = true;
-    try {
-      run_metadetect(o);
-    } catch (const io::ConfigError& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
+    return config_error_of(o);
   };
   const std::string count = error_of({g, r}, {"g"});
   EXPECT_NE(count.find("--bands names 1 band but 2 --meds tiles"), std::string::npos) << count;
@@ -465,12 +470,7 @@ TEST(MetadetectRun, BandImagesThatDoNotMatchAreRefusedByName) {
     o.psfex = psfex;
     o.output = scratch.path("out.fits");
     o.overwrite = true;
-    try {
-      run_metadetect(o);
-    } catch (const io::ConfigError& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
+    return config_error_of(o);
   };
   write_image(scratch.path("g/a.fits"), 251, {"WEIGHT", "PSF"});
   write_image(scratch.path("r/a.fits"), 260, {"WEIGHT", "PSF"});
