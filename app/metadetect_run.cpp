@@ -297,6 +297,7 @@ class CellSource : public StampSource {
     for (int b = 0; b < bands; ++b) noise = noise && !image(b).noise.empty();
     if (noise) cell.noise_offset = static_cast<long long>(data.add_noise(npix, bands));
     batch.observations.begin_object(bands);
+    const PsfexPosition at = cell_psfex_position(place, s);
     for (int b = 0; b < bands; ++b) {
       const io::CellImage& im = image(b);
       std::span<double> pixels, weights;
@@ -305,7 +306,6 @@ class CellSource : public StampSource {
       if (models_.empty()) {
         o.psf = psfs_[static_cast<std::size_t>(b)];
       } else {
-        const PsfexPosition at = cell_psfex_position(place, s);
         std::string why;
         if (auto psf = models_[static_cast<std::size_t>(b)].image_at(at.x_image, at.y_image, &why))
           o.psf = PsfModel::Image(std::move(psf));
@@ -514,15 +514,26 @@ std::vector<std::string> image_bands(const MetadetectRunOptions& options) {
             throw io::ConfigError("image " + expand_band(in, names[b]) + " is bands " + names[a] + " and " + names[b] +
                                   " of '" + in + "'");
   }
-  if (options.metadetect.per_object_metacal && n > 1)
-    throw io::ConfigError("--per-object-metacal measures one band: give --bands one band");
   return names;
+}
+
+// What measures one band only, whichever input carries the bands; `give` says how to give one.
+void refuse_bands_for_one_band_measurements(const MetadetectOptions& o, std::size_t bands, const std::string& give) {
+  if (bands < 2) return;
+  if (o.per_object_metacal) throw io::ConfigError("--per-object-metacal measures one band: " + give);
+  if (o.measurement == MetadetectMeasurement::kExp || o.measurement == MetadetectMeasurement::kBd)
+    throw io::ConfigError(std::string("--measurement ") + metadetect_measurement_name(o.measurement) +
+                          " fits one band: " + give + ", or measure the bands with wmom or pgauss");
 }
 
 }  // namespace
 
 std::vector<std::string> metadetect_bands(const MetadetectRunOptions& options) {
-  if (!options.tile) return image_bands(options);
+  if (!options.tile) {
+    std::vector<std::string> names = image_bands(options);
+    refuse_bands_for_one_band_measurements(options.metadetect, names.size(), "give --bands one band");
+    return names;
+  }
   if (!options.psfex.empty())
     throw io::ConfigError("--psfex gives image files' PSF: a --meds cell tile has its own PSF cutouts");
   const std::size_t n = options.inputs.size();
@@ -546,12 +557,7 @@ std::vector<std::string> metadetect_bands(const MetadetectRunOptions& options) {
     for (std::size_t a = 0; a < b; ++a)
       if (io::same_file(options.inputs[a], options.inputs[b]))
         throw io::ConfigError("--meds " + options.inputs[b] + " is given twice (bands " + names[a] + " and " + names[b] + ")");
-  if (options.metadetect.per_object_metacal && n > 1)
-    throw io::ConfigError("--per-object-metacal measures one band: give one --meds tile");
-  const MetadetectMeasurement m = options.metadetect.measurement;
-  if ((m == MetadetectMeasurement::kExp || m == MetadetectMeasurement::kBd) && n > 1)
-    throw io::ConfigError(std::string("--measurement ") + metadetect_measurement_name(m) +
-                          " fits one band: give one --meds tile, or measure the bands with wmom or pgauss");
+  refuse_bands_for_one_band_measurements(options.metadetect, n, "give one --meds tile");
   return names;
 }
 

@@ -494,6 +494,14 @@ TEST(MetadetectRun, BandImagesThatDoNotMatchAreRefusedByName) {
   EXPECT_NE(names.find("--bands: bands 'g' and 'G' differ only in case"), std::string::npos) << names;
   const std::string twice = error_of({scratch.path("{band}/../one.fits")}, {"g", "r"});
   EXPECT_NE(twice.find("is bands g and r of"), std::string::npos) << twice;
+  // A model fit measures one band, from image files as from tiles: refused before any cell.
+  MetadetectRunOptions fit;
+  fit.inputs = {scratch.path("{band}/b.fits")};
+  fit.bands = {"g", "r"};
+  fit.metadetect.measurement = MetadetectMeasurement::kExp;
+  fit.output = scratch.path("out.fits");
+  const std::string fits_bands = config_error_of(fit);
+  EXPECT_NE(fits_bands.find("--measurement exp fits one band: give --bands one band"), std::string::npos) << fits_bands;
   // One band named, no template: its columns.
   MetadetectRunOptions o;
   o.inputs = sim_cells(scratch.path("sims"), 1);
