@@ -521,7 +521,7 @@ std::vector<std::string> image_bands(const MetadetectRunOptions& options) {
 void refuse_bands_for_one_band_measurements(const MetadetectOptions& o, std::size_t bands, const std::string& give) {
   if (bands < 2) return;
   if (o.per_object_metacal) throw io::ConfigError("--per-object-metacal measures one band: " + give);
-  if (o.measurement == MetadetectMeasurement::kExp || o.measurement == MetadetectMeasurement::kBd)
+  if (is_model_fit(o.measurement))
     throw io::ConfigError(std::string("--measurement ") + metadetect_measurement_name(o.measurement) +
                           " fits one band: " + give + ", or measure the bands with wmom or pgauss");
 }

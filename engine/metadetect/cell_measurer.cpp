@@ -16,10 +16,6 @@
 namespace stampede {
 namespace {
 
-bool fits_a_model(MetadetectMeasurement m) {
-  return m == MetadetectMeasurement::kExp || m == MetadetectMeasurement::kBd;
-}
-
 // Pixels of zeros on each side of a cell on the metacal grid. The operations are periodic: a
 // galaxy's light at one edge reaches the opposite edge's pixels through the filters' real-space
 // kernel (about the reconvolution PSF's width), here >= 32 pixels of padding plus the buffer away
@@ -50,7 +46,7 @@ std::vector<double> pixelated_psf_image(const PsfModel& psf, int n, int sub) {
 
 CellMeasurer::CellMeasurer(const MetadetectOptions& options, FftPlanning planning)
     : options_(options), planning_(planning), filter_(detection_filter(options.detection)) {
-  if (fits_a_model(options.measurement))
+  if (is_model_fit(options.measurement))
     // `stampede fit --metacal`'s fit of metacal_model exp or bd (default fit options otherwise).
     fitter_ = std::make_unique<ObjectFitter>(
         metacal_fit_options(FitterOptions{}, options.measurement == MetadetectMeasurement::kExp

@@ -66,7 +66,7 @@ bool MetadetectOptions::IsValid(std::string* why) const {
   if (per_object_metacal && measurement != MetadetectMeasurement::kWmom)
     return refuse(why, "--measurement", metadetect_measurement_name(measurement),
                   "--per-object-metacal measures with wmom only");
-  if (weight_fwhm != 0 && (measurement == MetadetectMeasurement::kExp || measurement == MetadetectMeasurement::kBd))
+  if (weight_fwhm != 0 && is_model_fit(measurement))
     return refuse(why, "--weight-fwhm", weight_fwhm,
                   "weighs wmom and pgauss; a model fit (--measurement exp or bd) has no weight");
   if (!(detection.threshold > 0 && std::isfinite(detection.threshold)))

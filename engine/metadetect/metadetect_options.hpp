@@ -18,6 +18,10 @@ enum class MetadetectMeasurement {
 const char* metadetect_measurement_name(MetadetectMeasurement m);
 // Case-insensitive inverse of metadetect_measurement_name; false for anything else.
 bool parse_metadetect_measurement(std::string_view name, MetadetectMeasurement* out);
+// exp or bd: a model fitted to one band's stamp, with no weight function.
+inline bool is_model_fit(MetadetectMeasurement m) {
+  return m == MetadetectMeasurement::kExp || m == MetadetectMeasurement::kBd;
+}
 
 // SEP's extraction ("sxdes" settings): a threshold in units of the image's noise sigma, on the image
 // convolved with a normalised Gaussian filter.
