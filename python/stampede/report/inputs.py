@@ -43,26 +43,36 @@ def simulation_identity(header):
     return " ".join(parts)
 
 
+def checked_table(path, extname, required, what, no_hdu):
+    """The table HDU `extname` of `path`, with every `required` column and a row at least; else a
+    ReportError naming the file (`no_hdu(fits)` its message when the HDU is absent) and `what` the
+    table should have been."""
+    try:
+        fits = FitsFile(path)
+        t = fits.table(extname)
+    except FitsError as e:
+        raise ReportError(str(e)) from None
+    if t is None:
+        raise ReportError(no_hdu(fits))
+    missing = [c for c in required if not t.has(c)]
+    if missing:
+        raise ReportError(f"{t.where}: no column {', '.join(repr(c) for c in missing)}: not a {what}")
+    if t.rows == 0:
+        raise ReportError(f"{t.where}: the table has no rows: nothing to report")
+    return t
+
+
 class ResultTable:
     """One `stampede fit` table: its RESULTS header and columns, what kind of input it fitted."""
 
     def __init__(self, path):
         self.path = str(path)
-        try:
-            fits = FitsFile(self.path)
-            self.table = fits.table("RESULTS")
-        except FitsError as e:
-            raise ReportError(str(e)) from None
-        if self.table is None:
+        def no_hdu(fits):
             names = ", ".join(h["name"] or f"HDU {h['index']}" for h in fits.hdus)
-            raise ReportError(f"{self.path}: not a `stampede fit` result table (no RESULTS HDU; it has {names})")
+            return f"{self.path}: not a `stampede fit` result table (no RESULTS HDU; it has {names})"
+
+        self.table = checked_table(self.path, "RESULTS", REQUIRED_COLUMNS, "`stampede fit` result table", no_hdu)
         self.header = self.table.header
-        missing = [c for c in REQUIRED_COLUMNS if not self.table.has(c)]
-        if missing:
-            raise ReportError(f"{self.table.where}: no column {', '.join(repr(c) for c in missing)}: not a "
-                              "`stampede fit` result table")
-        if self.table.rows == 0:
-            raise ReportError(f"{self.table.where}: the table has no rows: nothing to report")
         self.rows = self.table.rows
         self.survey = self.table.has("ra") and self.table.has("dec")
         self.metacal = self.table.has("R11")

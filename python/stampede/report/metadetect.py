@@ -13,7 +13,7 @@ from stampede import FitsError
 
 from . import figures
 from .fits_file import FitsFile
-from .inputs import ReportError
+from .inputs import ReportError, checked_table
 from .page import Page, note, pre, table
 from .statistics import Histogram
 
@@ -48,19 +48,10 @@ class MetadetectTable:
 
     def __init__(self, path):
         self.path = str(path)
-        try:
-            self.table = FitsFile(self.path).table("METADETECT")
-        except FitsError as e:
-            raise ReportError(str(e)) from None
-        if self.table is None:
-            raise ReportError(f"{self.path}: no METADETECT HDU: not a `stampede metadetect` table")
+        self.table = checked_table(
+            self.path, "METADETECT", REQUIRED_COLUMNS, "`stampede metadetect` table",
+            lambda fits: f"{self.path}: no METADETECT HDU: not a `stampede metadetect` table")
         self.header = self.table.header
-        missing = [c for c in REQUIRED_COLUMNS if not self.table.has(c)]
-        if missing:
-            raise ReportError(f"{self.table.where}: no column {', '.join(repr(c) for c in missing)}: not a "
-                              "`stampede metadetect` table")
-        if self.table.rows == 0:
-            raise ReportError(f"{self.table.where}: the table has no rows: nothing to report")
         self.rows = self.table.rows
         step = self.header.get("MCSTEP")
         self.step = step if isinstance(step, (int, float)) and not isinstance(step, bool) else math.nan
