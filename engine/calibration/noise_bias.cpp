@@ -14,7 +14,6 @@ namespace {
 
 constexpr int kCurvesPerNode = 4;  // (axis e1, comp 0), (e1, 1), (e2, 0), (e2, 1)
 constexpr int kOutputs = kCurvesPerNode * 4;
-constexpr double kLnRadiusWidth = 0.9, kFractionWidth = 0.5;
 
 int curve_slot(BiasAxis axis, int component) { return 2 * static_cast<int>(axis) + component; }
 
@@ -65,11 +64,14 @@ NoiseBiasModel::NoiseBiasModel(const CalibrationTable& table) {
   if (nodes == 0 || table.curves.size() != nodes * kCurvesPerNode)
     throw std::invalid_argument("calibration table: expected " + std::to_string(nodes * kCurvesPerNode) +
                                 " bias curves, found " + std::to_string(table.curves.size()));
-  std::vector<double> coords, values(nodes * kOutputs, NAN);
+  // Curves come radius by radius, each radius's fractions in order: the spline's node order.
+  std::vector<double> values(nodes * kOutputs, NAN);
   for (std::size_t n = 0; n < nodes; ++n) {
     const BiasCurve& first = table.curves[n * kCurvesPerNode];
-    coords.push_back(std::log(first.radius));
-    coords.push_back(first.bulge_fraction);
+    if (first.radius != g.radii[n / g.bulge_fractions.size()] ||
+        first.bulge_fraction != g.bulge_fractions[n % g.bulge_fractions.size()])
+      throw std::invalid_argument("calibration table: bias curves out of order at row " +
+                                  std::to_string(n * kCurvesPerNode));
     for (int k = 0; k < kCurvesPerNode; ++k) {
       const BiasCurve& c = table.curves[n * kCurvesPerNode + k];
       if (c.radius != first.radius || c.bulge_fraction != first.bulge_fraction ||
@@ -84,9 +86,12 @@ NoiseBiasModel::NoiseBiasModel(const CalibrationTable& table) {
       }
     }
   }
-  const double length[2] = {kLnRadiusWidth, kFractionWidth};
-  rbf_ = kernels::RbfInterpolator(coords, 2, values, kOutputs, length);
-  if (!rbf_.ok()) throw std::invalid_argument("calibration table: the RBF interpolation of the grid is singular");
+  std::vector<double> ln_radii;
+  for (double r : g.radii) ln_radii.push_back(std::log(r));
+  spline_ = kernels::TensorSpline(ln_radii, g.bulge_fractions, values, kOutputs);
+  if (!spline_.ok())
+    throw std::invalid_argument("calibration table: radii and bulge fractions must be increasing, at most " +
+                                std::to_string(kernels::kMaxSplineNodes) + " of each");
   ln_r_min_ = std::log(g.radii.front());
   ln_r_max_ = std::log(g.radii.back());
   f_min_ = g.bulge_fractions.front();
@@ -102,7 +107,7 @@ Bias NoiseBiasModel::at(const GalaxyProperties& galaxy, bool* clamped) const {
   const double e = std::min(std::abs(galaxy.e), e_max_);
   if (clamped) *clamped = x[0] != ln_r || x[1] != galaxy.bulge_fraction || e != std::abs(galaxy.e);
   double a[kOutputs];
-  rbf_.evaluate(x, a);
+  spline_.evaluate(x[0], x[1], a);
   const auto coeff = [&](BiasAxis axis, int comp, int j) { return a[4 * curve_slot(axis, comp) + j]; };
   const double e2 = e * e;
   const auto slope = [&](BiasAxis axis, int comp) {

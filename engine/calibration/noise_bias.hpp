@@ -1,5 +1,5 @@
 // The noise-bias model of the calibration (im3shape section 5.3 and appendix C): cubic bias curves
-// per grid point, a Gaussian RBF interpolation between grid points, population means over a deep
+// per grid point, a cubic-spline interpolation between grid points, population means over a deep
 // sample, and the per-object scaling and PSF rotation.
 //
 // Curves. At each (r_d, F) and for e_true along axis a (e1 or e2), the bias of component c,
@@ -20,9 +20,10 @@
 // component, pure noise, dropped. A round calibration PSF gives no direction: c is kept whole.
 //
 // Interpolation. The 16 coefficients (2 axes x 2 components x a0..a3) are interpolated together
-// over (ln r_d, F) by a Gaussian RBF with a linear term (kernels/rbf_interpolator), widths 0.9 in
-// ln r_d and 0.5 in F (about the default grid's spacing); properties outside the grid are clamped
-// to its edge (an RBF extrapolates poorly) and counted.
+// over (ln r_d, F) by the tensor product of natural cubic splines (kernels/tensor_spline). The paper
+// uses a Gaussian RBF; held-out nodes of a dense table are predicted better by the splines, and an
+// RBF of fixed width turns singular on a dense grid (docs/calibration/interpolation_check.py).
+// Properties outside the grid are clamped to its edge and counted.
 //
 // Application. A bias b measured at S/N_ref scales to an object of S/N s as b (S/N_ref / s)^2
 // (Refregier et al. 2012; Kacprzak et al. 2012). c is measured with the calibration's PSF e0; for an
@@ -38,7 +39,7 @@
 #include <vector>
 
 #include "engine/calibration/calibration_grid.hpp"
-#include "kernels/rbf_interpolator.hpp"
+#include "kernels/tensor_spline.hpp"
 
 namespace stampede {
 
@@ -80,7 +81,7 @@ struct Bias {
 
 class NoiseBiasModel {
  public:
-  // Throws std::invalid_argument when a curve is missing or failed, or the interpolation is singular.
+  // Throws std::invalid_argument when a curve is missing, failed or out of order.
   explicit NoiseBiasModel(const CalibrationTable& table);
   // m and c at the reference S/N in the calibration PSF's frame. *clamped (if given) is set when a
   // property lay outside the grid and was moved to its edge.
@@ -89,7 +90,7 @@ class NoiseBiasModel {
   std::complex<double> psf_e0() const { return psf_e0_; }
 
  private:
-  kernels::RbfInterpolator rbf_;
+  kernels::TensorSpline spline_;
   double ln_r_min_ = 0, ln_r_max_ = 0, f_min_ = 0, f_max_ = 0, e_max_ = 0;
   double snr_ref_ = 0;
   std::complex<double> psf_e0_ = 0;

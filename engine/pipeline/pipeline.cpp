@@ -45,6 +45,23 @@ class BatchPool {
   std::vector<StampBatch*> free_;
 };
 
+// Under TSan: the main thread releases this token once a run's state and filters exist; every filter
+// call acquires it before it reads that state. It is a global so that the acquire reads no memory.
+int run_start_token = 0;
+
+// A filter's captured pointer, read from its closure. The closure is oneTBB's copy of our filter,
+// made by the main thread inside parallel_pipeline and ordered before this call by libtbb, which
+// is not built for TSan and whose ordering TSan cannot see: that one read is exempt. What the pointer
+// leads to was written before run_start_token's release, which is acquired here.
+template <class T>
+T& captured(T* const& pointer) {
+  STAMPEDE_TSAN_IGNORE_READS_BEGIN();
+  T* p = pointer;
+  STAMPEDE_TSAN_IGNORE_READS_END();
+  STAMPEDE_TSAN_ACQUIRE(&run_start_token);
+  return *p;
+}
+
 }  // namespace
 
 PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
@@ -116,66 +133,80 @@ PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
   tbb::enumerable_thread_specific<std::unique_ptr<BatchFitter>> fitters;
   std::exception_ptr pipeline_error;
   long long sequence = 0;
-  // TSan tokens (tsan_annotations.hpp): start of the run, the serial reader's and hand-off's turns,
-  // and the end of every fit (for the main thread that destroys the per-thread fitters).
-  int start_token = 0, reader_token = 0, handoff_token = 0, fit_token = 0;
+  // What the filters use, reached through one captured pointer (see captured()), with the TSan
+  // tokens of the serial reader's and hand-off's turns and of the end of every fit (for the main
+  // thread that destroys the per-thread fitters).
+  struct Stages {
+    std::atomic<bool>& cancelled;
+    const PipelineOptions& options;
+    bool& stopped;
+    BatchPool& pool;
+    long long& sequence;
+    StampSource& source;
+    std::atomic<long long>& batches_read;
+    tbb::enumerable_thread_specific<std::unique_ptr<BatchFitter>>& fitters;
+    const std::function<std::unique_ptr<BatchFitter>()>& make_fitter;
+    MpscStack<StampBatch>& finished;
+    int reader_token = 0, handoff_token = 0, fit_token = 0;
+  } stages{cancelled, options, stopped, pool, sequence, source, batches_read, fitters, make_fitter, finished};
   try {
     const auto filters =
         tbb::make_filter<void, StampBatch*>(tbb::filter_mode::serial_in_order,
-                                            [&](tbb::flow_control& fc) -> StampBatch* {
-                                              STAMPEDE_TSAN_ACQUIRE(&start_token);
-                                              STAMPEDE_TSAN_ACQUIRE(&reader_token);
+                                            [st = &stages](tbb::flow_control& fc) -> StampBatch* {
+                                              Stages& s = captured(st);
+                                              STAMPEDE_TSAN_ACQUIRE(&s.reader_token);
                                               struct TurnEnd {
                                                 int* token;
                                                 ~TurnEnd() { STAMPEDE_TSAN_RELEASE(token); }
-                                              } turn_end{&reader_token};
-                                              if (cancelled.load()) {
+                                              } turn_end{&s.reader_token};
+                                              if (s.cancelled.load()) {
                                                 fc.stop();
                                                 return nullptr;
                                               }
-                                              if (options.stop && options.stop->load()) {
-                                                stopped = true;
+                                              if (s.options.stop && s.options.stop->load()) {
+                                                s.stopped = true;
                                                 fc.stop();
                                                 return nullptr;
                                               }
-                                              StampBatch* b = pool.take();  // blocks while all are in flight
-                                              b->sequence = sequence;
-                                              if (!source.fill(*b) || b->count == 0) {
-                                                pool.put(b);
+                                              StampBatch* b = s.pool.take();  // blocks while all are in flight
+                                              b->sequence = s.sequence;
+                                              if (!s.source.fill(*b) || b->count == 0) {
+                                                s.pool.put(b);
                                                 fc.stop();
                                                 return nullptr;
                                               }
-                                              ++sequence;
-                                              batches_read.fetch_add(1);
+                                              ++s.sequence;
+                                              s.batches_read.fetch_add(1);
                                               STAMPEDE_TSAN_RELEASE(b);
                                               return b;
                                             }) &
             tbb::make_filter<StampBatch*, StampBatch*>(tbb::filter_mode::parallel,
-                                                       [&](StampBatch* b) {
-                                                         STAMPEDE_TSAN_ACQUIRE(&start_token);
+                                                       [st = &stages](StampBatch* b) {
+                                                         Stages& s = captured(st);
                                                          STAMPEDE_TSAN_ACQUIRE(b);
-                                                         auto& f = fitters.local();
-                                                         if (!f) f = make_fitter();
-                                                         if (!cancelled.load()) f->fit(*b);
+                                                         auto& f = s.fitters.local();
+                                                         if (!f) f = s.make_fitter();
+                                                         if (!s.cancelled.load()) f->fit(*b);
                                                          STAMPEDE_TSAN_RELEASE(b);
-                                                         STAMPEDE_TSAN_RELEASE(&fit_token);
+                                                         STAMPEDE_TSAN_RELEASE(&s.fit_token);
                                                          return b;
                                                        }) &
             tbb::make_filter<StampBatch*, void>(tbb::filter_mode::serial_out_of_order,
-                                                [&](StampBatch* b) {
-                                                  STAMPEDE_TSAN_ACQUIRE(&handoff_token);
+                                                [st = &stages](StampBatch* b) {
+                                                  Stages& s = captured(st);
+                                                  STAMPEDE_TSAN_ACQUIRE(&s.handoff_token);
                                                   STAMPEDE_TSAN_ACQUIRE(b);
-                                                  finished.push(b);
-                                                  STAMPEDE_TSAN_RELEASE(&handoff_token);
+                                                  s.finished.push(b);
+                                                  STAMPEDE_TSAN_RELEASE(&s.handoff_token);
                                                 });
-    STAMPEDE_TSAN_RELEASE(&start_token);  // after the filters exist: workers read them
+    STAMPEDE_TSAN_RELEASE(&run_start_token);  // the stages and filters exist
     arena.execute([&] { tbb::parallel_pipeline(static_cast<std::size_t>(pool_size), filters); });
   } catch (...) {
     pipeline_error = std::current_exception();
     cancelled.store(true);
   }
-  STAMPEDE_TSAN_ACQUIRE(&fit_token);
-  STAMPEDE_TSAN_ACQUIRE(&reader_token);
+  STAMPEDE_TSAN_ACQUIRE(&stages.fit_token);
+  STAMPEDE_TSAN_ACQUIRE(&stages.reader_token);
   reader_done.store(true, std::memory_order_release);
   finished.poke();
   writer.join();

@@ -9,9 +9,16 @@
 #if defined(__SANITIZE_THREAD__)
 extern "C" void __tsan_acquire(void* addr);
 extern "C" void __tsan_release(void* addr);
+extern "C" void AnnotateIgnoreReadsBegin(const char* file, int line);
+extern "C" void AnnotateIgnoreReadsEnd(const char* file, int line);
 #define STAMPEDE_TSAN_ACQUIRE(addr) __tsan_acquire(static_cast<void*>(addr))
 #define STAMPEDE_TSAN_RELEASE(addr) __tsan_release(static_cast<void*>(addr))
+// Reads between these are not checked: only for a read whose ordering libtbb alone provides.
+#define STAMPEDE_TSAN_IGNORE_READS_BEGIN() AnnotateIgnoreReadsBegin(__FILE__, __LINE__)
+#define STAMPEDE_TSAN_IGNORE_READS_END() AnnotateIgnoreReadsEnd(__FILE__, __LINE__)
 #else
 #define STAMPEDE_TSAN_ACQUIRE(addr) ((void)(addr))
 #define STAMPEDE_TSAN_RELEASE(addr) ((void)(addr))
+#define STAMPEDE_TSAN_IGNORE_READS_BEGIN() ((void)0)
+#define STAMPEDE_TSAN_IGNORE_READS_END() ((void)0)
 #endif
