@@ -1,13 +1,11 @@
 // A simulated MEDS tile on disk; see meds_simulation.hpp.
 #include "app/meds_simulation.hpp"
 
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
 
+#include "engine/common/parallel_indices.hpp"
 #include "io/durable_file.hpp"
 #include "io/file_digest.hpp"
 #include "io/fits_file.hpp"
@@ -100,8 +98,6 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
   io::MedsWriter writer(tile, layout, images,
                         {io::MedsCutoutType::kWeight, io::MedsCutoutType::kSeg, io::MedsCutoutType::kBmask},
                         {{io::kSimulationIdKey, id}});
-  tbb::enumerable_thread_specific<std::unique_ptr<MedsSimulator::Workspace>> workspaces(
-      [&] { return sim.make_workspace(); });
   std::vector<MedsSimObject> chunk;
   const std::vector<double> empty(static_cast<std::size_t>(box) * box, 0.0), empty_psf(static_cast<std::size_t>(n) * n, 0.0);
   std::vector<double> seg(empty.size());
@@ -114,10 +110,12 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
   for (long long first = 0; first < options.objects; first += kChunk) {
     const long long count = std::min<long long>(kChunk, options.objects - first);
     chunk.assign(static_cast<std::size_t>(count), MedsSimObject{});
-    tbb::parallel_for(0LL, count, [&](long long k) {
-      auto& ws = workspaces.local();
-      chunk[static_cast<std::size_t>(k)] = sim.simulate(first + k, *ws);
-    });
+    // Plain threads (parallel_indices), as every simulator loop: TSan sees their ordering in full.
+    parallel_indices(
+        count, 1, [&] { return sim.make_workspace(); },
+        [&](std::unique_ptr<MedsSimulator::Workspace>& ws, long long k) {
+          chunk[static_cast<std::size_t>(k)] = sim.simulate(first + k, *ws);
+        });
     for (long long k = 0; k < count; ++k) {
       const MedsSimObject& o = chunk[static_cast<std::size_t>(k)];
       const long long row = first + k;
