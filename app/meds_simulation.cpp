@@ -4,6 +4,9 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
+#include <mutex>
+#include <vector>
 
 #include "engine/common/parallel_indices.hpp"
 #include "io/durable_file.hpp"
@@ -18,6 +21,34 @@ namespace stampede::app {
 namespace {
 
 constexpr long long kChunk = 64;
+
+// Simulation workspaces not in use, shared by the chunks of one tile.
+struct WorkspacePool {
+  std::mutex mutex;
+  std::vector<std::unique_ptr<MedsSimulator::Workspace>> free;
+};
+
+// A worker's workspace for one chunk: taken from the pool (or made) and given back at the end.
+struct WorkspaceLease {
+  WorkspaceLease(const MedsSimulator& sim, WorkspacePool& pool) : pool(pool) {
+    {
+      std::lock_guard<std::mutex> lock(pool.mutex);
+      if (!pool.free.empty()) {
+        workspace = std::move(pool.free.back());
+        pool.free.pop_back();
+      }
+    }
+    if (!workspace) workspace = sim.make_workspace();
+  }
+  WorkspaceLease(const WorkspaceLease&) = delete;
+  WorkspaceLease& operator=(const WorkspaceLease&) = delete;
+  ~WorkspaceLease() {
+    std::lock_guard<std::mutex> lock(pool.mutex);
+    pool.free.push_back(std::move(workspace));
+  }
+  WorkspacePool& pool;
+  std::unique_ptr<MedsSimulator::Workspace> workspace;
+};
 constexpr double kRa0 = 45.0, kDec0 = 0.0;  // the tile's centre; objects on a line in RA
 
 }  // namespace
@@ -98,6 +129,9 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
   io::MedsWriter writer(tile, layout, images,
                         {io::MedsCutoutType::kWeight, io::MedsCutoutType::kSeg, io::MedsCutoutType::kBmask},
                         {{io::kSimulationIdKey, id}});
+  // Workspaces outlive the chunks: a renderer and its prepared PSFs are made once per thread, not
+  // once per chunk.
+  WorkspacePool spare_workspaces;
   std::vector<MedsSimObject> chunk;
   const std::vector<double> empty(static_cast<std::size_t>(box) * box, 0.0), empty_psf(static_cast<std::size_t>(n) * n, 0.0);
   std::vector<double> seg(empty.size());
@@ -112,10 +146,8 @@ void write_meds_simulation(const MedsSimOptions& options, const std::string& dir
     chunk.assign(static_cast<std::size_t>(count), MedsSimObject{});
     // Plain threads (parallel_indices), as every simulator loop: TSan sees their ordering in full.
     parallel_indices(
-        count, 1, [&] { return sim.make_workspace(); },
-        [&](std::unique_ptr<MedsSimulator::Workspace>& ws, long long k) {
-          chunk[static_cast<std::size_t>(k)] = sim.simulate(first + k, *ws);
-        });
+        count, 1, [&] { return WorkspaceLease(sim, spare_workspaces); },
+        [&](WorkspaceLease& ws, long long k) { chunk[static_cast<std::size_t>(k)] = sim.simulate(first + k, *ws.workspace); });
     for (long long k = 0; k < count; ++k) {
       const MedsSimObject& o = chunk[static_cast<std::size_t>(k)];
       const long long row = first + k;

@@ -132,7 +132,6 @@ PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
 
   tbb::enumerable_thread_specific<std::unique_ptr<BatchFitter>> fitters;
   std::exception_ptr pipeline_error;
-  long long sequence = 0;
   // What the filters use, reached through one captured pointer (see captured()), with the TSan
   // tokens of the serial reader's and hand-off's turns and of the end of every fit (for the main
   // thread that destroys the per-thread fitters).
@@ -141,14 +140,14 @@ PipelineSummary run_pipeline(StampSource& source, BatchSink& sink,
     const PipelineOptions& options;
     bool& stopped;
     BatchPool& pool;
-    long long& sequence;
     StampSource& source;
     std::atomic<long long>& batches_read;
     tbb::enumerable_thread_specific<std::unique_ptr<BatchFitter>>& fitters;
     const std::function<std::unique_ptr<BatchFitter>()>& make_fitter;
     MpscStack<StampBatch>& finished;
+    long long sequence = 0;  // the next batch's, the reader's alone
     int reader_token = 0, handoff_token = 0, fit_token = 0;
-  } stages{cancelled, options, stopped, pool, sequence, source, batches_read, fitters, make_fitter, finished};
+  } stages{cancelled, options, stopped, pool, source, batches_read, fitters, make_fitter, finished};
   try {
     const auto filters =
         tbb::make_filter<void, StampBatch*>(tbb::filter_mode::serial_in_order,
