@@ -25,7 +25,7 @@ MetadetectMetrics metadetect_metrics(const MetadetectMetricsOptions& o) {
   MetadetectCellSums ps = sums(plus);
   if (!o.rotated.empty()) add(o.rotated, &ps);
   MetadetectMetrics out;
-  out.shear = metadetect_shear(ps, plus.step, o.resamples, o.seed);
+  out.shear = metadetect_shear(ps, plus.step, o.resamples, o.seed, o.estimator);
   if (o.minus.empty()) return out;
   const io::MetadetectTable minus = io::read_metadetect_table(o.minus);
   if (minus.step != plus.step) throw std::invalid_argument(o.minus + " was run with another metacal step than " + o.table);
@@ -50,7 +50,8 @@ MetadetectMetrics metadetect_metrics(const MetadetectMetricsOptions& o) {
     out.true_shear = {in.key_double("G1"), in.key_double("G2")};
   }
   out.has_bias = true;
-  out.bias = metadetect_pair_bias(ps, ms, out.true_shear[0], out.true_shear[1], plus.step, o.resamples, o.seed);
+  out.bias = metadetect_pair_bias(ps, ms, out.true_shear[0], out.true_shear[1], plus.step, o.resamples, o.seed,
+                                  o.estimator);
   return out;
 }
 

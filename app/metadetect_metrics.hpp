@@ -17,6 +17,7 @@ struct MetadetectMetricsOptions {
   std::string rotated, rotated_minus;       // the same cells' scenes turned by 90 degrees, "" none
   std::optional<std::array<double, 2>> shear;  // the true shear of `table`
   MetadetectCuts cuts;
+  MetadetectEstimator estimator = MetadetectEstimator::kComposed;
   int resamples = 200;
   std::uint64_t seed = 1;
 };

@@ -447,12 +447,14 @@ std::vector<std::pair<std::string, std::string>> option_keys(const MetadetectOpt
           {"CELLBUF", std::to_string(o.cell_buffer)},
           {"MCSTEP", number_text(o.step)},
           {"MCPSFDIL", number_text(o.psf_dilation)},
+          {"MCRECONV", reconvolution_rule_name(o.reconvolution)},
           {"FIXNOISE", o.fixnoise ? "T" : "F"},
           {"PEROBJMC", o.per_object_metacal ? "T" : "F"},
           {"NOISEPLN", o.noise_plane ? "T" : "F"},
           {"MCSEED", std::to_string(o.seed)},
           {"MEASURE", metadetect_measurement_name(o.measurement)},
           {"WFWHM", number_text(o.weight_fwhm_arcsec())},
+          {"RECENTRE", o.recentre ? "T" : "F"},
           {"DETTHR", number_text(d.threshold)},
           {"DETMINA", std::to_string(d.min_area)},
           {"DBLCONT", number_text(d.deblend_contrast)},
@@ -461,6 +463,7 @@ std::vector<std::pair<std::string, std::string>> option_keys(const MetadetectOpt
           {"FILTSIZE", std::to_string(d.filter_size)},
           {"CLEAN", d.clean ? "T" : "F"},
           {"CLEANPAR", number_text(d.clean_param)},
+          {"STAMPSZ", std::to_string(s.size)},
           {"BOXRFAC", number_text(s.radius_factor)},
           {"BOXRMIN", number_text(s.radius_min)},
           {"BOXPAD", number_text(s.padding)},
@@ -658,7 +661,8 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
                      {"WFWHM", io::HeaderValueType::kReal},       {"DETTHR", io::HeaderValueType::kReal},
                      {"DETMINA", io::HeaderValueType::kInteger},  {"DBLCONT", io::HeaderValueType::kReal},
                      {"DBLNTHR", io::HeaderValueType::kInteger},  {"FILTFWHM", io::HeaderValueType::kReal},
-                     {"FILTSIZE", io::HeaderValueType::kInteger}, {"NCELLS", io::HeaderValueType::kInteger}};
+                     {"FILTSIZE", io::HeaderValueType::kInteger}, {"NCELLS", io::HeaderValueType::kInteger},
+                     {"STAMPSZ", io::HeaderValueType::kInteger}};
   wo.fingerprint = fingerprint;
 
   MetadetectRunSummary summary;

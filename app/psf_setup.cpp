@@ -22,6 +22,7 @@ SharedPsf build_shared_psf(const app::RunConfig& cfg, FftPlanCache& plans) {
   switch (cfg.psf_kind) {
     case PsfKind::kMoffat: out.model = PsfModel::Moffat(cfg.moffat); break;
     case PsfKind::kAiry: out.model = PsfModel::Airy(cfg.airy); break;
+    case PsfKind::kGaussian: throw std::logic_error("build_shared_psf: psf_input = gaussian is refused by the config");
     case PsfKind::kImage: {
       io::FitsFile f = io::FitsFile::open_read(cfg.psf_image);
       const auto shape = f.image_shape();

@@ -208,9 +208,21 @@ std::vector<Entry> make_registry() {
                            "metacal: the applied shear delta, in [0.001, 0.1] (below 0.001 errors in e swamp R: "
                            "docs/metacal.md)",
                            DoubleKind::kFinite, [](auto& c) -> auto& { return c.metacal.step; }));
+  r.push_back({"metacal_reconvolution_psf",
+               "metacal: the reconvolution PSF: gauss, a round Gaussian, the PSF's adaptive Gaussian on its major axis "
+               "dilated by 1 + 2 metacal_step (the reference metadetect package's fitgauss); moffat, a round Moffat "
+               "widened until its filters are bounded; auto (default): gauss where its filters are bounded, else moffat",
+               mcal, [](const RunConfig& c) { return std::string(reconvolution_rule_name(c.metacal.reconvolution)); },
+               [](RunConfig& c, const std::string& v) {
+                 if (!parse_reconvolution_rule(v, &c.metacal.reconvolution))
+                   return std::string("expected auto, gauss or moffat");
+                 return std::string();
+               }});
   r.push_back(double_entry(mcal, "metacal_psf_dilation",
-                           "metacal: reconvolution PSF FWHM over the PSF's; 0 = (1 + 2 metacal_step) sqrt((1 + |e|) "
-                           "/ (1 - |e|)), the smallest wider than the sheared PSF in every direction",
+                           "metacal: reconvolution PSF FWHM over the PSF's (a Gaussian's over the PSF's adaptive "
+                           "Gaussian's); 0 = the rule's own: a Gaussian's 1 + 2 metacal_step, a Moffat's (1 + 2 "
+                           "metacal_step) sqrt((1 + |e|) / (1 - |e|)), the smallest wider than the sheared PSF in every "
+                           "direction",
                            DoubleKind::kFinite, [](auto& c) -> auto& { return c.metacal.psf_dilation; }));
   r.push_back(bool_entry(mcal, "metacal_fixnoise",
                          "metacal: add a noise field rotated by 90 degrees through the same operations, so that "
@@ -467,6 +479,9 @@ void validate(const RunConfig& config) {
       break;
     case PsfKind::kImage:
       if (config.psf_image.empty()) fail(config, "psf_input = image needs psf_image, the path of a FITS PSF image");
+      break;
+    case PsfKind::kGaussian:  // not a psf_input (parse_psf_kind refuses it)
+      fail(config, "psf_input = gaussian: not an input PSF (moffat, airy or image)");
       break;
   }
   // A PSF given two ways is refused, not resolved silently in favour of one.

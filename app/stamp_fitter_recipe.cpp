@@ -28,7 +28,7 @@ StampFitterRecipe stamp_fitter_recipe(const app::RunConfig& cfg, FftPlanCache& p
   r.auto_note = shared.auto_note;
   r.psf_e1 = shared.e1, r.psf_e2 = shared.e2, r.psf_fwhm = shared.fwhm;
   if (r.metacal) {
-    r.gamma_fwhm = checked_reconvolution_psf(shared.model, cfg).moffat.fwhm;
+    r.gamma_fwhm = checked_reconvolution_psf(shared.model, cfg).fwhm();
     // A moments weight narrower than Γ, the images' PSF, measures no response (docs/metacal.md
     // measures 1.5 Γ and wider); a MEDS run, whose Γ is per object, flags such rows instead.
     if (cfg.metacal.model == MetacalModel::kWeightedMoments && cfg.metacal.weight_fwhm > 0 &&

@@ -19,6 +19,7 @@ void write_settings(FitsFile& f, const CellSimulator& simulator) {
   f.write_key("CELLSIZE", o.size, "cell side, pixels");
   f.write_key("BUFFER", o.buffer, "edge buffer, pixels");
   f.write_key("LAYOUT", std::string(cell_layout_name(o.layout)), "object layout: grid or random");
+  f.write_key("REFPOS", o.reference_positions ? 1LL : 0LL, "1: positions as the reference shear test draws them");
   if (o.layout == CellLayout::kGrid) {
     f.write_key("GRID", o.grid, "objects per side");
   } else {

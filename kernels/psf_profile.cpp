@@ -69,6 +69,16 @@ double moffat_alpha(double fwhm, double beta) { return fwhm / (2.0 * std::sqrt(s
 
 double moffat_intensity(const MoffatProfile& psf, double dx, double dy) { return MoffatPrecomputed(psf)(dx, dy); }
 
+double gaussian_sigma(double fwhm) { return fwhm / 2.3548200450309493; }
+
+double gaussian_intensity(const GaussianProfile& psf, double dx, double dy) {
+  // I(x) = f(x^T Q x), det Q = 1, with f the round profile of sigma.
+  const EllipseQuadratic q = ellipse_quadratic(psf.e1, psf.e2, 1.0);
+  const double s2 = gaussian_sigma(psf.fwhm) * gaussian_sigma(psf.fwhm);
+  const double r2 = q.xx * dx * dx + 2.0 * q.xy * dx * dy + q.yy * dy * dy;
+  return std::exp(-0.5 * r2 / s2) / (2.0 * std::numbers::pi * s2);
+}
+
 double airy_intensity(const AiryProfile& psf, double dx, double dy) { return AiryPrecomputed(psf)(dx, dy); }
 
 void sample_moffat_wrapped(const MoffatProfile& psf, int n, double step, double* out) {

@@ -24,9 +24,20 @@ struct AiryProfile {
   double obscuration = 0.0;
 };
 
+// Gaussian: I(r) = exp(-r^2 / (2 sigma^2)) / (2 pi sigma^2), sigma = fwhm / 2.3548, sheared by
+// (e1, e2) as the Moffat is. Its transform is exp(-sigma^2 |S k|^2 / 2): it falls faster than any
+// PSF with a Moffat-like or Gaussian core, which is why metacalibration reconvolves with it.
+struct GaussianProfile {
+  double fwhm = 2.0;
+  double e1 = 0.0;
+  double e2 = 0.0;
+};
+
 double moffat_alpha(double fwhm, double beta);
+double gaussian_sigma(double fwhm);
 double moffat_intensity(const MoffatProfile& psf, double dx, double dy);
 double airy_intensity(const AiryProfile& psf, double dx, double dy);
+double gaussian_intensity(const GaussianProfile& psf, double dx, double dy);
 
 // Fills out[n*n] with the profile at lags ((i < (n+1)/2 ? i : i - n) * step), row-major.
 void sample_moffat_wrapped(const MoffatProfile& psf, int n, double step, double* out);

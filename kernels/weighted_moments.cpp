@@ -137,7 +137,8 @@ WeightedMoments measure(std::span<const MomentsStamp> stamps, double fwhm, doubl
   // The centroid is carried as the first stamp's pixel (x1, y1); the others' follow through the sky.
   const MomentsStamp& first = stamps[0];
   const double det1 = first.dudx * first.dvdy - first.dudy * first.dvdx;
-  double x1 = 0.5 * (first.size - 1), y1 = 0.5 * (first.size - 1);
+  double x1 = std::isnan(first.start_x) ? 0.5 * (first.size - 1) : first.start_x;
+  double y1 = std::isnan(first.start_y) ? 0.5 * (first.size - 1) : first.start_y;
   double u = 0, v = 0;
   auto stamp_centroid = [&](std::size_t k, double* xk, double* yk) {
     if (k == 0) {
@@ -239,11 +240,12 @@ WeightedMoments weighted_moments(std::span<const MomentsStamp> stamps, double fw
 }
 
 WeightedMoments weighted_moments(std::span<const double> image, int size, double fwhm, double variance,
-                                 std::span<double> scratch, int centroid_iterations) {
+                                 std::span<double> scratch, int centroid_iterations, double start_x, double start_y) {
   MomentsStamp s;
   s.image = image;
   s.size = size;
   s.variance = variance;
+  s.start_x = start_x, s.start_y = start_y;
   if (!usable(s) || !(fwhm > 0) || scratch.size() < scratch_size(s)) return {};
   return measure({&s, 1}, fwhm, scratch.data(), centroid_iterations);
 }

@@ -9,6 +9,7 @@
 // weights of their inverse noise variance per unit sky area, so the one shape is the combination.
 #pragma once
 
+#include <cmath>
 #include <span>
 #include <vector>
 
@@ -45,10 +46,14 @@ struct MomentsStamp {
   // Correlated noise: its covariance (variance then only weighs the stamps, not the errors); null:
   // white noise of `variance`.
   PixelCovariance* covariance = nullptr;
+  // The first stamp's: where the weight's centre starts, in its pixels (a detection's position);
+  // NaN: the stamp's centre.
+  double start_x = NAN, start_y = NAN;
 };
 
 // The weight is exp(-r^2 / (2 sigma^2)) on the sky, sigma = fwhm / 2.3548, about a centroid found by
-// `centroid_iterations` Newton steps of the weighted centroid from the first stamp's centre (so the
+// `centroid_iterations` Newton steps of the weighted centroid from the first stamp's start (its
+// centre unless start_x, start_y say otherwise; 0 steps: the weight stays there) (so the
 // estimator does not depend on where in the stamps the object is; a fixed count keeps it a smooth
 // function of the pixels). Stamps are averaged with weights flux_scale^2 |det J| / variance (equal
 // weights when any variance is 0). The errors take each stamp's noise as white of its variance,
@@ -60,6 +65,7 @@ WeightedMoments weighted_moments(std::span<const MomentsStamp> stamps, double fw
 // One stamp in its own pixels (J the unit matrix, reference at pixel (0, 0), flux scale 1): the
 // centroid in pixel coordinates. scratch: at least 2 x size values.
 WeightedMoments weighted_moments(std::span<const double> image, int size, double fwhm, double variance,
-                                 std::span<double> scratch, int centroid_iterations = 6);
+                                 std::span<double> scratch, int centroid_iterations = 6, double start_x = NAN,
+                                 double start_y = NAN);
 
 }  // namespace stampede::kernels

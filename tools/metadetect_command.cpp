@@ -71,7 +71,11 @@ void print_help() {
       "  --cell-size N              cell side, pixels (%d)\n"
       "  --cell-buffer N            pixels at each cell edge whose detections are not the cell's (%d)\n"
       "  --step S                   metacal shear step (%g)\n"
-      "  --psf-dilation F           reconvolution PSF FWHM over the PSF's; 0: the narrowest bounded (%g)\n"
+      "  --reconvolution-psf R      metacal's reconvolution PSF: gauss (the PSF's adaptive Gaussian,\n"
+      "                             round on its major axis, dilated by 1 + 2 step, as the reference\n"
+      "                             package's fitgauss), moffat (a round Moffat widened until its\n"
+      "                             filters are bounded), auto: gauss where bounded, else moffat (%s)\n"
+      "  --psf-dilation F           reconvolution PSF FWHM over the PSF's; 0: the rule's own (%g)\n"
       "  --no-fixnoise              do not add the rotated noise field\n"
       "  --no-noise-plane           draw the fixnoise field from the weight even where the input has\n"
       "                             a NOISE HDU or noise cutouts (which are used by default)\n"
@@ -92,16 +96,21 @@ void print_help() {
       "  --filter-fwhm F            Gaussian detection filter FWHM, pixels; 0: none (%g)\n"
       "  --filter-size N            the filter's odd side, pixels (%d)\n"
       "  --no-clean                 do not clean spurious detections near bright objects\n"
-      "  --box-min N, --box-max N   odd bounds of a detection's stamp side, pixels (%d, %d)\n"
+      "  --stamp-size N             every detection's stamp N x N pixels about its pixel; 0: sized\n"
+      "                             from the isophotal area between --box-min and --box-max (%d)\n"
+      "  --box-min N, --box-max N   --stamp-size 0: odd bounds of a stamp's side, pixels (%d, %d)\n"
+      "  --recentre                 wmom, pgauss: move the weight to the weighted centroid (six Newton\n"
+      "                             steps); by default it stays at the detection's position\n"
       "  --threads N                worker threads (default: all cores)\n"
       "  --shard I/N                only shard I of N (0 <= I < N): a contiguous 1/N of the cells,\n"
       "                             numbered as in the whole run; `stampede merge` joins the shards\n"
       "  --resume                   continue an interrupted run of the same inputs and options\n"
       "  --overwrite                replace an existing OUT.fits\n"
       "  --quiet                    no progress line\n",
-      d.cell_size, d.cell_buffer, d.step, d.psf_dilation, static_cast<unsigned long long>(d.seed),
-      d.detection.threshold, d.detection.min_area, d.detection.deblend_contrast, d.detection.deblend_thresholds,
-      d.detection.filter_fwhm, d.detection.filter_size, d.stamp.box_min, d.stamp.box_max);
+      d.cell_size, d.cell_buffer, d.step, reconvolution_rule_name(d.reconvolution), d.psf_dilation,
+      static_cast<unsigned long long>(d.seed), d.detection.threshold, d.detection.min_area,
+      d.detection.deblend_contrast, d.detection.deblend_thresholds, d.detection.filter_fwhm, d.detection.filter_size,
+      d.stamp.size, d.stamp.box_min, d.stamp.box_max);
 }
 
 std::vector<std::string> read_list(const std::string& path) {
@@ -163,6 +172,14 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
       m.step = number();
     } else if (s == "--psf-dilation") {
       m.psf_dilation = number();
+    } else if (s == "--reconvolution-psf") {
+      const std::string v = value();
+      if (!parse_reconvolution_rule(v, &m.reconvolution))
+        throw std::invalid_argument("option --reconvolution-psf " + tools::quoted_value(v) + ": must be auto, gauss or moffat");
+    } else if (s == "--stamp-size") {
+      m.stamp.size = integer(0, 255);
+    } else if (s == "--recentre") {
+      m.recentre = true;
     } else if (s == "--per-object-metacal") {
       m.per_object_metacal = true;
     } else if (s == "--no-fixnoise") {

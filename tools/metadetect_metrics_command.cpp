@@ -27,7 +27,8 @@ void print_help() {
       "R22 likewise, g = <e>_noshear / R. With --minus, the catalogue of the same cells under the\n"
       "opposite shear (`sim cells --pair`): m = (<e1>+ - <e1>-) / 2 / <R11> / g1 - 1 and c = (<e2>+ +\n"
       "<e2>-) / 2 / <R22> (and m2, c1 for a shear along g2). Errors: bootstrap over cells (a pair's two\n"
-      "cells together).\n"
+      "cells together). The shear is read with metacal's step composed with the image's shear (its\n"
+      "response R / (1 - |g|^2); the package's estimator reads |g| high by |g|^2).\n"
       "\n"
       "options:\n"
       "  --minus PATH          the shear pair's other catalogue\n"
@@ -38,6 +39,8 @@ void print_help() {
       "                        as `sim cells` writes them)\n"
       "  --cut-snr X           keep rows with snr > X (%g)\n"
       "  --cut-t-ratio Q       keep rows with T_ratio > Q (%g)\n"
+      "  --estimator E         composed: g = <e> (1 - |g|^2) / R (default); package: <e> / R, the\n"
+      "                        reference metadetect package's\n"
       "  --bootstrap N         bootstrap resamples (200)\n"
       "  --seed N              bootstrap seed (1)\n"
       "  --json PATH           also write the figures as JSON\n",
@@ -57,6 +60,7 @@ int run_metadetect_metrics_command(int argc, char** argv) {
   std::string plus_path, minus_path, rotated_path, rotated_minus_path, json;
   std::optional<std::array<double, 2>> shear;
   MetadetectCuts cuts;
+  MetadetectEstimator estimator = MetadetectEstimator::kComposed;
   int resamples = 200;
   std::uint64_t seed = 1;
   std::set<std::string> seen;
@@ -82,6 +86,10 @@ int run_metadetect_metrics_command(int argc, char** argv) {
       cuts.min_snr = tools::number_value(argc, argv, &i);
     } else if (a == "--cut-t-ratio") {
       cuts.min_t_ratio = tools::number_value(argc, argv, &i);
+    } else if (a == "--estimator") {
+      const std::string v = value();
+      if (!parse_metadetect_estimator(v, &estimator))
+        throw std::invalid_argument("option --estimator " + tools::quoted_value(v) + ": must be composed or package");
     } else if (a == "--bootstrap") {
       resamples = static_cast<int>(tools::integer_in(argc, argv, &i, 2, 100000));
     } else if (a == "--seed") {
@@ -97,7 +105,7 @@ int run_metadetect_metrics_command(int argc, char** argv) {
                                     {"--rotated-minus", rotated_minus_path}});
   app::MetadetectMetricsOptions mo;
   mo.table = plus_path, mo.minus = minus_path, mo.rotated = rotated_path, mo.rotated_minus = rotated_minus_path;
-  mo.shear = shear, mo.cuts = cuts, mo.resamples = resamples, mo.seed = seed;
+  mo.shear = shear, mo.cuts = cuts, mo.resamples = resamples, mo.seed = seed, mo.estimator = estimator;
   const app::MetadetectMetrics r = app::metadetect_metrics(mo);
   const MetadetectShear& s = r.shear;
   std::printf("%s: %lld cells, %.0f noshear rows kept (snr > %g, T_ratio > %g, flags 0)\n", plus_path.c_str(), s.cells,
@@ -111,13 +119,14 @@ int run_metadetect_metrics_command(int argc, char** argv) {
                     ", \"g2\": " + number(s.g2) + ", \"g2_err\": " + number(s.g2_err);
   if (r.has_bias) {
     const MetadetectBias& b = r.bias;
-    std::printf("shear pair with %s, g = (%g, %g), %lld pairs of cells:\n", minus_path.c_str(), r.true_shear[0],
-                r.true_shear[1], b.pairs);
+    std::printf("shear pair with %s, g = (%g, %g), %lld pairs of cells, estimator %s:\n", minus_path.c_str(),
+                r.true_shear[0], r.true_shear[1], b.pairs, metadetect_estimator_name(estimator));
     if (std::isfinite(b.m1)) std::printf("  m1 = %+.3e +- %.1e   c2 = %+.3e +- %.1e\n", b.m1, b.m1_err, b.c2, b.c2_err);
     if (std::isfinite(b.m2)) std::printf("  m2 = %+.3e +- %.1e   c1 = %+.3e +- %.1e\n", b.m2, b.m2_err, b.c1, b.c1_err);
     out += ", \"minus\": " + tools::json_string(minus_path) + ", \"shear\": [" + number(r.true_shear[0]) + ", " +
            number(r.true_shear[1]) +
-           "], \"pairs\": " + std::to_string(b.pairs) + ", \"m1\": " + number(b.m1) + ", \"m1_err\": " + number(b.m1_err) +
+           "], \"pairs\": " + std::to_string(b.pairs) + ", \"estimator\": \"" + metadetect_estimator_name(estimator) +
+           "\", \"m1\": " + number(b.m1) + ", \"m1_err\": " + number(b.m1_err) +
            ", \"c2\": " + number(b.c2) + ", \"c2_err\": " + number(b.c2_err) + ", \"m2\": " + number(b.m2) +
            ", \"m2_err\": " + number(b.m2_err) + ", \"c1\": " + number(b.c1) + ", \"c1_err\": " + number(b.c1_err);
   }

@@ -66,6 +66,11 @@ void print_help() {
       "  --psf-size N           PSF image side, odd (%d)\n"
       "  --snr X                per-object S/N: noise sigma = sqrt(sum I^2) / X for a round reference\n"
       "                         galaxy drawn alone, summed over bands (one sigma for all bands) (%g)\n"
+      "  --reference-positions  positions as the reference package's shear test draws them: the grid\n"
+      "                         spans the inner region edge to edge; random: int(density x the inner\n"
+      "                         region's area) objects uniform over it; each shifted by --grid-shift\n"
+      "  --reference            the reference package's shear test cell: --reference-positions,\n"
+      "                         --snr 1e6, --shape-noise 0, --psf-size 53 (options given override)\n"
       "  --keep-clear PX        random: no object within PX px of the buffer's inner edge (objects\n"
       "                         there cross it under the shear: noise in a one-cell test) (0)\n"
       "  --rotate               the scene turned by 90 degrees about each cell's centre (intrinsic\n"
@@ -103,9 +108,16 @@ int run_sim_cells_command(int argc, char** argv) {
   std::string dir;
   int threads = 0;
   std::set<std::string> seen;
+  // The reference test's cell first, so that options given with it override its settings.
+  for (int i = 2; i < argc; ++i)
+    if (std::string(argv[i]) == "--reference") {
+      o.reference_positions = true, o.snr = 1e6, o.shape_noise = 0, o.psf_size = 53;
+      break;
+    }
   for (int i = 2; i < argc; ++i) {
     const std::string s = argv[i];
-    tools::refuse_repeated_option(s, {"--help", "--pair", "--rotate", "--noise-free", "--tile", "--overwrite"},
+    tools::refuse_repeated_option(s, {"--help", "--pair", "--rotate", "--noise-free", "--tile", "--overwrite",
+                                      "--reference", "--reference-positions"},
                                   &seen, "sim cells");
     auto value = [&] { return tools::option_value(argc, argv, &i); };
     auto number = [&] { return tools::number_value(argc, argv, &i); };
@@ -166,6 +178,10 @@ int run_sim_cells_command(int argc, char** argv) {
       o.snr = number();
     } else if (s == "--keep-clear") {
       o.keep_clear = number();
+    } else if (s == "--reference") {
+      // applied above
+    } else if (s == "--reference-positions") {
+      o.reference_positions = true;
     } else if (s == "--rotate") {
       o.rotate = true;
     } else if (s == "--noise-free") {

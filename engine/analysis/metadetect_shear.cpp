@@ -1,6 +1,7 @@
 // Shear from metadetection catalogues; see metadetect_shear.hpp.
 #include "engine/analysis/metadetect_shear.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <map>
 #include <stdexcept>
@@ -27,13 +28,38 @@ std::array<Sums, 5> pooled(const MetadetectCellSums& s, const std::vector<int>& 
 double mean_e1(const Sums& s) { return s.e1 / s.n; }
 double mean_e2(const Sums& s) { return s.e2 / s.n; }
 
-std::array<double, 4> response_and_shear(const std::array<Sums, 5>& p, double step) {
+// The composed estimator's factor 1 - |g|^2 for the first-order shear (a1, a2) = <e> / R: the fixed
+// point of g = a (1 - |g|^2), converging in a few steps for |g| << 1.
+double composition_factor(double a1, double a2) {
+  double k = 1;
+  for (int i = 0; i < 8; ++i) k = 1 - k * k * (a1 * a1 + a2 * a2);
+  return k;
+}
+
+std::array<double, 4> response_and_shear(const std::array<Sums, 5>& p, double step, MetadetectEstimator estimator) {
   const double r11 = (mean_e1(p[1]) - mean_e1(p[2])) / (2 * step);
   const double r22 = (mean_e2(p[3]) - mean_e2(p[4])) / (2 * step);
-  return {r11, r22, mean_e1(p[0]) / r11, mean_e2(p[0]) / r22};
+  const double a1 = mean_e1(p[0]) / r11, a2 = mean_e2(p[0]) / r22;
+  const double k = estimator == MetadetectEstimator::kComposed ? composition_factor(a1, a2) : 1.0;
+  return {r11, r22, a1 * k, a2 * k};
 }
 
 }  // namespace
+
+const char* metadetect_estimator_name(MetadetectEstimator e) {
+  return e == MetadetectEstimator::kComposed ? "composed" : "package";
+}
+
+bool parse_metadetect_estimator(const std::string& name, MetadetectEstimator* out) {
+  std::string s = name;
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  for (MetadetectEstimator e : {MetadetectEstimator::kComposed, MetadetectEstimator::kPackage})
+    if (s == metadetect_estimator_name(e)) {
+      *out = e;
+      return true;
+    }
+  return false;
+}
 
 MetadetectCellSums sum_metadetect_cells(const std::vector<long long>& cell, const std::vector<int>& shear_type,
                                         const std::vector<double>& e1, const std::vector<double>& e2,
@@ -64,22 +90,26 @@ void add_cell_sums(const MetadetectCellSums& more, MetadetectCellSums* into) {
     }
 }
 
-MetadetectShear metadetect_shear(const MetadetectCellSums& s, double step, int resamples, std::uint64_t seed) {
+MetadetectShear metadetect_shear(const MetadetectCellSums& s, double step, int resamples, std::uint64_t seed,
+                                 MetadetectEstimator estimator) {
   MetadetectShear out;
   const std::array<Sums, 5> p = pooled(s, {});
-  const std::array<double, 4> v = response_and_shear(p, step);
+  const std::array<double, 4> v = response_and_shear(p, step, estimator);
   out.r11 = v[0], out.r22 = v[1], out.g1 = v[2], out.g2 = v[3];
   out.cells = static_cast<long long>(s.cells.size());
   out.kept_noshear = p[0].n;
   std::vector<int> count(s.cells.size());
   const std::array<double, 4> err =
-      bootstrap_errors<4>(&count, resamples, seed, [&](const std::vector<int>& c) { return response_and_shear(pooled(s, c), step); });
+      bootstrap_errors<4>(&count, resamples, seed, [&](const std::vector<int>& c) {
+        return response_and_shear(pooled(s, c), step, estimator);
+      });
   out.r11_err = err[0], out.r22_err = err[1], out.g1_err = err[2], out.g2_err = err[3];
   return out;
 }
 
 MetadetectBias metadetect_pair_bias(const MetadetectCellSums& plus, const MetadetectCellSums& minus, double g1,
-                                    double g2, double step, int resamples, std::uint64_t seed) {
+                                    double g2, double step, int resamples, std::uint64_t seed,
+                                    MetadetectEstimator estimator) {
   if (plus.cells != minus.cells)
     throw std::invalid_argument("the two catalogues do not hold the same cells: they are not a shear pair");
   if (g1 == 0 && g2 == 0) throw std::invalid_argument("the true shear is zero: m is undefined");
@@ -89,7 +119,10 @@ MetadetectBias metadetect_pair_bias(const MetadetectCellSums& plus, const Metade
     const double r22 = 0.5 * ((mean_e2(p[3]) - mean_e2(p[4])) + (mean_e2(q[3]) - mean_e2(q[4]))) / (2 * step);
     const double d1 = 0.5 * (mean_e1(p[0]) - mean_e1(q[0])), s1 = 0.5 * (mean_e1(p[0]) + mean_e1(q[0]));
     const double d2 = 0.5 * (mean_e2(p[0]) - mean_e2(q[0])), s2 = 0.5 * (mean_e2(p[0]) + mean_e2(q[0]));
-    return {g1 != 0 ? d1 / r11 / g1 - 1 : NAN, s2 / r22, g2 != 0 ? d2 / r22 / g2 - 1 : NAN, s1 / r11};
+    // The pair's shear read from its half difference; c from the half sum, where the composition's
+    // factor is 1 to second order in c.
+    const double k = estimator == MetadetectEstimator::kComposed ? composition_factor(d1 / r11, d2 / r22) : 1.0;
+    return {g1 != 0 ? k * d1 / r11 / g1 - 1 : NAN, s2 / r22, g2 != 0 ? k * d2 / r22 / g2 - 1 : NAN, s1 / r11};
   };
   MetadetectBias out;
   const std::array<double, 4> v = estimate({});

@@ -140,6 +140,34 @@ class MoffatTransform {
   const kernels::LogTable* table_;
 };
 
+// Gamma's transform (times the pixel's): a Moffat's tabulated, or a Gaussian's exp(-sigma^2 |S k|^2 / 2).
+class GammaTransform {
+ public:
+  explicit GammaTransform(const PsfModel& gamma) {
+    if (gamma.kind == PsfKind::kMoffat) {
+      moffat_.emplace(gamma.moffat);
+    } else {
+      const double s = kernels::gaussian_sigma(gamma.gaussian.fwhm);
+      half_s2_ = 0.5 * s * s;
+      q_ = kernels::ellipse_quadratic(gamma.gaussian.e1, gamma.gaussian.e2, 1.0);
+    }
+  }
+  double operator()(double kx, double ky) const {
+    if (moffat_) return (*moffat_)(kx, ky);
+    return std::exp(-half_s2_ * (q_.yy * kx * kx - 2.0 * q_.xy * kx * ky + q_.xx * ky * ky)) *
+           (sinc_half(kx) * sinc_half(ky));
+  }
+
+ private:
+  std::optional<MoffatTransform> moffat_;
+  double half_s2_ = 0;
+  kernels::EllipseQuadratic q_;
+};
+
+bool is_reconvolution_kind(const PsfModel& gamma) {
+  return gamma.kind == PsfKind::kMoffat || gamma.kind == PsfKind::kGaussian;
+}
+
 // Where a Gamma's filter exceeds max_gain on the coarse grid, if anywhere: every third row and
 // column and the axes (where an image PSF's transform most often dips first, near the Nyquist
 // edge), away from the Nyquist row and column (where the full grid's ratios are the same).
@@ -148,7 +176,7 @@ struct Violation {
   MetacalType type;
 };
 std::optional<Violation> coarse_violation(const MetacalFilters::Observed& observed_psf,
-                                          const MoffatTransform& gamma_transform, double step, double max_gain,
+                                          const GammaTransform& gamma_transform, double step, double max_gain,
                                           const PixelFrame& frame) {
   const int m = observed_psf.period, h = m / 2 + 1;
   const double dk = 2 * std::numbers::pi / m;
@@ -175,8 +203,8 @@ std::optional<Violation> coarse_violation(const MetacalFilters::Observed& observ
 
 bool MetacalFilters::passes_coarse_check(const Observed& observed, const PsfModel& reconvolution, double step,
                                          double max_gain, const PixelFrame& frame) {
-  if (reconvolution.kind != PsfKind::kMoffat) return false;
-  return !coarse_violation(observed, MoffatTransform(reconvolution.moffat), step, max_gain, frame);
+  if (!is_reconvolution_kind(reconvolution)) return false;
+  return !coarse_violation(observed, GammaTransform(reconvolution), step, max_gain, frame);
 }
 
 MetacalFilters::Observed::~Observed() {
@@ -252,7 +280,8 @@ std::shared_ptr<const MetacalFilters> MetacalFilters::build(const Observed& obse
   };
   const int period = observed_psf.period;
   if (!(step > 0 && step < 0.5)) return fail("metacal: the shear step must be in (0, 0.5)");
-  if (reconvolution.kind != PsfKind::kMoffat) return fail("metacal: the reconvolution PSF must be a Moffat");
+  if (!is_reconvolution_kind(reconvolution))
+    return fail("metacal: the reconvolution PSF must be a Moffat or a Gaussian");
   std::shared_ptr<MetacalFilters> f(new MetacalFilters());
   f->period_ = period;
   f->step_ = step;
@@ -260,7 +289,7 @@ std::shared_ptr<const MetacalFilters> MetacalFilters::build(const Observed& obse
   const int m = period, h = m / 2 + 1;
   const double dk = 2 * std::numbers::pi / m, norm = 1.0 / (static_cast<double>(m) * m);
   const std::vector<std::complex<double>>& inverse = observed_psf.inverse;
-  const MoffatTransform gamma_transform(reconvolution.moffat);
+  const GammaTransform gamma_transform(reconvolution);
   auto inverse_at = [&](int c, int r) {  // 1 / (PSF x pixel) at c in [-M/2, M/2], r in [-M/2, M/2]
     if (c < 0) return std::conj(inverse[static_cast<std::size_t>(-r + m / 2) * h - c]);
     return inverse[static_cast<std::size_t>(r + m / 2) * h + c];

@@ -45,7 +45,7 @@ class MetacalFilters {
   static std::shared_ptr<const MetacalFilters> build(const PsfModel& psf, const PsfModel& reconvolution, double step,
                                                      int period, std::string* error, double max_gain = 1.01,
                                                      const PixelFrame& frame = PixelFrame());
-  // The same from the observed PSF; reconvolution must be a Moffat.
+  // The same from the observed PSF; reconvolution must be a Moffat or a Gaussian.
   static std::shared_ptr<const MetacalFilters> build(const Observed& observed, const PsfModel& reconvolution, double step,
                                                      std::string* error, double max_gain = 1.01,
                                                      const PixelFrame& frame = PixelFrame());

@@ -65,7 +65,7 @@ MetacalFitter::MetacalFitter(const FitterOptions& fit_options, const MetacalOpti
 }
 
 double MetacalFitter::weight_fwhm() const {
-  return options_.moments_weight_fwhm(filters_ ? gamma_.moffat.fwhm : NAN);
+  return options_.moments_weight_fwhm(filters_ ? gamma_.fwhm() : NAN);
 }
 
 bool MetacalFitter::set_psf(const PsfModel& psf, std::string* error) {
@@ -144,7 +144,7 @@ void MetacalFitter::fit(std::span<const double> pixels, std::span<const double> 
       stamp.size = s_;
       stamp.variance = variance;
       stamp.covariance = &noise;
-      correct_fit_for_correlated_noise({&stamp, 1}, equivalent_weights(r.params[index(Param::kRadius)], gamma_.moffat.fwhm),
+      correct_fit_for_correlated_noise({&stamp, 1}, equivalent_weights(r.params[index(Param::kRadius)], gamma_.fwhm()),
                                        scratch_, &r);
     }
     return r;

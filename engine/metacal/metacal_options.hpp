@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 
 namespace stampede {
 
@@ -13,6 +14,17 @@ namespace stampede {
 // kernels/weighted_moments), of width weight_fwhm.
 enum class MetacalModel { kBulgeDisc, kExponential, kGaussian, kWeightedMoments };
 
+// The reconvolution PSF Gamma (engine/metacal/reconvolution_psf; docs/metacal.md, "The
+// reconvolution PSF"). kGauss: a round Gaussian, the PSF's adaptive-moment Gaussian on its major
+// axis dilated by 1 + 2 step (the reference metadetect package's "fitgauss"); kMoffat: the round
+// Moffat widened until every filter is bounded; kAuto: kGauss where its filters are bounded, else
+// kMoffat.
+enum class ReconvolutionRule { kAuto, kGauss, kMoffat };
+// "auto", "gauss", "moffat": the option's value and the header's.
+const char* reconvolution_rule_name(ReconvolutionRule r);
+// Case-insensitive inverse of reconvolution_rule_name; false for anything else.
+bool parse_reconvolution_rule(std::string_view name, ReconvolutionRule* out);
+
 struct MetacalOptions {
   bool enabled = false;
   double step = 0.01;  // the applied shear delta, in [kMinStep, 0.1]
@@ -22,10 +34,12 @@ struct MetacalOptions {
   // stops being resolved, and keeps noisy model fits' 1/step tail of R near the default step's
   // (docs/metacal.md, "The step's floor").
   static constexpr double kMinStep = 1e-3;
-  // FWHM of the round reconvolution PSF over the PSF's; 0 = the smallest safe one, (1 + 2 step)
-  // times the PSF's axis ratio factor sqrt((1 + |e|) / (1 - |e|)) (wider than the sheared PSF in
-  // every direction).
+  // FWHM of the round reconvolution PSF over the PSF's (a Gaussian Gamma's over the PSF's adaptive
+  // Gaussian's major axis); 0 = the rule's own: a Gaussian's 1 + 2 step, a Moffat's the smallest
+  // safe one, (1 + 2 step) times the PSF's axis ratio factor sqrt((1 + |e|) / (1 - |e|)) (wider
+  // than the sheared PSF in every direction).
   double psf_dilation = 0.0;
+  ReconvolutionRule reconvolution = ReconvolutionRule::kAuto;
   // Add a second noise field, rotated by 90 degrees through the same operations, so that the
   // images' correlated noise is isotropic (Sheldon & Huff 2017's "fixnoise").
   bool fixnoise = true;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <vector>
 
@@ -11,6 +12,27 @@
 #include "kernels/moments.hpp"
 
 namespace stampede {
+
+const char* reconvolution_rule_name(ReconvolutionRule r) {
+  switch (r) {
+    case ReconvolutionRule::kAuto: return "auto";
+    case ReconvolutionRule::kGauss: return "gauss";
+    case ReconvolutionRule::kMoffat: return "moffat";
+  }
+  return "?";
+}
+
+bool parse_reconvolution_rule(std::string_view name, ReconvolutionRule* out) {
+  std::string s(name);
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  for (ReconvolutionRule r : {ReconvolutionRule::kAuto, ReconvolutionRule::kGauss, ReconvolutionRule::kMoffat})
+    if (s == reconvolution_rule_name(r)) {
+      *out = r;
+      return true;
+    }
+  return false;
+}
+
 namespace {
 
 PsfModel round_moffat(double beta, double fwhm) {
@@ -18,6 +40,31 @@ PsfModel round_moffat(double beta, double fwhm) {
   m.beta = beta;
   m.fwhm = fwhm;
   return PsfModel::Moffat(m);
+}
+
+// The ellipse of a round profile on the sky seen in the frame's pixels: f(|J x|^2 / a^2) =
+// f(x^T Q' x / (a^2 / d)) with Q = J^T J = d Q', det Q' = 1, d = |det J|.
+struct SkyShape {
+  double e1 = 0, e2 = 0, scale = 1;  // the pixels' FWHM = the sky's x scale
+};
+SkyShape sky_shape(const PixelFrame& frame) {
+  SkyShape out;
+  if (frame.unit_jacobian()) return out;
+  const kernels::EllipseQuadratic q{frame.dudx * frame.dudx + frame.dvdx * frame.dvdx,
+                                    frame.dudx * frame.dudy + frame.dvdx * frame.dvdy,
+                                    frame.dudy * frame.dudy + frame.dvdy * frame.dvdy};
+  double r = 0;
+  kernels::ellipse_parameters(q, &out.e1, &out.e2, &r);
+  out.scale = 1 / std::sqrt(std::abs(frame.determinant()));
+  return out;
+}
+
+// A round Gaussian on the sky (FWHM in the frame's sky units) in the frame's pixels.
+PsfModel gaussian_on_sky(double fwhm, const PixelFrame& frame) {
+  const SkyShape s = sky_shape(frame);
+  kernels::GaussianProfile g;
+  g.fwhm = fwhm * s.scale, g.e1 = s.e1, g.e2 = s.e2;
+  return PsfModel::Gaussian(g);
 }
 
 // An image PSF's Gamma search starts at this fraction of its Gaussian-equivalent FWHM: a Moffat's
@@ -54,6 +101,23 @@ double largest_stretch(const PixelFrame& f) {
   return std::sqrt(0.5 * (a + c) + std::sqrt(0.25 * (a - c) * (a - c) + b * b));
 }
 
+// The major axis's variance of a covariance (pixels^2), or on the sky through `frame` (J C J^T).
+double major_variance(double xx, double xy, double yy, const PixelFrame& frame) {
+  if (!frame.unit_jacobian()) {
+    const double j[2][2] = {{frame.dudx, frame.dudy}, {frame.dvdx, frame.dvdy}}, c[2][2] = {{xx, xy}, {xy, yy}};
+    double s[2][2];
+    for (int r = 0; r < 2; ++r)
+      for (int q = 0; q < 2; ++q) {
+        s[r][q] = 0;
+        for (int a = 0; a < 2; ++a)
+          for (int b = 0; b < 2; ++b) s[r][q] += j[r][a] * c[a][b] * j[q][b];
+      }
+    xx = s[0][0], xy = s[0][1], yy = s[1][1];
+  }
+  const double tr = xx + yy, det = xx * yy - xy * xy;
+  return 0.5 * tr + std::sqrt(std::max(0.0, 0.25 * tr * tr - det));
+}
+
 // The Gaussian-equivalent FWHM 2.3548 sqrt(lambda_max) of an image PSF's adaptive-moment
 // covariance, in data pixels, or on the sky through `frame` (J C J^T).
 bool image_major_fwhm(const PsfImage& im, const PixelFrame& frame, double* major, std::string* error) {
@@ -68,28 +132,77 @@ bool image_major_fwhm(const PsfImage& im, const PixelFrame& frame, double* major
     return false;
   }
   const double o2 = static_cast<double>(im.oversampling) * im.oversampling;
-  double xx = mom.xx / o2, xy = mom.xy / o2, yy = mom.yy / o2;
-  if (!frame.unit_jacobian()) {
-    const double j[2][2] = {{frame.dudx, frame.dudy}, {frame.dvdx, frame.dvdy}}, c[2][2] = {{xx, xy}, {xy, yy}};
-    double s[2][2];
-    for (int r = 0; r < 2; ++r)
-      for (int q = 0; q < 2; ++q) {
-        s[r][q] = 0;
-        for (int a = 0; a < 2; ++a)
-          for (int b = 0; b < 2; ++b) s[r][q] += j[r][a] * c[a][b] * j[q][b];
-      }
-    xx = s[0][0], xy = s[0][1], yy = s[1][1];
-  }
-  const double tr = xx + yy, det = xx * yy - xy * xy;
-  const double lambda = 0.5 * tr + std::sqrt(std::max(0.0, 0.25 * tr * tr - det));
-  *major = 2.3548 * std::sqrt(lambda);
+  *major = 2.3548 * std::sqrt(major_variance(mom.xx / o2, mom.xy / o2, mom.yy / o2, frame));
   return true;
+}
+
+// The same for an analytic PSF, from its pixel-integrated image (each pixel the mean of 3 x 3
+// point values, out to four FWHM), as a PSF image of it would give.
+bool analytic_major_fwhm(const PsfModel& psf, const PixelFrame& frame, double* major, std::string* error) {
+  const double fwhm = psf.fwhm();
+  if (!(fwhm > 0) || !std::isfinite(fwhm) || fwhm > 200) {
+    *error = "metacal: the PSF's FWHM " + number_text(fwhm) + " px has no Gaussian fit";
+    return false;
+  }
+  constexpr int kSub = 3;
+  const int n = 2 * static_cast<int>(std::ceil(4 * fwhm)) + 1;
+  const double c = 0.5 * (n - 1);
+  std::vector<double> image(static_cast<std::size_t>(n) * n), ones(image.size(), 1.0);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      double sum = 0;
+      for (int j = 0; j < kSub; ++j)
+        for (int i = 0; i < kSub; ++i)
+          sum += psf.x_value(x - c - 0.5 + (i + 0.5) / kSub, y - c - 0.5 + (j + 0.5) / kSub);
+      image[static_cast<std::size_t>(y) * n + x] = sum;
+    }
+  const kernels::ImageMoments mom = kernels::adaptive_moments(image, ones, n);
+  if (!mom.valid) {
+    *error = "metacal: the PSF has no adaptive moments";
+    return false;
+  }
+  *major = 2.3548 * std::sqrt(major_variance(mom.xx, mom.xy, mom.yy, frame));
+  return true;
+}
+
+// The largest filter gain the Gaussian rule accepts. Over a Moffat PSF (beta 2.5-4.5) the
+// Gaussian fitted to it peaks at 1.12-1.30 at middle k, where the Moffat's transform, steepened at
+// low k by its wings, has fallen below the Gaussian's, then falls at high k: the images' noise is a
+// quarter of the Moffat rule's (docs/metacal.md, "The reconvolution PSF"). A PSF whose transform
+// falls below the Gaussian's at high k (a narrow core in a wide halo) sends the gain past any bound:
+// refused, as the Moffat rule refuses 1.01.
+constexpr double kGaussianMaxGain = 1.5;
+
+// The Gaussian rule's Gamma on the sky through `frame`: the PSF x pixel's adaptive Gaussian, its
+// major axis, dilated by 1 + 2 step (or psf_dilation), less the pixel's own variance (|det J| / 12
+// on the sky): the metacal images are Gamma x pixel, so that their PSF is the dilated fit, the
+// narrowest the rule allows (docs/metadetect.md, "The reconvolution PSF": R11 0.356 -> 0.365 on the
+// reference test's random cells, sigma_m per pair 0.127 -> 0.111, against Gamma of the dilated fit
+// itself). FWHM in sky units; 0 with *error when none.
+double gaussian_gamma_fwhm(const PsfModel& psf, const PixelFrame& frame, const MetacalOptions& options,
+                           std::string* error) {
+  double major = 0;
+  const bool ok = psf.kind == PsfKind::kImage && psf.image ? image_major_fwhm(*psf.image, frame, &major, error)
+                                                             : analytic_major_fwhm(psf, frame, &major, error);
+  if (!ok) return 0;
+  const double dilation = options.psf_dilation > 0 ? options.psf_dilation : 1 + 2 * options.step;
+  const double sigma = dilation * major / 2.3548;
+  const double pixel = (frame.unit_jacobian() ? 1.0 : std::abs(frame.determinant())) / 12.0;
+  const double variance = sigma * sigma - pixel;
+  if (!(variance > 0)) {
+    *error = "metacal: the PSF's Gaussian (FWHM " + number_text(major) + ") is not wider than a pixel";
+    return 0;
+  }
+  return 2.3548 * std::sqrt(variance);
 }
 
 }  // namespace
 
-std::shared_ptr<const MetacalFilters> reconvolution_filters(const PsfModel& psf, const MetacalOptions& options,
-                                                            int period, std::string* error) {
+namespace {
+
+// Today's rule: the round Moffat (reconvolution_psf.hpp).
+std::shared_ptr<const MetacalFilters> moffat_filters(const PsfModel& psf, const MetacalOptions& options, int period,
+                                                     std::string* error) {
   if (psf.kind == PsfKind::kMoffat) {
     const double e = std::hypot(psf.moffat.e1, psf.moffat.e2);
     const double dilation =
@@ -132,22 +245,103 @@ std::shared_ptr<const MetacalFilters> reconvolution_filters(const PsfModel& psf,
   return nullptr;
 }
 
+}  // namespace
+
+std::shared_ptr<const MetacalFilters> reconvolution_filters(const PsfModel& psf, const MetacalOptions& options,
+                                                            int period, std::string* error) {
+  std::string gauss_why;
+  if (options.reconvolution != ReconvolutionRule::kMoffat) {
+    const double fwhm = gaussian_gamma_fwhm(psf, PixelFrame(), options, &gauss_why);
+    if (fwhm > 0) {
+      kernels::GaussianProfile g;
+      g.fwhm = fwhm;
+      auto f = MetacalFilters::build(psf, PsfModel::Gaussian(g), options.step, period, &gauss_why, kGaussianMaxGain);
+      if (f) return f;
+    }
+    if (options.reconvolution == ReconvolutionRule::kGauss) {
+      if (error) *error = "Gaussian reconvolution PSF: " + gauss_why;
+      return nullptr;
+    }
+  }
+  std::string moffat_why;
+  auto f = moffat_filters(psf, options, period, &moffat_why);
+  if (!f && error)
+    *error = options.reconvolution == ReconvolutionRule::kAuto
+                 ? "neither a Gaussian (" + gauss_why + ") nor a Moffat (" + moffat_why + ") reconvolution PSF serves"
+                 : moffat_why;
+  return f;
+}
+
 PsfModel round_on_sky(double beta, double fwhm, const PixelFrame& frame) {
   if (frame.unit_jacobian()) return round_moffat(beta, fwhm);
-  // f(|J x|^2 / a^2) = f(x^T Q' x / (a^2 / d)) with Q = J^T J = d Q', det Q' = 1, d = |det J|.
-  const kernels::EllipseQuadratic q{frame.dudx * frame.dudx + frame.dvdx * frame.dvdx,
-                                    frame.dudx * frame.dudy + frame.dvdx * frame.dvdy,
-                                    frame.dudy * frame.dudy + frame.dvdy * frame.dvdy};
-  double e1 = 0, e2 = 0, r = 0;
-  kernels::ellipse_parameters(q, &e1, &e2, &r);
-  PsfModel p = round_moffat(beta, fwhm / std::sqrt(std::abs(frame.determinant())));
-  p.moffat.e1 = e1, p.moffat.e2 = e2;
+  const SkyShape s = sky_shape(frame);
+  PsfModel p = round_moffat(beta, fwhm * s.scale);
+  p.moffat.e1 = s.e1, p.moffat.e2 = s.e2;
   return p;
 }
+
+namespace {
+
+// The Gaussian rule across cutouts: each cutout's Gamma on the sky, the widest serving all.
+bool sky_gaussian(std::span<const MetacalEpochPsf> epochs, const MetacalOptions& options, SkyReconvolution* out,
+                  std::string* error) {
+  double fwhm = 0;
+  for (std::size_t k = 0; k < epochs.size(); ++k) {
+    std::string why;
+    const double f = gaussian_gamma_fwhm(*epochs[k].psf, epochs[k].frame, options, &why);
+    if (!(f > 0)) {
+      *error = "cutout " + std::to_string(k) + ": " + why;
+      return false;
+    }
+    fwhm = std::max(fwhm, f);
+  }
+  for (std::size_t k = 0; k < epochs.size(); ++k) {
+    std::string why;
+    out->filters[k] = MetacalFilters::build(*epochs[k].psf, gaussian_on_sky(fwhm, epochs[k].frame), options.step,
+                                            epochs[k].period, &why, kGaussianMaxGain, epochs[k].frame);
+    if (!out->filters[k]) {
+      *error = "cutout " + std::to_string(k) + ": " + why;
+      return false;
+    }
+  }
+  out->kind = PsfKind::kGaussian, out->fwhm = fwhm, out->beta = 0;
+  return true;
+}
+
+bool sky_moffat(std::span<const MetacalEpochPsf> epochs, const MetacalOptions& options, SkyReconvolution* out,
+                std::string* error);
+
+}  // namespace
 
 bool sky_reconvolution(std::span<const MetacalEpochPsf> epochs, const MetacalOptions& options, SkyReconvolution* out,
                        std::string* error) {
   out->filters.assign(epochs.size(), nullptr);
+  if (epochs.empty()) {
+    if (error) *error = "metacal: no cutout";
+    return false;
+  }
+  std::string gauss_why;
+  if (options.reconvolution != ReconvolutionRule::kMoffat) {
+    if (sky_gaussian(epochs, options, out, &gauss_why)) return true;
+    if (options.reconvolution == ReconvolutionRule::kGauss) {
+      if (error) *error = "Gaussian reconvolution PSF: " + gauss_why;
+      return false;
+    }
+    out->filters.assign(epochs.size(), nullptr);
+  }
+  std::string moffat_why;
+  if (sky_moffat(epochs, options, out, &moffat_why)) return true;
+  if (error)
+    *error = options.reconvolution == ReconvolutionRule::kAuto
+                 ? "neither a Gaussian (" + gauss_why + ") nor a Moffat (" + moffat_why + ") reconvolution PSF serves"
+                 : moffat_why;
+  return false;
+}
+
+namespace {
+
+bool sky_moffat(std::span<const MetacalEpochPsf> epochs, const MetacalOptions& options, SkyReconvolution* out,
+                std::string* error) {
   if (epochs.empty()) {
     if (error) *error = "metacal: no cutout";
     return false;
@@ -212,12 +406,14 @@ bool sky_reconvolution(std::span<const MetacalEpochPsf> epochs, const MetacalOpt
       }
     }
     if (all) {
-      out->fwhm = fwhms[n], out->beta = beta;
+      out->kind = PsfKind::kMoffat, out->fwhm = fwhms[n], out->beta = beta;
       return true;
     }
   }
   if (error) *error = why + " (round Moffats on the sky up to FWHM " + number_text(fwhms[attempts - 1]) + " tried)";
   return false;
 }
+
+}  // namespace
 
 }  // namespace stampede

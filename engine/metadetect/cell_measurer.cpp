@@ -91,6 +91,7 @@ bool CellMeasurer::prepare_psf(double pixel_scale, std::string* problem) {
   metacal.enabled = true;
   metacal.step = options_.step;
   metacal.psf_dilation = options_.psf_dilation;
+  metacal.reconvolution = options_.reconvolution;
   std::string why;
   if (bands_.size() == 1) {
     auto f = reconvolution_filters(psfs_[0], metacal, images_set_->period(), &why);
@@ -237,10 +238,13 @@ void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::vect
     r.id = id++;
     r.isophotal_area = d.isophotal_area;
     r.sep_flags = d.sep_flags;
-    const double radius =
-        std::max(so.radius_min, so.radius_factor * std::sqrt(d.isophotal_area / 3.141592653589793)) + so.padding;
-    const int half = std::clamp(static_cast<int>(std::ceil(radius)), (so.box_min - 1) / 2, (so.box_max - 1) / 2);
-    const int box = 2 * half + 1;
+    int box = so.size, half = so.size / 2;
+    if (so.size == 0) {
+      const double radius =
+          std::max(so.radius_min, so.radius_factor * std::sqrt(d.isophotal_area / 3.141592653589793)) + so.padding;
+      half = std::clamp(static_cast<int>(std::ceil(radius)), (so.box_min - 1) / 2, (so.box_max - 1) / 2);
+      box = 2 * half + 1;
+    }
     r.box_size = box;
     const int x0 = static_cast<int>(std::lround(d.x)) - half, y0 = static_cast<int>(std::lround(d.y)) - half;
     stamp_.assign(static_cast<std::size_t>(box) * box, 0.0);
@@ -383,7 +387,8 @@ void CellMeasurer::fill_moments(const MetadetectCell& cell, std::span<const doub
                                 double variance, const Detection& d, MetadetectRow* r) {
   if (fitter_) return fill_fit(cell, stamp, box, x0, y0, variance, d, r);
   scratch_.resize(2 * static_cast<std::size_t>(box));
-  const kernels::WeightedMoments m = kernels::weighted_moments(stamp, box, weight_fwhm_px_, variance, scratch_);
+  const kernels::WeightedMoments m = kernels::weighted_moments(stamp, box, weight_fwhm_px_, variance, scratch_,
+                                                               centroid_iterations(), d.x - x0, d.y - y0);
   if (options_.measurement == MetadetectMeasurement::kPgauss)
     store_prepsf(cell, m, prepsf(stamp, box, m, x0, y0, variance, d), psf_t_, x0, y0, d, r);
   else
@@ -469,9 +474,10 @@ void CellMeasurer::fill_band_moments(const MetadetectCell& cell, int box, int x0
     st.image = band_stamps_[b];
     st.size = box;
     st.variance = variances_[b];
+    st.start_x = d.x - x0, st.start_y = d.y - y0;
     stamps_.push_back(st);
   }
-  const kernels::WeightedMoments m = kernels::weighted_moments(stamps_, weight_fwhm_px_, scratch_);
+  const kernels::WeightedMoments m = kernels::weighted_moments(stamps_, weight_fwhm_px_, scratch_, centroid_iterations());
   if (options_.measurement == MetadetectMeasurement::kPgauss) {
     // The moments are linear in the pixels and every band has the one Gamma, so the bands' sums
     // averaged with weights 1 / variance_b are the moments of the bands' stamps so averaged, whose
@@ -494,8 +500,8 @@ void CellMeasurer::fill_band_moments(const MetadetectCell& cell, int box, int x0
   store_moments(cell, m, psf_t_, x0, y0, d, r);
   scratch_.resize(std::max(scratch_.size(), 2 * static_cast<std::size_t>(box)));
   for (std::size_t b = 0; b < bands_.size(); ++b) {
-    const kernels::WeightedMoments mb =
-        kernels::weighted_moments(band_stamps_[b], box, weight_fwhm_px_, variances_[b], scratch_);
+    const kernels::WeightedMoments mb = kernels::weighted_moments(band_stamps_[b], box, weight_fwhm_px_, variances_[b],
+                                                                  scratch_, centroid_iterations(), d.x - x0, d.y - y0);
     if (mb.valid) r->band_flux[b] = mb.flux, r->band_snr[b] = mb.snr;
   }
 }

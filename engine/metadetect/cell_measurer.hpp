@@ -84,6 +84,8 @@ class CellMeasurer {
   // exp, bd: the model fit of `stamp` with Gamma (weights 1 / variance) into *r.
   void fill_fit(const MetadetectCell& cell, std::span<const double> stamp, int box, int x0, int y0, double variance,
                 const Detection& d, MetadetectRow* r);
+  // The weight's Newton steps toward the centroid: 0 where it stays at the detection.
+  int centroid_iterations() const { return options_.recentre ? 6 : 0; }
   // The reconvolution PSF x pixel's transform on a box x box stamp's DFT grid, made once per box
   // side and PSF.
   std::span<const double> psf_transform(int box);

@@ -80,8 +80,12 @@ bool MetadetectOptions::IsValid(std::string* why) const {
     return refuse(why, "--filter-fwhm", detection.filter_fwhm, "must be in [0, 20] pixels (0: no filter)");
   if (detection.filter_size < 3 || detection.filter_size > 31 || detection.filter_size % 2 == 0)
     return refuse(why, "--filter-size", detection.filter_size, "must be odd, in [3, 31]");
-  if (stamp.box_min < 9 || stamp.box_min % 2 == 0 || stamp.box_max < stamp.box_min || stamp.box_max % 2 == 0)
-    return refuse(why, "--box-min/--box-max", stamp.box_min, "must be odd, box_min >= 9 and box_max >= box_min");
+  if (stamp.size != 0 && (stamp.size < 8 || stamp.size > 255))
+    return refuse(why, "--stamp-size", stamp.size, "must be in [8, 255] pixels, or 0 for stamps sized by the isophote");
+  if (stamp.box_min < 9 || stamp.box_min % 2 == 0)
+    return refuse(why, "--box-min", stamp.box_min, "must be odd and >= 9");
+  if (stamp.box_max < stamp.box_min || stamp.box_max % 2 == 0)
+    return refuse(why, "--box-max", stamp.box_max, "must be odd and >= --box-min");
   return true;
 }
 

@@ -5,6 +5,8 @@
 #include <string>
 #include <string_view>
 
+#include "engine/metacal/metacal_options.hpp"
+
 namespace stampede {
 
 // How each detection is measured (docs/metadetect.md, "Measurements").
@@ -36,9 +38,13 @@ struct DetectionOptions {
   double clean_param = 1.0;
 };
 
-// The stamp cut around each detection ("iso_radius" sizing): radius = max(radius_min,
-// radius_factor x sqrt(isophotal area / pi)) + padding, side 2 radius + 1 between box_min and box_max.
+// The stamp cut around each detection: `size` x `size` about the detection's pixel (the reference
+// package's shear test: 32), or, with size 0, "iso_radius" sizing: radius = max(radius_min,
+// radius_factor x sqrt(isophotal area / pi)) + padding, side 2 radius + 1 between box_min and
+// box_max. A fixed size selects nothing by the isophote, which at high S/N changes between the
+// sheared images (docs/metadetect.md, "Stamps and the weight's centre").
 struct DetectionStampOptions {
+  int size = 32;
   double radius_factor = 2.0;
   double radius_min = 4.0;
   double padding = 2.0;
@@ -50,7 +56,11 @@ struct MetadetectOptions {
   int cell_size = 251;    // pixels: an image larger than a cell is cut into cells of this side
   int cell_buffer = 34;   // pixels at each cell edge whose detections another cell (or none) keeps
   double step = 0.01;     // metacal shear
-  double psf_dilation = 0.0;  // reconvolution PSF FWHM over the PSF's (0: the narrowest bounded)
+  double psf_dilation = 0.0;  // reconvolution PSF FWHM over the PSF's (0: the rule's own)
+  ReconvolutionRule reconvolution = ReconvolutionRule::kAuto;  // Gamma's rule (engine/metacal/reconvolution_psf)
+  // wmom and pgauss: the weight's centre moved to the weighted centroid by six Newton steps; false:
+  // held at the detection's position, as the reference package measures (docs/metadetect.md).
+  bool recentre = false;
   bool fixnoise = true;
   // Fixnoise's field from the input's noise realisation (an image file's NOISE HDU, a tile's
   // noise cutouts) where it has one, as the reference package does; false, or no such plane: a

@@ -100,17 +100,19 @@ bool detect_objects(std::span<const float> image, int width, int height, double 
     d.y = catalog->y[i];
     d.isophotal_area = catalog->tnpix[i];
     if (!filter.empty()) {
-      // SEP measured the filtered pixels: its barycentre, flux and area of the unfiltered ones.
+      // SEP was given the filtered image: its x, y are weighted by the filtered values (a deblended
+      // child's over its core alone), as SEP with its own filter reports them; flux and isophotal
+      // area are of the unfiltered pixels, as SEP takes them. A barycentre of the unfiltered
+      // pixels over every member would follow the pixels gathered at random into each child of a
+      // blend, which differ between the sheared images (docs/metadetect.md).
       const double thresh = options.threshold * noise_sigma;
-      double sum = 0, sx = 0, sy = 0;
+      double sum = 0;
       int above = 0;
       for (int k = 0; k < catalog->npix[i]; ++k) {
-        const int p = catalog->pix[i][k];
-        const double v = image[static_cast<std::size_t>(p)];
-        sum += v, sx += v * (p % width), sy += v * (p / width);
+        const double v = image[static_cast<std::size_t>(catalog->pix[i][k])];
+        sum += v;
         above += v > thresh;
       }
-      if (sum > 0) d.x = sx / sum, d.y = sy / sum;
       d.isophotal_area = above;
       d.flux = sum;
     }

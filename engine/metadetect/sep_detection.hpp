@@ -12,7 +12,7 @@
 namespace stampede {
 
 struct Detection {
-  double x = 0, y = 0;  // barycentre, 0-based pixels (pixel centres at integers)
+  double x = 0, y = 0;  // barycentre of the filtered values (a child's core), 0-based pixels (centres at integers)
   int isophotal_area = 0;  // pixels above the threshold (unfiltered)
   int xmin = 0, xmax = 0, ymin = 0, ymax = 0;
   double flux = 0;      // sum of the isophotal pixels
@@ -35,9 +35,10 @@ struct DetectionScratch {
 // Detects on `image` (width x height, row-major, x fastest) whose noise has standard deviation
 // `noise_sigma` per pixel: pixels of the filtered image above options.threshold x noise_sigma, as
 // SEP's extraction with a convolution filter does. The filtering is done here, separably (SEP's
-// own 2-D convolution is half of its time), and SEP extracts from the filtered image; each
-// object's barycentre, flux and isophotal area are then taken from the unfiltered pixels of its
-// segment, as SEP takes them. `filter` from detection_filter. False, with *error from SEP's message, when SEP fails (e.g. the pixel stack is full);
+// own 2-D convolution is half of its time), and SEP extracts from the filtered image: its
+// barycentre is weighted by the filtered values (a deblended child's over its core), as SEP with
+// its own filter gives it; each object's flux and isophotal area are then taken from the
+// unfiltered pixels of its segment, as SEP takes them. `filter` from detection_filter. False, with *error from SEP's message, when SEP fails (e.g. the pixel stack is full);
 // `out` is replaced.
 bool detect_objects(std::span<const float> image, int width, int height, double noise_sigma,
                     const DetectionOptions& options, std::span<const float> filter, DetectionScratch* scratch,

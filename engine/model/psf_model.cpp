@@ -19,6 +19,7 @@ const char* psf_kind_name(PsfKind kind) {
     case PsfKind::kMoffat: return "moffat";
     case PsfKind::kAiry: return "airy";
     case PsfKind::kImage: return "image";
+    case PsfKind::kGaussian: return "gaussian";
   }
   return "?";
 }
@@ -102,6 +103,13 @@ PsfModel PsfModel::Airy(const kernels::AiryProfile& a) {
   return p;
 }
 
+PsfModel PsfModel::Gaussian(const kernels::GaussianProfile& g) {
+  PsfModel p;
+  p.kind = PsfKind::kGaussian;
+  p.gaussian = g;
+  return p;
+}
+
 PsfModel PsfModel::Image(std::shared_ptr<const PsfImage> img) {
   PsfModel p;
   p.kind = PsfKind::kImage;
@@ -137,6 +145,12 @@ bool PsfModel::IsValid(std::string* why) const {
       else if (image->oversampling < 1)
         msg << "psf_upsampling = " << image->oversampling << ": must be >= 1";
       break;
+    case PsfKind::kGaussian:
+      if (!(gaussian.fwhm > 0.0 && std::isfinite(gaussian.fwhm)))
+        msg << "Gaussian PSF FWHM = " << gaussian.fwhm << ": must be > 0 (pixels)";
+      else if (!(std::hypot(gaussian.e1, gaussian.e2) < 1.0))
+        msg << "Gaussian PSF e1, e2 = " << gaussian.e1 << ", " << gaussian.e2 << ": |e| must be < 1";
+      break;
   }
   if (msg.str().empty()) return true;
   if (why) *why = msg.str();
@@ -147,6 +161,7 @@ double PsfModel::x_value(double dx, double dy) const {
   switch (kind) {
     case PsfKind::kMoffat: return kernels::moffat_intensity(moffat, dx, dy);
     case PsfKind::kAiry: return kernels::airy_intensity(airy, dx, dy);
+    case PsfKind::kGaussian: return kernels::gaussian_intensity(gaussian, dx, dy);
     case PsfKind::kImage: break;
   }
   return NAN;
@@ -173,20 +188,26 @@ std::complex<double> PsfModel::k_value(double kx, double ky) const {
       if (!image || !image->transform({&fx, 1}, {&fy, 1}, 0.5 * image->oversampling, {&v, 1}, &error)) return NAN;
       return v;
     }
+    case PsfKind::kGaussian: {
+      const kernels::EllipseQuadratic q = kernels::ellipse_quadratic(gaussian.e1, gaussian.e2, 1.0);
+      const double s = kernels::gaussian_sigma(gaussian.fwhm);
+      return std::exp(-0.5 * s * s * (q.yy * kx * kx - 2.0 * q.xy * kx * ky + q.xx * ky * ky));
+    }
   }
   return NAN;
 }
 
 double PsfModel::e1() const {
-  return kind == PsfKind::kMoffat ? moffat.e1 : kind == PsfKind::kAiry ? 0.0 : NAN;
+  return kind == PsfKind::kMoffat ? moffat.e1 : kind == PsfKind::kGaussian ? gaussian.e1 : kind == PsfKind::kAiry ? 0.0 : NAN;
 }
 
 double PsfModel::e2() const {
-  return kind == PsfKind::kMoffat ? moffat.e2 : kind == PsfKind::kAiry ? 0.0 : NAN;
+  return kind == PsfKind::kMoffat ? moffat.e2 : kind == PsfKind::kGaussian ? gaussian.e2 : kind == PsfKind::kAiry ? 0.0 : NAN;
 }
 
 double PsfModel::fwhm() const {
   if (kind == PsfKind::kMoffat) return moffat.fwhm;
+  if (kind == PsfKind::kGaussian) return gaussian.fwhm;
   if (kind == PsfKind::kAiry) return kernels::kAiryFwhmOverLambdaOverD * airy.lambda_over_d;  // the unobscured disc's
   return NAN;
 }
@@ -200,6 +221,8 @@ bool PsfModel::operator==(const PsfModel& o) const {
     case PsfKind::kAiry:
       return airy.lambda_over_d == o.airy.lambda_over_d && airy.obscuration == o.airy.obscuration;
     case PsfKind::kImage: return image == o.image;
+    case PsfKind::kGaussian:
+      return gaussian.fwhm == o.gaussian.fwhm && gaussian.e1 == o.gaussian.e1 && gaussian.e2 == o.gaussian.e2;
   }
   return false;
 }

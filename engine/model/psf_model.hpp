@@ -21,11 +21,14 @@
 namespace stampede {
 
 // A truncated Moffat is a Moffat with truncation > 0: one kind, so its name, key and header card
-// (PSFTYPE) stay "moffat".
-enum class PsfKind { kMoffat, kAiry, kImage };
-// "moffat", "airy", "image": the spelling of psf_input, of the PSFTYPE card and of messages.
+// (PSFTYPE) stay "moffat". kGaussian is metacalibration's reconvolution PSF (engine/metacal), not
+// a PSF a run reads or simulates.
+enum class PsfKind { kMoffat, kAiry, kImage, kGaussian };
+// "moffat", "airy", "image", "gaussian": the spelling of psf_input, of the PSFTYPE card and of
+// messages.
 const char* psf_kind_name(PsfKind kind);
-// Case-insensitive inverse of psf_kind_name; false for anything else.
+// Case-insensitive inverse of psf_kind_name for the kinds psf_input takes (not "gaussian"); false
+// for anything else.
 bool parse_psf_kind(std::string_view name, PsfKind* out);
 
 // A user PSF image. Pixels are row-major nx x ny at `oversampling` samples per data pixel.
@@ -48,10 +51,12 @@ struct PsfModel {
   PsfKind kind = PsfKind::kMoffat;
   kernels::MoffatProfile moffat;          // kind == kMoffat
   kernels::AiryProfile airy;              // kind == kAiry
+  kernels::GaussianProfile gaussian;      // kind == kGaussian
   std::shared_ptr<const PsfImage> image;  // kind == kImage
 
   static PsfModel Moffat(const kernels::MoffatProfile& m);
   static PsfModel Airy(const kernels::AiryProfile& a);
+  static PsfModel Gaussian(const kernels::GaussianProfile& g);
   static PsfModel Image(std::shared_ptr<const PsfImage> img);
 
   // Message names the option (as in the ini file), its value and the constraint.

@@ -69,6 +69,16 @@ PsfTransform psf_transform(const PsfModel& psf, double tolerance) {
     }
     return out;
   }
+  if (psf.kind == PsfKind::kGaussian) {
+    const kernels::GaussianProfile& g = psf.gaussian;
+    const double sigma = kernels::gaussian_sigma(g.fwhm);
+    const kernels::EllipseQuadratic s2 = kernels::ellipse_quadratic(-g.e1, -g.e2, 1.0);
+    const double e = std::hypot(g.e1, g.e2), stretch = std::sqrt((1 + e) / (1 - e));
+    // exp(-x^2 / 2) <= tolerance beyond x = sqrt(-2 ln tolerance), x = |S k| sigma.
+    out.k_bound = std::sqrt(-2 * std::log(std::min(tolerance, 0.5))) / sigma * stretch;
+    out.at = [=](double kx, double ky) { return std::exp(-0.5 * sigma * sigma * std::max(0.0, s2(kx, ky))); };
+    return out;
+  }
   if (psf.kind == PsfKind::kAiry && psf.airy.obscuration == 0.0) {
     const double l = psf.airy.lambda_over_d;
     out.k_bound = 2 * kPi / l;  // the pupil's cut-off: exactly 0 beyond
@@ -76,7 +86,7 @@ PsfTransform psf_transform(const PsfModel& psf, double tolerance) {
     return out;
   }
   throw std::invalid_argument(
-      "the exact renderer's term list needs an analytic PSF transform (Moffat, unobscured Airy); image and "
+      "the exact renderer's term list needs an analytic PSF transform (Moffat, Gaussian, unobscured Airy); image and "
       "obscured Airy PSFs are not supported yet");
 }
 
@@ -155,6 +165,15 @@ std::shared_ptr<const kernels::KSpaceTerms> build_kspace_terms(const PsfModel& p
 }
 
 bool blur_moments(const PsfModel& psf, kernels::BlurMoments* out) {
+  if (psf.kind == PsfKind::kGaussian) {
+    // Covariance sigma^2 Q(-e) and the pixel box's 1/12 per axis, as for the Moffat below.
+    const double s2 = std::pow(kernels::gaussian_sigma(psf.gaussian.fwhm), 2);
+    const kernels::EllipseQuadratic c = kernels::ellipse_quadratic(-psf.gaussian.e1, -psf.gaussian.e2, 1.0);
+    out->xx = s2 * c.xx + 1.0 / 12.0;
+    out->xy = s2 * c.xy;
+    out->yy = s2 * c.yy + 1.0 / 12.0;
+    return true;
+  }
   if (psf.kind != PsfKind::kMoffat) return false;  // the Airy disc's second moments diverge
   const kernels::MoffatProfile& m = psf.moffat;
   const double alpha = kernels::moffat_alpha(m.fwhm, m.beta);

@@ -11,6 +11,8 @@ PsfCache::Key PsfCache::key_of(const PsfModel& psf) {
     }
     case PsfKind::kAiry:
       return {static_cast<int>(psf.kind), psf.airy.lambda_over_d, psf.airy.obscuration, 0.0, 0.0, 0.0, nullptr};
+    case PsfKind::kGaussian:
+      return {static_cast<int>(psf.kind), psf.gaussian.fwhm, psf.gaussian.e1, psf.gaussian.e2, 0.0, 0.0, nullptr};
     case PsfKind::kImage: break;
   }
   return {static_cast<int>(psf.kind), 0.0, 0.0, 0.0, 0.0, 0.0, psf.image.get()};

@@ -169,7 +169,28 @@ std::vector<CellObject> CellSimulator::objects(int cell, double g1, double g2) c
   const std::uint64_t key = static_cast<std::uint64_t>(cell);
   RandomStream layout({o.seed, kLayoutPurpose, key});
   std::vector<CellObject> out;
-  if (o.layout == CellLayout::kGrid) {
+  if (o.reference_positions) {
+    const double c = 0.5 * (o.size - 1), h = 0.5 * (o.size - 2 * o.buffer);
+    auto add = [&](double x, double y) {
+      CellObject obj;
+      obj.x = x + layout.uniform(-o.grid_shift, o.grid_shift);
+      obj.y = y + layout.uniform(-o.grid_shift, o.grid_shift);
+      out.push_back(obj);
+    };
+    if (o.layout == CellLayout::kGrid) {
+      const double mid = 0.5 * (o.grid - 1);
+      for (int j = 0; j < o.grid; ++j)
+        for (int i = 0; i < o.grid; ++i)
+          add(o.grid > 1 ? c + (i - mid) / mid * h : c, o.grid > 1 ? c + (j - mid) / mid * h : c);
+    } else {
+      const double side_arcmin = 2 * h * o.pixel_scale / 60.0;
+      const int count = static_cast<int>(o.density * side_arcmin * side_arcmin);
+      for (int k = 0; k < count; ++k) {
+        const double x = layout.uniform(c - h, c + h);
+        add(x, layout.uniform(c - h, c + h));
+      }
+    }
+  } else if (o.layout == CellLayout::kGrid) {
     // Object (i, j) at the centre of its 1/grid of the interior [buffer - 0.5, size - buffer - 0.5).
     const double step = static_cast<double>(o.size - 2 * o.buffer) / o.grid;
     for (int j = 0; j < o.grid; ++j)

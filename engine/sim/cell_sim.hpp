@@ -54,6 +54,11 @@ struct CellSimOptions {
   // moves in or out of the region a cell keeps under the shear: a single-cell test (no neighbouring
   // cell to take it) reads that as noise in <e>; a band of a few pixels removes it.
   double keep_clear = 0;
+  // Positions as the reference package's shear test draws them: kGrid spans the inner region edge
+  // to edge (object i at c + (i - (grid - 1) / 2) / ((grid - 1) / 2) x h, h the inner half-width
+  // (size - 2 buffer) / 2); kRandom has int(density x the inner region's area) objects uniform over
+  // the inner region; each then shifted by U(-grid_shift, grid_shift) px per axis.
+  bool reference_positions = false;
   CellGalaxyModel model = CellGalaxyModel::kExponential;
   double hlr = 0.5;           // half-light radius sqrt(ab), arcsec (both components of bd)
   double flux = 1000;         // each galaxy's total flux in the first band (counts)

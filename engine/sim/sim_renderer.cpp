@@ -88,8 +88,14 @@ SimRenderer::SimRenderer(const PsfModel& psf, const Options& options) : psf_(psf
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument("SimRenderer: " + why);
   if (!psf.IsValid(&why)) throw std::invalid_argument("SimRenderer PSF: " + why);
-  if (psf.kind == PsfKind::kImage) throw std::invalid_argument("the simulator draws analytic PSFs only (Moffat, Airy)");
-  if (psf.kind == PsfKind::kMoffat) {
+  if (psf.kind == PsfKind::kImage)
+    throw std::invalid_argument("the simulator draws analytic PSFs only (Moffat, Airy, Gaussian)");
+  if (psf.kind == PsfKind::kGaussian) {
+    // metacal's reconvolution PSF, drawn as the cell simulator's Gaussian PSF.
+    SimGaussianPsf g{psf.gaussian.fwhm, psf.gaussian.e1, psf.gaussian.e2};
+    if (!g.IsValid(&why)) throw std::invalid_argument("SimRenderer PSF: " + why);
+    set_gaussian(g);
+  } else if (psf.kind == PsfKind::kMoffat) {
     const auto& m = psf.moffat;
     psf_alpha_ = kernels::moffat_alpha(m.fwhm, m.beta);
     const double t = m.truncation > 0 ? m.truncation / psf_alpha_ : 0.0;
@@ -137,6 +143,11 @@ SimRenderer::SimRenderer(const SimGaussianPsf& psf, const Options& options) : id
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument("SimRenderer: " + why);
   if (!psf.IsValid(&why)) throw std::invalid_argument("SimRenderer PSF: " + why);
+  set_gaussian(psf);
+  build_sersic_tables(options);
+}
+
+void SimRenderer::set_gaussian(const SimGaussianPsf& psf) {
   gaussian_sigma_ = psf.fwhm / (2 * std::sqrt(2 * std::log(2.0)));
   // exp(-x^2 / 2) = 1e-12 at x = sqrt(2 ln 1e12); light below 1e-7 of the peak beyond sqrt(2 ln 1e7).
   k_limit_ = std::sqrt(2 * std::log(1.0 / kPsfTransformFloor)) / gaussian_sigma_;
@@ -144,7 +155,6 @@ SimRenderer::SimRenderer(const SimGaussianPsf& psf, const Options& options) : id
   const double e = std::hypot(psf.e1, psf.e2);
   psf_stretch_ = std::sqrt((1 + e) / (1 - e));
   psf_tail_radius_ = gaussian_sigma_ * std::sqrt(2 * std::log(1e7)) * psf_stretch_;
-  build_sersic_tables(options);
 }
 
 void SimRenderer::build_sersic_tables(const Options& options) {

@@ -126,6 +126,7 @@ class SimRenderer {
   // The table for index n (null for n = 1); throws when n was not tabulated.
   const kernels::LogTable* table_for(double n) const;
   void build_sersic_tables(const Options& options);  // after the PSF's k_limit_ and stretch are set
+  void set_gaussian(const SimGaussianPsf& psf);       // the Gaussian PSF's constants
   void draw(std::span<const SimComponent> components, bool with_psf_only, int size, double step, double cx,
             double cy, bool with_pixel, double tail_radius, std::span<double> out, SimWorkspace& ws) const;
   // ws's PSF terms of a galaxy draw on an n x n grid (unit step, pixel response), made when missing.

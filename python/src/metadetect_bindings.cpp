@@ -74,7 +74,8 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
                      {"deblend_contrast", false, true}, {"deblend_thresholds", false, true},
                      {"filter_fwhm", false, true}, {"filter_size", false, true}, {"clean", false, true},
                      {"box_min", false, true}, {"box_max", false, true}, {"per_object_metacal", false, true},
-                     {"measurement", false, true}});
+                     {"measurement", false, true}, {"reconvolution_psf", false, true}, {"stamp_size", false, true},
+                     {"recentre", false, true}});
   const DoubleArray image = as_float64(a.object("image"), {2}, "image");
   const DoubleArray weight = as_float64(a.object("weight"), {2}, "weight");
   const DoubleArray psf = as_float64(a.object("psf"), {2}, "psf");
@@ -85,6 +86,10 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
   o.cell_buffer = static_cast<int>(a.integer("cell_buffer", o.cell_buffer));
   o.step = a.real("step", o.step);
   o.psf_dilation = a.real("psf_dilation", o.psf_dilation);
+  if (const std::string v = a.text("reconvolution_psf", "auto"); !parse_reconvolution_rule(v, &o.reconvolution))
+    throw py::value_error(a.where("reconvolution_psf") + ": '" + v + "' must be auto, gauss or moffat");
+  o.stamp.size = static_cast<int>(a.integer("stamp_size", o.stamp.size));
+  o.recentre = a.flag("recentre", o.recentre);
   o.fixnoise = a.flag("fixnoise", o.fixnoise);
   o.seed = static_cast<std::uint64_t>(a.integer_in("seed", static_cast<long long>(o.seed), 0, 1LL << 62));
   if (const std::string v = a.text("measurement", "wmom"); !parse_metadetect_measurement(v, &o.measurement))
@@ -144,7 +149,7 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
 py::dict metadetect_metrics(py::args args, py::kwargs kwargs) {
   const Arguments a("metadetect_metrics", args, kwargs,
                     {{"table", true}, {"minus"}, {"rotated"}, {"rotated_minus"}, {"shear"}, {"cut_snr"},
-                     {"cut_t_ratio"}, {"bootstrap"}, {"seed"}});
+                     {"cut_t_ratio"}, {"bootstrap"}, {"seed"}, {"estimator"}});
   app::MetadetectMetricsOptions o;
   o.table = a.text("table");
   o.minus = a.text("minus");
@@ -159,6 +164,8 @@ py::dict metadetect_metrics(py::args args, py::kwargs kwargs) {
   o.cuts.min_t_ratio = a.real("cut_t_ratio", o.cuts.min_t_ratio);
   o.resamples = static_cast<int>(a.integer_in("bootstrap", 200, 2, 100000));
   o.seed = static_cast<std::uint64_t>(a.integer_in("seed", 1, 0, 1LL << 62));
+  if (const std::string v = a.text("estimator", "composed"); !parse_metadetect_estimator(v, &o.estimator))
+    throw py::value_error(a.where("estimator") + ": '" + v + "' must be composed or package");
   app::MetadetectMetrics r;
   {
     py::gil_scoped_release release;
@@ -173,6 +180,7 @@ py::dict metadetect_metrics(py::args args, py::kwargs kwargs) {
     const MetadetectBias& b = r.bias;
     d["shear"] = py::make_tuple(r.true_shear[0], r.true_shear[1]);
     d["pairs"] = b.pairs;
+    d["estimator"] = metadetect_estimator_name(o.estimator);
     d["m1"] = b.m1, d["m1_err"] = b.m1_err, d["c2"] = b.c2, d["c2_err"] = b.c2_err;
     d["m2"] = b.m2, d["m2_err"] = b.m2_err, d["c1"] = b.c1, d["c1_err"] = b.c1_err;
   }
@@ -183,18 +191,20 @@ py::dict metadetect_metrics(py::args args, py::kwargs kwargs) {
 
 void bind_metadetect(py::module_& m) {
   m.def("metadetect_metrics", &metadetect_metrics, R"doc(metadetect_metrics(table, minus=None, rotated=None,
-           rotated_minus=None, shear=None, cut_snr=10, cut_t_ratio=1.2, bootstrap=200, seed=1)
+           rotated_minus=None, shear=None, cut_snr=10, cut_t_ratio=1.2, bootstrap=200, seed=1,
+           estimator="composed")
 
 `stampede metrics --metadetect` as a dict: R11, R22, g1, g2 (with _err, bootstrap over cells) of
 `table`; with `minus` (the same cells under the opposite shear) m1, c2, m2, c1 and their errors.
 `rotated`/`rotated_minus`: the same cells' scenes turned by 90 degrees, joined to their cells.
 `shear`: the true shear (g1, g2) of `table`, else its first input's G1, G2 keys.
+`estimator`: "composed" (the response to the sky's shear, R / (1 - |g|^2)) or "package" (<e> / R).
 )doc");
   m.def("metadetect", &metadetect, R"doc(metadetect(image, weight, psf, pixel_scale, bmask=None, threads=0, *,
-           cell_size=251, cell_buffer=34, step=0.01, psf_dilation=0, fixnoise=True, seed=20170101,
-           measurement="wmom", weight_fwhm=0, detect_threshold=0.8, detect_min_area=4,
-           deblend_contrast=1e-5, deblend_thresholds=32, filter_fwhm=3, filter_size=7, clean=True,
-           box_min=33, box_max=255, per_object_metacal=False, noise=None)
+           cell_size=251, cell_buffer=34, step=0.01, reconvolution_psf="auto", psf_dilation=0, fixnoise=True,
+           seed=20170101, measurement="wmom", weight_fwhm=0, recentre=False, detect_threshold=0.8,
+           detect_min_area=4, deblend_contrast=1e-5, deblend_thresholds=32, filter_fwhm=3, filter_size=7,
+           clean=True, stamp_size=32, box_min=33, box_max=255, per_object_metacal=False, noise=None)
 
 Metadetection (Sheldon et al. 2020) of one image as `stampede metadetect` does it: the image
 (2-D, at least one cell) is cut into cells; each cell's five metacal images (noshear, 1p, 1m,

@@ -195,6 +195,7 @@ TEST_F(FitRunTest, MetacalRunsAreIdenticalForAnyThreadCount) {
 TEST_F(FitRunTest, AMetacalReconvolutionPsfTooNarrowIsRefusedUpFront) {
   app::FitRunOptions o = options(scratch.path("narrow.fits"), 1);
   app::apply_set(o.config, "metacal=true");
+  app::apply_set(o.config, "metacal_reconvolution_psf=moffat");
   app::apply_set(o.config, "metacal_psf_dilation=1");
   const std::string message = stampede::testing::error_of<io::ConfigError>([&] { app::FitRun(o).run(); });
   EXPECT_NE(message.find("metacal_psf_dilation = 1: metacal: the reconvolution PSF is not wider than the PSF"),
@@ -203,6 +204,7 @@ TEST_F(FitRunTest, AMetacalReconvolutionPsfTooNarrowIsRefusedUpFront) {
   EXPECT_FALSE(std::filesystem::exists(scratch.path("narrow.fits")));
   app::FitRunOptions ok = options(scratch.path("wide.fits"), 1);
   app::apply_set(ok.config, "metacal=true");
+  app::apply_set(ok.config, "metacal_reconvolution_psf=moffat");
   app::apply_set(ok.config, "metacal_psf_dilation=1.2");
   app::FitRun(ok).run();
   io::FitsFile f = io::FitsFile::open_read(scratch.path("wide.fits"));

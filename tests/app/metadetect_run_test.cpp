@@ -65,8 +65,17 @@ std::vector<std::string> sim_cells(const std::string& dir, int n, CellSimOptions
   return paths;
 }
 
+// The rows of a table the estimator keeps (flags 0, S/N > 10): the grid's galaxies, without the
+// noise peaks that detection at 0.8 sigma also finds between them (S/N ~ 2-6).
+long long galaxy_rows(const std::string& path) {
+  const io::MetadetectTable t = io::read_metadetect_table(path);
+  long long n = 0;
+  for (std::size_t i = 0; i < t.snr.size(); ++i) n += t.flags[i] == 0 && t.snr[i] > 10;
+  return n;
+}
+
 // Runs `o` on one thread into DIR/one.fits and on two into DIR/two.fits, a cell per batch: the
-// tables must be byte-identical, `cells` cells of 49 detections per image, none failed.
+// tables must be byte-identical, `cells` cells of 49 galaxies per image, none failed.
 void expect_one_table_for_one_and_two_threads(MetadetectRunOptions o, const testing::ScratchDir& dir, int cells) {
   o.output = dir.path("one.fits");
   o.threads = 1;
@@ -74,7 +83,7 @@ void expect_one_table_for_one_and_two_threads(MetadetectRunOptions o, const test
   const MetadetectRunSummary one = run_metadetect(o);
   EXPECT_EQ(one.cells, cells);
   EXPECT_EQ(one.cells_failed, 0);
-  EXPECT_EQ(one.rows, cells * 5 * 49);
+  EXPECT_EQ(galaxy_rows(o.output), cells * 5 * 49);
   o.output = dir.path("two.fits");
   o.threads = 2;
   run_metadetect(o);
@@ -269,13 +278,13 @@ TEST(MetadetectRun, BandTilesGiveBandColumnsTheSameForAnyThreadsAndShards) {
   f.move_to("METADETECT");
   EXPECT_EQ(f.read_key_string("BANDS").value_or(""), "g,r");
   const std::vector<double> flux_g = f.read_column("flux_g"), flux_r = f.read_column("flux_r"),
-                            snr_g = f.read_column("snr_g"), flags = f.read_column("flags");
+                            snr_g = f.read_column("snr_g"), flags = f.read_column("flags"), snr = f.read_column("snr");
   // The bands' images share one reconvolution PSF, so a noise-free galaxy's weighted flux scales
   // with its flux: r/g = 1.5 up to how well each band's sampled PSF image deconvolves (measured:
   // within 1.4e-3 over these 3 cells' 735 rows; band r's PSF is 10 % narrower than g's).
   int usable = 0;
   for (std::size_t i = 0; i < flux_g.size(); ++i) {
-    if (flags[i] != 0) continue;
+    if (flags[i] != 0 || !(snr[i] > 10)) continue;  // the galaxies, not the noise peaks between them
     ++usable;
     EXPECT_NEAR(flux_r[i] / flux_g[i], 1.5, 3e-3) << "row " << i;
     EXPECT_GT(snr_g[i], 1000) << "row " << i;
@@ -317,11 +326,11 @@ TEST(MetadetectRun, PgaussBandTilesAreTheSameForOneAndTwoThreads) {
   io::FitsFile f = io::FitsFile::open_read(scratch.path("one.fits"));
   f.move_to("METADETECT");
   const std::vector<double> flux_g = f.read_column("flux_g"), flux_r = f.read_column("flux_r"),
-                            flags = f.read_column("flags");
+                            flags = f.read_column("flags"), snr = f.read_column("snr");
   // The pre-PSF flux of one galaxy in two bands of one Gamma: r/g = 1.5 as for wmom.
   int usable = 0;
   for (std::size_t i = 0; i < flux_g.size(); ++i) {
-    if (flags[i] != 0) continue;
+    if (flags[i] != 0 || !(snr[i] > 10)) continue;
     ++usable;
     EXPECT_NEAR(flux_r[i] / flux_g[i], 1.5, 3e-3) << "row " << i;
   }
@@ -341,7 +350,7 @@ TEST(MetadetectRun, ExpFitTableIsTheSameForOneAndTwoThreadsAndRefusesBands) {
   const MetadetectRunSummary one = run_metadetect(o);
   EXPECT_EQ(one.cells, 3);
   EXPECT_EQ(one.cells_failed, 0);
-  EXPECT_EQ(one.rows, 3 * 5 * 9);
+  EXPECT_EQ(galaxy_rows(o.output), 3 * 5 * 9);
   o.threads = 2;
   o.output = scratch.path("two.fits");
   run_metadetect(o);
@@ -351,6 +360,7 @@ TEST(MetadetectRun, ExpFitTableIsTheSameForOneAndTwoThreadsAndRefusesBands) {
   EXPECT_EQ(f.read_key_string("MEASURE").value_or(""), "exp");
   const std::vector<double> flags = f.read_column("flags"), snr = f.read_column("snr");
   for (std::size_t i = 0; i < flags.size(); ++i) {
+    if (!(snr[i] > 10)) continue;  // a noise peak between the galaxies (its fit may fail: NaN); galaxy_rows counts the galaxies
     EXPECT_EQ(flags[i], 0) << "row " << i;
     EXPECT_GT(snr[i], 1000) << "row " << i;
   }
@@ -453,8 +463,13 @@ TEST(MetadetectRun, BandImagesMeasureAsTheirBandTiles) {
   EXPECT_EQ(a.read_key_string("INPUT2").value_or(""), scratch.path("sims/r/cell_0000.fits"));
   const std::vector<double> flux_g = a.read_column("flux_g");
   ASSERT_GT(flux_g.size(), 3u * 5 * 40);
-  for (const char* c : {"cell", "e1", "e2", "T", "T_ratio", "psf_T", "snr", "flux", "flux_g", "flux_r", "snr_g", "snr_r", "flags"})
-    EXPECT_EQ(a.read_column(c), b.read_column(c)) << c;
+  // Bit for bit, a band's NaN (its moments failed on a noise peak) matching a NaN.
+  for (const char* c : {"cell", "e1", "e2", "T", "T_ratio", "psf_T", "snr", "flux", "flux_g", "flux_r", "snr_g", "snr_r", "flags"}) {
+    const std::vector<double> ca = a.read_column(c), cb = b.read_column(c);
+    ASSERT_EQ(ca.size(), cb.size()) << c;
+    for (std::size_t i = 0; i < ca.size(); ++i)
+      EXPECT_TRUE(ca[i] == cb[i] || (std::isnan(ca[i]) && std::isnan(cb[i]))) << c << " row " << i;
+  }
   const std::vector<double> xa = a.read_column("x"), xb = b.read_column("x"), cell = a.read_column("cell");
   for (std::size_t i = 0; i < xa.size(); ++i)
     EXPECT_NEAR(xb[i] - xa[i], (static_cast<int>(cell[i]) % 2) * (251 - 2 * 34), 1e-9);
@@ -568,12 +583,14 @@ TEST(MetadetectRun, APsfexModelOfThePsfHduMeasuresAsThePsfHdu) {
   const std::vector<MetadetectRow> hdu = io::read_metadetect_rows(scratch.path("hdu.fits")),
                                    psfex = io::read_metadetect_rows(o.output);
   ASSERT_EQ(hdu.size(), psfex.size());
-  ASSERT_EQ(hdu.size(), 2u * 5 * 49);
+  EXPECT_EQ(galaxy_rows(scratch.path("hdu.fits")), 2 * 5 * 49);
   double worst_x = 0, worst_e = 0;
   for (std::size_t i = 0; i < hdu.size(); ++i) {
     worst_x = std::max(worst_x, std::abs(hdu[i].x - psfex[i].x));
     worst_e = std::max({worst_e, std::abs(hdu[i].e1 - psfex[i].e1), std::abs(hdu[i].e2 - psfex[i].e2)});
-    EXPECT_NEAR(hdu[i].x, psfex[i].x, 1e-9) << i;
+    // SEP's barycentres are float sums of the filtered image, which the model's float rounding of
+    // the PSF moves in its last bits: 1e-8 px.
+    EXPECT_NEAR(hdu[i].x, psfex[i].x, 1e-7) << i;
     EXPECT_EQ(hdu[i].flags, psfex[i].flags) << i;
     EXPECT_NEAR(hdu[i].e1, psfex[i].e1, 1e-9) << i;
     EXPECT_NEAR(hdu[i].e2, psfex[i].e2, 1e-9) << i;

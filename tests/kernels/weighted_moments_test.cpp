@@ -10,6 +10,7 @@
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <utility>
 #include <vector>
 
 namespace stampede::kernels {
@@ -50,6 +51,30 @@ TEST(WeightedMoments, AGaussianAnywhereGivesItsProductWithTheWeight) {
     EXPECT_NEAR(m.e1, (pxx - pyy) / (pxx + pyy), 1e-8) << offset;
     EXPECT_NEAR(m.e2, 2 * pxy / (pxx + pyy), 1e-8) << offset;
     EXPECT_TRUE(std::isinf(m.snr));
+  }
+}
+
+TEST(WeightedMoments, AHeldWeightGivesTheMomentsAboutWhereItStarts) {
+  // No Newton steps: the weight stays at (sx, sy), and the moments are the product's second moments
+  // about that point, P + (m - s)(m - s)^T, m = P (C^-1 mu + s / w) the product's mean.
+  std::vector<double> scratch(2 * kSize);
+  const double fwhm = 7.0, w = std::pow(fwhm / 2.3548200450309493, 2);
+  const double cxx = 9.0, cxy = 2.5, cyy = 5.0, x0 = 23.8, y0 = 22.9;
+  const double det = cxx * cyy - cxy * cxy, ixx = cyy / det, ixy = -cxy / det, iyy = cxx / det;
+  const double a = ixx + 1 / w, b = ixy, d = iyy + 1 / w, pd = a * d - b * b;
+  const double pxx = d / pd, pxy = -b / pd, pyy = a / pd;
+  for (const auto& [sx, sy] : {std::pair{23.8, 22.9}, std::pair{24.6, 22.1}, std::pair{21.0, 24.0}}) {
+    const WeightedMoments m =
+        weighted_moments(gaussian(x0, y0, cxx, cxy, cyy, 1000), kSize, fwhm, 0.0, scratch, 0, sx, sy);
+    ASSERT_TRUE(m.valid);
+    EXPECT_EQ(m.x, sx);
+    EXPECT_EQ(m.y, sy);
+    const double vx = ixx * x0 + ixy * y0 + sx / w, vy = ixy * x0 + iyy * y0 + sy / w;
+    const double mx = pxx * vx + pxy * vy - sx, my = pxy * vx + pyy * vy - sy;
+    const double mxx = pxx + mx * mx, mxy = pxy + mx * my, myy = pyy + my * my;
+    EXPECT_NEAR(m.t, mxx + myy, 1e-7 * (mxx + myy)) << sx;
+    EXPECT_NEAR(m.e1, (mxx - myy) / (mxx + myy), 1e-8) << sx;
+    EXPECT_NEAR(m.e2, 2 * mxy / (mxx + myy), 1e-8) << sx;
   }
 }
 

@@ -194,7 +194,7 @@ def printed_lines(path, r, minus=None):
              f"g2 = {number_text(r['g2'], '+.3e')} +- {number_text(r['g2_err'], '.1e')}"]
     if "m1" in r:
         lines.append(f"shear pair with {minus}, g = ({r['shear'][0]:g}, {r['shear'][1]:g}), {r['pairs']} pairs of "
-                     "cells:")
+                     f"cells, estimator {r['estimator']}:")
         for m, c in (("m1", "c2"), ("m2", "c1")):
             if math.isfinite(r[m]):
                 lines.append(f"  {m} = {number_text(r[m], '+.3e')} +- {number_text(r[m + '_err'], '.1e')}   "

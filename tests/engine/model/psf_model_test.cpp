@@ -23,6 +23,8 @@ TEST(PsfKind, NamesParseBack) {
   EXPECT_TRUE(parse_psf_kind("AIRY", &k));
   EXPECT_EQ(k, PsfKind::kAiry);
   EXPECT_FALSE(parse_psf_kind("moffat_catalog", &k));  // a source of Moffats, not a kind
+  // The Gaussian is metacalibration's reconvolution PSF, named but not an input PSF.
+  EXPECT_STREQ(psf_kind_name(PsfKind::kGaussian), "gaussian");
   EXPECT_FALSE(parse_psf_kind("gaussian", &k));
 }
 
@@ -44,6 +46,7 @@ TEST(PsfModel, AnalyticValuesAreConsistent) {
   const PsfModel moffat = PsfModel::Moffat({3.5, 2.5, 0.1, -0.05, 0.0});
   const PsfModel truncated = PsfModel::Moffat({3.0, 2.5, 0.0, 0.08, 5.0});
   const PsfModel airy = PsfModel::Airy({2.0, 0.0});
+  const PsfModel gaussian = PsfModel::Gaussian({3.0, 0.12, -0.07});
   // On a grid fine against the profiles (step 0.1 px: the aliases at 2 pi / step are negligible),
   // 80 px wide. Tolerances: the untruncated Moffat loses ~1e-6 beyond 40 px; the truncated one's
   // edge is a step, which a grid sums to O(step) of the light there (1.2e-4 measured); an Airy
@@ -53,7 +56,8 @@ TEST(PsfModel, AnalyticValuesAreConsistent) {
     const PsfModel* model;
     const char* what;
     double tol;
-  } cases[] = {{&moffat, "moffat", 1e-5}, {&truncated, "truncated moffat", 3e-4}, {&airy, "airy", 2e-3}};
+  } cases[] = {{&moffat, "moffat", 1e-5}, {&truncated, "truncated moffat", 3e-4}, {&airy, "airy", 2e-3},
+               {&gaussian, "gaussian", 1e-9}};
   const std::vector<std::pair<double, double>> ks = {{0.0, 0.0}, {0.4, 0.0}, {0.3, -0.5}, {0.0, 0.9}};
   for (const auto& c : cases) {
     const PsfModel& m = *c.model;
@@ -74,6 +78,16 @@ TEST(PsfModel, AnalyticValuesAreConsistent) {
   EXPECT_EQ(moffat.fwhm(), 2.5);
   EXPECT_EQ(moffat.e1(), 0.1);
   EXPECT_EQ(airy.e2(), 0.0);
+  EXPECT_EQ(gaussian.fwhm(), 3.0);
+  EXPECT_EQ(gaussian.e1(), 0.12);
+  EXPECT_TRUE(gaussian == PsfModel::Gaussian({3.0, 0.12, -0.07}));
+  EXPECT_FALSE(gaussian == PsfModel::Gaussian({3.0, 0.12, 0.07}));
+  // Half the peak at half the FWHM from the centre (round).
+  const PsfModel round = PsfModel::Gaussian({3.0, 0.0, 0.0});
+  EXPECT_NEAR(round.x_value(1.5, 0) / round.x_value(0, 0), 0.5, 1e-4);
+  std::string why;
+  EXPECT_FALSE(PsfModel::Gaussian({0.0, 0.0, 0.0}).IsValid(&why));
+  EXPECT_FALSE(PsfModel::Gaussian({2.0, 0.8, 0.7}).IsValid(&why));
 }
 
 TEST(PsfModel, ImageTransformMatchesItsSamples) {

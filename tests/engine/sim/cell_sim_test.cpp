@@ -192,6 +192,41 @@ TEST(CellSim, RandomLayoutHasThePoissonDensity) {
   EXPECT_NEAR(total, kCells * mean, 4 * std::sqrt(kCells * mean));
 }
 
+TEST(CellSim, ReferencePositionsAreTheReferenceTestsLayouts) {
+  // The grid spans the inner region edge to edge; random: int(100 x the inner area) objects uniform
+  // over it; each shifted by at most the jitter.
+  CellSimOptions o;
+  o.reference_positions = true;
+  o.noise_free = true;
+  const double c = 125, h = 0.5 * (251 - 2 * 34);  // 91.5 px
+  {
+    const CellSimulator sim(o);
+    const std::vector<CellObject> objs = sim.objects(3, 0.0, 0.0);
+    ASSERT_EQ(objs.size(), 49u);
+    for (int j = 0; j < 7; ++j)
+      for (int i = 0; i < 7; ++i) {
+        const CellObject& obj = objs[static_cast<std::size_t>(j * 7 + i)];
+        EXPECT_LE(std::abs(obj.x - (c + (i - 3) / 3.0 * h)), 1.0) << i << " " << j;
+        EXPECT_LE(std::abs(obj.y - (c + (j - 3) / 3.0 * h)), 1.0) << i << " " << j;
+      }
+  }
+  o.layout = CellLayout::kRandom;
+  const CellSimulator sim(o);
+  double mean_x = 0;
+  int n = 0;
+  for (int k = 0; k < 20; ++k) {
+    const std::vector<CellObject> objs = sim.objects(k, 0.0, 0.0);
+    ASSERT_EQ(objs.size(), 58u);  // int(100 x ((251 - 68) x 0.25 / 60)^2)
+    for (const CellObject& obj : objs) {
+      EXPECT_LE(std::abs(obj.x - c), h + 1.0);
+      EXPECT_LE(std::abs(obj.y - c), h + 1.0);
+      mean_x += obj.x - c, ++n;
+    }
+  }
+  // Uniform over [-h, h]: the mean's sigma is h / sqrt(3 n) ~ 1.55 px over 1,160 objects; 4 sigma.
+  EXPECT_NEAR(mean_x / n, 0.0, 4 * h / std::sqrt(3.0 * n));
+}
+
 TEST(CellSim, SameCellForAnyWorkspaceAndOrder) {
   CellSimOptions o;
   o.bands = 2;

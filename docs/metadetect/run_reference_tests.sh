@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# The reference shear test's runs of docs/metadetect.md ("The reference shear test"), each through
+# docs/metadetect/shear_test.py into docs/metadetect/results/LABEL (chunk files: a stopped run goes
+# on where it was). Cells: `sim cells --reference` (per-object S/N 1e6, round exponentials, reference
+# positions), the 7 x 7 grid and random positions, and random positions at S/N 20; metadetect with
+# its defaults.
+#   usage: docs/metadetect/run_reference_tests.sh [BUILD_DIR] [WORK_DIR]
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+build=${1:-build} work=${2:-/tmp/shear_test}
+run() { /usr/bin/python3 "$here/shear_test.py" --build "$build" --work "$work" "$@"; }
+run --label ref_grid --pairs 200 --chunk 100 --sim="--reference --layout grid"
+run --label ref_random --pairs "${RANDOM_PAIRS:-10000}" --chunk 250 --sim="--reference --layout random"
+run --label ref_random_snr20 --pairs "${SNR20_PAIRS:-5000}" --chunk 250 --sim="--reference --layout random --snr 20"
