@@ -126,6 +126,44 @@ TEST(MetadetectRun, StoppedRunResumesToTheUninterruptedTable) {
   EXPECT_THROW(run_metadetect(o), Error);
 }
 
+TEST(MetadetectRun, TheReconvolutionRuleTheStampAndTheWeightAreRecordedAndIdentifyTheRun) {
+  // The header records Gamma's rule, the stamp size and the weight's centring; a run stopped with
+  // one setting does not resume with another.
+  testing::ScratchDir scratch("stampede_mdet_settings_");
+  MetadetectRunOptions o;
+  o.inputs = sim_cells(scratch.path("sims"), 2);
+  o.output = scratch.path("default.fits");
+  run_metadetect(o);
+  io::FitsFile d = io::FitsFile::open_read(o.output);
+  d.move_to("METADETECT");
+  EXPECT_EQ(d.read_key_string("MCRECONV").value_or(""), "auto");
+  EXPECT_EQ(d.read_key_double("STAMPSZ").value_or(-1), 32);
+  EXPECT_EQ(d.read_key_string("RECENTRE").value_or(""), "F");
+  const std::vector<double> box = d.read_column("box_size");
+  for (double b : box) EXPECT_EQ(b, 32);
+  MetadetectRunOptions m = o;
+  m.metadetect.reconvolution = ReconvolutionRule::kMoffat;
+  m.metadetect.stamp.size = 0;
+  m.metadetect.recentre = true;
+  m.output = scratch.path("moffat.fits");
+  m.threads = 1;
+  m.cells_per_batch = 1;
+  std::atomic<bool> stop{false};
+  m.stop = &stop;
+  run_metadetect(m, [&](const MetadetectProgress& p) {
+    if (p.cells_done >= 1) stop = true;
+  });
+  io::FitsFile p = io::FitsFile::open_read(m.output + ".partial");
+  p.move_to("METADETECT");
+  EXPECT_EQ(p.read_key_string("MCRECONV").value_or(""), "moffat");
+  EXPECT_EQ(p.read_key_double("STAMPSZ").value_or(-1), 0);
+  EXPECT_EQ(p.read_key_string("RECENTRE").value_or(""), "T");
+  MetadetectRunOptions r = o;
+  r.output = m.output;
+  r.resume = true;
+  EXPECT_THROW(run_metadetect(r), Error);
+}
+
 TEST(MetadetectRun, ImageLargerThanACellKeepsEachGalaxyOnce) {
   testing::ScratchDir scratch("stampede_mdet_cells_");
   CellSimOptions so;

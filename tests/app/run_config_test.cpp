@@ -185,6 +185,18 @@ TEST(RunConfigRegistry, MetacalModelAndWeightParseAndValidate) {
                        "metacal_weight_fwhm = 0.05: must be 0 (automatic) or in [0.1, 1000] (pixels; arcsec for MEDS tiles)"));
 }
 
+// metacal_reconvolution_psf's three rules (auto the default), case-insensitive; anything else refused.
+TEST(RunConfigRegistry, MetacalReconvolutionPsfParses) {
+  RunConfig c;
+  EXPECT_EQ(get_option(c, "metacal_reconvolution_psf"), "auto");
+  set_option(c, "metacal_reconvolution_psf", "Gauss");
+  EXPECT_EQ(c.metacal.reconvolution, ReconvolutionRule::kGauss);
+  set_option(c, "metacal_reconvolution_psf", "moffat");
+  EXPECT_EQ(get_option(c, "metacal_reconvolution_psf"), "moffat");
+  EXPECT_TRUE(Contains(error_of<ConfigError>([&] { set_option(c, "metacal_reconvolution_psf", "fitgauss"); }),
+                       "expected auto, gauss or moffat"));
+}
+
 // metacal_weight_fwhm is the wmom moments' weight: with a model fit (bd, exp, gauss) it was
 // silently unused; refused, naming both options.
 TEST(RunConfigValidate, AMomentsWeightWithAModelFitIsRefused) {

@@ -69,6 +69,24 @@ TEST_F(SimCellsCommand, WritesCellsPairsBandsAndTiles) {
   EXPECT_NE(again.err.find("use --overwrite"), std::string::npos) << again.err;
 }
 
+TEST_F(SimCellsCommand, ReferenceIsTheReferenceShearTestsCellAndGivenOptionsOverrideIt) {
+  // --reference: the reference positions, S/N 1e6, round galaxies, a 53 px PSF image; an option
+  // given beside it (before or after) wins.
+  const std::string out = path("ref");
+  ASSERT_EQ(run({"--snr", "20", "--out", out, "--reference", "--layout", "random"}).exit_code, 0);
+  stampede::io::FitsFile cell = stampede::io::FitsFile::open_read(out + "/cell_0000.fits");
+  EXPECT_EQ(cell.key_double("REFPOS"), 1);
+  EXPECT_EQ(cell.key_double("SNR"), 20);
+  EXPECT_EQ(cell.key_double("SHAPENOI"), 0);
+  EXPECT_EQ(cell.key_double("NOBJ"), 58);
+  cell.move_to("PSF");
+  EXPECT_EQ(cell.image_shape().nx, 53);
+  ASSERT_EQ(run({"--out", path("grid"), "--reference"}).exit_code, 0);
+  stampede::io::FitsFile grid = stampede::io::FitsFile::open_read(path("grid") + "/cell_0000.fits");
+  EXPECT_EQ(grid.key_double("SNR"), 1e6);
+  EXPECT_EQ(grid.key_double("NOBJ"), 49);
+}
+
 TEST_F(SimCellsCommand, BadOptionsAreClearErrorsNamingTheOption) {
   const std::string out = path("bad");
   const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
