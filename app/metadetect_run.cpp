@@ -47,6 +47,7 @@ struct CellBatch : BatchExtension {
     int file = 0;
     CellPlacement place;
     double pixel_scale = 0;
+    double lens_g1 = 0, lens_g2 = 0;  // keep_unlensed: the file's recorded shear
     int first_observation = 0, bands = 1;  // its bands' observations in the arena, in band order
     // Its bands' NOISE planes, consecutive in `noise` from here (none: -1).
     long long noise_offset = -1;
@@ -128,6 +129,9 @@ class CellSource : public StampSource {
     std::vector<std::string> paths;  // a tile per band
   };
   CellSource(const Tile& t, const MetadetectOptions& options) : inputs_(t.paths), options_(options) {
+    if (options.keep_unlensed)
+      throw io::ConfigError(t.paths[0] + ": --keep-unlensed needs the scene's shear, which a cell tile does not record "
+                            "(give `sim cells`'s image files)");
     for (const std::string& tile : t.paths) {
       tiles_.push_back(std::make_unique<io::MedsFile>(io::MedsFile::open(tile)));
       const io::MedsFile& m = *tiles_.back();
@@ -292,6 +296,12 @@ class CellSource : public StampSource {
     const std::size_t npix = static_cast<std::size_t>(s) * s;
     CellBatch::Cell cell;
     cell.file = file_, cell.place = place, cell.pixel_scale = image(0).pixel_scale;
+    if (options_.keep_unlensed) {
+      if (!std::isfinite(image(0).g1) || !std::isfinite(image(0).g2))
+        throw io::ConfigError(files_[file_][0] + ": --keep-unlensed needs the scene's shear, header keys G1 and G2 "
+                              "of HDU 0 (as `stampede sim cells` writes them)");
+      cell.lens_g1 = image(0).g1, cell.lens_g2 = image(0).g2;
+    }
     cell.first_observation = static_cast<int>(batch.observations.size()), cell.bands = bands;
     bool noise = options_.noise_plane;
     for (int b = 0; b < bands; ++b) noise = noise && !image(b).noise.empty();
@@ -392,6 +402,7 @@ class CellFitter : public BatchFitter {
       cell.psf = &o.psf;
       cell.keep_x0 = c.place.keep_x0, cell.keep_x1 = c.place.keep_x1;
       cell.keep_y0 = c.place.keep_y0, cell.keep_y1 = c.place.keep_y1;
+      cell.lens_g1 = c.lens_g1, cell.lens_g2 = c.lens_g2;
       measurer_.measure(cell, &data.rows, &data.problems[static_cast<std::size_t>(k)]);
     }
   }
@@ -455,6 +466,7 @@ std::vector<std::pair<std::string, std::string>> option_keys(const MetadetectOpt
           {"MEASURE", metadetect_measurement_name(o.measurement)},
           {"WFWHM", number_text(o.weight_fwhm_arcsec())},
           {"RECENTRE", o.recentre ? "T" : "F"},
+          {"KEEPUNL", o.keep_unlensed ? "T" : "F"},
           {"DETTHR", number_text(d.threshold)},
           {"DETMINA", std::to_string(d.min_area)},
           {"DBLCONT", number_text(d.deblend_contrast)},

@@ -211,7 +211,8 @@ std::vector<Entry> make_registry() {
   r.push_back({"metacal_reconvolution_psf",
                "metacal: the reconvolution PSF: gauss, a round Gaussian, the PSF's adaptive Gaussian on its major axis "
                "dilated by 1 + 2 metacal_step (the reference metadetect package's fitgauss); moffat, a round Moffat "
-               "widened until its filters are bounded; auto (default): gauss where its filters are bounded, else moffat",
+               "widened until its filters are <= 1.01; auto (default): the Gaussian where its filters are <= 1.01 too "
+               "(Gaussian-like PSFs), else moffat; gauss accepts filters up to 1.5",
                mcal, [](const RunConfig& c) { return std::string(reconvolution_rule_name(c.metacal.reconvolution)); },
                [](RunConfig& c, const std::string& v) {
                  if (!parse_reconvolution_rule(v, &c.metacal.reconvolution))

@@ -8,6 +8,7 @@
 //
 // Every failure throws FitsError naming the file, the HDU and the keyword or the rule.
 #pragma once
+#include <cmath>
 #include <memory>
 #include <span>
 #include <string>
@@ -29,6 +30,9 @@ struct CellImage {
   std::vector<double> noise;           // the NOISE plane (0 where masked); empty: none
   std::shared_ptr<const PsfImage> psf;  // null when read without it
   long long masked = 0;  // pixels masked (weight 0, BMASK, non-finite)
+  // The shear a simulation drew the scene with (HDU 0's G1, G2, as `sim cells` writes them); NaN
+  // when absent.
+  double g1 = NAN, g2 = NAN;
 };
 
 // The masking rules a read applies, for an image built in memory (Python): a non-zero bmask value

@@ -74,7 +74,9 @@ void print_help() {
       "  --reconvolution-psf R      metacal's reconvolution PSF: gauss (the PSF's adaptive Gaussian,\n"
       "                             round on its major axis, dilated by 1 + 2 step, as the reference\n"
       "                             package's fitgauss), moffat (a round Moffat widened until its\n"
-      "                             filters are bounded), auto: gauss where bounded, else moffat (%s)\n"
+      "                             filters are <= 1.01), auto: the Gaussian where its filters are\n"
+      "                             <= 1.01 too (Gaussian-like PSFs), else moffat; gauss accepts up\n"
+      "                             to 1.5 (%s)\n"
       "  --psf-dilation F           reconvolution PSF FWHM over the PSF's; 0: the rule's own (%g)\n"
       "  --no-fixnoise              do not add the rotated noise field\n"
       "  --no-noise-plane           draw the fixnoise field from the weight even where the input has\n"
@@ -101,6 +103,9 @@ void print_help() {
       "  --box-min N, --box-max N   --stamp-size 0: odd bounds of a stamp's side, pixels (%d, %d)\n"
       "  --recentre                 wmom, pgauss: move the weight to the weighted centroid (six Newton\n"
       "                             steps); by default it stays at the detection's position\n"
+      "  --keep-unlensed            simulations: keep a detection by its position with the cell's\n"
+      "                             recorded shear (G1, G2) undone too, as a tiled survey's cells\n"
+      "                             keep what the shear moves across a lone cell's boundary\n"
       "  --threads N                worker threads (default: all cores)\n"
       "  --shard I/N                only shard I of N (0 <= I < N): a contiguous 1/N of the cells,\n"
       "                             numbered as in the whole run; `stampede merge` joins the shards\n"
@@ -180,6 +185,8 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
       m.stamp.size = integer(0, 255);
     } else if (s == "--recentre") {
       m.recentre = true;
+    } else if (s == "--keep-unlensed") {
+      m.keep_unlensed = true;
     } else if (s == "--per-object-metacal") {
       m.per_object_metacal = true;
     } else if (s == "--no-fixnoise") {

@@ -19,10 +19,12 @@ with the response divided by 1 - |g|^2, metacal's step composed with the image's
 usage: shear_test.py --label L --pairs N [--chunk 100] [--build build] [--work /tmp/shear_test]
            [--results docs/metadetect/results] [--sim "sim cells options"]
            [--metadetect "metadetect options"] [--cut-snr 10] [--cut-t-ratio 1.2] [--summary-only]
+           [--compare OTHER_LABEL]
 e.g.  shear_test.py --label ref_grid --pairs 200 --sim="--reference --layout grid" --metadetect="--recentre"
 (options' values that begin with "--" are given with "=")
 """
 import argparse
+import gzip
 import os
 import shlex
 import shutil
@@ -76,7 +78,7 @@ def run_chunk(a, k, path):
         sums.append(cell_sums(table, a.chunk, a.cut_snr, a.cut_t_ratio, stampede.read_table))
     t2 = time.time()
     rows = np.concatenate([sums[0].reshape(a.chunk, -1), sums[1].reshape(a.chunk, -1)], axis=1)
-    tmp = path + ".tmp"
+    tmp = path + ".tmp.gz"
     header = ("seed %d; sim: %s; metadetect: %s; cuts snr > %g t_ratio > %g; simulate %.1f s measure %.1f s\n"
               "per pair: plus then minus, each shear type (noshear 1p 1m 2p 2m) n sum_e1 sum_e2"
               % (seed, a.sim, a.metadetect, a.cut_snr, a.cut_t_ratio, t1 - t0, t2 - t1))
@@ -141,7 +143,7 @@ def estimates(plus, minus, g, step):
 
 def settings(path):
     """The chunk's first header line without its seed and timings: what must agree across chunks."""
-    with open(path) as f:
+    with (gzip.open(path, "rt") if path.endswith(".gz") else open(path)) as f:
         line = f.readline()
     return line.split(";", 1)[1].rsplit(";", 1)[0].strip()
 
@@ -170,6 +172,41 @@ def summary(a, files):
               (k, r11, sr, m, sm, c, sc, sm * np.sqrt(n)))
 
 
+def is_chunk(name):
+    return name.startswith("chunk_") and (name.endswith(".txt") or name.endswith(".txt.gz"))
+
+
+def load(results, label):
+    out = os.path.join(results, label)
+    files = sorted(f for f in os.listdir(out) if is_chunk(f))
+    return {f.split(".")[0]: np.atleast_2d(np.loadtxt(os.path.join(out, f))) for f in files}
+
+
+def compare(a, other):
+    """m of this label minus m of `other` on the chunks both hold (the same seeds: the same cells),
+    bootstrapped over pairs together, for the package's and the composed estimator."""
+    mine, theirs = load(a.results, a.label), load(a.results, other)
+    common = sorted(set(mine) & set(theirs))
+    if not common:
+        sys.exit("%s and %s share no chunk" % (a.label, other))
+    x = np.concatenate([mine[f] for f in common])
+    y = np.concatenate([theirs[f] for f in common])
+    n = x.shape[0]
+    split = lambda d, i: (d[i, :15].reshape(len(i), TYPES, 3), d[i, 15:].reshape(len(i), TYPES, 3))
+    idx = np.arange(n)
+    best = {k: v[0] - w[0] for (k, v), w in zip(estimates(*split(x, idx), a.g, a.step).items(),
+                                                estimates(*split(y, idx), a.g, a.step).values())}
+    rng = np.random.default_rng(2)
+    boot = {k: [] for k in best}
+    for _ in range(a.bootstrap):
+        i = rng.integers(0, n, n)
+        for (k, v), w in zip(estimates(*split(x, i), a.g, a.step).items(), estimates(*split(y, i), a.g, a.step).values()):
+            boot[k].append(v[0] - w[0])
+    print("%s - %s on %d common pairs (%d chunks):" % (a.label, other, n, len(common)))
+    for k in ("reference", "composed"):
+        print("  %-9s delta m %+.3e +- %.3e" % (k, best[k], np.std(boot[k])))
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--label", required=True)
@@ -187,6 +224,7 @@ def main():
     p.add_argument("--step", type=float, default=0.01)
     p.add_argument("--bootstrap", type=int, default=500)
     p.add_argument("--summary-only", action="store_true")
+    p.add_argument("--compare", metavar="LABEL", help="also m minus LABEL's m on the chunks both hold")
     a = p.parse_args()
     sys.path.insert(0, os.path.join(os.path.abspath(a.build), "python"))
     out = os.path.join(a.results, a.label)
@@ -194,15 +232,17 @@ def main():
     chunks = (a.pairs + a.chunk - 1) // a.chunk
     if not a.summary_only:
         for k in range(chunks):
-            path = os.path.join(out, "chunk_%05d.txt" % k)
-            if os.path.exists(path):
+            path = os.path.join(out, "chunk_%05d.txt.gz" % k)
+            if os.path.exists(path) or os.path.exists(path[:-3]):
                 continue
             ts, tm = run_chunk(a, k, path)
             print("%s: chunk %d/%d done (simulate %.1f s, measure %.1f s)" % (a.label, k + 1, chunks, ts, tm),
                   flush=True)
-    files = sorted(os.path.join(out, f) for f in os.listdir(out) if f.startswith("chunk_") and f.endswith(".txt"))
+    files = sorted(os.path.join(out, f) for f in os.listdir(out) if is_chunk(f))
     if files:
         summary(a, files)
+    if a.compare:
+        compare(a, a.compare)
 
 
 if __name__ == "__main__":

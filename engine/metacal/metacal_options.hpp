@@ -16,9 +16,9 @@ enum class MetacalModel { kBulgeDisc, kExponential, kGaussian, kWeightedMoments 
 
 // The reconvolution PSF Gamma (engine/metacal/reconvolution_psf; docs/metacal.md, "The
 // reconvolution PSF"). kGauss: a round Gaussian, the PSF's adaptive-moment Gaussian on its major
-// axis dilated by 1 + 2 step (the reference metadetect package's "fitgauss"); kMoffat: the round
-// Moffat widened until every filter is bounded; kAuto: kGauss where its filters are bounded, else
-// kMoffat.
+// axis dilated by 1 + 2 step (the reference metadetect package's "fitgauss"), its filters' gain at
+// most 1.5; kMoffat: the round Moffat widened until every filter is <= 1.01; kAuto: the Gaussian
+// where its filters are <= 1.01 too (a Gaussian-like PSF), else kMoffat.
 enum class ReconvolutionRule { kAuto, kGauss, kMoffat };
 // "auto", "gauss", "moffat": the option's value and the header's.
 const char* reconvolution_rule_name(ReconvolutionRule r);

@@ -20,10 +20,11 @@ namespace stampede {
 
 // The Gaussian rule: a round Gaussian of variance ((1 + 2 step) sigma_major)^2 - 1/12,
 // sigma_major^2 the major axis's variance of the PSF x pixel's adaptive moments (psf_dilation > 0
-// replaces 1 + 2 step): Gamma x pixel, the metacal images' PSF, is the dilated fit. kAuto falls back to the Moffat rule where the Gaussian's filters are not bounded; kGauss then
-// fails.
-// The Moffat rule: Moffat PSF: a round Moffat of its beta and FWHM x metacal_psf_dilation (0: (1 + 2 step) x
-// sqrt((1 + |e|) / (1 - |e|)), its major axis's factor). Image PSF: a round Moffat of beta 3, FWHM
+// replaces 1 + 2 step): Gamma x pixel, the metacal images' PSF, is the dilated fit. kGauss accepts
+// filters up to a gain of 1.5; kAuto takes it where they stay <= 1.01 (as the Moffat rule's), else
+// the Moffat rule.
+// The Moffat rule: Moffat PSF: a round Moffat of its beta and FWHM x metacal_psf_dilation (0: (1 +
+// 2 step) x sqrt((1 + |e|) / (1 - |e|)), its major axis's factor). Image PSF: a round Moffat of beta 3, FWHM
 // F x metacal_psf_dilation with F = 2.3548 sqrt(lambda_max) of the image's adaptive-moment
 // covariance; with dilation 0, the narrowest from 0.5 F up in steps of 3 % whose filters are all
 // bounded (40 rungs, searched by bisection on the filters' coarse check).

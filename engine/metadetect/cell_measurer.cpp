@@ -297,7 +297,14 @@ bool CellMeasurer::owns(const MetadetectCell& cell, int type, const Detection& d
   // cell's image (sheared about another centre) does not cancel.
   const std::array<double, 4>& a = filters_[0]->inverse_shear(kMetacalTypes[type]);
   const double c = 0.5 * (cell.size - 1), dx = d.x - c, dy = d.y - c;
-  const double x = c + a[0] * dx + a[1] * dy, y = c + a[2] * dx + a[3] * dy;
+  double ux = a[0] * dx + a[1] * dy, uy = a[2] * dx + a[3] * dy;
+  if (cell.lens_g1 != 0 || cell.lens_g2 != 0) {
+    // The scene was sheared by the lens before metacal's step: undone after it.
+    const std::array<double, 4> l = inverse_shear_matrix(cell.lens_g1, cell.lens_g2);
+    const double lx = l[0] * ux + l[1] * uy, ly = l[2] * ux + l[3] * uy;
+    ux = lx, uy = ly;
+  }
+  const double x = c + ux, y = c + uy;
   return x >= cell.keep_x0 && x < cell.keep_x1 && y >= cell.keep_y0 && y < cell.keep_y1;
 }
 
@@ -351,7 +358,7 @@ std::span<const double> CellMeasurer::psf_transform(int box) {
   std::vector<double>& k = psf_k_[slot];
   if (k.empty()) {
     // What a point source is in the metacal images: Gamma x the pixel's top-hat (sinc(k / 2) per
-    // axis), so that the moments are of the galaxy before both. Gamma is a round Moffat: real.
+    // axis), so that the moments are of the galaxy before both. Gamma is round (a Gaussian or a Moffat): real.
     // A cell tile's every cell has its own Gamma, and a Moffat's transform costs a Bessel function:
     // Gamma and the pixel are even in kx and ky, so one quadrant is evaluated and mirrored, and
     // only where the weight's transform is not negligible (the kernel reads no other k; 1 there).

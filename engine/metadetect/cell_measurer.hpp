@@ -54,6 +54,8 @@ struct MetadetectCell {
   // cell, in [keep_x0, keep_x1) x [keep_y0, keep_y1) (cell pixels); the rest belong to a
   // neighbouring cell or to the image's buffer.
   double keep_x0 = 0, keep_x1 = 0, keep_y0 = 0, keep_y1 = 0;
+  // The scene's shear to undo as well when deciding that (MetadetectOptions::keep_unlensed): 0 none.
+  double lens_g1 = 0, lens_g2 = 0;
 };
 
 class CellMeasurer {

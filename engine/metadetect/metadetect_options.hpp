@@ -61,6 +61,11 @@ struct MetadetectOptions {
   // wmom and pgauss: the weight's centre moved to the weighted centroid by six Newton steps; false:
   // held at the detection's position, as the reference package measures (docs/metadetect.md).
   bool recentre = false;
+  // Simulations only: keep a detection by its position with the scene's recorded shear undone as
+  // well as metacal's (the cells' G1, G2): a lone simulated cell then keeps the same objects under
+  // +g and -g, as a tiled survey's cells hand each other the objects the shear moves across their
+  // boundaries (docs/metadetect.md, "The random test's m").
+  bool keep_unlensed = false;
   bool fixnoise = true;
   // Fixnoise's field from the input's noise realisation (an image file's NOISE HDU, a tile's
   // noise cutouts) where it has one, as the reference package does; false, or no such plane: a

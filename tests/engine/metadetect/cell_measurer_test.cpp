@@ -10,10 +10,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "engine/common/random_stream.hpp"
@@ -479,6 +481,49 @@ TEST(CellMeasurer, ACellWhosePsfHasNoBoundedGammaIsOneFlaggedRow) {
       EXPECT_NE(problem.find("neither a Gaussian"), std::string::npos) << problem;
     }
   }
+}
+
+TEST(CellMeasurer, KeptByTheirUnlensedPositionAShearPairKeepsTheSameObjects) {
+  // The reference grid's outer rows lie on the keep region's edge: the lens's +-g moves them across
+  // it (+-1.8 px), so +g and -g keep different objects by their image position; undoing the
+  // recorded shear too keeps those whose drawn (unlensed) position is inside, in both.
+  CellSimOptions so;
+  so.reference_positions = true;
+  so.snr = 1e4;
+  int expected = 0;
+  for (const CellObject& o : CellSimulator(so).objects(5, 0.0, 0.0))
+    expected += o.x >= so.buffer - 0.5 && o.x < so.size - so.buffer - 0.5 && o.y >= so.buffer - 0.5 &&
+                o.y < so.size - so.buffer - 0.5;
+  // Per [unlensed][sign]: the kept noshear detections' drawn positions (lens undone), to 0.1 px.
+  std::vector<std::pair<long, long>> kept[2][2];
+  for (int unlensed = 0; unlensed < 2; ++unlensed)
+    for (int sign = 0; sign < 2; ++sign) {
+      const double g = sign == 0 ? 0.02 : -0.02;
+      SimulatedCell c(so, 5, g);
+      MetadetectCell in = c.in;
+      if (unlensed) in.lens_g1 = g;
+      CellRun run;
+      run.ok = CellMeasurer(MetadetectOptions{}).measure(in, &run.rows, &run.problem);
+      ASSERT_TRUE(run.ok) << run.problem;
+      const std::array<double, 4> a = inverse_shear_matrix(g, 0.0);
+      const double cc = 0.5 * (so.size - 1);
+      for (const MetadetectRow& r : run.rows) {
+        if (r.shear_type != 0 || r.flags != 0 || !(r.snr > 10)) continue;
+        const double dx = r.x - cc, dy = r.y - cc;
+        kept[unlensed][sign].push_back({std::lround(10 * (a[0] * dx + a[1] * dy)), std::lround(10 * (a[2] * dx + a[3] * dy))});
+      }
+      std::sort(kept[unlensed][sign].begin(), kept[unlensed][sign].end());
+    }
+  EXPECT_EQ(static_cast<int>(kept[1][0].size()), expected);
+  // The same objects under +g and -g (their barycentres agree to the pixels' phase, < 0.3 px).
+  auto same_objects = [](const std::vector<std::pair<long, long>>& a, const std::vector<std::pair<long, long>>& b) {
+    if (a.size() != b.size()) return false;
+    for (std::size_t i = 0; i < a.size(); ++i)
+      if (std::abs(a[i].first - b[i].first) > 3 || std::abs(a[i].second - b[i].second) > 3) return false;
+    return true;
+  };
+  EXPECT_TRUE(same_objects(kept[1][0], kept[1][1]));
+  EXPECT_FALSE(same_objects(kept[0][0], kept[0][1]));  // by image position the pair keeps different objects
 }
 
 }  // namespace
