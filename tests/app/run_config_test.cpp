@@ -139,14 +139,14 @@ TEST(RunConfigRegistry, ListsEveryKeyOnceWithItsDefaultAndHelp) {
         "catalog_psf_e1_column", "catalog_psf_e2_column", "meds_model", "meds_psf", "meds_fit_coadd", "meds_bmask_bits",
         "meds_uberseg", "meds_min_unmasked_fraction", "meds_magzp_ref", "meds_psf_dir", "save_images", "exact_surrogate",
         "surrogate_period", "surrogate_psf_tolerance", "surrogate_wrap_rings", "surrogate_wrap_nodes", "surrogate_eps4", "metacal_model",
-        "metacal_weight_fwhm"})
+        "metacal_weight_fwhm", "metacal_reconvolution_psf"})
     EXPECT_TRUE(names.contains(key)) << key;
   for (int k = 0; k < kNumParams; ++k) {
     const std::string n(param_name(static_cast<Param>(k)));
     for (const char* suffix : {"_start", "_min", "_max", "_free"})
       EXPECT_TRUE(names.contains(n + suffix)) << n + suffix;
   }
-  EXPECT_EQ(options.size(), 63u + 4u * kNumParams);
+  EXPECT_EQ(options.size(), 64u + 4u * kNumParams);
 }
 
 // The survey options: bmask bits in decimal or hex, the two models, and the bounds validate checks.
