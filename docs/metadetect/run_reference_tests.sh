@@ -12,3 +12,7 @@ run() { /usr/bin/python3 "$here/shear_test.py" --build "$build" --work "$work" "
 run --label ref_grid --pairs 200 --chunk 100 --sim="--reference --layout grid"
 run --label ref_random --pairs "${RANDOM_PAIRS:-10000}" --chunk 250 --sim="--reference --layout random"
 run --label ref_random_snr20 --pairs "${SNR20_PAIRS:-5000}" --chunk 250 --sim="--reference --layout random --snr 20"
+# The random cells again, each detection kept by its position with the cells' recorded shear undone
+# too (a lone cell then keeps the same objects under +g and -g, as tiled cells do); the same seeds.
+run --label ref_random_keepunl --pairs "${RANDOM_PAIRS:-10000}" --chunk 250 --sim="--reference --layout random" \
+  --metadetect="--keep-unlensed"

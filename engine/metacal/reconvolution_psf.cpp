@@ -9,6 +9,7 @@
 
 #include "engine/common/number_text.hpp"
 #include "kernels/ellipse.hpp"
+#include "engine/model/pixelated_psf.hpp"
 #include "kernels/moments.hpp"
 
 namespace stampede {
@@ -144,21 +145,12 @@ bool analytic_major_fwhm(const PsfModel& psf, const PixelFrame& frame, double* m
     *error = "metacal: the PSF's FWHM " + number_text(fwhm) + " px has no Gaussian fit";
     return false;
   }
-  constexpr int kSub = 3;
   const int n = 2 * static_cast<int>(std::ceil(4 * fwhm)) + 1;
-  const double c = 0.5 * (n - 1);
   // Per thread: a catalogue of Moffats asks this once per object.
   thread_local std::vector<double> image, ones;
   image.resize(static_cast<std::size_t>(n) * n);
   ones.assign(image.size(), 1.0);
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x) {
-      double sum = 0;
-      for (int j = 0; j < kSub; ++j)
-        for (int i = 0; i < kSub; ++i)
-          sum += psf.x_value(x - c - 0.5 + (i + 0.5) / kSub, y - c - 0.5 + (j + 0.5) / kSub);
-      image[static_cast<std::size_t>(y) * n + x] = sum;
-    }
+  pixelated_psf(psf, n, 3, image);
   const kernels::ImageMoments mom = kernels::adaptive_moments(image, ones, n);
   if (!mom.valid) {
     *error = "metacal: the PSF has no adaptive moments";

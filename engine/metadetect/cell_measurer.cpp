@@ -10,6 +10,7 @@
 #include "engine/metacal/metacal_options.hpp"
 #include "engine/metacal/metacal_type.hpp"
 #include "engine/metacal/reconvolution_psf.hpp"
+#include "engine/model/pixelated_psf.hpp"
 #include "kernels/fourier_profiles.hpp"
 #include "kernels/weighted_moments.hpp"
 
@@ -25,22 +26,6 @@ constexpr int kCellMargin = 16;
 
 // Per-object metacal's stamp side (the postage stamps of `stampede fit --metacal`'s size class).
 constexpr int kPerObjectStamp = 49;
-
-// The reconvolution PSF convolved with the pixel (what a point source is in the metacal images),
-// sampled n x n about the middle pixel: each pixel the mean of sub x sub point values.
-std::vector<double> pixelated_psf_image(const PsfModel& psf, int n, int sub) {
-  std::vector<double> out(static_cast<std::size_t>(n) * n);
-  const double c = 0.5 * (n - 1);
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x) {
-      double sum = 0;
-      for (int j = 0; j < sub; ++j)
-        for (int i = 0; i < sub; ++i)
-          sum += psf.x_value(x - c - 0.5 + (i + 0.5) / sub, y - c - 0.5 + (j + 0.5) / sub);
-      out[static_cast<std::size_t>(y) * n + x] = sum / (sub * sub);
-    }
-  return out;
-}
 
 }  // namespace
 
@@ -120,7 +105,9 @@ bool CellMeasurer::prepare_psf(double pixel_scale, std::string* problem) {
   // weighted T): a pre-PSF T over the reconvolved point source's, so that T_ratio > 0.5 (DES Y6's
   // pgauss cut) keeps objects resolved relative to Gamma.
   const int n = 2 * static_cast<int>(std::ceil(4 * weight_fwhm_px_)) + 1;
-  const std::vector<double> image = pixelated_psf_image(filters_[0]->reconvolution(), n, 5);
+  // The reconvolution PSF convolved with the pixel: what a point source is in the metacal images.
+  std::vector<double> image(static_cast<std::size_t>(n) * n);
+  pixelated_psf(filters_[0]->reconvolution(), n, 5, image);
   std::vector<double> scratch(2 * static_cast<std::size_t>(n));
   const kernels::WeightedMoments m = kernels::weighted_moments(image, n, weight_fwhm_px_, 0.0, scratch);
   if (!m.valid) {
