@@ -16,3 +16,5 @@ run --label ref_random_snr20 --pairs "${SNR20_PAIRS:-5000}" --chunk 250 --sim="-
 # too (a lone cell then keeps the same objects under +g and -g, as tiled cells do); the same seeds.
 run --label ref_random_keepunl --pairs "${RANDOM_PAIRS:-10000}" --chunk 250 --sim="--reference --layout random" \
   --metadetect="--keep-unlensed"
+run --label ref_random_snr20_keepunl --pairs "${SNR20_PAIRS:-5000}" --chunk 250 \
+  --sim="--reference --layout random --snr 20" --metadetect="--keep-unlensed"
