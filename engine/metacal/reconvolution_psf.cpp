@@ -201,6 +201,13 @@ double gaussian_gamma_fwhm(const PsfModel& psf, const PixelFrame& frame, const M
 
 namespace {
 
+// Why no Gamma serves, after the Moffat rule failed too (kAuto) or alone (kMoffat).
+std::string no_gamma(const MetacalOptions& options, const std::string& gauss_why, const std::string& moffat_why) {
+  return options.reconvolution == ReconvolutionRule::kAuto
+             ? "neither a Gaussian (" + gauss_why + ") nor a Moffat (" + moffat_why + ") reconvolution PSF serves"
+             : moffat_why;
+}
+
 // Today's rule: the round Moffat (reconvolution_psf.hpp).
 std::shared_ptr<const MetacalFilters> moffat_filters(const PsfModel& psf, const MetacalOptions& options, int period,
                                                      std::string* error) {
@@ -267,10 +274,7 @@ std::shared_ptr<const MetacalFilters> reconvolution_filters(const PsfModel& psf,
   }
   std::string moffat_why;
   auto f = moffat_filters(psf, options, period, &moffat_why);
-  if (!f && error)
-    *error = options.reconvolution == ReconvolutionRule::kAuto
-                 ? "neither a Gaussian (" + gauss_why + ") nor a Moffat (" + moffat_why + ") reconvolution PSF serves"
-                 : moffat_why;
+  if (!f && error) *error = no_gamma(options, gauss_why, moffat_why);
   return f;
 }
 
@@ -333,10 +337,7 @@ bool sky_reconvolution(std::span<const MetacalEpochPsf> epochs, const MetacalOpt
   }
   std::string moffat_why;
   if (sky_moffat(epochs, options, out, &moffat_why)) return true;
-  if (error)
-    *error = options.reconvolution == ReconvolutionRule::kAuto
-                 ? "neither a Gaussian (" + gauss_why + ") nor a Moffat (" + moffat_why + ") reconvolution PSF serves"
-                 : moffat_why;
+  if (error) *error = no_gamma(options, gauss_why, moffat_why);
   return false;
 }
 
@@ -344,10 +345,6 @@ namespace {
 
 bool sky_moffat(std::span<const MetacalEpochPsf> epochs, const MetacalOptions& options, SkyReconvolution* out,
                 std::string* error) {
-  if (epochs.empty()) {
-    if (error) *error = "metacal: no cutout";
-    return false;
-  }
   auto fail = [&](std::size_t k, const std::string& why) {
     if (error) *error = "cutout " + std::to_string(k) + ": " + why;
     return false;
