@@ -727,5 +727,23 @@ TEST(MetadetectRun, ABadPsfexModelIsRefusedByName) {
   EXPECT_FALSE(std::filesystem::exists(o.output));
 }
 
+// --keep-unlensed reads each image's recorded shear: an image without G1, G2, or a cell tile, is
+// refused by name before any cell is measured.
+TEST(MetadetectRun, KeepUnlensedWithoutARecordedShearIsRefusedByName) {
+  testing::ScratchDir scratch("stampede_mdet_unlensed_");
+  MetadetectRunOptions o;
+  o.inputs = {write_image(scratch.path("plain.fits"), 251, {"WEIGHT", "PSF"})};
+  o.output = scratch.path("out.fits");
+  o.metadetect.keep_unlensed = true;
+  const std::string message = config_error_of(o);
+  EXPECT_NE(message.find(scratch.path("plain.fits") + ": --keep-unlensed needs the scene's shear, header keys G1 and G2"),
+            std::string::npos)
+      << message;
+  EXPECT_FALSE(io::file_exists(o.output));
+  // The simulation's own image files record it: accepted.
+  o.inputs = sim_cells(scratch.path("sims"), 1);
+  EXPECT_EQ(run_metadetect(o).cells, 1);
+}
+
 }  // namespace
 }  // namespace stampede::app
