@@ -15,6 +15,7 @@
 #include "engine/metacal/metacal_type.hpp"
 #include "engine/metadetect/cell_layout.hpp"
 #include "engine/metadetect/cell_measurer.hpp"
+#include "engine/metadetect/sep_detection.hpp"
 #include "engine/pipeline/pipeline.hpp"
 #include "io/cell_image_reader.hpp"
 #include "io/config_error.hpp"
@@ -467,6 +468,7 @@ std::vector<std::pair<std::string, std::string>> option_keys(const MetadetectOpt
           {"WFWHM", number_text(o.weight_fwhm_arcsec())},
           {"RECENTRE", o.recentre ? "T" : "F"},
           {"KEEPUNL", o.keep_unlensed ? "T" : "F"},
+          {"DETECTOR", detector_kind_name(d.detector)},
           {"DETTHR", number_text(d.threshold)},
           {"DETMINA", std::to_string(d.min_area)},
           {"DBLCONT", number_text(d.deblend_contrast)},

@@ -1,8 +1,9 @@
 // Metadetection of one cell (the metadetect shear test's: 251 x 251 px of 0.25 arcsec, exponential
 // galaxies of hlr 0.5 arcsec on a 7 x 7 grid (49) or at random at 100 per arcmin^2 (~109), a
-// Gaussian PSF of FWHM 0.9 arcsec, per-object S/N 20), split into what a cell costs: its five
-// metacal images with fixnoise (BM_MetadetectImages), SEP detection on them (BM_MetadetectDetect)
-// and the whole cell with wmom (BM_MetadetectCell); and whole runs of `stampede metadetect` over
+// Gaussian PSF of FWHM 0.9 arcsec, per-object S/N 20; and the reference package's own test cells,
+// S/N 1e6), split into what a cell costs: its five metacal images with fixnoise
+// (BM_MetadetectImages), detection on them with our detector and SEP's (BM_MetadetectDetect) and
+// the whole cell with wmom (BM_MetadetectCell*, /0 ours, /1 SEP); and whole runs of `stampede metadetect` over
 // 16 and 64 cell files on 1 and 2 threads (BM_MetadetectRun/cells/threads: the time per cell,
 // reading and writing included; the 2-thread speed-up is the ratio at the same cells: each thread
 // builds its PSF's metacal filters once, which 16 cells on 2 threads do not amortise). The reference package takes 0.82-0.87 CPU-s per
@@ -22,6 +23,7 @@
 #include "engine/metacal/metacal_options.hpp"
 #include "engine/metacal/reconvolution_psf.hpp"
 #include "engine/metadetect/cell_measurer.hpp"
+#include "engine/metadetect/object_detector.hpp"
 #include "engine/metadetect/sep_detection.hpp"
 #include "engine/sim/cell_sim.hpp"
 
@@ -36,8 +38,11 @@ struct Cells {
   std::vector<SimCell> cells;
   PsfModel psf;
   std::vector<double> weight;
-  explicit Cells(CellLayout layout) {
+  // reference: the reference package's shear-test cell (`sim cells --reference`): its positions,
+  // round galaxies, per-object S/N 1e6 (deep: large isophotes, most galaxies one segment).
+  explicit Cells(CellLayout layout, bool reference = false) {
     options.layout = layout;
+    if (reference) options.reference_positions = true, options.snr = 1e6, options.shape_noise = 0, options.psf_size = 53;
     const CellSimulator sim(options);
     auto ws = sim.make_workspace();
     for (int k = 0; k < kCells; ++k) cells.push_back(sim.simulate(k, *ws));
@@ -69,9 +74,25 @@ const Cells& random_cells() {
   static const Cells c(CellLayout::kRandom);
   return c;
 }
+const Cells& reference_grid_cells() {
+  static const Cells c(CellLayout::kGrid, true);
+  return c;
+}
+const Cells& reference_random_cells() {
+  static const Cells c(CellLayout::kRandom, true);
+  return c;
+}
+
+// arg 0: our detector, 1: SEP.
+MetadetectOptions with_detector(int detector) {
+  MetadetectOptions o;
+  o.detection.detector = detector == 0 ? DetectorKind::kTree : DetectorKind::kSep;
+  set_detection_pixel_stack(300000);
+  return o;
+}
 
 void measure_cells(benchmark::State& state, const Cells& cells) {
-  CellMeasurer m{MetadetectOptions{}};
+  CellMeasurer m{with_detector(static_cast<int>(state.range(0)))};
   std::vector<MetadetectRow> rows;
   std::string problem;
   m.measure(cells.cell(0), &rows, &problem);  // the PSF's filters made outside the timing, as a run makes them once
@@ -86,10 +107,16 @@ void measure_cells(benchmark::State& state, const Cells& cells) {
 }
 
 void BM_MetadetectCell(benchmark::State& state) { measure_cells(state, grid_cells()); }
-BENCHMARK(BM_MetadetectCell)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MetadetectCell)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 void BM_MetadetectCellRandom(benchmark::State& state) { measure_cells(state, random_cells()); }
-BENCHMARK(BM_MetadetectCellRandom)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MetadetectCellRandom)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+void BM_MetadetectCellReferenceGrid(benchmark::State& state) { measure_cells(state, reference_grid_cells()); }
+BENCHMARK(BM_MetadetectCellReferenceGrid)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+void BM_MetadetectCellReferenceRandom(benchmark::State& state) { measure_cells(state, reference_random_cells()); }
+BENCHMARK(BM_MetadetectCellReferenceRandom)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 // The five images with fixnoise alone.
 void BM_MetadetectImages(benchmark::State& state) {
@@ -112,22 +139,29 @@ void BM_MetadetectImages(benchmark::State& state) {
 }
 BENCHMARK(BM_MetadetectImages)->Unit(benchmark::kMillisecond);
 
-// SEP on the five images of a cell (the noshear image five times: the others cost the same).
+// Detection on a cell's image five times (as on its five metacal images), filtering included;
+// args: layout (0 the S/N 20 grid, 1 the reference grid, 2 the reference random), detector (0
+// ours, 1 SEP). Each iteration takes the next of kCells cells.
 void BM_MetadetectDetect(benchmark::State& state) {
-  const Cells& cells = grid_cells();
+  const int layout = static_cast<int>(state.range(0));
+  const Cells& cells = layout == 0 ? grid_cells() : layout == 1 ? reference_grid_cells() : reference_random_cells();
   const int s = cells.options.size;
-  const MetadetectOptions o;
-  const std::vector<float> filter = detection_filter(o.detection);
-  std::vector<float> image(cells.cells[0].bands[0].image.begin(), cells.cells[0].bands[0].image.end());
+  const MetadetectOptions o = with_detector(static_cast<int>(state.range(1)));
+  std::vector<std::vector<float>> images;
+  for (const SimCell& c : cells.cells) images.emplace_back(c.bands[0].image.begin(), c.bands[0].image.end());
   const double sigma = 1 / std::sqrt(cells.weight[0]);
   std::vector<Detection> found;
-  DetectionScratch scratch;
+  ObjectDetector detector(o.detection);
   std::string error;
-  for (auto _ : state)
-    for (int t = 0; t < 5; ++t) detect_objects(image, s, s, sigma, o.detection, filter, &scratch, &found, &error);
-  state.counters["detections"] = static_cast<double>(found.size());
+  std::size_t n = 0, k = 0;
+  for (auto _ : state) {
+    const std::vector<float>& image = images[k++ % images.size()];
+    for (int t = 0; t < 5; ++t) detector.detect(image, s, s, sigma, &found, &error);
+    n += found.size();
+  }
+  state.counters["detections"] = static_cast<double>(n) / static_cast<double>(state.iterations());
 }
-BENCHMARK(BM_MetadetectDetect)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MetadetectDetect)->ArgsProduct({{0, 1, 2}, {0, 1}})->Unit(benchmark::kMillisecond);
 
 constexpr int kRunCells = 64;
 

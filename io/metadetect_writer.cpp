@@ -46,7 +46,7 @@ constexpr Column kColumns[] = {
     {"mfrac", "1D", "", "masked fraction of the stamp"},
     {"box_size", "1J", "pixel", "the stamp's side"},
     {"isophotal_area", "1J", "pixel", "pixels above the detection threshold"},
-    {"sep_flags", "1J", "", "SEP: 1 deblended, 2 truncated at the edge"},
+    {"sep_flags", "1J", "", "Source Extractor: 1 deblended, 2 on the edge, 8 singular"},
     {"flags", "1J", "", "1 measurement failed, 2 edge, 4 masked pixels, 8 cell failed"},
 };
 constexpr int kNumColumns = static_cast<int>(std::size(kColumns));

@@ -30,7 +30,7 @@ void print_help() {
       "       stampede metadetect --meds G.fits --meds R.fits ... [--bands g,r,...] -o OUT.fits [options]\n"
       "\n"
       "Metadetection (Sheldon et al. 2020, 2023): each cell's five metacal images (noshear, 1p, 1m,\n"
-      "2p, 2m, with fixnoise) are made, objects are detected anew on each with SEP, and each detection\n"
+      "2p, 2m, with fixnoise) are made, objects are detected anew on each (Source Extractor's algorithm), and each detection\n"
       "is measured on the image it was found on (--measurement): weighted moments under a round\n"
       "Gaussian weight (wmom), pre-PSF Gaussian moments (pgauss) or a model fit (exp, bd). An image\n"
       "larger than a cell is cut into cells overlapping by twice the buffer; a detection is kept by\n"
@@ -91,10 +91,14 @@ void print_help() {
       "                             exp, bd: a fit of that model convolved with the reconvolution\n"
       "                             PSF (one band), T the model's, T_ratio over the same psf_T\n"
       "  --weight-fwhm F            the moments' weight FWHM, arcsec (1.2 wmom, 2.0 pgauss)\n"
+      "  --detector D               tree: our implementation of Source Extractor's detection (one\n"
+      "                             pass over each segment's pixels yields its components at every\n"
+      "                             deblending level; an unclaimed pixel goes to its most probable\n"
+      "                             child); sep: SEP's library, for comparison (%s)\n"
       "  --detect-threshold T       detection threshold, noise sigma (%g)\n"
       "  --detect-min-area N        minimum pixels above the threshold (%d)\n"
-      "  --deblend-contrast C       SEP minimum deblending contrast (%g)\n"
-      "  --deblend-thresholds N     SEP deblending levels (%d)\n"
+      "  --deblend-contrast C       minimum deblending contrast (%g)\n"
+      "  --deblend-thresholds N     deblending levels (%d)\n"
       "  --filter-fwhm F            Gaussian detection filter FWHM, pixels; 0: none (%g)\n"
       "  --filter-size N            the filter's odd side, pixels (%d)\n"
       "  --no-clean                 do not clean spurious detections near bright objects\n"
@@ -113,7 +117,7 @@ void print_help() {
       "  --overwrite                replace an existing OUT.fits\n"
       "  --quiet                    no progress line\n",
       d.cell_size, d.cell_buffer, d.step, reconvolution_rule_name(d.reconvolution), d.psf_dilation,
-      static_cast<unsigned long long>(d.seed), d.detection.threshold, d.detection.min_area,
+      static_cast<unsigned long long>(d.seed), detector_kind_name(d.detection.detector), d.detection.threshold, d.detection.min_area,
       d.detection.deblend_contrast, d.detection.deblend_thresholds, d.detection.filter_fwhm, d.detection.filter_size,
       d.stamp.size, d.stamp.box_min, d.stamp.box_max);
 }
@@ -201,6 +205,10 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
         throw std::invalid_argument("option --measurement " + tools::quoted_value(v) + ": must be wmom, pgauss, exp or bd");
     } else if (s == "--weight-fwhm") {
       m.weight_fwhm = number();
+    } else if (s == "--detector") {
+      const std::string v = value();
+      if (!parse_detector_kind(v, &m.detection.detector))
+        throw std::invalid_argument("option --detector " + tools::quoted_value(v) + ": must be tree or sep");
     } else if (s == "--detect-threshold") {
       m.detection.threshold = number();
     } else if (s == "--detect-min-area") {

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "kernels/math/complex_product.hpp"
 #include "kernels/math/fft_size.hpp"
 
 namespace stampede {
@@ -70,13 +71,15 @@ void ChirpResampler::resample(const std::complex<double>* rows, int n, double a,
   auto* w = reinterpret_cast<std::complex<double>*>(work_.data());
   for (int r = 0; r < n; ++r) {
     const std::complex<double>* f = rows + static_cast<std::size_t>(r) * h_;
-    for (int q = 0; q < h_; ++q) w[q] = f[q] * c.pre[q];
+    kernels::complex_product(f, c.pre.data(), w, static_cast<std::size_t>(h_));
     std::fill(w + h_, w + l_, std::complex<double>(0, 0));
     fftw_execute(static_cast<fftw_plan>(forward_));
-    for (int i = 0; i < l_; ++i) w[i] *= c.kernel[i];
+    kernels::complex_scale(w, c.kernel.data(), static_cast<std::size_t>(l_));
     fftw_execute(static_cast<fftw_plan>(backward_));
     double* o = out + static_cast<std::size_t>(r) * out_stride;
-    for (int j = 0; j < s_; ++j) o[j] = (w[j] * c.post[j]).real();
+    const double* wd = reinterpret_cast<const double*>(w);
+    const double* pd = reinterpret_cast<const double*>(c.post.data());
+    for (int j = 0; j < s_; ++j) o[j] = wd[2 * j] * pd[2 * j] - wd[2 * j + 1] * pd[2 * j + 1];
   }
 }
 

@@ -10,6 +10,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "kernels/math/complex_product.hpp"
 #include "kernels/math/phasors.hpp"
 
 namespace stampede {
@@ -73,6 +74,7 @@ MetacalImager::MetacalImager(int stamp_size, int period, FftPlanning planning)
   weight_cache_.resize(kWeightSlots);
   positions_.resize(s_);
   phasors_.resize(h_count_);
+  phases_.resize(static_cast<std::size_t>(kRotateRows) * h_count_);
   scratch_.resize(static_cast<std::size_t>(m_) * s_);
   scratch_t_.resize(static_cast<std::size_t>(m_) * s_);
   if (s_ >= kChirpMinStamp) chirp_ = std::make_unique<ChirpResampler>(m_, s_, planning);
@@ -115,8 +117,7 @@ void MetacalImager::make_images(std::span<const double> stamp, const MetacalFilt
 void MetacalImager::filtered(const std::complex<double>* f) {
   const auto* spec = static_cast<const std::complex<double>*>(spectrum_.data());
   auto* work = static_cast<std::complex<double>*>(work_spectrum_.data());
-  const std::size_t n = static_cast<std::size_t>(m_) * h_count_;
-  for (std::size_t i = 0; i < n; ++i) work[i] = spec[i] * f[i];
+  kernels::complex_product(spec, f, work, static_cast<std::size_t>(m_) * h_count_);
   fftw_execute(static_cast<fftw_plan>(backward_2d_));
 }
 
@@ -149,8 +150,14 @@ const double* MetacalImager::weights_for(std::span<const double> positions) {
 }
 
 void MetacalImager::transpose(const double* in, double* out, int rows, int cols) {
-  for (int r = 0; r < rows; ++r)
-    for (int c = 0; c < cols; ++c) out[static_cast<std::size_t>(c) * rows + r] = in[static_cast<std::size_t>(r) * cols + c];
+  // In 16 x 16 blocks: both sides' cache lines stay in L1 while a block is copied.
+  constexpr int kBlock = 16;
+  for (int r0 = 0; r0 < rows; r0 += kBlock)
+    for (int c0 = 0; c0 < cols; c0 += kBlock) {
+      const int r1 = std::min(rows, r0 + kBlock), c1 = std::min(cols, c0 + kBlock);
+      for (int r = r0; r < r1; ++r)
+        for (int c = c0; c < c1; ++c) out[static_cast<std::size_t>(c) * rows + r] = in[static_cast<std::size_t>(r) * cols + c];
+    }
 }
 
 void MetacalImager::scaled(double b0, double b1, double cx, double cy, double* out) {
@@ -181,23 +188,47 @@ void MetacalImager::scaled(double b0, double b1, double cx, double cy, double* o
   transpose(scratch_t_.data(), out, s_, s_);
 }
 
+void MetacalImager::rotate_rows(std::complex<double>* const* rows, const std::complex<double>* steps, int count,
+                                std::complex<double> phase, int n) {
+  // rows[k][q] *= phase steps[k]^q, the powers by repeated products (as std::complex's, without
+  // its NaN checks), the rows' recurrences side by side (each is a chain of dependent products),
+  // into the phase buffer; then one vectorised product per row.
+  double pr[kRotateRows], pi[kRotateRows], sr[kRotateRows], si[kRotateRows];
+  double* p[kRotateRows];
+  for (int k = 0; k < kRotateRows; ++k) {
+    const int j = k < count ? k : 0;
+    pr[k] = phase.real(), pi[k] = phase.imag(), sr[k] = steps[j].real(), si[k] = steps[j].imag();
+    p[k] = reinterpret_cast<double*>(phases_.data() + static_cast<std::size_t>(k) * h_count_);
+  }
+  for (int q = 0; q < n; ++q)
+    for (int k = 0; k < kRotateRows; ++k) {
+      p[k][2 * q] = pr[k], p[k][2 * q + 1] = pi[k];
+      const double nr = pr[k] * sr[k] - pi[k] * si[k], ni = pr[k] * si[k] + pi[k] * sr[k];
+      pr[k] = nr, pi[k] = ni;
+    }
+  for (int k = 0; k < count; ++k)
+    kernels::complex_scale(rows[k], phases_.data() + static_cast<std::size_t>(k) * h_count_, static_cast<std::size_t>(n));
+}
+
 template <class Shift>
 void MetacalImager::shift_rows(double* grid, Shift shift) {
   auto* rows = static_cast<std::complex<double>*>(rows_spectrum_.data());
   fftw_execute_dft_r2c(static_cast<fftw_plan>(rows_forward_), grid, reinterpret_cast<fftw_complex*>(rows));
   const double inv = 1.0 / m_;
-  for (int r = 0; r < m_; ++r) {
-    const double t = shift(r);
-    std::complex<double>* row = rows + static_cast<std::size_t>(r) * h_count_;
-    const std::complex<double> step = std::polar(1.0, 2 * std::numbers::pi * t / m_);
-    std::complex<double> phase(inv, 0.0);
-    for (int q = 0; q < m_ / 2; ++q) {
-      row[q] *= phase;
-      phase *= step;
+  std::complex<double>* group[kRotateRows];
+  std::complex<double> steps[kRotateRows];
+  for (int r0 = 0; r0 < m_; r0 += kRotateRows) {
+    const int count = std::min(kRotateRows, m_ - r0);
+    for (int k = 0; k < count; ++k) {
+      const int r = r0 + k;
+      const double t = shift(r);
+      group[k] = rows + static_cast<std::size_t>(r) * h_count_;
+      steps[k] = std::polar(1.0, 2 * std::numbers::pi * t / m_);
+      // The Nyquist term of a real row is cos(pi (x + t)) times a real coefficient: at integer
+      // x only its cos(pi t) part survives.
+      group[k][m_ / 2] *= inv * std::cos(std::numbers::pi * t);
     }
-    // The Nyquist term of a real row is cos(pi (x + t)) times a real coefficient: at integer x
-    // only its cos(pi t) part survives.
-    row[m_ / 2] *= inv * std::cos(std::numbers::pi * t);
+    rotate_rows(group, steps, count, std::complex<double>(inv, 0.0), m_ / 2);
   }
   fftw_execute_dft_c2r(static_cast<fftw_plan>(rows_backward_), reinterpret_cast<fftw_complex*>(rows), grid);
 }
@@ -228,14 +259,15 @@ void MetacalImager::sheared(double a, double b, double cx, double cy, double* ou
 template <class Shift>
 void MetacalImager::ramp_rows(int n, Shift shift) {
   auto* rows = static_cast<std::complex<double>*>(rows_spectrum_.data());
-  for (int r = 0; r < n; ++r) {
-    std::complex<double>* row = rows + static_cast<std::size_t>(r) * h_count_;
-    const std::complex<double> step = std::polar(1.0, 2 * std::numbers::pi * shift(r) / m_);
-    std::complex<double> phase(1.0, 0.0);
-    for (int q = 0; q < h_count_; ++q) {
-      row[q] *= phase;
-      phase *= step;
+  std::complex<double>* group[kRotateRows];
+  std::complex<double> steps[kRotateRows];
+  for (int r0 = 0; r0 < n; r0 += kRotateRows) {
+    const int count = std::min(kRotateRows, n - r0);
+    for (int k = 0; k < count; ++k) {
+      group[k] = rows + static_cast<std::size_t>(r0 + k) * h_count_;
+      steps[k] = std::polar(1.0, 2 * std::numbers::pi * shift(r0 + k) / m_);
     }
+    rotate_rows(group, steps, count, std::complex<double>(1.0, 0.0), h_count_);
   }
 }
 

@@ -56,6 +56,10 @@ class MetacalImager {
   // H = irfft(spectrum_ .* f) into h_ (M x M).
   void filtered(const std::complex<double>* f);
   // Rows of `grid` (M x M): each row r shifted by shift(r) (its values at x + shift), in place.
+  // rows[k][q] *= phase steps[k]^q for q < n, k < count <= kRotateRows.
+  static constexpr int kRotateRows = 4;
+  void rotate_rows(std::complex<double>* const* rows, const std::complex<double>* steps, int count,
+                   std::complex<double> phase, int n);
   template <class Shift>
   void shift_rows(double* grid, Shift shift);
   void transpose(const double* in, double* out, int rows, int cols);
@@ -94,6 +98,7 @@ class MetacalImager {
   unsigned long long clock_ = 0;
   std::vector<double> positions_, scratch_, scratch_t_;
   std::vector<std::complex<double>> phasors_;  // dft_weights' scratch
+  std::vector<std::complex<double>> phases_;   // rotate_rows' powers of the steps
   // Stamps of kChirpMinStamp pixels or more (metadetection cells) stretch by Bluestein's transform:
   // the dense sums cost O(M S) per row, this O(M log M); smaller stamps keep the dense sums, whose
   // rows (metacal's fits) are unchanged by it.

@@ -30,7 +30,7 @@ constexpr int kPerObjectStamp = 49;
 }  // namespace
 
 CellMeasurer::CellMeasurer(const MetadetectOptions& options, FftPlanning planning)
-    : options_(options), planning_(planning), filter_(detection_filter(options.detection)) {
+    : options_(options), planning_(planning), detector_(options.detection) {
   if (is_model_fit(options.measurement))
     // `stampede fit --metacal`'s fit of metacal_model exp or bd (default fit options otherwise).
     fitter_ = std::make_unique<ObjectFitter>(
@@ -199,8 +199,7 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
                      [](double v) { return static_cast<float>(v); });
     }
     std::string why;
-    if (!detect_objects(image_f_, cell.size, cell.size, std::sqrt(detection_variance), options_.detection, filter_,
-                        &detection_scratch_, &detections_, &why))
+    if (!detector_.detect(image_f_, cell.size, cell.size, std::sqrt(detection_variance), &detections_, &why))
       return fail(std::string(metacal_type_name(kMetacalTypes[t])) + " image: " + why);
     if (options_.per_object_metacal)
       per_object_rows(cell, rows);

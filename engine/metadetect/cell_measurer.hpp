@@ -1,12 +1,13 @@
 // Metadetection of one cell (Sheldon et al. 2020): its five metacal images (noshear, 1p, 1m, 2p,
-// 2m; fixnoise), detection on each with SEP, and each detection measured on the image it was found
+// 2m; fixnoise), detection on each (Source Extractor's, ObjectDetector), and each detection measured on the image it was found
 // on with weighted moments under a round Gaussian weight (wmom) or with pre-PSF Gaussian moments
 // (pgauss: the same kind of weight applied before the reconvolution PSF), or fitted with a model
 // convolved with it (exp, bd; one band). Several bands: each band's metacal
 // images (one reconvolution PSF for all), detection on their sum weighted by each band's inverse
 // noise variance, wmom over every band's stamp together, flux and S/N per band. Or, for comparison, per-object
 // metacal at the positions detected on the noshear image (per_object_metacal). One per thread: it owns the FFT
-// plans and every buffer, so a run of cells of one size allocates nothing but SEP's own work.
+// plans and every buffer, so a run of cells of one size allocates nothing (with --detector sep,
+// but SEP's own work).
 #pragma once
 #include <array>
 #include <complex>
@@ -21,7 +22,7 @@
 #include "engine/metacal/metacal_image_set.hpp"
 #include "engine/metadetect/metadetect_options.hpp"
 #include "engine/metadetect/metadetect_row.hpp"
-#include "engine/metadetect/sep_detection.hpp"
+#include "engine/metadetect/object_detector.hpp"
 #include "engine/model/psf_model.hpp"
 #include "kernels/prepsf_moments.hpp"
 #include "kernels/weighted_moments.hpp"
@@ -61,7 +62,7 @@ struct MetadetectCell {
 class CellMeasurer {
  public:
   explicit CellMeasurer(const MetadetectOptions& options, FftPlanning planning = FftPlanning::kEstimate);
-  // Appends the cell's rows (noshear, 1p, 1m, 2p, 2m; detections in SEP's order) to `rows`; a cell
+  // Appends the cell's rows (noshear, 1p, 1m, 2p, 2m; detections in Source Extractor's order) to `rows`; a cell
   // that cannot be measured (its PSF gives no bounded metacal filters, SEP fails) appends one row
   // flagged kMetadetectCellFailed and returns false with *problem.
   bool measure(const MetadetectCell& cell, std::vector<MetadetectRow>* rows, std::string* problem);
@@ -103,8 +104,8 @@ class CellMeasurer {
   std::vector<PsfModel> psfs_;
   bool have_psf_ = false;
   double psf_scale_ = 0, psf_t_ = 0, weight_fwhm_px_ = 0;
-  std::vector<float> filter_, image_f_;
-  DetectionScratch detection_scratch_;
+  std::vector<float> image_f_;
+  ObjectDetector detector_;
   std::vector<std::vector<double>> images_;  // per band: kNumMetacalTypes x size^2
   std::vector<double> variances_;            // per band: its images' noise variance per pixel
   std::vector<double> stamp_, scratch_, detection_image_;

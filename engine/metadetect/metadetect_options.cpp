@@ -3,6 +3,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <initializer_list>
 #include <sstream>
 
 namespace stampede {
@@ -17,19 +18,37 @@ const char* metadetect_measurement_name(MetadetectMeasurement m) {
   return "wmom";
 }
 
-bool parse_metadetect_measurement(std::string_view name, MetadetectMeasurement* out) {
-  for (MetadetectMeasurement m : {MetadetectMeasurement::kWmom, MetadetectMeasurement::kPgauss,
-                                  MetadetectMeasurement::kExp, MetadetectMeasurement::kBd}) {
-    const std::string_view known = metadetect_measurement_name(m);
+namespace {
+
+// `name` is one of `values`, compared with their names in lower case whatever its case.
+template <class T, class Name>
+bool parse_name(std::string_view name, std::initializer_list<T> values, Name value_name, T* out) {
+  for (T v : values) {
+    const std::string_view known = value_name(v);
     bool same = name.size() == known.size();
     for (std::size_t i = 0; same && i < name.size(); ++i)
       same = std::tolower(static_cast<unsigned char>(name[i])) == known[i];
     if (same) {
-      *out = m;
+      *out = v;
       return true;
     }
   }
   return false;
+}
+
+}  // namespace
+
+bool parse_metadetect_measurement(std::string_view name, MetadetectMeasurement* out) {
+  return parse_name(name,
+                    {MetadetectMeasurement::kWmom, MetadetectMeasurement::kPgauss, MetadetectMeasurement::kExp,
+                     MetadetectMeasurement::kBd},
+                    metadetect_measurement_name, out);
+}
+
+const char* detector_kind_name(DetectorKind d) { return d == DetectorKind::kSep ? "sep" : "tree"; }
+
+bool parse_detector_kind(std::string_view name, DetectorKind* out) {
+  return parse_name(name, {DetectorKind::kTree, DetectorKind::kSep}, detector_kind_name, out);
 }
 
 double MetadetectOptions::weight_fwhm_arcsec() const {
@@ -69,6 +88,8 @@ bool MetadetectOptions::IsValid(std::string* why) const {
   if (weight_fwhm != 0 && is_model_fit(measurement))
     return refuse(why, "--weight-fwhm", weight_fwhm,
                   "weighs wmom and pgauss; a model fit (--measurement exp or bd) has no weight");
+  if (detection.detector != DetectorKind::kTree && detection.detector != DetectorKind::kSep)
+    return refuse(why, "--detector", static_cast<int>(detection.detector), "must be tree or sep");
   if (!(detection.threshold > 0 && std::isfinite(detection.threshold)))
     return refuse(why, "--detect-threshold", detection.threshold, "must be > 0 (sigma)");
   if (detection.min_area < 1) return refuse(why, "--detect-min-area", detection.min_area, "must be >= 1 pixel");

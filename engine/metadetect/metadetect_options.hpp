@@ -25,9 +25,18 @@ inline bool is_model_fit(MetadetectMeasurement m) {
   return m == MetadetectMeasurement::kExp || m == MetadetectMeasurement::kBd;
 }
 
-// SEP's extraction ("sxdes" settings): a threshold in units of the image's noise sigma, on the image
-// convolved with a normalised Gaussian filter.
+// Which implementation detects (docs/metadetect.md, "Detection"): ours, from a component tree,
+// or SEP's library. Both are Source Extractor's algorithm.
+enum class DetectorKind { kTree, kSep };
+// "tree", "sep"; the table's DETECTOR key.
+const char* detector_kind_name(DetectorKind d);
+// Case-insensitive inverse of detector_kind_name; false for anything else.
+bool parse_detector_kind(std::string_view name, DetectorKind* out);
+
+// Source Extractor's extraction ("sxdes" settings): a threshold in units of the image's noise
+// sigma, on the image convolved with a normalised Gaussian filter.
 struct DetectionOptions {
+  DetectorKind detector = DetectorKind::kTree;
   double threshold = 0.8;       // sigma
   int min_area = 4;             // pixels above the threshold
   double deblend_contrast = 1e-5;

@@ -12,6 +12,8 @@
 #include "app/metadetect_run.hpp"
 #include "arguments.hpp"
 #include "engine/metacal/metacal_type.hpp"
+#include "engine/metadetect/object_detector.hpp"
+#include "engine/metadetect/sep_detection.hpp"
 #include "io/cell_image_reader.hpp"
 #include "io/config_error.hpp"
 #include "numpy_arrays.hpp"
@@ -64,13 +66,27 @@ py::object rows_array(const std::vector<MetadetectRow>& rows) {
   return out;
 }
 
+// The detection options both detect() and metadetect() take.
+void read_detection_options(const Arguments& a, DetectionOptions* d) {
+  if (const std::string v = a.text("detector", detector_kind_name(d->detector)); !parse_detector_kind(v, &d->detector))
+    throw py::value_error(a.where("detector") + ": '" + v + "' must be tree or sep");
+  d->threshold = a.real("detect_threshold", d->threshold);
+  d->min_area = static_cast<int>(a.integer("detect_min_area", d->min_area));
+  d->deblend_contrast = a.real("deblend_contrast", d->deblend_contrast);
+  d->deblend_thresholds = static_cast<int>(a.integer("deblend_thresholds", d->deblend_thresholds));
+  d->filter_fwhm = a.real("filter_fwhm", d->filter_fwhm);
+  d->filter_size = static_cast<int>(a.integer("filter_size", d->filter_size));
+  d->clean = a.flag("clean", d->clean);
+}
+
 py::object metadetect(py::args args, py::kwargs kwargs) {
   const Arguments a("metadetect", args, kwargs,
                     {{"image", true}, {"weight", true}, {"psf", true}, {"pixel_scale", true}, {"bmask"}, {"threads"},
                      {"noise", false, true},
                      {"cell_size", false, true}, {"cell_buffer", false, true}, {"step", false, true},
                      {"psf_dilation", false, true}, {"fixnoise", false, true}, {"seed", false, true},
-                     {"weight_fwhm", false, true}, {"detect_threshold", false, true}, {"detect_min_area", false, true},
+                     {"weight_fwhm", false, true}, {"detector", false, true}, {"detect_threshold", false, true},
+                     {"detect_min_area", false, true},
                      {"deblend_contrast", false, true}, {"deblend_thresholds", false, true},
                      {"filter_fwhm", false, true}, {"filter_size", false, true}, {"clean", false, true},
                      {"box_min", false, true}, {"box_max", false, true}, {"per_object_metacal", false, true},
@@ -95,13 +111,7 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
   if (const std::string v = a.text("measurement", "wmom"); !parse_metadetect_measurement(v, &o.measurement))
     throw py::value_error(a.where("measurement") + ": '" + v + "' must be wmom, pgauss, exp or bd");
   o.weight_fwhm = a.real("weight_fwhm", o.weight_fwhm);
-  o.detection.threshold = a.real("detect_threshold", o.detection.threshold);
-  o.detection.min_area = static_cast<int>(a.integer("detect_min_area", o.detection.min_area));
-  o.detection.deblend_contrast = a.real("deblend_contrast", o.detection.deblend_contrast);
-  o.detection.deblend_thresholds = static_cast<int>(a.integer("deblend_thresholds", o.detection.deblend_thresholds));
-  o.detection.filter_fwhm = a.real("filter_fwhm", o.detection.filter_fwhm);
-  o.detection.filter_size = static_cast<int>(a.integer("filter_size", o.detection.filter_size));
-  o.detection.clean = a.flag("clean", o.detection.clean);
+  read_detection_options(a, &o.detection);
   o.stamp.box_min = static_cast<int>(a.integer("box_min", o.stamp.box_min));
   o.stamp.box_max = static_cast<int>(a.integer("box_max", o.stamp.box_max));
   o.per_object_metacal = a.flag("per_object_metacal", false);
@@ -187,9 +197,63 @@ py::dict metadetect_metrics(py::args args, py::kwargs kwargs) {
   return d;
 }
 
+py::object detect(py::args args, py::kwargs kwargs) {
+  const Arguments a("detect", args, kwargs,
+                    {{"image", true}, {"noise_sigma", true}, {"detector", false, true},
+                     {"detect_threshold", false, true}, {"detect_min_area", false, true},
+                     {"deblend_contrast", false, true}, {"deblend_thresholds", false, true},
+                     {"filter_fwhm", false, true}, {"filter_size", false, true}, {"clean", false, true}});
+  const DoubleArray image = as_float64(a.object("image"), {2}, "image");
+  MetadetectOptions o;
+  read_detection_options(a, &o.detection);
+  if (std::string why; !o.IsValid(&why)) throw py::value_error("detect: " + why);
+  const double sigma = a.real("noise_sigma", 0);
+  const int w = static_cast<int>(image.shape(1)), h = static_cast<int>(image.shape(0));
+  std::vector<float> pixels(image.data(), image.data() + image.size());
+  std::vector<Detection> found;
+  std::string error;
+  bool ok = false;
+  {
+    py::gil_scoped_release release;
+    if (o.detection.detector == DetectorKind::kSep) set_detection_pixel_stack(static_cast<long long>(w) * h);
+    ObjectDetector detector(o.detection);
+    ok = detector.detect(pixels, w, h, sigma, &found, &error);
+  }
+  if (!ok) throw py::value_error(a.where("image") + ": " + error);
+  py::dict out;
+  auto col = [&](const char* name, auto get) {
+    using T = decltype(get(found[0]));
+    py::array_t<T> c(static_cast<py::ssize_t>(found.size()));
+    for (std::size_t i = 0; i < found.size(); ++i) c.mutable_data()[i] = get(found[i]);
+    out[py::str(name)] = c;
+  };
+  col("x", [](const Detection& d) { return d.x; });
+  col("y", [](const Detection& d) { return d.y; });
+  col("flux", [](const Detection& d) { return d.flux; });
+  col("isophotal_area", [](const Detection& d) { return d.isophotal_area; });
+  col("xmin", [](const Detection& d) { return d.xmin; });
+  col("xmax", [](const Detection& d) { return d.xmax; });
+  col("ymin", [](const Detection& d) { return d.ymin; });
+  col("ymax", [](const Detection& d) { return d.ymax; });
+  col("sep_flags", [](const Detection& d) { return d.sep_flags; });
+  return out;
+}
+
 }  // namespace
 
 void bind_metadetect(py::module_& m) {
+  m.def("detect", &detect, R"doc(detect(image, noise_sigma, *, detector="tree", detect_threshold=0.8,
+           detect_min_area=4, deblend_contrast=1e-5, deblend_thresholds=32, filter_fwhm=3, filter_size=7,
+           clean=True)
+
+Source Extractor's detection of a 2-D image (background subtracted) whose noise has standard
+deviation `noise_sigma`, as `stampede metadetect` detects each metacal image: the image filtered
+with a Gaussian of filter_fwhm pixels, pixels above detect_threshold x noise_sigma, segments of at
+least detect_min_area pixels deblended over deblend_thresholds levels, cleaned. `detector`: "tree"
+(ours) or "sep" (SEP's library). Returns a dict of arrays: x, y (0-based pixels; the filtered
+barycentre, a deblended child's of its core), flux and isophotal_area (unfiltered pixels),
+xmin, xmax, ymin, ymax, sep_flags (1 deblended, 2 on the edge, 8 degenerate moments).
+)doc");
   m.def("metadetect_metrics", &metadetect_metrics, R"doc(metadetect_metrics(table, minus=None, rotated=None,
            rotated_minus=None, shear=None, cut_snr=10, cut_t_ratio=1.2, bootstrap=200, seed=1,
            estimator="composed")
@@ -202,13 +266,13 @@ void bind_metadetect(py::module_& m) {
 )doc");
   m.def("metadetect", &metadetect, R"doc(metadetect(image, weight, psf, pixel_scale, bmask=None, threads=0, *,
            cell_size=251, cell_buffer=34, step=0.01, reconvolution_psf="auto", psf_dilation=0, fixnoise=True,
-           seed=20170101, measurement="wmom", weight_fwhm=0, recentre=False, detect_threshold=0.8,
+           seed=20170101, measurement="wmom", weight_fwhm=0, recentre=False, detector="tree", detect_threshold=0.8,
            detect_min_area=4, deblend_contrast=1e-5, deblend_thresholds=32, filter_fwhm=3, filter_size=7,
            clean=True, stamp_size=32, box_min=33, box_max=255, per_object_metacal=False, noise=None)
 
 Metadetection (Sheldon et al. 2020) of one image as `stampede metadetect` does it: the image
 (2-D, at least one cell) is cut into cells; each cell's five metacal images (noshear, 1p, 1m,
-2p, 2m, fixnoise) are detected anew with SEP and every detection is measured: `measurement` "wmom",
+2p, 2m, fixnoise) are detected anew (see detect()) and every detection is measured: `measurement` "wmom",
 weighted moments under a round Gaussian weight of weight_fwhm arcsec (0: 1.2), or "pgauss", the
 pre-PSF Gaussian moments under that weight (0: 2.0), or "exp" / "bd", a fit of that model
 (one band; weight_fwhm then 0). `weight`: inverse variances (0 masks); `psf`: a

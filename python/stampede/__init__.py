@@ -21,6 +21,7 @@ from ._stampede import (  # noqa: F401
     Fitter,
     Options,
     __version__,
+    detect,
     fit_stamp,
     fit_stamps,
     fit_status_names,
@@ -42,7 +43,7 @@ from ._stampede import (  # noqa: F401
 )
 
 __all__ = [
-    "CatalogError", "ConfigError", "Error", "FileError", "FitsError", "Fitter", "Options",
+    "CatalogError", "ConfigError", "Error", "FileError", "FitsError", "Fitter", "Options", "detect",
     "fit_stamp", "fit_stamps", "fit_status_names", "fits_hdus", "fits_header", "merge_shards", "metacal_set_shear", "metadetect", "metadetect_metrics", "option_help", "read_image", "read_results", "read_table", "run_fit", "set_shear", "shear_excluding_flags", "shear_metrics",
     "simulate_great08",
 ]

@@ -1,7 +1,7 @@
 """stampede.metadetect on numpy arrays: the rows equal `stampede metadetect`'s on the same image
 (with its NOISE plane as fixnoise's field, or without: a field drawn from the weight), a cell of a
-grid finds every galaxy once per image, pgauss's rows equal the command line's too, and bad
-arguments are errors naming them."""
+grid finds every galaxy once per image, pgauss's rows equal the command line's too, detect()
+finds the grid with our detector and SEP's alike, and bad arguments are errors naming them."""
 
 import os
 
@@ -109,3 +109,23 @@ def test_metrics_of_a_shear_pair(tmp_path):
     given = stampede.metadetect_metrics(os.path.join(d, "plus.fits"), minus=os.path.join(d, "minus.fits"),
                                         shear=[0.02, 0.0])
     assert given["m1"] == r["m1"]
+
+
+def test_detect_finds_the_grid_with_either_detector(cell):
+    path, image, weight, _ = cell
+    sigma = 1 / np.sqrt(np.median(weight))
+    ours = stampede.detect(image, sigma)
+    sep = stampede.detect(image, sigma, detector="sep")
+    assert len(ours["x"]) == len(sep["x"]) >= 49
+    order = np.lexsort((ours["x"], ours["y"])), np.lexsort((sep["x"], sep["y"]))
+    assert np.allclose(ours["x"][order[0]], sep["x"][order[1]], atol=1e-5)
+    assert np.allclose(ours["y"][order[0]], sep["y"][order[1]], atol=1e-5)
+    assert np.array_equal(ours["sep_flags"][order[0]], sep["sep_flags"][order[1]])
+    bright = ours["flux"] > 0.5 * np.max(ours["flux"])
+    assert bright.sum() == 49
+    with pytest.raises(ValueError, match="detector"):
+        stampede.detect(image, sigma, detector="sextractor")
+    with pytest.raises(ValueError, match="sigma"):
+        stampede.detect(image, 0.0)
+    with pytest.raises(ValueError, match="detect-min-area"):
+        stampede.detect(image, sigma, detect_min_area=0)

@@ -30,7 +30,7 @@ STREAMED = REQUIRED_COLUMNS
 FLAG_MEANINGS = {0: "moments failed", 1: "edge", 2: "masked pixels", 3: "cell failed"}  # io/metadetect_writer
 # Header keys of the run's options (app/metadetect_run option_keys), shown folded.
 OPTION_KEYS = ("CELLSIZE", "CELLBUF", "MCSTEP", "MCPSFDIL", "FIXNOISE", "PEROBJMC", "NOISEPLN", "MCSEED", "WFWHM",
-               "DETTHR", "DETMINA", "DBLCONT", "DBLNTHR", "FILTFWHM", "FILTSIZE", "CLEAN", "CLEANPAR", "BOXRFAC",
+               "DETECTOR", "DETTHR", "DETMINA", "DBLCONT", "DBLNTHR", "FILTFWHM", "FILTSIZE", "CLEAN", "CLEANPAR", "BOXRFAC",
                "BOXRMIN", "BOXPAD", "BOXMIN", "BOXMAX")
 
 
