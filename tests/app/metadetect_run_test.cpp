@@ -129,7 +129,9 @@ TEST(MetadetectRun, DeepBlendedCellsGiveOneTableForOneAndTwoThreadsWithEitherDet
     EXPECT_NEAR(tree[i].x, sep[i].x, 1e-5) << "row " << i;
     EXPECT_NEAR(tree[i].y, sep[i].y, 1e-5) << "row " << i;
     EXPECT_EQ(tree[i].flags, sep[i].flags) << "row " << i;
-    if (tree[i].flags == 0) EXPECT_NEAR(tree[i].e1, sep[i].e1, 1e-6) << "row " << i;
+    if (tree[i].flags == 0) {
+      EXPECT_NEAR(tree[i].e1, sep[i].e1, 1e-6) << "row " << i;
+    }
     merged += tree[i].sep_flags & 1;
   }
   EXPECT_GT(merged, tree.size() / 2) << "the cells are meant to be blended";
