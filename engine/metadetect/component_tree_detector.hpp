@@ -49,16 +49,16 @@ class ComponentTreeDetector {
   struct Object {
     float thresh = 0;        // SEP's dthresh: a core's level, else the detection threshold
     int npix = 0;
-    double cflux_sum = 0;
+    double cflux_sum = 0;    // sum of the filtered values v; cflux the float SEP divides by
     float cflux = 0, peak = 0;
     int xmin = 0, xmax = 0, ymin = 0, ymax = 0;
-    double sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+    double sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;  // sums of v x, v y, v x^2, ... (image's origin)
     int area2 = 0;
     double half_peak = 0;    // (threshold + peak) / 2: SEP's thresh2
     double mx = 0, my = 0;
     float a = 0, b = 0, cxx = 0, cyy = 0, cxy = 0, abcor = 1;
     float mthresh = 0;
-    double raw_flux = 0;
+    double raw_flux = 0;     // the unfiltered pixels' sum, and how many are above the threshold
     int raw_above = 0;
     bool edge = false;       // a pixel on the image's edge
     bool core_edge = false;  // a merged child's core's
