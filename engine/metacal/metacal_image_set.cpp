@@ -5,27 +5,22 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "kernels/math/blocked_loop.hpp"
+
 namespace stampede {
 namespace {
 
-// Both rotations go in 16 x 16 blocks, so that the strided side's cache lines stay in L1.
-constexpr int kBlock = 16;
-
 // 90 degrees counter-clockwise about the stamp's centre: in(x, y) lands at (S-1-y, x).
 void rotate(std::span<const double> in, std::span<double> out, int s) {
-  for (int y0 = 0; y0 < s; y0 += kBlock)
-    for (int x0 = 0; x0 < s; x0 += kBlock)
-      for (int y = y0; y < std::min(s, y0 + kBlock); ++y)
-        for (int x = x0; x < std::min(s, x0 + kBlock); ++x)
-          out[static_cast<std::size_t>(x) * s + (s - 1 - y)] = in[static_cast<std::size_t>(y) * s + x];
+  kernels::for_each_blocked(s, s, [&](int y, int x) {
+    out[static_cast<std::size_t>(x) * s + (s - 1 - y)] = in[static_cast<std::size_t>(y) * s + x];
+  });
 }
 // The inverse of rotate(), added to `out`.
 void add_rotated_back(std::span<const double> in, std::span<double> out, int s) {
-  for (int y0 = 0; y0 < s; y0 += kBlock)
-    for (int x0 = 0; x0 < s; x0 += kBlock)
-      for (int y = y0; y < std::min(s, y0 + kBlock); ++y)
-        for (int x = x0; x < std::min(s, x0 + kBlock); ++x)
-          out[static_cast<std::size_t>(y) * s + x] += in[static_cast<std::size_t>(x) * s + (s - 1 - y)];
+  kernels::for_each_blocked(s, s, [&](int y, int x) {
+    out[static_cast<std::size_t>(y) * s + x] += in[static_cast<std::size_t>(x) * s + (s - 1 - y)];
+  });
 }
 
 }  // namespace

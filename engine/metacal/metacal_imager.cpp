@@ -10,6 +10,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "kernels/math/blocked_loop.hpp"
 #include "kernels/math/complex_product.hpp"
 #include "kernels/math/phasors.hpp"
 
@@ -150,14 +151,9 @@ const double* MetacalImager::weights_for(std::span<const double> positions) {
 }
 
 void MetacalImager::transpose(const double* in, double* out, int rows, int cols) {
-  // In 16 x 16 blocks: both sides' cache lines stay in L1 while a block is copied.
-  constexpr int kBlock = 16;
-  for (int r0 = 0; r0 < rows; r0 += kBlock)
-    for (int c0 = 0; c0 < cols; c0 += kBlock) {
-      const int r1 = std::min(rows, r0 + kBlock), c1 = std::min(cols, c0 + kBlock);
-      for (int r = r0; r < r1; ++r)
-        for (int c = c0; c < c1; ++c) out[static_cast<std::size_t>(c) * rows + r] = in[static_cast<std::size_t>(r) * cols + c];
-    }
+  kernels::for_each_blocked(rows, cols, [&](int r, int c) {
+    out[static_cast<std::size_t>(c) * rows + r] = in[static_cast<std::size_t>(r) * cols + c];
+  });
 }
 
 void MetacalImager::scaled(double b0, double b1, double cx, double cy, double* out) {

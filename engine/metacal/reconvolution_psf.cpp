@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "engine/common/number_text.hpp"
-#include "kernels/ellipse.hpp"
 #include "engine/model/pixelated_psf.hpp"
+#include "kernels/ellipse.hpp"
 #include "kernels/moments.hpp"
 
 namespace stampede {

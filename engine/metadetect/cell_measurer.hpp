@@ -1,13 +1,13 @@
 // Metadetection of one cell (Sheldon et al. 2020): its five metacal images (noshear, 1p, 1m, 2p,
-// 2m; fixnoise), detection on each (Source Extractor's, ObjectDetector), and each detection measured on the image it was found
-// on with weighted moments under a round Gaussian weight (wmom) or with pre-PSF Gaussian moments
-// (pgauss: the same kind of weight applied before the reconvolution PSF), or fitted with a model
-// convolved with it (exp, bd; one band). Several bands: each band's metacal
-// images (one reconvolution PSF for all), detection on their sum weighted by each band's inverse
-// noise variance, wmom over every band's stamp together, flux and S/N per band. Or, for comparison, per-object
-// metacal at the positions detected on the noshear image (per_object_metacal). One per thread: it owns the FFT
-// plans and every buffer, so a run of cells of one size allocates nothing (with --detector sep,
-// but SEP's own work).
+// 2m; fixnoise), detection on each (Source Extractor's algorithm, ObjectDetector), and each
+// detection measured on the image it was found on with weighted moments under a round Gaussian
+// weight (wmom) or with pre-PSF Gaussian moments (pgauss: the same kind of weight applied before
+// the reconvolution PSF), or fitted with a model convolved with it (exp, bd; one band). Several
+// bands: each band's metacal images (one reconvolution PSF for all), detection on their sum
+// weighted by each band's inverse noise variance, wmom over every band's stamp together, flux and
+// S/N per band. Or, for comparison, per-object metacal at the positions detected on the noshear
+// image (per_object_metacal). One per thread: it owns the FFT plans and every buffer, so a run of
+// cells of one size allocates nothing (with --detector sep, but SEP's own work).
 #pragma once
 #include <array>
 #include <complex>
@@ -62,9 +62,9 @@ struct MetadetectCell {
 class CellMeasurer {
  public:
   explicit CellMeasurer(const MetadetectOptions& options, FftPlanning planning = FftPlanning::kEstimate);
-  // Appends the cell's rows (noshear, 1p, 1m, 2p, 2m; detections in Source Extractor's order) to `rows`; a cell
-  // that cannot be measured (its PSF gives no bounded metacal filters, SEP fails) appends one row
-  // flagged kMetadetectCellFailed and returns false with *problem.
+  // Appends the cell's rows (noshear, 1p, 1m, 2p, 2m; detections in Source Extractor's order) to
+  // `rows`; a cell that cannot be measured (its PSF gives no bounded metacal filters, SEP fails)
+  // appends one row flagged kMetadetectCellFailed and returns false with *problem.
   bool measure(const MetadetectCell& cell, std::vector<MetadetectRow>* rows, std::string* problem);
   // The last cell's reconvolution PSF's T under the weight (pixels^2), for tests.
   double psf_t_pixels() const { return psf_t_; }

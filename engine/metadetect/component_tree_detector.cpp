@@ -293,18 +293,17 @@ void ComponentTreeDetector::gather_up(std::span<const int> pixels, int first_obj
   const int tiles_x = (width_ + kTile - 1) / kTile, tiles_y = (height_ + kTile - 1) / kTile;
   const int n_tiles = tiles_x * tiles_y;
   tile_start_.assign(static_cast<std::size_t>(n_tiles) + 1, 0);
-  int n_unclaimed = 0;
   tile_of_.clear();
   for (int p : pixels)
     if (owner_[p] < 0) {
       const int y = row(p), x = p - y * width_;
       const int t = (y / kTile) * tiles_x + x / kTile;
       tile_of_.push_back(t);
-      ++tile_start_[static_cast<std::size_t>(t) + 1], ++n_unclaimed;
+      ++tile_start_[static_cast<std::size_t>(t) + 1];
     }
   for (int t = 0; t < n_tiles; ++t) tile_start_[t + 1] += tile_start_[t];
   bucket_cursor_.assign(tile_start_.begin(), tile_start_.end() - 1);
-  unclaimed_.resize(static_cast<std::size_t>(n_unclaimed));
+  unclaimed_.resize(tile_of_.size());
   {
     std::size_t u = 0;
     for (int p : pixels)
@@ -312,6 +311,8 @@ void ComponentTreeDetector::gather_up(std::span<const int> pixels, int first_obj
   }
   const float log_tiny = std::log(1e-31f);
   const float inf = std::numeric_limits<float>::infinity();
+  // The bounds' allowance for float rounding, so that the pruning never drops the best child.
+  auto slack = [](float score) { return 1e-3f + 1e-4f * std::abs(score); };
   for (int t = 0; t < n_tiles; ++t) {
     if (tile_start_[t] == tile_start_[t + 1]) continue;
     const float x0 = static_cast<float>((t % tiles_x) * kTile), y0 = static_cast<float>((t / tiles_x) * kTile);
@@ -322,10 +323,9 @@ void ComponentTreeDetector::gather_up(std::span<const int> pixels, int first_obj
     float floor_score = -inf;
     for (int c = 0; c < n_children; ++c) {
       const ChildEllipse& e = children_[c];
-      auto form = [&e](float dx, float dy) { return e.cxx * dx * dx + e.cyy * dy * dy + e.cxy * dx * dy; };
       const float ax = x0 - e.mx, bx = x1 - e.mx, ay = y0 - e.my, by = y1 - e.my;
-      const float far = std::max(std::max(form(ax, ay), form(ax, by)), std::max(form(bx, ay), form(bx, by)));
-      if (far < 69.0f) floor_score = std::max(floor_score, e.log_amp - far - (1e-3f + 1e-4f * std::abs(e.log_amp - far)));
+      const float far = std::max(std::max(e.form(ax, ay), e.form(ax, by)), std::max(e.form(bx, ay), e.form(bx, by)));
+      if (far < 69.0f) floor_score = std::max(floor_score, e.log_amp - far - slack(e.log_amp - far));
     }
     candidates_.clear();
     if (floor_score > log_tiny) {
@@ -333,7 +333,7 @@ void ComponentTreeDetector::gather_up(std::span<const int> pixels, int first_obj
         const ChildEllipse& e = children_[c];
         const float nx = std::max({0.0f, x0 - e.mx, e.mx - x1}), ny = std::max({0.0f, y0 - e.my, e.my - y1});
         const float near = e.lmin * (nx * nx + ny * ny);
-        if (e.log_amp - near + 1e-3f + 1e-4f * std::abs(e.log_amp - near) >= floor_score) candidates_.push_back(c);
+        if (e.log_amp - near + slack(e.log_amp - near) >= floor_score) candidates_.push_back(c);
       }
     } else {
       for (int c = 0; c < n_children; ++c) candidates_.push_back(c);
@@ -346,8 +346,7 @@ void ComponentTreeDetector::gather_up(std::span<const int> pixels, int first_obj
       int best_child = -1, nearest_child = 0;
       for (int c : candidates_) {
         const ChildEllipse& e = children_[c];
-        const float dx = x - e.mx, dy = y - e.my;
-        const float dist = e.cxx * dx * dx + e.cyy * dy * dy + e.cxy * dx * dy;
+        const float dist = e.form(x - e.mx, y - e.my);
         if (dist < 70.0f && e.log_amp - dist > best) best = e.log_amp - dist, best_child = c;
         if (dist < nearest) nearest = dist, nearest_child = c;
       }

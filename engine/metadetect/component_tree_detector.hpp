@@ -121,6 +121,7 @@ class ComponentTreeDetector {
   // already divided by 2 abcor; lmin its smaller eigenvalue.
   struct ChildEllipse {
     float log_amp, mx, my, cxx, cyy, cxy, lmin;
+    float form(float dx, float dy) const { return cxx * dx * dx + cyy * dy * dy + cxy * dx * dy; }
   };
   std::vector<ChildEllipse> children_;
   std::vector<int> tile_start_, tile_of_, unclaimed_, candidates_;
