@@ -16,6 +16,10 @@ bool ObjectDetector::detect(std::span<const float> image, int width, int height,
   out->clear();
   if (image.size() != static_cast<std::size_t>(width) * height)
     throw std::invalid_argument("ObjectDetector::detect: image size does not match width x height");
+  if (width <= 0 || height <= 0) {
+    *error = "the image has no pixels";
+    return false;
+  }
   if (!(noise_sigma > 0) || !std::isfinite(noise_sigma)) {
     *error = "the image's noise sigma is not positive and finite";
     return false;

@@ -2,7 +2,7 @@
 // the images a metadetection detects on: the same objects at the same positions (a deblended
 // child's core barycentre too) with the same flags, each blend's pixels shared out among its
 // children; deblending by the contrast criterion, the minimum area, the cleaning of spurious
-// detections; repeated calls and other image sizes with one detector; non-finite pixels.
+// detections; repeated calls and other image sizes with one detector; non-finite pixels, a bad sigma and an image of no pixels refused.
 #include "engine/metadetect/component_tree_detector.hpp"
 
 #include <gtest/gtest.h>
@@ -211,7 +211,7 @@ TEST(ComponentTreeDetector, RepeatsItselfAcrossCallsAndSizes) {
   for (std::size_t i = 0; i < other.size(); ++i) EXPECT_EQ(other[i].x, b_fresh[i].x);
 }
 
-TEST(ComponentTreeDetector, NonFinitePixelsAreNeverDetectedAndABadSigmaIsRefused) {
+TEST(ComponentTreeDetector, NonFinitePixelsAreNeverDetectedAndABadSigmaOrNoPixelsAreRefused) {
   Image im = crowded(64, 64, 10, 31);
   for (int i = 0; i < 64; ++i) im.pixels[static_cast<std::size_t>(i) * 64 + i] = std::nanf("");
   im.pixels[5] = std::numeric_limits<float>::infinity();
@@ -222,6 +222,8 @@ TEST(ComponentTreeDetector, NonFinitePixelsAreNeverDetectedAndABadSigmaIsRefused
   for (const Detection& x : out) EXPECT_TRUE(std::isfinite(x.x) && std::isfinite(x.y));
   EXPECT_FALSE(d.detect(im.pixels, 64, 64, 0.0, &out, &error));
   EXPECT_NE(error.find("sigma"), std::string::npos) << error;
+  EXPECT_FALSE(d.detect({}, 0, 0, 1e-3, &out, &error));
+  EXPECT_NE(error.find("no pixels"), std::string::npos) << error;
 }
 
 }  // namespace
