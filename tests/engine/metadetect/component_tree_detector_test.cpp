@@ -2,7 +2,8 @@
 // the images a metadetection detects on: the same objects at the same positions (a deblended
 // child's core barycentre too) with the same flags, each blend's pixels shared out among its
 // children; deblending by the contrast criterion, the minimum area, the cleaning of spurious
-// detections; repeated calls and other image sizes with one detector; non-finite pixels, a bad sigma and an image of no pixels refused.
+// detections; repeated calls and other image sizes with one detector; non-finite pixels never
+// detected, a bad sigma and an image of no pixels refused.
 #include "engine/metadetect/component_tree_detector.hpp"
 
 #include <gtest/gtest.h>
