@@ -461,6 +461,7 @@ std::vector<std::pair<std::string, std::string>> option_keys(const MetadetectOpt
           {"MCPSFDIL", number_text(o.psf_dilation)},
           {"MCRECONV", reconvolution_rule_name(o.reconvolution)},
           {"FIXNOISE", o.fixnoise ? "T" : "F"},
+          {"IMGPREC", o.double_images ? "double" : "single"},
           {"PEROBJMC", o.per_object_metacal ? "T" : "F"},
           {"NOISEPLN", o.noise_plane ? "T" : "F"},
           {"MCSEED", std::to_string(o.seed)},

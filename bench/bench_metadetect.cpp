@@ -119,13 +119,15 @@ void BM_MetadetectCellReferenceRandom(benchmark::State& state) { measure_cells(s
 BENCHMARK(BM_MetadetectCellReferenceRandom)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 // The five images with fixnoise alone.
-// arg: the periodic grid's side (0: the run's, 16 px of margin: 288 for a 251 px cell; 256: a
-// power of two, 2.5 px of margin, as a candidate).
+// args: the periodic grid's side (0: the run's, 16 px of margin: 288 for a 251 px cell; 256: a
+// power of two, 2.5 px of margin, as a candidate), the arithmetic (0 double, 1 single, the default).
 void BM_MetadetectImages(benchmark::State& state) {
   const Cells& cells = grid_cells();
   const int s = cells.options.size;
   const int period = state.range(0) > 0 ? static_cast<int>(state.range(0)) : MetacalImager::padded_size(s, 16);
-  MetacalImageSet set(s, FftPlanning::kEstimate, period);
+  MetacalImageSet set(s, FftPlanning::kEstimate, period,
+                      state.range(1) ? MetacalImageSet::Precision::kSingle : MetacalImageSet::Precision::kDouble,
+                      MetacalImageSet::NoiseDraw::kPairs);
   MetacalOptions mo;
   mo.enabled = true;
   std::string error;
@@ -140,7 +142,7 @@ void BM_MetadetectImages(benchmark::State& state) {
     benchmark::DoNotOptimize(out.data());
   }
 }
-BENCHMARK(BM_MetadetectImages)->Arg(0)->Arg(256)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MetadetectImages)->ArgsProduct({{0, 256}, {0, 1}})->Unit(benchmark::kMillisecond);
 
 // Detection on a cell's image five times (as on its five metacal images), filtering included;
 // args: layout (0 the S/N 20 grid, 1 the reference grid, 2 the reference random), detector (0

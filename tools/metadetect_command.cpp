@@ -79,6 +79,8 @@ void print_help() {
       "                             to 1.5 (%s)\n"
       "  --psf-dilation F           reconvolution PSF FWHM over the PSF's; 0: the rule's own (%g)\n"
       "  --no-fixnoise              do not add the rotated noise field\n"
+      "  --double-images            make the cells' metacal images in double precision (by default\n"
+      "                             single: half the time, within ~1e-6 of the images' peak)\n"
       "  --no-noise-plane           draw the fixnoise field from the weight even where the input has\n"
       "                             a NOISE HDU or noise cutouts (which are used by default)\n"
       "  --per-object-metacal       not metadetection, for comparison: per-object metacal at the\n"
@@ -195,6 +197,8 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
       m.per_object_metacal = true;
     } else if (s == "--no-fixnoise") {
       m.fixnoise = false;
+    } else if (s == "--double-images") {
+      m.double_images = true;
     } else if (s == "--no-noise-plane") {
       m.noise_plane = false;
     } else if (s == "--seed") {

@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # The whole `stampede metadetect` command timed for two binaries side by side (docs/metadetect.md,
-# "Detection (issue 53)", the table of the whole command): 100 cells of each kind (the reference
-# test's grid and random cells at S/N 1e6 and at S/N 20), one thread, the binaries interleaved run
-# by run, REPS runs each; then one and two threads of NEW on the 200 deep cells, alternating, and
-# their tables compared byte for byte. Prints the medians of CPU time (user + system) per cell.
+# the whole command's tables in "Detection (issue 53)" and "Single-precision images (issue 53)"):
+# 100 cells of each kind (the reference test's grid and random cells at S/N 1e6 and at S/N 20), one
+# thread, the binaries interleaved run by run, REPS runs each; then one and two threads of NEW on
+# the 200 deep cells, alternating, and their tables compared byte for byte. Prints the medians of
+# CPU time (user + system) per cell.
 #   usage: docs/metadetect/whole_command_timing.sh OLD_STAMPEDE NEW_STAMPEDE [WORK_DIR] [REPS]
-# (OLD: e.g. the commit before issue 53 built in a worktree; NEW: build/tools/stampede.)
+# (OLD: the commit before the change, built in a worktree (8d6612b for the single-precision
+# images); NEW: build/tools/stampede.)
 set -euo pipefail
 old=$(realpath "$1") new=$(realpath "$2") work=${3:-/tmp/whole_command_timing} reps=${4:-5}
 mkdir -p "$work"

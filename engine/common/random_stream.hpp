@@ -3,9 +3,11 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <initializer_list>
 #include <numbers>
+#include <span>
 
 namespace stampede {
 
@@ -35,6 +37,21 @@ class RandomStream {
     const double u1 = 1.0 - uniform();  // (0, 1]
     const double u2 = uniform();
     return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
+  }
+  // A field of standard normals, two at a time by Marsaglia's polar method (one log, no
+  // trigonometry, per pair; a pair's uniforms outside the unit disc are drawn again): 4x faster
+  // than normal() per value, which a metacal image's fixnoise field draws for every pixel. Not
+  // normal()'s values.
+  void normals(std::span<double> out) {
+    const std::size_t n = out.size();
+    std::size_t i = 0;
+    while (i < n) {
+      const double x = 2.0 * uniform() - 1.0, y = 2.0 * uniform() - 1.0, r2 = x * x + y * y;
+      if (r2 >= 1.0 || r2 == 0.0) continue;
+      const double f = std::sqrt(-2.0 * std::log(r2) / r2);
+      out[i++] = x * f;
+      if (i < n) out[i++] = y * f;
+    }
   }
 
  private:

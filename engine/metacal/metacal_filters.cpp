@@ -347,6 +347,8 @@ std::shared_ptr<const MetacalFilters> MetacalFilters::build(const Observed& obse
       }
     }
   }
+  for (int t = 0; t < kNumMetacalTypes; ++t)
+    f->single_filters_[t].assign(f->filters_[t].begin(), f->filters_[t].end());
   // Noise gain of the noshear filter: mean |f|^2 over the full grid (half-spectrum columns 1 ..
   // m/2 - 1 stand for two).
   const auto& f0 = f->filters_[0];

@@ -64,6 +64,8 @@ class MetacalFilters {
   // Half-spectrum (period rows x period/2 + 1 columns) of type t, FFTW's 1/M^2 included, the
   // Nyquist row and column split symmetrically so that the product stays Hermitian.
   const std::complex<double>* filter(MetacalType t) const { return filters_[static_cast<int>(t)].data(); }
+  // The same rounded to float, for single-precision images (half the memory traffic of a product).
+  const std::complex<float>* single_filter(MetacalType t) const { return single_filters_[static_cast<int>(t)].data(); }
   // The variance that white noise of unit variance has after the noshear filter: mean |f|^2.
   double noise_gain() const { return noise_gain_; }
   // A_T^-1 in the stamp's pixels, row-major: the image of type T is H_T(c + A_T^-1 (x - c)).
@@ -77,6 +79,7 @@ class MetacalFilters {
   double noise_gain_ = 0;
   PsfModel reconvolution_;
   std::array<std::vector<std::complex<double>>, kNumMetacalTypes> filters_;
+  std::array<std::vector<std::complex<float>>, kNumMetacalTypes> single_filters_;
   std::array<std::array<double, 4>, kNumMetacalTypes> inverse_{};
 };
 

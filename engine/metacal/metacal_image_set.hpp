@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -23,11 +24,17 @@ inline constexpr std::uint64_t kFixnoisePurpose = 0x6669786e6f697365ull;  // "fi
 
 class MetacalImageSet {
  public:
-  // period: the grid's (MetacalImager::padded_size); 0: padded_size(stamp_size).
-  MetacalImageSet(int stamp_size, FftPlanning planning, int period = 0);
+  // period: the grid's (MetacalImager::padded_size); 0: padded_size(stamp_size). precision: the
+  // images' arithmetic (kSingle for metadetection cells: half the time, at 1e-6 of the images' peak).
+  // draw: how the fixnoise field's normals are drawn from its stream: one per RandomStream::normal()
+  // (metacal's fits), or in pairs by RandomStream::normals() (cells: 4x faster, other values).
+  enum class Precision { kDouble, kSingle };
+  enum class NoiseDraw { kOneByOne, kPairs };
+  MetacalImageSet(int stamp_size, FftPlanning planning, int period = 0, Precision precision = Precision::kDouble,
+                  NoiseDraw draw = NoiseDraw::kOneByOne);
 
   int stamp_size() const { return s_; }
-  int period() const { return imager_.period(); }
+  int period() const { return period_; }
 
   // The five images (kMetacalTypes order, stamp_size^2 each) into `out`. The data's noise per
   // pixel: the weight map's (kInverseVariance), else noise_sigma. A masked pixel (weight 0) has
@@ -48,10 +55,12 @@ class MetacalImageSet {
   NoiseSpectrum& noise_spectrum() { return spectrum_; }
 
  private:
-  int s_;
-  MetacalImager imager_;
+  int s_, period_;
+  NoiseDraw draw_;
+  std::unique_ptr<MetacalImager> imager_;
+  std::unique_ptr<BasicMetacalImager<float>> single_imager_;
   NoiseSpectrum spectrum_;
-  std::vector<double> noise_, rotated_, noise_images_;
+  std::vector<double> data_, noise_, turned_;  // the masked stamp, the fixnoise field, it turned
 };
 
 }  // namespace stampede

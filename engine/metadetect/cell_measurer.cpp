@@ -139,8 +139,10 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
     return false;
   };
   if (!images_set_ || images_set_->stamp_size() != cell.size)
-    images_set_ = std::make_unique<MetacalImageSet>(cell.size, planning_,
-                                                    MetacalImager::padded_size(cell.size, kCellMargin)),
+    images_set_ = std::make_unique<MetacalImageSet>(
+        cell.size, planning_, MetacalImager::padded_size(cell.size, kCellMargin),
+        options_.double_images ? MetacalImageSet::Precision::kDouble : MetacalImageSet::Precision::kSingle,
+        MetacalImageSet::NoiseDraw::kPairs),
     have_psf_ = false;
   if (static_cast<int>(cell.other_bands.size()) >= kMaxMetadetectBands)
     return fail("more than " + std::to_string(kMaxMetadetectBands) + " bands");
@@ -154,6 +156,9 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
   bands_.insert(bands_.end(), cell.other_bands.begin(), cell.other_bands.end());
   for (std::size_t b = 0; b < bands_.size(); ++b)
     if (!bands_[b].psf) return fail(b == 0 ? std::string("no PSF") : "no PSF for band " + std::to_string(b));
+  cell_masked_ = false;
+  for (const MetadetectBand& b : bands_)
+    cell_masked_ = cell_masked_ || std::any_of(b.weight.begin(), b.weight.end(), [](double w) { return !(w > 0); });
   if (!prepare_psf(cell.pixel_scale, problem)) return fail(*problem);
   const std::size_t npix = static_cast<std::size_t>(cell.size) * cell.size;
   MetacalOptions metacal;
@@ -235,20 +240,21 @@ void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::vect
     const int x0 = static_cast<int>(std::lround(d.x)) - half, y0 = static_cast<int>(std::lround(d.y)) - half;
     stamp_.assign(static_cast<std::size_t>(box) * box, 0.0);
     long long masked = 0;
+    // Row by row: the part inside the cell copied, the rest (beyond its edge) zero and masked.
+    const int i0 = std::clamp(-x0, 0, box), i1 = std::clamp(s - x0, i0, box);
     for (int j = 0; j < box; ++j) {
       const int y = y0 + j;
-      for (int i = 0; i < box; ++i) {
-        const int x = x0 + i;
-        if (x < 0 || y < 0 || x >= s || y >= s) {
-          r.flags |= kMetadetectEdge;
-          ++masked;
-          continue;
-        }
-        const std::size_t p = static_cast<std::size_t>(y) * s + x;
+      const int inside = y < 0 || y >= s ? 0 : i1 - i0;
+      if (inside < box) r.flags |= kMetadetectEdge;
+      masked += box - inside;
+      if (inside == 0) continue;
+      const std::size_t p0 = static_cast<std::size_t>(y) * s + (x0 + i0);
+      std::copy_n(image.data() + p0, inside, stamp_.data() + static_cast<std::size_t>(j) * box + i0);
+      if (!cell_masked_) continue;
+      for (int i = 0; i < inside; ++i) {
         bool masked_here = false;
-        for (const MetadetectBand& b : bands_) masked_here = masked_here || (!b.weight.empty() && !(b.weight[p] > 0));
+        for (const MetadetectBand& b : bands_) masked_here = masked_here || (!b.weight.empty() && !(b.weight[p0 + i] > 0));
         masked += masked_here;
-        stamp_[static_cast<std::size_t>(j) * box + i] = image[p];
       }
     }
     r.mfrac = static_cast<double>(masked) / (static_cast<double>(box) * box);

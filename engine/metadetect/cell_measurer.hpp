@@ -98,6 +98,7 @@ class CellMeasurer {
   MetadetectOptions options_;
   FftPlanning planning_;
   std::unique_ptr<MetacalImageSet> images_set_;
+  bool cell_masked_ = false;  // some band's weight is not positive somewhere in the cell
   // The cell's bands (the first and other_bands), their PSFs' filters (one Gamma) and images.
   std::vector<MetadetectBand> bands_;
   std::vector<std::shared_ptr<const MetacalFilters>> filters_;

@@ -55,6 +55,9 @@ void ComponentTreeDetector::segment(std::span<const float> filtered, float thres
     if (a < b) std::swap(a, b);
     parent[a] = b;
   };
+  // The pixels above the threshold are listed as they come (raster order): the passes below visit
+  // them alone, not the sky around them.
+  above_.clear();
   for (int y = 0; y < h; ++y) {
     const float* row = filtered.data() + static_cast<std::size_t>(y) * w;
     int* par = parent + static_cast<std::size_t>(y) * w;
@@ -66,6 +69,7 @@ void ComponentTreeDetector::segment(std::span<const float> filtered, float thres
         continue;
       }
       const int p = y * w + x;
+      above_.push_back(p);
       // The pixel above touches the left, upper-left and upper-right ones: joined to it alone.
       if (y > 0 && up[x] >= 0) {
         par[x] = up[x];
@@ -81,10 +85,8 @@ void ComponentTreeDetector::segment(std::span<const float> filtered, float thres
     }
   }
   // Each segment's pixels together (in raster order), by a count per root.
-  const int n = w * h;
   seg_roots_.clear();
-  for (int p = 0; p < n; ++p) {
-    if (parent[p] < 0) continue;
+  for (int p : above_) {
     const int r = root(p);
     parent[p] = r;  // every pixel straight to its root, for the fill below
     if (r == p) {
@@ -100,8 +102,7 @@ void ComponentTreeDetector::segment(std::span<const float> filtered, float thres
     seg_count_[r] = seg_start_[r];  // becomes the fill cursor
   }
   seg_pixels_.resize(static_cast<std::size_t>(at));
-  for (int p = 0; p < n; ++p)
-    if (parent[p] >= 0) seg_pixels_[static_cast<std::size_t>(seg_count_[parent[p]]++)] = p;
+  for (int p : above_) seg_pixels_[static_cast<std::size_t>(seg_count_[parent[p]]++)] = p;
 }
 
 void ComponentTreeDetector::add_pixel(int p, float v) {
@@ -638,6 +639,7 @@ void ComponentTreeDetector::detect(std::span<const float> filtered, std::span<co
     row_multiplier_ = w * n < (std::uint64_t{1} << 32) ? ((std::uint64_t{1} << 32) + w - 1) / w : 0;
     seg_parent_.assign(n, -1);
     seg_count_.assign(n, 0), seg_start_.assign(n, 0);
+    above_.reserve(n);
     parent_.assign(n, -1);
     components_.assign(n, Component{});
     assigned_.assign(n, 0), owner_.assign(n, -1), in_core_.assign(n, 0);

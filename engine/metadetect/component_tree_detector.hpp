@@ -92,6 +92,7 @@ class ComponentTreeDetector {
   int width_ = 0, height_ = 0;
   std::vector<int> seg_parent_;         // per pixel: segmentation union-find, -1 below the threshold
   std::vector<int> seg_count_, seg_start_, seg_pixels_, seg_roots_;
+  std::vector<int> above_;  // segment()'s pixels above the threshold, in raster order
   // Per pixel: the level union-find's parent (-1: not yet added); a root's Component record is
   // its component's (apart, so that the finds touch 4 bytes a pixel).
   std::vector<int> parent_;

@@ -20,13 +20,16 @@ std::vector<float> detection_filter(const DetectionOptions& options) {
 
 void filter_detection_image(std::span<const float> image, int width, int height, std::span<const float> filter,
                             std::vector<float>* out, std::vector<float>* rows) {
+  // Row by row, each output row summed tap by tap from zero while it sits in L1 (a tap beyond the
+  // image adds nothing): the same float sums in the same order whatever the loop order.
   const int n = static_cast<int>(filter.size()), h = n / 2;
-  rows->assign(image.size(), 0.0f);
-  out->assign(image.size(), 0.0f);
+  rows->resize(image.size());
+  out->resize(image.size());
   float* r = rows->data();
   for (int y = 0; y < height; ++y) {
     const float* in = image.data() + static_cast<std::size_t>(y) * width;
     float* o = r + static_cast<std::size_t>(y) * width;
+    std::fill(o, o + width, 0.0f);
     for (int k = 0; k < n; ++k) {
       const float w = filter[k];
       const int shift = k - h;
@@ -35,12 +38,14 @@ void filter_detection_image(std::span<const float> image, int width, int height,
     }
   }
   float* o = out->data();
-  for (int k = 0; k < n; ++k) {
-    const float w = filter[k];
-    const int shift = k - h;
-    for (int y = std::max(0, -shift); y < std::min(height, height - shift); ++y) {
-      const float* in = r + static_cast<std::size_t>(y + shift) * width;
-      float* dst = o + static_cast<std::size_t>(y) * width;
+  for (int y = 0; y < height; ++y) {
+    float* dst = o + static_cast<std::size_t>(y) * width;
+    std::fill(dst, dst + width, 0.0f);
+    for (int k = 0; k < n; ++k) {
+      const int ys = y + k - h;
+      if (ys < 0 || ys >= height) continue;
+      const float w = filter[k];
+      const float* in = r + static_cast<std::size_t>(ys) * width;
       for (int x = 0; x < width; ++x) dst[x] += w * in[x];
     }
   }

@@ -76,6 +76,10 @@ struct MetadetectOptions {
   // boundaries (docs/metadetect.md, "The random test's m").
   bool keep_unlensed = false;
   bool fixnoise = true;
+  // The cells' metacal images made in double precision; false: in single precision (half the time;
+  // the images within ~1e-6 of their peak of the double ones: docs/metadetect.md, "Single-precision
+  // images").
+  bool double_images = false;
   // Fixnoise's field from the input's noise realisation (an image file's NOISE HDU, a tile's
   // noise cutouts) where it has one, as the reference package does; false, or no such plane: a
   // field drawn from the weight, keyed by the cell's number (and band).

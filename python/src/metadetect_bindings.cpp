@@ -85,7 +85,7 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
                      {"noise", false, true},
                      {"cell_size", false, true}, {"cell_buffer", false, true}, {"step", false, true},
                      {"psf_dilation", false, true}, {"fixnoise", false, true}, {"seed", false, true},
-                     {"weight_fwhm", false, true}, {"detector", false, true}, {"detect_threshold", false, true},
+                     {"double_images", false, true}, {"weight_fwhm", false, true}, {"detector", false, true}, {"detect_threshold", false, true},
                      {"detect_min_area", false, true},
                      {"deblend_contrast", false, true}, {"deblend_thresholds", false, true},
                      {"filter_fwhm", false, true}, {"filter_size", false, true}, {"clean", false, true},
@@ -107,6 +107,7 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
   o.stamp.size = static_cast<int>(a.integer("stamp_size", o.stamp.size));
   o.recentre = a.flag("recentre", o.recentre);
   o.fixnoise = a.flag("fixnoise", o.fixnoise);
+  o.double_images = a.flag("double_images", o.double_images);
   o.seed = static_cast<std::uint64_t>(a.integer_in("seed", static_cast<long long>(o.seed), 0, 1LL << 62));
   if (const std::string v = a.text("measurement", "wmom"); !parse_metadetect_measurement(v, &o.measurement))
     throw py::value_error(a.where("measurement") + ": '" + v + "' must be wmom, pgauss, exp or bd");
@@ -266,13 +267,13 @@ xmin, xmax, ymin, ymax, sep_flags (1 deblended, 2 on the edge, 8 degenerate mome
 )doc");
   m.def("metadetect", &metadetect, R"doc(metadetect(image, weight, psf, pixel_scale, bmask=None, threads=0, *,
            cell_size=251, cell_buffer=34, step=0.01, reconvolution_psf="auto", psf_dilation=0, fixnoise=True,
-           seed=20170101, measurement="wmom", weight_fwhm=0, recentre=False, detector="tree", detect_threshold=0.8,
+           double_images=False, seed=20170101, measurement="wmom", weight_fwhm=0, recentre=False, detector="tree", detect_threshold=0.8,
            detect_min_area=4, deblend_contrast=1e-5, deblend_thresholds=32, filter_fwhm=3, filter_size=7,
            clean=True, stamp_size=32, box_min=33, box_max=255, per_object_metacal=False, noise=None)
 
 Metadetection (Sheldon et al. 2020) of one image as `stampede metadetect` does it: the image
 (2-D, at least one cell) is cut into cells; each cell's five metacal images (noshear, 1p, 1m,
-2p, 2m, fixnoise) are detected anew (see detect()) and every detection is measured: `measurement` "wmom",
+2p, 2m, fixnoise; made in single precision unless `double_images`) are detected anew (see detect()) and every detection is measured: `measurement` "wmom",
 weighted moments under a round Gaussian weight of weight_fwhm arcsec (0: 1.2), or "pgauss", the
 pre-PSF Gaussian moments under that weight (0: 2.0), or "exp" / "bd", a fit of that model
 (one band; weight_fwhm then 0). `weight`: inverse variances (0 masks); `psf`: a

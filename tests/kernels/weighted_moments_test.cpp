@@ -104,6 +104,25 @@ TEST(WeightedMoments, ErrorsAndSnrMatchTheScatterOverNoise) {
   EXPECT_NEAR(snr / (mean_flux / sd_flux), 1, 0.08);
 }
 
+// An axis-aligned Jacobian's errors come from one-axis sums (the separable weight); a Jacobian off
+// the axes by 1e-300 takes the per-pixel sums with the same weight: the same errors and S/N.
+TEST(WeightedMoments, TheSeparableErrorsAreThePerPixelSums) {
+  std::vector<double> scratch;
+  const std::vector<double> img = gaussian(22.3, 25.1, 9.0, 2.5, 5.0, 1000);
+  for (const auto& [dudx, dvdy] : {std::pair{1.0, 1.0}, {0.27, 0.25}}) {
+    MomentsStamp a{img, kSize, dudx, 0.0, 0.0, dvdy, 23.5, 23.5, 1.0, 0.7};
+    MomentsStamp b = a;
+    b.dudy = 1e-300;
+    const WeightedMoments ma = weighted_moments({&a, 1}, 7.0 * dudx, scratch, 0),
+                          mb = weighted_moments({&b, 1}, 7.0 * dudx, scratch, 0);
+    ASSERT_TRUE(ma.valid && mb.valid);
+    EXPECT_NEAR(ma.e1_err, mb.e1_err, 1e-12 * mb.e1_err) << dudx;
+    EXPECT_NEAR(ma.e2_err, mb.e2_err, 1e-12 * mb.e2_err) << dudx;
+    EXPECT_NEAR(ma.snr, mb.snr, 1e-12 * mb.snr) << dudx;
+    EXPECT_NEAR(ma.e1, mb.e1, 1e-13) << dudx;  // the weighted sums too, separable or per pixel
+  }
+}
+
 TEST(WeightedMoments, NoPositiveFluxOrABadWeightIsInvalid) {
   std::vector<double> scratch(2 * kSize);
   const std::vector<double> zero(kSize * kSize, 0.0), negative(kSize * kSize, -1.0);

@@ -1,6 +1,7 @@
 // Bluestein resampling (engine/metacal/chirp_resampler): rows evaluated at stretched positions agree
 // with the dense trigonometric sum, at integer positions they return the row itself, and a repeated
-// (a, b) is served from the cache with the same values.
+// (a, b) is served from the cache with the same values; complex columns likewise against their
+// dense sum (the Nyquist term split between +-M/2) and, at integer positions, FFTW's backward c2c.
 #include "engine/metacal/chirp_resampler.hpp"
 
 #include <gtest/gtest.h>
@@ -57,6 +58,41 @@ TEST(ChirpResampler, AgreesWithTheDenseSum) {
     std::vector<double> again(kRows * kOut);
     r.resample(spectra.data(), kRows, a, b, again.data(), kOut);
     EXPECT_EQ(out, again);
+  }
+}
+
+// g(p) = sum over k = -M/2 .. M/2 of W_k F_k e^{2 pi i k p / M}, W = M (M/2 at +-M/2).
+std::complex<double> dense_column(const std::vector<std::complex<double>>& f, double p) {
+  const int m = static_cast<int>(f.size());
+  std::complex<double> g = 0;
+  for (int k = -m / 2; k <= m / 2; ++k)
+    g += (std::abs(k) == m / 2 ? 0.5 : 1.0) * m * f[(k + m) % m] * std::polar(1.0, 2 * std::numbers::pi * k * p / m);
+  return g;
+}
+
+TEST(ChirpResampler, ColumnsAgreeWithTheDenseSum) {
+  constexpr int kPeriod = 96, kOut = 70, kColumns = 3, kStride = 5;
+  RandomStream rng({11});
+  std::vector<std::complex<double>> columns(kPeriod * kStride);
+  for (auto& v : columns) v = {rng.normal(), rng.normal()};
+  ChirpResampler r(kPeriod, kOut, FftPlanning::kEstimate);
+  for (const auto& [a, b] : {std::pair{13.0, 1.0}, {12.7, 0.99}, {13.3, 1.0101}}) {
+    std::vector<std::complex<double>> out(kOut * kColumns);
+    r.resample_columns(columns.data(), kColumns, kStride, a, b, out.data(), kColumns);
+    for (int c = 0; c < kColumns; ++c) {
+      std::vector<std::complex<double>> f(kPeriod);
+      for (int k = 0; k < kPeriod; ++k) f[k] = columns[k * kStride + c];
+      for (int j = 0; j < kOut; ++j) {
+        const std::complex<double> want = dense_column(f, a + b * j);
+        EXPECT_NEAR(out[j * kColumns + c].real(), want.real(), 1e-9) << "a " << a << " b " << b << " j " << j;
+        EXPECT_NEAR(out[j * kColumns + c].imag(), want.imag(), 1e-9) << "a " << a << " b " << b << " j " << j;
+        if (b == 1.0 && a == 13.0) {  // integer positions: M times the backward c2c (unnormalised)
+          std::complex<double> c2c = 0;
+          for (int k = 0; k < kPeriod; ++k) c2c += f[k] * std::polar(1.0, 2 * std::numbers::pi * k * (13 + j) / kPeriod);
+          EXPECT_NEAR(std::abs(out[j * kColumns + c] - static_cast<double>(kPeriod) * c2c), 0.0, 1e-9);
+        }
+      }
+    }
   }
 }
 

@@ -179,11 +179,12 @@ bool same_row(const MetadetectRow& a, const MetadetectRow& b) {
 }
 
 // The field fixnoise draws from a constant weight w for cell `index` (MetacalImageSet::make's
-// draw: sqrt(1 / w) x a normal deviate per pixel from the cell's stream, in pixel order).
+// draw: sqrt(1 / w) x the normals RandomStream::normals() draws from the cell's stream, in pixel order).
 std::vector<double> drawn_field(const MetadetectOptions& mo, long long index, std::size_t npix, double w) {
   RandomStream stream({mo.seed, static_cast<std::uint64_t>(index), kFixnoisePurpose});
   std::vector<double> out(npix);
-  for (double& v : out) v = std::sqrt(1.0 / w) * (1.0 * stream.normal());
+  stream.normals(out);  // a cell's field: normals drawn in pairs (MetacalImageSet::NoiseDraw::kPairs)
+  for (double& v : out) v = std::sqrt(1.0 / w) * (1.0 * v);
   return out;
 }
 
