@@ -80,7 +80,7 @@ void print_help() {
       "  --psf-dilation F           reconvolution PSF FWHM over the PSF's; 0: the rule's own (%g)\n"
       "  --no-fixnoise              do not add the rotated noise field\n"
       "  --double-images            make the cells' metacal images in double precision (by default\n"
-      "                             single: half the time, within ~1e-6 of the images' peak)\n"
+      "                             single: about half the time, within ~2e-7 of the images' peak)\n"
       "  --no-noise-plane           draw the fixnoise field from the weight even where the input has\n"
       "                             a NOISE HDU or noise cutouts (which are used by default)\n"
       "  --per-object-metacal       not metadetection, for comparison: per-object metacal at the\n"

@@ -34,5 +34,5 @@ run --label ref_random_snr20_keepunl_tree --pairs "${SNR20_PAIRS:-5000}" --chunk
 run --label ref_grid_f32 --pairs 200 --chunk 100 --sim="--reference --layout grid" --metadetect="--detector tree"
 run --label ref_random_snr20_keepunl_f32 --pairs "${SNR20_PAIRS:-5000}" --chunk 250 \
   --sim="--reference --layout random --snr 20" --metadetect="--keep-unlensed --detector tree"
-run --label ref_random_keepunl_f32 --pairs "${F32_PAIRS:-10000}" --chunk 250 --sim="--reference --layout random" \
+run --label ref_random_keepunl_f32 --pairs "${F32_PAIRS:-40000}" --chunk 250 --sim="--reference --layout random" \
   --metadetect="--keep-unlensed --detector tree"

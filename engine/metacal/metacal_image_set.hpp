@@ -25,7 +25,7 @@ inline constexpr std::uint64_t kFixnoisePurpose = 0x6669786e6f697365ull;  // "fi
 class MetacalImageSet {
  public:
   // period: the grid's (MetacalImager::padded_size); 0: padded_size(stamp_size). precision: the
-  // images' arithmetic (kSingle for metadetection cells: half the time, at 1e-6 of the images' peak).
+  // images' arithmetic (kSingle for metadetection cells: half the time, within ~2e-7 of their peak).
   // draw: how the fixnoise field's normals are drawn from its stream: one per RandomStream::normal()
   // (metacal's fits), or in pairs by RandomStream::normals() (cells: 4x faster, other values).
   enum class Precision { kDouble, kSingle };

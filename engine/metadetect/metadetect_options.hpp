@@ -77,7 +77,7 @@ struct MetadetectOptions {
   bool keep_unlensed = false;
   bool fixnoise = true;
   // The cells' metacal images made in double precision; false: in single precision (half the time;
-  // the images within ~1e-6 of their peak of the double ones: docs/metadetect.md, "Single-precision
+  // the images within ~2e-7 of their peak of the double ones: docs/metadetect.md, "Single-precision
   // images").
   bool double_images = false;
   // Fixnoise's field from the input's noise realisation (an image file's NOISE HDU, a tile's
