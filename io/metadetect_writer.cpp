@@ -322,6 +322,7 @@ void MetadetectWriter::append(std::span<const MetadetectRow> rows, long long cel
 void MetadetectWriter::finish() {
   State& s = *s_;
   if (s.failed || s.finished) fail("cannot finish '" + s.options.path + "': the writer is closed or failed");
+  bool unresumable = false;
   try {
     int status = 0;
     errno = 0;
@@ -329,11 +330,28 @@ void MetadetectWriter::finish() {
     // may yield no rows).
     fits_update_key_lng(s.fits, "NCELLSW", s.cells, "cells whose rows this table holds", &status);
     s.check(status, "write key NCELLSW to");
+    LONGLONG header_start = 0, data_start = 0, data_end = 0;
+    fits_get_hduaddrll(s.fits, &header_start, &data_start, &data_end, &status);
+    s.check(status, "locate the end of the table in");
     fits_close_file(s.fits, &status);
     const int error = errno;
     s.fits = nullptr;
     s.check(status, "close", error);
     s.file.sync();
+    // CFITSIO's close writes the last blocks and can lose a short write (a file-size limit or a
+    // full disk met there) without an error: the file must reach the table's end before it is
+    // named. Such a partial is not resumable (its committed blocks were rewritten by the close), so
+    // it is removed, not kept.
+    std::error_code size_error;
+    const auto size = std::filesystem::file_size(s.partial, size_error);
+    if (size_error || size < static_cast<std::uintmax_t>(data_end)) {
+      const std::string reason = space_exhausted_reason(s.partial, 0);
+      unresumable = true;
+      throw FileError("cannot write '" + s.partial + "': its last " +
+                      std::to_string(data_end - static_cast<LONGLONG>(size_error ? 0 : size)) + " bytes were not written (" +
+                      (reason.empty() ? "a short write at close" : reason) +
+                      "); the table is incomplete and was removed: make room, then run again (without --resume)");
+    }
     s.close_quietly();
     rename_file(s.partial, s.options.path);
     remove_if_present(s.checkpoint);
@@ -341,7 +359,7 @@ void MetadetectWriter::finish() {
     s.finished = true;
   } catch (const FileError& e) {
     s.failed = true;
-    s.keep_for_resume = file_exists(s.partial);
+    s.keep_for_resume = !unresumable && file_exists(s.partial);
     fail(e.what());
   }
 }
