@@ -683,16 +683,37 @@ void CatalogWriter::append(std::span<const ObjectRecord> rows) {
 void CatalogWriter::finish() {
   State& s = *s_;
   s.require_usable("finish");
+  bool unresumable = false;
   try {
     catalog_errors([&] {
       int status = 0;
       errno = 0;
+      // Where the file ends: the last HDU's data end.
+      int hdus = 0;
+      LONGLONG header_start = 0, data_start = 0, data_end = 0;
+      fits_get_num_hdus(s.fits, &hdus, &status);
+      fits_movabs_hdu(s.fits, hdus, nullptr, &status);
+      fits_get_hduaddrll(s.fits, &header_start, &data_start, &data_end, &status);
+      s.check(status, "locate the end of", errno);
       fits_close_file(s.fits, &status);
       const int error = errno;
       s.fits = nullptr;
       s.check(status, "close", error);
       s.fits_file.sync();
       s.close_quietly();
+      // CFITSIO's close writes the last blocks and can lose a short write (a file-size limit or a
+      // full disk met there) without an error: the file must reach its end before it is named.
+      // Such a partial is not resumable (the close rewrote committed blocks): it is removed.
+      std::error_code size_error;
+      const auto size = std::filesystem::file_size(s.fits_partial, size_error);
+      if (size_error || size < static_cast<std::uintmax_t>(data_end)) {
+        const std::string reason = space_exhausted_reason(s.fits_partial, 0);
+        unresumable = true;
+        throw CatalogError("cannot write '" + s.fits_partial + "': its last " +
+                           std::to_string(data_end - static_cast<LONGLONG>(size_error ? 0 : size)) +
+                           " bytes were not written (" + (reason.empty() ? "a short write at close" : reason) +
+                           "); the table is incomplete and was removed: make room, then run again (without --resume)");
+      }
       // The text first: once the FITS file has its final name the run counts as done.
       if (s.has_text()) {
         rename_file(s.text_partial, s.options.text_path);
@@ -707,7 +728,7 @@ void CatalogWriter::finish() {
   } catch (const CatalogError& e) {
     s.failed = true;
     // Until the FITS partial is renamed the run is resumable at its last commit; after, it is done.
-    if (s.rows == 0 || !s.options.keep_on_write_failure || !file_exists(s.fits_partial)) throw;
+    if (unresumable || s.rows == 0 || !s.options.keep_on_write_failure || !file_exists(s.fits_partial)) throw;
     s.keep_for_resume = true;
     throw CatalogError(std::string(e.what()) + "; the " + std::to_string(s.rows) + " committed rows are kept in '" +
                        s.fits_partial + "' (with '" + s.checkpoint + "'): resume the run (stampede fit --resume)");
