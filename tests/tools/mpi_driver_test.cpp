@@ -283,8 +283,8 @@ TEST_F(MpiDriver, MedsTilesOverTwoRanksWriteTheSingleProcessTable) {
   }
 }
 
-// `stampede-mpi metadetect`: the ranks' shards joined are the single process's table, byte for byte;
-// a rank killed then --resume gives it too.
+// `stampede-mpi metadetect`: the ranks' shards joined are the single process's table, byte for byte
+// (two ranks, and one); a rank killed then --resume gives it too.
 TEST_F(MpiDriver, MetadetectOverTwoRanksWritesTheSingleProcessTable) {
   const auto sim = stampede::testing::finish(
       stampede::testing::spawn({"cells", "--out", path("cells"), "--cells", "12", "--layout", "random"}, path("sim.txt"), "sim"),
@@ -306,6 +306,12 @@ TEST_F(MpiDriver, MetadetectOverTwoRanksWritesTheSingleProcessTable) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(read_bytes(path("single.fits")), read_bytes(path("mpi.fits")));
   EXPECT_FALSE(fs::exists(path("mpi.fits.part-0-of-2.fits")));
+  // One rank (`mpirun -n 1`): its part, a whole table, is the output (merge refused it: no SHARD).
+  const auto one = stampede::testing::finish(
+      spawn_mpi(1, std::vector<std::string>{"-o", path("one.fits")} + args, path("one.txt"), "metadetect"), path("one.txt"));
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  EXPECT_EQ(read_bytes(path("single.fits")), read_bytes(path("one.fits")));
+  EXPECT_FALSE(fs::exists(path("one.fits.part-0-of-1.fits")));
   // Killed when rank 1 has committed a cell: --resume finishes the job with the same table.
   const pid_t job = spawn_mpi(2, std::vector<std::string>{"-o", path("killed.fits")} + args, path("killed.txt"), "metadetect");
   const std::string checkpoint = path("killed.fits.part-1-of-2.fits.checkpoint");

@@ -55,7 +55,8 @@ int ranks_on_this_node() {
 
 // `stampede-mpi metadetect ARGS -o OUT.fits`: rank r of R measures shard r/R of the cells into
 // OUT.fits.part-r-of-R.fits (resumable on its own), then rank 0 joins the parts into OUT.fits as
-// `stampede merge` does and removes them: the table equals a single process's. Cells cost alike,
+// `stampede merge` does and removes them (one rank's part is renamed): the table equals a single
+// process's. Cells cost alike,
 // so contiguous shards keep the ranks equally busy.
 int run_metadetect_over_ranks(int argc, char** argv, int rank, int ranks) {
   MetadetectCommandLine command;
@@ -102,10 +103,17 @@ int run_metadetect_over_ranks(int argc, char** argv, int rank, int ranks) {
   if (any) return 1;
   if (rank == 0) {
     try {
-      std::vector<std::string> parts;
-      for (int r = 0; r < ranks; ++r) parts.push_back(part(r));
-      stampede::app::merge_metadetect_shards({parts, output, o.overwrite || o.resume});
-      for (const std::string& p : parts) stampede::io::remove_if_present(p);
+      if (ranks == 1) {
+        // One rank measured every cell (shard 0/1, a whole table with no SHARD key): its part is
+        // the table.
+        stampede::io::rename_file(part(0), output);
+        stampede::io::sync_directory_of(output);
+      } else {
+        std::vector<std::string> parts;
+        for (int r = 0; r < ranks; ++r) parts.push_back(part(r));
+        stampede::app::merge_metadetect_shards({parts, output, o.overwrite || o.resume});
+        for (const std::string& p : parts) stampede::io::remove_if_present(p);
+      }
       if (!command.quiet) std::fprintf(stderr, "stampede-mpi metadetect: %d ranks joined into %s\n", ranks, output.c_str());
     } catch (const std::exception& e) {
       std::fprintf(stderr, "stampede-mpi metadetect: error: %s\n", e.what());
