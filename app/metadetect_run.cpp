@@ -23,6 +23,7 @@
 #include "io/fits_error.hpp"
 #include "io/meds_file.hpp"
 #include "io/metadetect_writer.hpp"
+#include "io/durable_file.hpp"
 #include "io/output_check.hpp"
 #include "io/output_lock.hpp"
 #include "io/psfex_file.hpp"
@@ -628,6 +629,16 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
     if (io::same_file(in, options.output)) throw io::ConfigError("the output '" + options.output + "' is the input");
   for (const std::string& p : images.psfex)
     if (io::same_file(p, options.output)) throw io::ConfigError("the output '" + options.output + "' is --psfex");
+  {
+    // Nor may an input be one of the files written beside the output (a failed run removes them).
+    const io::RunOutput out{"-o", options.output,
+                            {options.output + ".partial", options.output + ".checkpoint",
+                             io::temporary_path(options.output + ".checkpoint"), io::OutputLock::path_for(options.output)}};
+    std::vector<io::RunInput> reads;
+    for (const std::string& in : files) reads.push_back({"input", io::fits_root_name(in)});
+    for (const std::string& p : images.psfex) reads.push_back({"--psfex", p});
+    io::check_outputs(std::span(&out, 1), reads, true);
+  }
   const io::OutputLock lock = io::OutputLock::acquire(options.output);
   if (!options.resume) io::refuse_to_replace(options.output, options.overwrite);
 

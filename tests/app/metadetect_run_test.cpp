@@ -641,6 +641,31 @@ std::vector<float> gaussian(int n, double sigma) {
   return out;
 }
 
+// An input named like a file the run writes beside its output (OUT.fits.partial, .checkpoint,
+// .lock) is refused before any work and left as it was (a failed run removes those files).
+TEST(MetadetectRun, AnInputNamedLikeTheOutputsPartialIsRefusedAndKept) {
+  testing::ScratchDir scratch("stampede_mdet_companion_");
+  const std::vector<std::string> cells = sim_cells(scratch.path("sims"), 1);
+  for (const char* suffix : {".partial", ".checkpoint", ".lock"}) {
+    const std::string input = scratch.path(std::string("t.fits") + suffix);
+    std::filesystem::copy_file(cells[0], input, std::filesystem::copy_options::overwrite_existing);
+    const auto before = std::filesystem::file_size(input);
+    MetadetectRunOptions o;
+    o.inputs = {input};
+    o.output = scratch.path("t.fits");
+    o.overwrite = true;
+    try {
+      run_metadetect(o);
+      ADD_FAILURE() << suffix << ": accepted";
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find("which is the input '" + input + "'"), std::string::npos) << e.what();
+    }
+    ASSERT_TRUE(std::filesystem::exists(input)) << suffix;
+    EXPECT_EQ(std::filesystem::file_size(input), before) << suffix;
+    EXPECT_FALSE(std::filesystem::exists(o.output)) << suffix;
+  }
+}
+
 // The cells' images in single precision (the default) or in double (--double-images): the header
 // says which, and the same objects are measured to float rounding (the images within ~2e-7 of
 // their peak; measured: positions within 9e-7 px, e within 6e-8).
