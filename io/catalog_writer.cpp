@@ -701,18 +701,12 @@ void CatalogWriter::finish() {
       s.check(status, "close", error);
       s.fits_file.sync();
       s.close_quietly();
-      // CFITSIO's close writes the last blocks and can lose a short write (a file-size limit or a
-      // full disk met there) without an error: the file must reach its end before it is named.
-      // Such a partial is not resumable (the close rewrote committed blocks): it is removed.
-      std::error_code size_error;
-      const auto size = std::filesystem::file_size(s.fits_partial, size_error);
-      if (size_error || size < static_cast<std::uintmax_t>(data_end)) {
-        const std::string reason = space_exhausted_reason(s.fits_partial, 0);
+      // The file must reach its end before it is named (unwritten_tail). A partial the close cut is
+      // not resumable (the close rewrote committed blocks): it is removed, not kept.
+      if (const std::string tail = unwritten_tail(s.fits_partial, data_end); !tail.empty()) {
         unresumable = true;
-        throw CatalogError("cannot write '" + s.fits_partial + "': its last " +
-                           std::to_string(data_end - static_cast<LONGLONG>(size_error ? 0 : size)) +
-                           " bytes were not written (" + (reason.empty() ? "a short write at close" : reason) +
-                           "); the table is incomplete and was removed: make room, then run again (without --resume)");
+        throw CatalogError(tail +
+                           "; the table is incomplete and was removed: make room, then run again (without --resume)");
       }
       // The text first: once the FITS file has its final name the run counts as done.
       if (s.has_text()) {

@@ -169,6 +169,16 @@ bool file_exists(const std::string& path) {
   return ::stat(path.c_str(), &st) == 0;
 }
 
+std::string unwritten_tail(const std::string& path, long long end) {
+  std::error_code error;
+  const auto size = std::filesystem::file_size(path, error);
+  const long long have = error ? 0 : static_cast<long long>(size);
+  if (have >= end) return "";
+  const std::string reason = space_exhausted_reason(path, 0);
+  return "cannot write '" + path + "': its last " + std::to_string(end - have) + " bytes were not written (" +
+         (reason.empty() ? "a short write at close" : reason) + ")";
+}
+
 std::string temporary_path(const std::string& path) { return path + ".tmp"; }
 
 void rename_file(const std::string& from, const std::string& to) {

@@ -96,6 +96,12 @@ void rename_file(const std::string& from, const std::string& to);
 // process's RLIMIT_FSIZE, no block available on its filesystem (statvfs). "" when none explains it.
 std::string space_exhausted_reason(const std::string& path, int error);
 
+// "" when the file at `path` holds at least `end` bytes; else "cannot write 'PATH': its last N bytes
+// were not written (what ran out, or: a short write at close)". For a file CFITSIO closed: its
+// close writes the last blocks and can lose a short write (a file-size limit or a full disk met
+// there) without reporting it.
+std::string unwritten_tail(const std::string& path, long long end);
+
 // Makes SIGXFSZ ignored when it has its default action (which kills the process with no message
 // when a write passes RLIMIT_FSIZE): the write then fails with EFBIG, which the writers report. A
 // handler the program installed is left alone. Idempotent; called by every output path.

@@ -338,19 +338,11 @@ void MetadetectWriter::finish() {
     s.fits = nullptr;
     s.check(status, "close", error);
     s.file.sync();
-    // CFITSIO's close writes the last blocks and can lose a short write (a file-size limit or a
-    // full disk met there) without an error: the file must reach the table's end before it is
-    // named. Such a partial is not resumable (its committed blocks were rewritten by the close), so
-    // it is removed, not kept.
-    std::error_code size_error;
-    const auto size = std::filesystem::file_size(s.partial, size_error);
-    if (size_error || size < static_cast<std::uintmax_t>(data_end)) {
-      const std::string reason = space_exhausted_reason(s.partial, 0);
+    // The file must reach the table's end before it is named (unwritten_tail). A partial the close
+    // cut is not resumable (the close rewrote committed blocks): it is removed, not kept.
+    if (const std::string tail = unwritten_tail(s.partial, data_end); !tail.empty()) {
       unresumable = true;
-      throw FileError("cannot write '" + s.partial + "': its last " +
-                      std::to_string(data_end - static_cast<LONGLONG>(size_error ? 0 : size)) + " bytes were not written (" +
-                      (reason.empty() ? "a short write at close" : reason) +
-                      "); the table is incomplete and was removed: make room, then run again (without --resume)");
+      throw FileError(tail + "; the table is incomplete and was removed: make room, then run again (without --resume)");
     }
     s.close_quietly();
     rename_file(s.partial, s.options.path);

@@ -85,10 +85,11 @@ bool MetacalImageSet::make(std::span<const double> pixels, std::span<const doubl
       for (std::size_t i = 0; i < npix; ++i) noise_[i] = noise_[i] > 0 ? fixnoise_sign * noise_field[i] : 0.0;
     rotate(noise_, turned_, s_);
   }
+  const std::span<const double> turned = fixnoise ? std::span<const double>(turned_) : std::span<const double>();
   if (single_imager_)
-    single_imager_->make_images(data_, filters, centre, centre, out, fixnoise ? std::span<const double>(turned_) : std::span<const double>());
+    single_imager_->make_images(data_, filters, centre, centre, out, turned);
   else
-    imager_->make_images(data_, filters, centre, centre, out, fixnoise ? std::span<const double>(turned_) : std::span<const double>());
+    imager_->make_images(data_, filters, centre, centre, out, turned);
   *image_variance = mean_variance * filters.noise_gain() * (fixnoise ? 2.0 : 1.0);
   if (noise_power) {
     noise_power->clear();

@@ -224,10 +224,9 @@ const Real* BasicMetacalImager<Real>::weights_for(std::span<const double> positi
 }
 
 template <class Real>
-template <class In, class Out>
-void BasicMetacalImager<Real>::transpose(const In* in, int in_stride, Out* out, int out_stride, int rows, int cols) {
+void BasicMetacalImager<Real>::transpose(const Real* in, int in_stride, Real* out, int out_stride, int rows, int cols) {
   kernels::for_each_blocked(rows, cols, [&](int r, int c) {
-    out[static_cast<std::size_t>(c) * out_stride + r] = static_cast<Out>(in[static_cast<std::size_t>(r) * in_stride + c]);
+    out[static_cast<std::size_t>(c) * out_stride + r] = in[static_cast<std::size_t>(r) * in_stride + c];
   });
 }
 

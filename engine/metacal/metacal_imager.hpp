@@ -88,8 +88,7 @@ class BasicMetacalImager {
   // centre).
   void shift_rows(Real* grid, double coef, double centre);
   // out[c * out_stride + r] = in[r * in_stride + c] for r < rows, c < cols.
-  template <class In, class Out>
-  static void transpose(const In* in, int in_stride, Out* out, int out_stride, int rows, int cols);
+  static void transpose(const Real* in, int in_stride, Real* out, int out_stride, int rows, int cols);
   // The stamp's pixel (0, 0) in an M x M grid.
   const Real* window(const Real* grid) const { return grid + static_cast<std::size_t>(offset_) * m_ + offset_; }
   // An image v(y, x) = src[y row_stride + x column_stride] (y, x < S) into out (S x S): stored, or

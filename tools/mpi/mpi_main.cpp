@@ -56,8 +56,7 @@ int ranks_on_this_node() {
 // `stampede-mpi metadetect ARGS -o OUT.fits`: rank r of R measures shard r/R of the cells into
 // OUT.fits.part-r-of-R.fits (resumable on its own), then rank 0 joins the parts into OUT.fits as
 // `stampede merge` does and removes them (one rank's part is renamed): the table equals a single
-// process's. Cells cost alike,
-// so contiguous shards keep the ranks equally busy.
+// process's. Cells cost alike, so contiguous shards keep the ranks equally busy.
 int run_metadetect_over_ranks(int argc, char** argv, int rank, int ranks) {
   MetadetectCommandLine command;
   int failed = 0;
