@@ -591,7 +591,9 @@ std::unique_ptr<io::CatalogWriter> open_writer(const FitRunOptions& a, RunInput&
     return nullptr;
   }
   if (!a.resume) return io::CatalogWriter::create(wo);
-  std::unique_ptr<io::CatalogWriter> writer = io::CatalogWriter::resume(wo, &summary->resumed);
+  bool started = false;
+  std::unique_ptr<io::CatalogWriter> writer = io::CatalogWriter::resume(wo, &summary->resumed, &started);
+  if (started) warn_of(a, "nothing to resume at " + a.output + ": no object was committed; the run starts from the first");
   in.source().skip_to(summary->resumed);
   return writer;
 }

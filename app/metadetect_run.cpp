@@ -694,7 +694,7 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
   MetadetectRunSummary summary;
   std::unique_ptr<io::MetadetectWriter> writer;
   if (options.resume) {
-    writer = io::MetadetectWriter::resume(wo, &summary.cells_resumed);
+    writer = io::MetadetectWriter::resume(wo, &summary.cells_resumed, &summary.resume_started);
   } else {
     writer = io::MetadetectWriter::create(wo);
   }

@@ -55,6 +55,7 @@ struct MetadetectProgress {
 struct MetadetectRunSummary {
   long long cells = 0, cells_failed = 0, rows = 0;
   long long cells_resumed = 0;  // committed by an earlier run
+  bool resume_started = false;  // resume found nothing committed: the run started from the first cell
   int threads = 0;
   double seconds = 0;
   bool stopped = false;

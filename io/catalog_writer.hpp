@@ -2,15 +2,9 @@
 // killed at any moment (even kill -9 or a power cut) resumes without refitting committed objects.
 //
 // Outputs: a FITS binary table (EXTNAME 'RESULTS', one row per object) and optionally a whitespace
-// text table with the same columns. While a run is in progress they live at `PATH.partial` (and
-// `TEXT_PATH.partial`), with a small checkpoint `PATH.checkpoint` recording how many rows are
-// committed. Each append() is one commit:
-//   1. rows written to both partials (FITS: fits_write_col per column per chunk of rows);
-//   2. both partials flushed and fsync'd (FITS: fits_flush_file, which also rewrites NAXIS2);
-//   3. the checkpoint replaced atomically (durable_file.hpp: write PATH.checkpoint.tmp, fsync,
-//      rename, fsync dir).
-// So the checkpoint never counts a row that is not on disk; bytes past it are discarded on resume.
-// finish() renames the partials to their final names and removes the checkpoint.
+// text table with the same columns, written with the durable table's commit protocol
+// (io/durable_table.hpp: PATH.partial and PATH.checkpoint while the run is in progress, each
+// append() one commit, resume() cutting back to the last commit in raw bytes, finish() renaming).
 //
 // Columns: the schema in result_columns.hpp (catalog_columns() gives the names in order); units and
 // descriptions are in the header as TUNITn / TCOMMn, the FitStatus values are named by the header
@@ -28,19 +22,12 @@
 #include <utility>
 #include <vector>
 
-#include "engine/common/error.hpp"
+#include "io/catalog_error.hpp"
 #include "engine/pipeline/object_record.hpp"
 #include "io/header_value.hpp"
 #include "io/result_columns.hpp"
 
 namespace stampede::io {
-
-// Every failure of the writer: I/O errors, unwritable paths, nothing or the wrong run to resume.
-// The message names the file concerned.
-class CatalogError : public Error {
- public:
-  using Error::Error;
-};
 
 struct CatalogWriterOptions {
   std::string path;         // final FITS path, e.g. out.fits (uncompressed: no .gz / .fz)
@@ -79,14 +66,16 @@ class CatalogWriter {
 
   // Continues an interrupted run: reopens the partials, cuts them back to the rows recorded in the
   // checkpoint and stores that count in *rows_committed (if not null); the caller then appends
-  // from that row on. Throws CatalogError:
+  // from that row on; with nothing committed (no checkpoint) the table starts afresh and
+  // *rows_committed is 0. Throws CatalogError:
   //   "nothing to resume at PATH: it is complete ..."  PATH is there, with no partial or checkpoint;
-//   "nothing to resume at PATH: ..."  no checkpoint or no partial output;
+  //   "nothing to resume at PATH: ..."  a checkpoint without its partial outputs;
   //   "PATH.checkpoint was written by a different run (input or configuration changed): it records
   //    'LINE', this run has 'LINE'" (the first fingerprint line that differs);
   //   "... is corrupt: ..."  the checkpoint or a partial cannot be what this writer left there.
-  static std::unique_ptr<CatalogWriter> resume(const CatalogWriterOptions& options,
-                                               long long* rows_committed);
+  // *started (if not null): nothing was committed, the table was started anew.
+  static std::unique_ptr<CatalogWriter> resume(const CatalogWriterOptions& options, long long* rows_committed,
+                                               bool* started = nullptr);
 
   CatalogWriter(const CatalogWriter&) = delete;
   CatalogWriter& operator=(const CatalogWriter&) = delete;

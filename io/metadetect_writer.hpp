@@ -2,11 +2,10 @@
 // (cell, shear type, detection) and one flagged row per cell that could not be measured, written
 // cell batch by cell batch so that a killed run resumes without remeasuring committed cells.
 //
-// The commit protocol is the fit catalogue's (catalog_writer.hpp): rows written to PATH.partial,
-// flushed and fsync'd, then PATH.checkpoint replaced atomically with the committed row count and
-// *cell* count (a cell yields any number of rows, so the run resumes at the next cell, not row);
-// finish() records the cells in header key NCELLSW and renames the partial to PATH. resume() refuses a checkpoint of another run (the
-// fingerprint: inputs' digests, options, version).
+// The commit protocol is the durable table's (io/durable_table.hpp), whose units here are cells (a
+// cell yields any number of rows, so the run resumes at the next cell, not row); finish() records
+// the cells in header key NCELLSW (its room reserved at creation) and renames the partial to PATH.
+// resume() refuses a checkpoint of another run (the fingerprint: inputs' digests, options, version).
 //
 // Columns (TUNITn, TCOMMn in the header): cell shear_type id x y u v e1 e2 e1_err e2_err T T_ratio
 // psf_T flux snr mfrac box_size isophotal_area sep_flags flags [flux_<band>... snr_<band>...]. Not thread-safe: the pipeline's
@@ -20,7 +19,7 @@
 #include <vector>
 
 #include "engine/metadetect/metadetect_row.hpp"
-#include "io/catalog_writer.hpp"
+#include "io/catalog_error.hpp"
 #include "io/header_value.hpp"
 
 namespace stampede::io {
@@ -43,7 +42,9 @@ class MetadetectWriter {
   // Throws CatalogError naming the path.
   static std::unique_ptr<MetadetectWriter> create(const MetadetectWriterOptions& options);
   // *cells_committed: the cells whose rows are all on disk; the run continues at that cell.
-  static std::unique_ptr<MetadetectWriter> resume(const MetadetectWriterOptions& options, long long* cells_committed);
+  // *started (if not null): nothing was committed, the table was started anew.
+  static std::unique_ptr<MetadetectWriter> resume(const MetadetectWriterOptions& options, long long* cells_committed,
+                                                  bool* started = nullptr);
   ~MetadetectWriter();
   MetadetectWriter(const MetadetectWriter&) = delete;
   MetadetectWriter& operator=(const MetadetectWriter&) = delete;

@@ -274,6 +274,9 @@ int run_metadetect_with_reports(const MetadetectCommandLine& command) {
     printer.update(p.seconds, line);
   });
   printer.finish();
+  if (r.resume_started)
+    std::fprintf(stderr, "stampede metadetect: warning: nothing to resume at %s: no cell was committed; the run started "
+                 "from the first\n", o.output.c_str());
   for (const std::string& p : r.problems) std::fprintf(stderr, "stampede metadetect: warning: %s\n", p.c_str());
   if (r.cells_failed > static_cast<long long>(r.problems.size()))
     std::fprintf(stderr, "stampede metadetect: warning: %lld more cells failed\n",

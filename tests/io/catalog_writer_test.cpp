@@ -502,12 +502,14 @@ TEST_F(CatalogWriterTest, ResumeRefusesADifferentRun) {
   EXPECT_EQ(committed, 10);
 }
 
-TEST_F(CatalogWriterTest, ResumeWithNothingThereThrows) {
+// Nothing committed (no checkpoint): resume starts the table. A finished run, or a checkpoint
+// whose partials are gone, has nothing to resume.
+TEST_F(CatalogWriterTest, ResumeWithNothingCommittedStartsTheTable) {
   CatalogWriterOptions o = options();
-  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); }),
-                       "nothing to resume at " + o.path));
-  // A finished run has nothing left to resume either.
-  auto w = CatalogWriter::create(o);
+  long long committed = -1;
+  auto w = CatalogWriter::resume(o, &committed);
+  EXPECT_EQ(committed, 0);
+  EXPECT_TRUE(fs::exists(o.path + ".partial") && fs::exists(o.path + ".checkpoint"));
   w->finish();
   EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); }),
                        "nothing to resume at " + o.path));
@@ -592,8 +594,7 @@ TEST_F(CatalogWriterTest, CreateFailsUpFrontNamingThePath) {
   // Not even a stale run it was meant to replace.
   CatalogWriter::create(options()).reset();
   EXPECT_FALSE(error_of<CatalogError>([&] { CatalogWriter::create(o); }).empty());
-  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(options(), nullptr); }),
-                       "nothing to resume"));
+  EXPECT_FALSE(fs::exists(options().path + ".checkpoint")) << "nothing left to resume: a resume starts anew";
   o = options();
   o.path += ".gz";
   EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::create(o); }), "compressed"));

@@ -320,7 +320,7 @@ TEST_F(MpiDriver, MetadetectOverTwoRanksWritesTheSingleProcessTable) {
     std::ifstream c(checkpoint);
     std::stringstream text;
     text << c.rdbuf();
-    if (text.str().find("\ncells ") != std::string::npos && text.str().find("\ncells 0\n") == std::string::npos)
+    if (text.str().find("\nunits ") != std::string::npos && text.str().find("\nunits 0\n") == std::string::npos)
       victim = rank_pid(path("killed.fits"), 1);
     if (victim < 0) usleep(10000);
   }
