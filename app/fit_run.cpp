@@ -150,8 +150,7 @@ std::string images_path_for(std::string output) {
 // The run's outputs and the files it writes beside them, as io::check_outputs takes them.
 std::vector<io::RunOutput> outputs_of(const FitRunOptions& a, const app::RunConfig& cfg) {
   std::vector<io::RunOutput> out;
-  out.push_back({"-o", a.output, {a.output + ".partial", a.output + ".checkpoint", io::temporary_path(a.output + ".checkpoint"),
-                                  io::OutputLock::path_for(a.output)}});
+  out.push_back(table_output("-o", a.output));
   if (!a.text_output.empty())
     out.push_back({"--text", a.text_output, {a.text_output + ".partial", io::OutputLock::path_for(a.text_output)}});
   if (!cfg.save_images.empty()) out.push_back({"save_images", images_path_for(a.output), {}});
@@ -230,7 +229,7 @@ io::CatalogWriterOptions base_writer_options(const FitRunOptions& a, const app::
 // Adds the shard's keys after the fingerprint's lines, and to it: a shard resumes only as that shard.
 void add_shard_keys(const FitRunOptions& a, long long input_objects, io::CatalogWriterOptions* wo) {
   if (a.shards <= 1) return;
-  wo->header.emplace_back(kShardKey, std::to_string(a.shard) + "/" + std::to_string(a.shards));
+  wo->header.emplace_back(kShardKey, shard_text(a.shard, a.shards));
   wo->header.emplace_back(kShardTotalKey, std::to_string(input_objects));
   wo->header_types[kShardTotalKey] = io::HeaderValueType::kInteger;
   wo->fingerprint += "shard " + std::to_string(a.shard) + "/" + std::to_string(a.shards) + " of " +
@@ -250,26 +249,11 @@ void add_identity_keys(const std::vector<FingerprintFile>& files, const std::vec
 // skip_if_complete: true when a.output is already this run's complete table (its RUNFP is this
 // run's), so that the run is skipped; throws io::ConfigError naming it when it is another run's.
 bool output_is_this_complete_run(const FitRunOptions& a, const io::CatalogWriterOptions& wo) {
-  if (!a.resume || !a.skip_if_complete || !std::filesystem::exists(a.output) ||
-      std::filesystem::exists(a.output + ".checkpoint"))
-    return false;
-  std::string recorded;
-  try {
-    io::FitsFile f = io::FitsFile::open_read(a.output);
-    f.move_to("RESULTS");
-    recorded = f.read_key_string(kRunFingerprintKey).value_or("");
-  } catch (const std::exception& e) {
-    throw io::ConfigError(a.output + " exists and is not a result table --resume can check: " + e.what());
-  }
+  if (!a.resume || !a.skip_if_complete) return false;
   std::string mine;
   for (const auto& [k, v] : wo.header)
     if (k == kRunFingerprintKey) mine = v;
-  if (recorded == mine) return true;
-  throw io::ConfigError(a.output + " is complete but was written by another run (" +
-                        (recorded.empty() ? std::string("it records no ") + kRunFingerprintKey
-                                          : std::string(kRunFingerprintKey) + " = '" + recorded + "', this run's '" + mine + "'") +
-                        ": the input's content, the options or the program version differ); remove it, or refit "
-                        "it with --overwrite");
+  return is_this_runs_complete_table(a.output, "RESULTS", mine);
 }
 
 
@@ -301,8 +285,8 @@ void take_shard(const FitRunOptions& a, RunInput* in) {
   in->objects = in->whole->total_objects();
   if (a.shards <= 1) return;
   if (in->objects < 0) throw io::ConfigError("--shard needs an input whose object count is known");
-  in->shard = std::make_unique<RangeSource>(*in->whole, shard_begin(in->objects, a.shard, a.shards),
-                                            shard_begin(in->objects, a.shard + 1, a.shards));
+  const ShardRange range = shard_range(in->objects, a.shard, a.shards);
+  in->shard = std::make_unique<RangeSource>(*in->whole, range.begin, range.end);
 }
 
 // What a grid's header says of itself, used as a user expects: the PSF it records (unless the run
@@ -647,29 +631,11 @@ RunSummary run_input(const FitRunOptions& a, RunInput& in, Clock::time_point sta
 
 }  // namespace
 
-std::optional<std::pair<int, int>> parse_shard(const std::string& text) {
-  const std::size_t slash = text.find('/');
-  if (slash == std::string::npos) return std::nullopt;
-  int i = 0, n = 0;
-  const char* end = text.data() + text.size();
-  const auto a = std::from_chars(text.data(), text.data() + slash, i);
-  const auto b = std::from_chars(text.data() + slash + 1, end, n);
-  if (a.ec != std::errc() || a.ptr != text.data() + slash || b.ec != std::errc() || b.ptr != end) return std::nullopt;
-  if (n < 1 || n > 1000000 || i < 0 || i >= n) return std::nullopt;
-  return std::pair{i, n};
-}
-
 std::string FitRunProgress::Line() const {
   char buf[160];
   std::snprintf(buf, sizeof buf, "%lld/%lld objects (%.1f%%), %.1f objects/s, ETA %.0f s   ", objects_done,
                 objects_total, 100.0 * objects_done / std::max(objects_total, 1LL), objects_per_second, eta_seconds);
   return buf;
-}
-
-void check_threads(long long threads, const std::string& what) {
-  if (threads < 0 || threads > kMaxThreads)
-    throw io::ConfigError(what + " = " + std::to_string(threads) + ": must be 0 (all cores) or 1.." +
-                          std::to_string(kMaxThreads));
 }
 
 MedsFitOptions survey_fit_options(const app::RunConfig& cfg) {
@@ -698,9 +664,7 @@ RunSummary FitRun::run() const {
   const FitRunOptions& a = options_;
   check_threads(a.threads, "threads");
   if (a.output.empty() && a.resume) throw std::invalid_argument("fit run: resume needs the output to resume");
-  if (a.shards < 1 || a.shard < 0 || a.shard >= a.shards)
-    throw io::ConfigError("--shard " + std::to_string(a.shard) + "/" + std::to_string(a.shards) +
-                          ": must be i/N with 0 <= i < N");
+  shard_range(0, a.shard, a.shards);  // checks the shard before anything is read
   const Warn warn = [&a](const std::string& text) { warn_of(a, text); };
   RunInput input = a.meds.empty() ? open_stamp_input(a, warn) : open_survey_input(a, warn);
   return run_input(a, input, start);

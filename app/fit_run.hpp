@@ -21,28 +21,13 @@
 #include <string>
 #include <utility>
 
+#include "app/run_harness.hpp"
 #include "app/run_summary.hpp"
 #include "engine/pipeline/object_record.hpp"
 #include "engine/pipeline/pipeline.hpp"
 #include "app/run_config.hpp"
 
 namespace stampede::app {
-
-// The header keys of a shard's table: "i/N", and the whole input's object count.
-inline constexpr const char* kShardKey = "SHARD";
-inline constexpr const char* kShardTotalKey = "SHARDTOT";
-// The run's identity in its table's header: RUNFP, 16 hex digits of the whole fingerprint (inputs'
-// contents, options, program version, shard); per input file, its size and digest (what merge compares,
-// not the path as typed).
-inline constexpr const char* kRunFingerprintKey = "RUNFP";
-
-// Worker threads, one rule for every front end (CLI --threads, Python threads=, MPI): 0 = all of
-// the machine's cores, else 1 .. kMaxThreads. Throws io::ConfigError naming `what` otherwise.
-inline constexpr int kMaxThreads = 4096;
-void check_threads(long long threads, const std::string& what);
-// "I/N" (the --shard argument and the SHARD key) as {I, N}; nullopt unless it is exactly two
-// integers with 0 <= I < N <= 1000000.
-std::optional<std::pair<int, int>> parse_shard(const std::string& text);
 
 struct FitRunProgress {
   long long objects_done = 0;   // committed, including the resumed ones

@@ -11,6 +11,8 @@
 #include <memory>
 #include <sstream>
 
+#include "app/run_fingerprint.hpp"
+#include "app/run_harness.hpp"
 #include "app/version.hpp"
 #include "engine/metacal/metacal_type.hpp"
 #include "engine/metadetect/cell_layout.hpp"
@@ -580,6 +582,51 @@ std::vector<std::string> metadetect_bands(const MetadetectRunOptions& options) {
   return names;
 }
 
+namespace {
+
+// Every file a run reads: the inputs (each image path expanded per band, scene by scene), then the
+// PSFEx models (one per band).
+struct MetadetectFiles {
+  CellSource::Images images;
+  std::vector<std::string> files;
+};
+
+MetadetectFiles files_read(const MetadetectRunOptions& options, const std::vector<std::string>& bands) {
+  MetadetectFiles out;
+  if (options.tile) {
+    out.files = options.inputs;
+    return out;
+  }
+  const std::vector<std::string> names = bands.empty() ? std::vector<std::string>{""} : bands;
+  for (const std::string& in : options.inputs) {
+    out.images.names.push_back(in);
+    out.images.files.emplace_back();
+    for (const std::string& b : names) out.images.files.back().push_back(expand_band(in, b));
+    out.files.insert(out.files.end(), out.images.files.back().begin(), out.images.files.back().end());
+  }
+  if (!options.psfex.empty())
+    for (const std::string& b : names) out.images.psfex.push_back(expand_band(options.psfex, b));
+  return out;
+}
+
+}  // namespace
+
+void check_metadetect_outputs(const MetadetectRunOptions& options, const std::vector<std::string>& parts) {
+  const MetadetectFiles read = files_read(options, metadetect_bands(options));
+  for (const std::string& in : read.files)
+    if (io::same_file(in, options.output)) throw io::ConfigError("the output '" + options.output + "' is the input");
+  for (const std::string& p : read.images.psfex)
+    if (io::same_file(p, options.output)) throw io::ConfigError("the output '" + options.output + "' is --psfex");
+  // Nor may an input be one of the files written beside the output, or a part (a failed run removes them).
+  std::vector<io::RunOutput> outputs = {table_output("-o", options.output)};
+  for (const std::string& part : parts) outputs.push_back(table_output("-o (a rank's part)", part));
+  std::vector<io::RunInput> reads;
+  for (const std::string& in : read.files) reads.push_back({"input", io::fits_root_name(in)});
+  for (const std::string& p : read.images.psfex) reads.push_back({"--psfex", p});
+  io::check_outputs(outputs, reads, true);
+  if (!options.resume) io::refuse_to_replace(options.output, options.overwrite);
+}
+
 std::vector<MetadetectRow> metadetect_image(const io::CellImage& image, const MetadetectOptions& options, int threads,
                                             long long* cells_failed) {
   std::string why;
@@ -604,43 +651,13 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
   if (options.inputs.empty()) throw io::ConfigError("no input image: give IMAGE.fits or --input-list");
   if (options.output.empty()) throw io::ConfigError("no output: give -o OUT.fits");
   if (options.cells_per_batch < 1) throw io::ConfigError("cells per batch must be >= 1");
-  if (options.shards < 1 || options.shard < 0 || options.shard >= options.shards)
-    throw io::ConfigError("--shard " + std::to_string(options.shard) + "/" + std::to_string(options.shards) +
-                          ": must be I/N with 0 <= I < N");
+  shard_range(0, options.shard, options.shards);  // checks the shard before anything is read
   const std::vector<std::string> bands = metadetect_bands(options);
-  // Every file the run reads: the inputs (each image path expanded per band, scene by scene), then
-  // the PSFEx models (one per band).
-  CellSource::Images images;
-  std::vector<std::string> files;
-  if (options.tile) {
-    files = options.inputs;
-  } else {
-    const std::vector<std::string> names = bands.empty() ? std::vector<std::string>{""} : bands;
-    for (const std::string& in : options.inputs) {
-      images.names.push_back(in);
-      images.files.emplace_back();
-      for (const std::string& b : names) images.files.back().push_back(expand_band(in, b));
-      files.insert(files.end(), images.files.back().begin(), images.files.back().end());
-    }
-    if (!options.psfex.empty())
-      for (const std::string& b : names) images.psfex.push_back(expand_band(options.psfex, b));
-  }
-  for (const std::string& in : files)
-    if (io::same_file(in, options.output)) throw io::ConfigError("the output '" + options.output + "' is the input");
-  for (const std::string& p : images.psfex)
-    if (io::same_file(p, options.output)) throw io::ConfigError("the output '" + options.output + "' is --psfex");
-  {
-    // Nor may an input be one of the files written beside the output (a failed run removes them).
-    const io::RunOutput out{"-o", options.output,
-                            {options.output + ".partial", options.output + ".checkpoint",
-                             io::temporary_path(options.output + ".checkpoint"), io::OutputLock::path_for(options.output)}};
-    std::vector<io::RunInput> reads;
-    for (const std::string& in : files) reads.push_back({"input", io::fits_root_name(in)});
-    for (const std::string& p : images.psfex) reads.push_back({"--psfex", p});
-    io::check_outputs(std::span(&out, 1), reads, true);
-  }
+  const MetadetectFiles read = files_read(options, bands);
+  const CellSource::Images& images = read.images;
+  const std::vector<std::string>& files = read.files;
+  check_metadetect_outputs(options);
   const io::OutputLock lock = io::OutputLock::acquire(options.output);
-  if (!options.resume) io::refuse_to_replace(options.output, options.overwrite);
 
   CellSource source = options.tile ? CellSource(CellSource::Tile{options.inputs}, options.metadetect)
                                    : CellSource(images, options.metadetect);
@@ -675,12 +692,14 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
     fingerprint += "psfex " + images.psfex[i] + " " + d.text() + "\n";
   }
   wo.header.emplace_back("NCELLS", std::to_string(source.total_objects()));
-  const long long total = source.total_objects();
-  const long long begin = total * options.shard / options.shards, end = total * (options.shard + 1) / options.shards;
+  const ShardRange range = shard_range(source.total_objects(), options.shard, options.shards);
+  const long long begin = range.begin, end = range.end;
+  // RUNFP identifies the measurement, not the shard: the shards' tables join into the whole run's.
+  const std::string runfp = RunFingerprint().text(fingerprint).hex();
+  wo.header.emplace_back(kRunFingerprintKey, runfp);
   if (options.shards > 1) {
-    const std::string shard = std::to_string(options.shard) + "/" + std::to_string(options.shards);
-    wo.header.emplace_back("SHARD", shard);
-    fingerprint += "shard " + shard + "\n";
+    wo.header.emplace_back(kShardKey, shard_text(options.shard, options.shards));
+    fingerprint += "shard " + shard_text(options.shard, options.shards) + "\n";
   }
   wo.header_types = {{"CELLSIZE", io::HeaderValueType::kInteger}, {"CELLBUF", io::HeaderValueType::kInteger},
                      {"MCSTEP", io::HeaderValueType::kReal},      {"MCPSFDIL", io::HeaderValueType::kReal},
@@ -692,6 +711,10 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
   wo.fingerprint = fingerprint;
 
   MetadetectRunSummary summary;
+  if (options.resume && is_this_runs_complete_table(options.output, "METADETECT", runfp)) {
+    summary.skipped = true;
+    return summary;
+  }
   std::unique_ptr<io::MetadetectWriter> writer;
   if (options.resume) {
     writer = io::MetadetectWriter::resume(wo, &summary.cells_resumed, &summary.resume_started);

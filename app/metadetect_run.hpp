@@ -55,7 +55,8 @@ struct MetadetectProgress {
 struct MetadetectRunSummary {
   long long cells = 0, cells_failed = 0, rows = 0;
   long long cells_resumed = 0;  // committed by an earlier run
-  bool resume_started = false;  // resume found nothing committed: the run started from the first cell
+  bool resume_started = false;
+  bool skipped = false;  // resume found the output complete, this run's table (its RUNFP)  // resume found nothing committed: the run started from the first cell
   int threads = 0;
   double seconds = 0;
   bool stopped = false;
@@ -76,6 +77,13 @@ std::vector<MetadetectRow> metadetect_image(const io::CellImage& image, const Me
 
 // `path` with each `{band}` replaced by `band`.
 std::string expand_band(const std::string& path, const std::string& band);
+
+// The checks run_metadetect makes of its output before any work, for any front end; `parts`: the
+// tables a job writes before joining them into the output (stampede-mpi's ranks' parts). None of
+// them, nor the files written beside them, is an input or --psfex, and an existing output is
+// replaced only with overwrite (or continued with resume). Throws io::ConfigError or io::FileError
+// naming the files.
+void check_metadetect_outputs(const MetadetectRunOptions& options, const std::vector<std::string>& parts = {});
 
 // Throws stampede::Error subclasses (io::FitsError, io::CatalogError, ConfigError) naming the file,
 // HDU, key or option.

@@ -274,6 +274,10 @@ int run_metadetect_with_reports(const MetadetectCommandLine& command) {
     printer.update(p.seconds, line);
   });
   printer.finish();
+  if (r.skipped) {
+    if (!quiet) std::fprintf(stderr, "stampede metadetect: %s is complete, skipped\n", o.output.c_str());
+    return 0;
+  }
   if (r.resume_started)
     std::fprintf(stderr, "stampede metadetect: warning: nothing to resume at %s: no cell was committed; the run started "
                  "from the first\n", o.output.c_str());

@@ -162,8 +162,19 @@ TEST(MetadetectRun, StoppedRunResumesToTheUninterruptedTable) {
   EXPECT_EQ(second.cells_resumed, first.cells);
   EXPECT_EQ(second.cells_resumed + second.cells, 5);
   EXPECT_EQ(bytes(scratch.path("whole.fits")), bytes(scratch.path("resumed.fits")));
-  // A complete output has nothing to resume; another run's checkpoint is refused.
-  EXPECT_THROW(run_metadetect(o), Error);
+  // A complete output of this run is skipped, as fit skips one (it used to be an error); another
+  // run's complete table is refused and left as it is.
+  const std::string done = bytes(o.output);
+  EXPECT_TRUE(run_metadetect(o).skipped);
+  MetadetectRunOptions other = o;
+  other.metadetect.seed += 1;
+  try {
+    run_metadetect(other);
+    ADD_FAILURE() << "another run's complete table was not refused";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("is complete but was written by another run"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(bytes(o.output), done);
 }
 
 TEST(MetadetectRun, TheReconvolutionRuleTheStampAndTheWeightAreRecordedAndIdentifyTheRun) {

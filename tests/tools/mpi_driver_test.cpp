@@ -335,3 +335,77 @@ TEST_F(MpiDriver, MetadetectOverTwoRanksWritesTheSingleProcessTable) {
 }
 
 }  // namespace
+
+// What a single process refuses, `mpirun -n 2 stampede-mpi` refuses too, before any work and
+// leaving the files as they were: an output that is an input (with --overwrite or --resume), an
+// input named like the output's partial, another run's complete table or a file that is not a
+// table under --resume. A resume of this run's complete table is skipped by both; a resume under
+// another number of ranks than the job's parts were written by is refused, and a new job removes
+// such leftovers. (Before: the MPI metadetect mode wrote over each of these files.)
+TEST_F(MpiDriver, RefusesTheOutputsTheSingleProcessRefuses) {
+  const auto sim = stampede::testing::finish(
+      stampede::testing::spawn({"cells", "--out", path("cells"), "--cells", "3", "--seed", "3"}, path("sim.txt"), "sim"),
+      path("sim.txt"));
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  const std::string cell0 = path("cells/cell_0000.fits"), cell1 = path("cells/cell_0001.fits");
+  const std::vector<std::string> quiet = {"--threads", "1", "--quiet"};
+  fs::copy_file(cell1, path("t.fits.partial"));
+  fs::copy_file(kInput, path("grid.fits"));
+  std::ofstream(path("notes.txt")) << "not a table\n";
+  ASSERT_EQ(stampede::testing::finish(stampede::testing::spawn(std::vector<std::string>{cell0, cell1, "-o", path("other.fits"),
+                                                                                        "--seed", "99"} + quiet,
+                                                               path("other.txt"), "metadetect"),
+                                      path("other.txt"))
+                .exit_code,
+            0);
+  struct Case {
+    std::string command;
+    std::vector<std::string> args;
+    std::string kept;  // a file that must be left as it was
+    std::string expect;
+  };
+  const std::vector<Case> cases = {
+      {"metadetect", {cell0, cell1, "-o", cell0, "--overwrite"}, cell0, "is the input"},
+      {"metadetect", {cell0, cell1, "-o", cell1, "--resume"}, cell1, "is the input"},
+      {"metadetect", {cell0, path("t.fits.partial"), "-o", path("t.fits")}, path("t.fits.partial"), "t.fits.partial"},
+      {"metadetect", {cell0, cell1, "-o", path("other.fits"), "--resume"}, path("other.fits"), "written by another run"},
+      {"metadetect", {cell0, cell1, "-o", path("notes.txt"), "--resume"}, path("notes.txt"), "notes.txt"},
+      {"fit", {path("grid.fits"), "-o", path("grid.fits"), "--overwrite"}, path("grid.fits"), "grid.fits"},
+      {"fit", {path("grid.fits"), "-o", path("notes.txt"), "--resume"}, path("notes.txt"), "notes.txt"},
+  };
+  for (const Case& c : cases) {
+    const std::string before = read_bytes(c.kept);
+    const std::vector<std::string> args = c.args + (c.command == "fit" ? kOptions : quiet);
+    const auto single = stampede::testing::finish(stampede::testing::spawn(args, path("case.txt"), c.command), path("case.txt"));
+    EXPECT_EQ(single.exit_code, 1) << c.expect << ": " << single.err;
+    EXPECT_NE(single.err.find(c.expect), std::string::npos) << single.err;
+    EXPECT_EQ(read_bytes(c.kept), before) << c.expect;
+    const auto mpi = stampede::testing::finish(spawn_mpi(2, args, path("case_mpi.txt"), c.command), path("case_mpi.txt"));
+    EXPECT_NE(mpi.exit_code, 0) << c.expect << ": " << mpi.err;
+    EXPECT_NE(mpi.err.find(c.expect), std::string::npos) << mpi.err;
+    EXPECT_EQ(read_bytes(c.kept), before) << c.expect << " (mpi)";
+  }
+  // This run's complete table: skipped by both.
+  const std::vector<std::string> run = std::vector<std::string>{cell0, cell1, "-o", path("done.fits")} + quiet;
+  ASSERT_EQ(stampede::testing::finish(spawn_mpi(2, run, path("done.txt"), "metadetect"), path("done.txt")).exit_code, 0);
+  const std::string done = read_bytes(path("done.fits"));
+  const auto skipped = stampede::testing::finish(
+      spawn_mpi(2, run + std::vector<std::string>{"--resume"}, path("skip.txt"), "metadetect"), path("skip.txt"));
+  EXPECT_EQ(skipped.exit_code, 0) << skipped.err;
+  EXPECT_EQ(read_bytes(path("done.fits")), done);
+  // Parts of a job of 3 ranks: a 2-rank resume is refused naming one; a new 2-rank job removes them.
+  const std::string stale = path("job.fits.part-2-of-3.fits");
+  std::ofstream(stale + ".partial") << "a part";
+  std::ofstream(stale + ".checkpoint") << "a checkpoint";
+  const std::vector<std::string> job = std::vector<std::string>{cell0, cell1, "-o", path("job.fits")} + quiet;
+  const auto refused = stampede::testing::finish(
+      spawn_mpi(2, job + std::vector<std::string>{"--resume"}, path("job1.txt"), "metadetect"), path("job1.txt"));
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.err.find("job.fits.part-2-of-3.fits' is a part of a job of another number of ranks"), std::string::npos)
+      << refused.err;
+  EXPECT_TRUE(fs::exists(stale + ".checkpoint"));
+  const auto fresh = stampede::testing::finish(spawn_mpi(2, job, path("job2.txt"), "metadetect"), path("job2.txt"));
+  EXPECT_EQ(fresh.exit_code, 0) << fresh.err;
+  EXPECT_EQ(read_bytes(path("job.fits")), done);
+  EXPECT_FALSE(fs::exists(stale + ".checkpoint") || fs::exists(stale + ".partial"));
+}

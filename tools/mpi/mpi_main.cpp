@@ -7,6 +7,7 @@
 
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <algorithm>
 #include <exception>
 #include <string>
@@ -15,6 +16,8 @@
 #include <vector>
 
 #include "app/metadetect_merge.hpp"
+#include "app/run_harness.hpp"
+#include "app/metadetect_run.hpp"
 #include "io/durable_file.hpp"
 #include "io/output_check.hpp"
 #include "tools/fit_command.hpp"
@@ -53,6 +56,35 @@ int ranks_on_this_node() {
   return n;
 }
 
+// The parts (OUT.part-r-of-N.fits, or their partial or checkpoint) of a job of other than `ranks`
+// ranks found beside the output.
+std::vector<std::string> parts_of_other_jobs(const std::string& output, int ranks) {
+  namespace fs = std::filesystem;
+  const fs::path out(output);
+  const std::string prefix = out.filename().string() + ".part-";
+  const std::string mine = "-of-" + std::to_string(ranks) + ".fits";
+  std::vector<std::string> found;
+  std::error_code error;
+  for (const fs::directory_entry& e : fs::directory_iterator(out.has_parent_path() ? out.parent_path() : fs::path("."), error)) {
+    std::string name = e.path().filename().string();
+    if (!name.starts_with(prefix)) continue;
+    for (const char* suffix : {".partial", ".checkpoint", ".lock"})
+      if (name.ends_with(suffix)) name.resize(name.size() - std::strlen(suffix));
+    const std::size_t of = name.rfind("-of-");
+    if (of == std::string::npos || !name.ends_with(".fits") || name.substr(of) == mine) continue;
+    const std::string part = (out.has_parent_path() ? (out.parent_path() / name).string() : name);
+    if (std::find(found.begin(), found.end(), part) == found.end()) found.push_back(part);
+  }
+  std::sort(found.begin(), found.end());
+  return found;
+}
+
+// A part's table and the files written beside it.
+void remove_table_files(const std::string& part) {
+  for (const std::string& p : stampede::app::table_output("", part).companions) stampede::io::remove_if_present(p);
+  stampede::io::remove_if_present(part);
+}
+
 // `stampede-mpi metadetect ARGS -o OUT.fits`: rank r of R measures shard r/R of the cells into
 // OUT.fits.part-r-of-R.fits (resumable on its own), then rank 0 joins the parts into OUT.fits as
 // `stampede merge` does and removes them (one rank's part is renamed): the table equals a single
@@ -72,14 +104,35 @@ int run_metadetect_over_ranks(int argc, char** argv, int rank, int ranks) {
   if (o.threads == 0) o.threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / ranks_on_this_node());
   const std::string output = o.output;
   auto part = [&](int r) { return output + ".part-" + std::to_string(r) + "-of-" + std::to_string(ranks) + ".fits"; };
-  try {
-    if (rank == 0 && !o.resume) stampede::io::refuse_to_replace(output, o.overwrite);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "stampede-mpi metadetect: error: %s\n", e.what());
-    failed = 1;
+  // Rank 0 makes the single process's output checks, on the output and the parts, before any rank
+  // starts; a resume continues only the parts of a job of this many ranks.
+  int done = 0;
+  if (rank == 0) {
+    try {
+      std::vector<std::string> parts;
+      for (int r = 0; r < ranks; ++r) parts.push_back(part(r));
+      stampede::app::check_metadetect_outputs(o, parts);
+      const std::vector<std::string> others = parts_of_other_jobs(output, ranks);
+      if (o.resume && !others.empty())
+        throw std::invalid_argument("--resume: '" + others.front() + "' is a part of a job of another number of ranks "
+                                    "than this one's " + std::to_string(ranks) + ": resume it with as many ranks as it "
+                                    "had, or run again with --overwrite");
+      for (const std::string& stale : others) remove_table_files(stale);  // a new job: another job's leftovers
+      if (o.resume && stampede::io::file_exists(output) && !stampede::io::file_exists(output + ".checkpoint")) {
+        // The job was done: as a single process, skipped if the table is this run's, else refused.
+        MetadetectCommandLine whole = command;
+        if (run_metadetect_with_reports(whole) != 0) failed = 1;
+        done = 1;
+      }
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "stampede-mpi metadetect: error: %s\n", e.what());
+      failed = 1;
+    }
   }
   MPI_Bcast(&failed, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  MPI_Bcast(&done, 1, MPI_INT, 0, MPI_COMM_WORLD);
   if (failed) return 1;
+  if (done) return 0;
   try {
     MetadetectCommandLine mine = command;
     mine.run.shard = rank, mine.run.shards = ranks, mine.run.output = part(rank);

@@ -1,0 +1,65 @@
+// The shared pieces of every table-writing run; see run_harness.hpp.
+#include "app/run_harness.hpp"
+
+#include <charconv>
+#include <filesystem>
+
+#include "engine/pipeline/range_source.hpp"
+#include "io/config_error.hpp"
+#include "io/durable_file.hpp"
+#include "io/fits_file.hpp"
+#include "io/output_lock.hpp"
+
+namespace stampede::app {
+
+void check_threads(long long threads, const std::string& what) {
+  if (threads < 0 || threads > kMaxThreads)
+    throw io::ConfigError(what + " = " + std::to_string(threads) + ": must be 0 (all cores) or 1.." +
+                          std::to_string(kMaxThreads));
+}
+
+std::optional<std::pair<int, int>> parse_shard(const std::string& text) {
+  const std::size_t slash = text.find('/');
+  if (slash == std::string::npos) return std::nullopt;
+  int i = 0, n = 0;
+  const char* end = text.data() + text.size();
+  const auto a = std::from_chars(text.data(), text.data() + slash, i);
+  const auto b = std::from_chars(text.data() + slash + 1, end, n);
+  if (a.ec != std::errc() || a.ptr != text.data() + slash || b.ec != std::errc() || b.ptr != end) return std::nullopt;
+  if (n < 1 || n > 1000000 || i < 0 || i >= n) return std::nullopt;
+  return std::pair{i, n};
+}
+
+ShardRange shard_range(long long total, int shard, int shards) {
+  if (shards < 1 || shard < 0 || shard >= shards)
+    throw io::ConfigError("--shard " + shard_text(shard, shards) + ": must be i/N with 0 <= i < N");
+  return {shard_begin(total, shard, shards), shard_begin(total, shard + 1, shards)};
+}
+
+std::string shard_text(int shard, int shards) { return std::to_string(shard) + "/" + std::to_string(shards); }
+
+io::RunOutput table_output(const std::string& option, const std::string& path) {
+  const std::string checkpoint = path + ".checkpoint";
+  return {option, path, {path + ".partial", checkpoint, io::temporary_path(checkpoint), io::OutputLock::path_for(path)}};
+}
+
+bool is_this_runs_complete_table(const std::string& path, const std::string& extname, const std::string& runfp) {
+  if (!std::filesystem::exists(path) || std::filesystem::exists(path + ".checkpoint")) return false;
+  std::string recorded;
+  try {
+    io::FitsFile f = io::FitsFile::open_read(path);
+    f.move_to(extname);
+    recorded = f.read_key_string(kRunFingerprintKey).value_or("");
+  } catch (const std::exception& e) {
+    throw io::ConfigError(path + " exists and is not a table --resume can check: " + e.what());
+  }
+  if (recorded == runfp) return true;
+  throw io::ConfigError(path + " is complete but was written by another run (" +
+                        (recorded.empty() ? std::string("it records no ") + kRunFingerprintKey
+                                          : std::string(kRunFingerprintKey) + " = '" + recorded + "', this run's '" +
+                                                runfp + "'") +
+                        ": the input's content, the options or the program version differ); remove it, or run it "
+                        "again with --overwrite");
+}
+
+}  // namespace stampede::app
