@@ -5,7 +5,7 @@
 #include <set>
 #include <utility>
 
-#include "app/fit_run.hpp"
+#include "app/run_harness.hpp"
 #include "io/catalog_writer.hpp"
 #include "io/fits_file.hpp"
 #include "io/metadetect_reader.hpp"
@@ -38,6 +38,7 @@ struct Shard {
 [[noreturn]] void refuse(const std::string& path, const std::string& why) { throw io::CatalogError(path + ": " + why); }
 
 Shard read_shard(const std::string& path) {
+  refuse_unfinished_table(io::fits_root_name(path), "shard");
   io::FitsFile f = io::FitsFile::open_read(path);
   if (!f.move_to_if_present("METADETECT")) refuse(path, "no METADETECT table (not a `stampede metadetect` table)");
   Shard s;

@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "engine/pipeline/range_source.hpp"
+#include "io/catalog_error.hpp"
 #include "io/config_error.hpp"
 #include "io/durable_file.hpp"
 #include "io/fits_file.hpp"
@@ -41,6 +42,16 @@ std::string shard_text(int shard, int shards) { return std::to_string(shard) + "
 io::RunOutput table_output(const std::string& option, const std::string& path) {
   const std::string checkpoint = path + ".checkpoint";
   return {option, path, {path + ".partial", checkpoint, io::temporary_path(checkpoint), io::OutputLock::path_for(path)}};
+}
+
+void refuse_unfinished_table(const std::string& path, const std::string& role) {
+  for (const char* suffix : {".partial", ".checkpoint", ".checkpoint.tmp", ".lock"})
+    if (path.ends_with(suffix))
+      throw io::CatalogError(path + ": a run's unfinished " + std::string(suffix + 1) + " file, not a " + role +
+                             ": finish that run (--resume) and give its table");
+  if (std::filesystem::exists(path + ".checkpoint"))
+    throw io::CatalogError(path + ": a run that replaces it is unfinished ('" + path + ".checkpoint' is beside it), so it "
+                           "is not a finished " + role + ": finish that run (--resume) first");
 }
 
 bool is_this_runs_complete_table(const std::string& path, const std::string& extname, const std::string& runfp) {

@@ -40,6 +40,11 @@ std::string shard_text(int shard, int shards);
 // progress: PATH.partial, PATH.checkpoint (and its temporary), PATH.lock.
 io::RunOutput table_output(const std::string& option, const std::string& path);
 
+// Refuses (io::CatalogError naming it) a table that a run has not finished, where `role` (a shard,
+// a metrics input) needs a finished one: a run's temporary (NAME.partial, .checkpoint, its .tmp,
+// .lock) or a table with a checkpoint beside it (a run is replacing it, or was stopped doing so).
+void refuse_unfinished_table(const std::string& path, const std::string& role);
+
 // For a resume: true when `path` is a complete table (no checkpoint) whose HDU `extname` records
 // `runfp` as kRunFingerprintKey: the run is done and is skipped. False when there is no complete
 // table there. Throws io::ConfigError naming it when it is another run's (or not a table).

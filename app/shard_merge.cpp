@@ -14,6 +14,7 @@
 #include "io/output_check.hpp"
 #include "io/output_lock.hpp"
 #include "app/run_config.hpp"
+#include "io/fits_file.hpp"
 #include "io/simulation_identity.hpp"
 
 namespace stampede::app {
@@ -60,6 +61,7 @@ struct Shard {
 };
 
 Shard read_shard(const std::string& path) {
+  refuse_unfinished_table(io::fits_root_name(path), "shard");
   io::CatalogReader r = io::CatalogReader::open(path);
   Shard s;
   s.path = path;

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -65,6 +66,16 @@ TEST(MetadetectMerge, ShardsJoinToTheWholeRunsTable) {
   const std::string other = refusal({{shards[0], scratch.path("other1.fits"), shards[2]}, scratch.path("m.fits")});
   EXPECT_NE(other.find("other1.fits"), std::string::npos) << other;
   EXPECT_NE(other.find("WFWHM"), std::string::npos) << other;
+  // An unfinished run's partial (here a shard's bytes under that name, as a failed finish leaves
+  // them) or a shard with a checkpoint beside it is not a shard: refused, and left as it is.
+  std::filesystem::copy_file(shards[1], scratch.path("s1.fits.partial"));
+  const std::string partial = refusal({{shards[0], scratch.path("s1.fits.partial"), shards[2]}, scratch.path("m.fits")});
+  EXPECT_NE(partial.find("s1.fits.partial: a run's unfinished partial file, not a shard"), std::string::npos) << partial;
+  EXPECT_TRUE(std::filesystem::exists(scratch.path("s1.fits.partial")));
+  std::ofstream(shards[1] + ".checkpoint") << "a run replacing it";
+  const std::string replaced = refusal({{shards[0], shards[1], shards[2]}, scratch.path("m.fits")});
+  EXPECT_NE(replaced.find(".checkpoint' is beside it"), std::string::npos) << replaced;
+  EXPECT_FALSE(std::filesystem::exists(scratch.path("m.fits")));
 }
 
 }  // namespace

@@ -120,6 +120,12 @@ TEST_F(ShardMergeTest, MissingDuplicatedForeignAndNonShardTablesAreRefused) {
   EXPECT_FALSE(std::filesystem::exists(m.output));
   EXPECT_FALSE(std::filesystem::exists(m.output + ".partial"));
 
+  // An unfinished run's partial given as a shard is refused and left as it is.
+  std::filesystem::copy_file(shards[1], shards[1] + ".partial");
+  m.shards = {shards[0], shards[1] + ".partial", shards[2]};
+  EXPECT_TRUE(Contains(error_of<io::CatalogError>([&] { app::merge_shards(m); }), "a run's unfinished partial file, not a shard"));
+  EXPECT_TRUE(std::filesystem::exists(shards[1] + ".partial"));
+
   m.shards = shards;
   app::merge_shards(m);
   EXPECT_TRUE(Contains(error_of<io::FileError>([&] { app::merge_shards(m); }), "merged.fits' exists"));
