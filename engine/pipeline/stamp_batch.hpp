@@ -6,22 +6,15 @@
 
 #include <cstddef>
 #include <memory>
+#include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "engine/pipeline/object_record.hpp"
 #include "engine/pipeline/observation_arena.hpp"
 
 namespace stampede {
-
-// What a kind of run carries in a batch beyond the objects' stamps and rows: a metadetection
-// batch's cells and the variable number of rows each yields. The run's source creates it in a batch
-// the first time it fills that batch and reuses it after (the pool is fixed); its fitter and its
-// sink, which know the concrete type, fill and read it. The pipeline only carries it.
-class BatchExtension {
- public:
-  virtual ~BatchExtension() = default;
-};
 
 struct StampBatch {
   long long sequence = 0;      // batch number in input order
@@ -32,7 +25,6 @@ struct StampBatch {
   // Survey objects: each one's first problem (why cutouts or the object were not used), "" none;
   // the run reports them in input order.
   std::vector<std::string> problems;
-  std::unique_ptr<BatchExtension> extension;  // runs whose task yields other rows (metadetection)
   StampBatch* next = nullptr;         // intrusive link for the writer hand-off
 
   explicit StampBatch(int capacity) : records(capacity), problems(capacity) {}
@@ -43,6 +35,38 @@ struct StampBatch {
     count = 0;
     observations.clear();
   }
+
+  // What a kind of run carries beyond the objects' stamps and rows, one type per run: a
+  // metadetection batch's cells and the variable number of rows each yields. Made the first time
+  // the batch is filled and reused after (the pool is fixed); the run's source, task and sink know
+  // the type, the pipeline only carries it. Asking for another type than the batch holds is a
+  // logic error, reported rather than cast.
+  template <class Payload>
+  Payload& payload() {
+    if (!payload_) payload_ = std::make_unique<Held<Payload>>();
+    return held<Payload>(payload_.get())->value;
+  }
+  template <class Payload>
+  const Payload& payload() const {
+    return held<Payload>(payload_.get())->value;
+  }
+
+ private:
+  struct AnyPayload {
+    virtual ~AnyPayload() = default;
+  };
+  template <class Payload>
+  struct Held : AnyPayload {
+    Payload value;
+  };
+  template <class Payload, class Base>
+  static auto* held(Base* base) {
+    using Target = std::conditional_t<std::is_const_v<Base>, const Held<Payload>, Held<Payload>>;
+    auto* p = dynamic_cast<Target*>(base);
+    if (p == nullptr) throw std::logic_error("StampBatch: no payload of the type asked for");
+    return p;
+  }
+  std::unique_ptr<AnyPayload> payload_;
 };
 
 // The serial input side: fills the next batch (records' identity, the observations) and

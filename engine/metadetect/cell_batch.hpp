@@ -1,0 +1,41 @@
+// What a metadetection batch carries beside its observations (StampBatch::payload): the cells the
+// source read, a band's NOISE planes, and the rows each cell yields (a variable number) with its
+// problem, which the batch's measurer writes and the run's sink reads in cell order.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "engine/metadetect/cell_layout.hpp"
+#include "engine/metadetect/metadetect_row.hpp"
+
+namespace stampede {
+
+struct CellBatch {
+  struct Cell {
+    int file = 0;  // which of the source's inputs (for messages)
+    CellPlacement place;
+    double pixel_scale = 0;
+    double lens_g1 = 0, lens_g2 = 0;  // keep_unlensed: the file's recorded shear
+    int first_observation = 0, bands = 1;  // its bands' observations in the arena, in band order
+    // Its bands' NOISE planes, consecutive in `noise` from here (none: -1).
+    long long noise_offset = -1;
+    std::string problem;  // why it cannot be measured (its PSFEx model fails there); "" none
+  };
+  std::vector<Cell> cells;
+  std::vector<double> noise;  // the batch's noise planes (kept between batches)
+  std::size_t noise_used = 0;
+  std::vector<MetadetectRow> rows;
+  std::vector<std::string> problems;  // per cell, "" none
+
+  // Space for the next cell's `bands` noise planes of npix pixels: their first value's offset.
+  std::size_t add_noise(std::size_t npix, int bands) {
+    const std::size_t at = noise_used;
+    noise_used += npix * static_cast<std::size_t>(bands);
+    if (noise.size() < noise_used) noise.resize(noise_used);
+    return at;
+  }
+};
+
+}  // namespace stampede

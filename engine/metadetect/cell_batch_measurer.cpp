@@ -1,0 +1,54 @@
+// A batch's cells measured; see cell_batch_measurer.hpp.
+#include "engine/metadetect/cell_batch_measurer.hpp"
+
+#include <span>
+
+#include "engine/metacal/metacal_type.hpp"
+#include "engine/metadetect/cell_batch.hpp"
+
+namespace stampede {
+
+void CellBatchMeasurer::fit(StampBatch& batch) {
+  CellBatch& data = batch.payload<CellBatch>();
+  data.rows.clear();
+  data.problems.assign(static_cast<std::size_t>(batch.count), "");
+  for (int k = 0; k < batch.count; ++k) {
+    const CellBatch::Cell& c = data.cells[static_cast<std::size_t>(k)];
+    if (!c.problem.empty()) {  // one flagged row, as the measurer writes for a cell it cannot measure
+      MetadetectRow r;
+      r.cell = batch.records[k].id;
+      r.shear_type = static_cast<int>(MetacalType::kNoshear);
+      r.flags = kMetadetectCellFailed;
+      data.rows.push_back(r);
+      data.problems[static_cast<std::size_t>(k)] = c.problem;
+      continue;
+    }
+    const ArenaObservation& o = batch.observations[c.first_observation];
+    const std::size_t npix = static_cast<std::size_t>(o.box_size) * o.box_size;
+    auto noise = [&](int b) {
+      return c.noise_offset < 0 ? std::span<const double>()
+                                : std::span<const double>(data.noise).subspan(c.noise_offset + b * npix, npix);
+    };
+    MetadetectCell cell;
+    cell.index = batch.records[k].id;
+    cell.size = o.box_size;
+    cell.pixels = batch.observations.pixels(o);
+    cell.weight = batch.observations.weights(o);
+    cell.noise = noise(0);
+    other_bands_.clear();
+    for (int b = 1; b < c.bands; ++b) {
+      const ArenaObservation& ob = batch.observations[c.first_observation + b];
+      other_bands_.push_back({batch.observations.pixels(ob), batch.observations.weights(ob), noise(b), &ob.psf});
+    }
+    cell.other_bands = other_bands_;
+    cell.origin_x = c.place.x0, cell.origin_y = c.place.y0;
+    cell.pixel_scale = c.pixel_scale;
+    cell.psf = &o.psf;
+    cell.keep_x0 = c.place.keep_x0, cell.keep_x1 = c.place.keep_x1;
+    cell.keep_y0 = c.place.keep_y0, cell.keep_y1 = c.place.keep_y1;
+    cell.lens_g1 = c.lens_g1, cell.lens_g2 = c.lens_g2;
+    measurer_.measure(cell, &data.rows, &data.problems[static_cast<std::size_t>(k)]);
+  }
+}
+
+}  // namespace stampede

@@ -1,0 +1,85 @@
+// The serial reader of a metadetection run (the pipeline's source): the run's cells in order,
+// each with its bands' pixels, weights, NOISE planes and PSF, from image files (a scene per file,
+// cut into cells by engine/metadetect/cell_layout, read whole when its first cell is due), a cell
+// tile per band (each object_data row a cell), or one image in memory (Python's arrays). The cells
+// go into the batch's CellBatch payload (engine/metadetect/cell_batch.hpp).
+//
+// Every problem of the inputs that stops the run throws io::ConfigError or io::FitsError naming the
+// file, HDU, row or cell: in the constructor where the files' headers show it (before any thread
+// starts), else when the cell is read. A cell whose PSFEx model fails there is not an error: the
+// cell carries the problem and is measured as one flagged row.
+#pragma once
+
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "engine/metadetect/cell_batch.hpp"
+#include "engine/metadetect/cell_layout.hpp"
+#include "engine/metadetect/metadetect_options.hpp"
+#include "engine/model/psf_model.hpp"
+#include "engine/pipeline/stamp_batch.hpp"
+#include "io/cell_image_reader.hpp"
+#include "io/meds_file.hpp"
+#include "io/psfex_file.hpp"
+
+namespace stampede::io {
+
+class CellSource : public StampSource {
+ public:
+  // Image files: each scene a file per band (the bands' images the same size and pixel scale),
+  // named in messages by `names` (its path or template); `psfex` a PSFEx model file per band, or
+  // none (each file's PSF HDU).
+  struct Images {
+    std::vector<std::string> names;
+    std::vector<std::vector<std::string>> files;
+    std::vector<std::string> psfex;
+  };
+  CellSource(const Images& in, const MetadetectOptions& options);
+  // One image in memory (not copied: it must outlive the source).
+  CellSource(const CellImage& image, const MetadetectOptions& options);
+  // A cell tile (DES Y6's "pizza slices"): each object_data row a cell, cutout 0 its coadd with a
+  // weight (and bmask, noise) cutout and its PSF in the psf HDU; the cell's place in the tile from
+  // orig_start_row/col, its pixel scale from the WCS Jacobian (which must be the scale times the
+  // unit matrix: the metacal shear is applied in the cell's pixels). Several bands: a tile per
+  // band, whose rows are the same cells (the same box and place in each).
+  struct Tile {
+    std::vector<std::string> paths;  // a tile per band
+  };
+  CellSource(const Tile& t, const MetadetectOptions& options);
+
+  long long total_objects() const override { return total_; }
+  // The largest cell's pixels (SEP's pixel stack must hold a whole cell above the threshold).
+  long long max_cell_pixels() const;
+  void set_end(long long end) override { end_ = end; }
+  void skip_to(long long index) override;
+  // The input (file, template or tile) a cell's CellBatch::Cell::file names.
+  const std::string& input(int file) const { return inputs_[static_cast<std::size_t>(file)]; }
+  bool fill(StampBatch& batch) override;
+
+ private:
+  void fill_tile_cell(StampBatch& batch, CellBatch& data);
+  void fill_image_cell(StampBatch& batch, CellBatch& data);
+  void add_layout(long width, long height, const std::string& where);
+  const CellImage& image(int band) const { return memory_ ? *memory_ : images_[static_cast<std::size_t>(band)]; }
+
+  std::vector<std::string> inputs_;
+  MetadetectOptions options_;
+  std::vector<std::vector<std::string>> files_;  // image files: per scene, a file per band
+  std::vector<PsfexModel> models_;               // a PSFEx model per band; empty: the files' PSFs
+  std::vector<std::string> psfex_files_;
+  const CellImage* memory_ = nullptr;
+  std::vector<std::unique_ptr<MedsFile>> tiles_;  // a cell tile per band
+  std::vector<long long> boxes_;  // the tiles' cell sides
+  long long max_tile_box_ = 0;    // the largest, found while laying out the cells
+  CellImage cell_;  // a tile's cell as read
+  std::vector<double> mask_;
+  std::vector<std::vector<CellPlacement>> layouts_;
+  long long total_ = 0, next_ = 0, in_file_ = 0, end_ = std::numeric_limits<long long>::max();
+  int file_ = 0, loaded_ = -1;
+  std::vector<CellImage> images_;  // the loaded scene's, a band each
+  std::vector<PsfModel> psfs_;     // their PSF HDUs'
+};
+
+}  // namespace stampede::io
