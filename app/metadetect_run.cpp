@@ -7,8 +7,8 @@
 #include <stdexcept>
 #include <chrono>
 #include <memory>
-#include <sstream>
 
+#include "app/metadetect_option_keys.hpp"
 #include "app/run_fingerprint.hpp"
 #include "app/run_harness.hpp"
 #include "app/version.hpp"
@@ -29,13 +29,6 @@ namespace stampede::app {
 namespace {
 
 constexpr int kMaxProblems = 100;
-
-std::string number_text(double v, int digits = 17) {
-  std::ostringstream s;
-  s.precision(digits);
-  s << v;
-  return s.str();
-}
 
 class CellSink : public BatchSink {
  public:
@@ -73,42 +66,6 @@ class CollectingSink : public BatchSink {
   std::vector<MetadetectRow> rows;
   long long failed = 0;
 };
-
-// The options as header keys and fingerprint lines (one list: what identifies the run is what the
-// header records).
-std::vector<std::pair<std::string, std::string>> option_keys(const MetadetectOptions& o) {
-  const DetectionOptions& d = o.detection;
-  const DetectionStampOptions& s = o.stamp;
-  return {{"CELLSIZE", std::to_string(o.cell_size)},
-          {"CELLBUF", std::to_string(o.cell_buffer)},
-          {"MCSTEP", number_text(o.step)},
-          {"MCPSFDIL", number_text(o.psf_dilation)},
-          {"MCRECONV", reconvolution_rule_name(o.reconvolution)},
-          {"FIXNOISE", o.fixnoise ? "T" : "F"},
-          {"IMGPREC", o.double_images ? "double" : "single"},
-          {"PEROBJMC", o.per_object_metacal ? "T" : "F"},
-          {"NOISEPLN", o.noise_plane ? "T" : "F"},
-          {"MCSEED", std::to_string(o.seed)},
-          {"MEASURE", metadetect_measurement_name(o.measurement)},
-          {"WFWHM", number_text(o.weight_fwhm_arcsec())},
-          {"RECENTRE", o.recentre ? "T" : "F"},
-          {"KEEPUNL", o.keep_unlensed ? "T" : "F"},
-          {"DETECTOR", detector_kind_name(d.detector)},
-          {"DETTHR", number_text(d.threshold)},
-          {"DETMINA", std::to_string(d.min_area)},
-          {"DBLCONT", number_text(d.deblend_contrast)},
-          {"DBLNTHR", std::to_string(d.deblend_thresholds)},
-          {"FILTFWHM", number_text(d.filter_fwhm)},
-          {"FILTSIZE", std::to_string(d.filter_size)},
-          {"CLEAN", d.clean ? "T" : "F"},
-          {"CLEANPAR", number_text(d.clean_param)},
-          {"STAMPSZ", std::to_string(s.size)},
-          {"BOXRFAC", number_text(s.radius_factor)},
-          {"BOXRMIN", number_text(s.radius_min)},
-          {"BOXPAD", number_text(s.padding)},
-          {"BOXMIN", std::to_string(s.box_min)},
-          {"BOXMAX", std::to_string(s.box_max)}};
-}
 
 // What stands for the band's name in an image path or --psfex.
 constexpr std::string_view kBandField = "{band}";
@@ -294,7 +251,7 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
     wo.header.emplace_back("BANDS", names);
     fingerprint += "bands " + names + "\n";
   }
-  for (const auto& [key, value] : option_keys(options.metadetect)) {
+  for (const auto& [key, value] : metadetect_header_keys(options.metadetect)) {
     wo.header.emplace_back(key, value);
     fingerprint += key + "=" + value + "\n";
   }
@@ -322,13 +279,8 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
     wo.header.emplace_back(kShardKey, shard_text(options.shard, options.shards));
     fingerprint += "shard " + shard_text(options.shard, options.shards) + "\n";
   }
-  wo.header_types = {{"CELLSIZE", io::HeaderValueType::kInteger}, {"CELLBUF", io::HeaderValueType::kInteger},
-                     {"MCSTEP", io::HeaderValueType::kReal},      {"MCPSFDIL", io::HeaderValueType::kReal},
-                     {"WFWHM", io::HeaderValueType::kReal},       {"DETTHR", io::HeaderValueType::kReal},
-                     {"DETMINA", io::HeaderValueType::kInteger},  {"DBLCONT", io::HeaderValueType::kReal},
-                     {"DBLNTHR", io::HeaderValueType::kInteger},  {"FILTFWHM", io::HeaderValueType::kReal},
-                     {"FILTSIZE", io::HeaderValueType::kInteger}, {"NCELLS", io::HeaderValueType::kInteger},
-                     {"STAMPSZ", io::HeaderValueType::kInteger}};
+  wo.header_types = metadetect_header_types();
+  wo.header_types["NCELLS"] = io::HeaderValueType::kInteger;
   wo.fingerprint = fingerprint;
 
   MetadetectRunSummary summary;

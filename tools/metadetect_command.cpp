@@ -3,6 +3,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "app/fit_run.hpp"
+#include "app/metadetect_option_keys.hpp"
 #include "app/metadetect_run.hpp"
 #include "tools/arguments.hpp"
 #include "tools/progress_printer.hpp"
@@ -19,6 +21,25 @@
 namespace {
 
 using namespace stampede;
+
+// The table's options as help lines: "  --flag METAVAR" padded to 29 columns, the help's lines
+// after it, the default's recorded text for its "%s".
+std::string option_lines(const MetadetectOptions& d) {
+  std::string out;
+  for (const app::MetadetectOptionKey& k : app::metadetect_option_keys()) {
+    if (k.flag.empty()) continue;
+    std::string head = "  " + k.flag + (k.metavar.empty() ? "" : " " + k.metavar);
+    head.resize(std::max<std::size_t>(head.size() + 1, 29), ' ');
+    std::string help = k.help;
+    if (const std::size_t at = help.find("%s"); at != std::string::npos) help.replace(at, 2, k.recorded(d));
+    for (std::size_t begin = 0; begin < help.size();) {
+      const std::size_t end = std::min(help.find('\n', begin), help.size());
+      out += (begin == 0 ? head : std::string(29, ' ')) + help.substr(begin, end - begin) + "\n";
+      begin = end + 1;
+    }
+  }
+  return out;
+}
 
 void print_help() {
   const MetadetectOptions d;
@@ -68,60 +89,14 @@ void print_help() {
       "  --psfex MODEL.psf          image files: each cell's PSF is this PSFEx model at the cell's centre\n"
       "                             (X_IMAGE, Y_IMAGE of the image's pixels), not the PSF HDU (which may\n"
       "                             be absent); one model for every image; PSF_SAMP 1/integer\n"
-      "  --cell-size N              cell side, pixels (%d)\n"
-      "  --cell-buffer N            pixels at each cell edge whose detections are not the cell's (%d)\n"
-      "  --step S                   metacal shear step (%g)\n"
-      "  --reconvolution-psf R      metacal's reconvolution PSF: gauss (the PSF's adaptive Gaussian,\n"
-      "                             round on its major axis, dilated by 1 + 2 step, as the reference\n"
-      "                             package's fitgauss), moffat (a round Moffat widened until its\n"
-      "                             filters are <= 1.01), auto: the Gaussian where its filters are\n"
-      "                             <= 1.01 too (Gaussian-like PSFs), else moffat; gauss accepts up\n"
-      "                             to 1.5 (%s)\n"
-      "  --psf-dilation F           reconvolution PSF FWHM over the PSF's; 0: the rule's own (%g)\n"
-      "  --no-fixnoise              do not add the rotated noise field\n"
-      "  --double-images            make the cells' metacal images in double precision (by default\n"
-      "                             single: about half the time, within ~2e-7 of the images' peak)\n"
-      "  --no-noise-plane           draw the fixnoise field from the weight even where the input has\n"
-      "                             a NOISE HDU or noise cutouts (which are used by default)\n"
-      "  --per-object-metacal       not metadetection, for comparison: per-object metacal at the\n"
-      "                             positions detected on the noshear image (each a 49 px stamp)\n"
-      "  --seed N                   keys each cell's fixnoise field with the cell's number (%llu)\n"
-      "  --measurement M            wmom: moments of the metacal image under a round Gaussian weight;\n"
-      "                             pgauss: the moments of the galaxy before the reconvolution PSF\n"
-      "                             (and pixel) under the weight, in Fourier space; T_ratio is then\n"
-      "                             the pre-PSF T over the reconvolved PSF's weighted T (wmom);\n"
-      "                             exp, bd: a fit of that model convolved with the reconvolution\n"
-      "                             PSF (one band), T the model's, T_ratio over the same psf_T\n"
-      "  --weight-fwhm F            the moments' weight FWHM, arcsec (1.2 wmom, 2.0 pgauss)\n"
-      "  --detector D               tree: our implementation of Source Extractor's detection (one\n"
-      "                             pass over each segment's pixels yields its components at every\n"
-      "                             deblending level; an unclaimed pixel goes to its most probable\n"
-      "                             child); sep: SEP's library, for comparison (%s)\n"
-      "  --detect-threshold T       detection threshold, noise sigma (%g)\n"
-      "  --detect-min-area N        minimum pixels above the threshold (%d)\n"
-      "  --deblend-contrast C       minimum deblending contrast (%g)\n"
-      "  --deblend-thresholds N     deblending levels (%d)\n"
-      "  --filter-fwhm F            Gaussian detection filter FWHM, pixels; 0: none (%g)\n"
-      "  --filter-size N            the filter's odd side, pixels (%d)\n"
-      "  --no-clean                 do not clean spurious detections near bright objects\n"
-      "  --stamp-size N             every detection's stamp N x N pixels about its pixel; 0: sized\n"
-      "                             from the isophotal area between --box-min and --box-max (%d)\n"
-      "  --box-min N, --box-max N   --stamp-size 0: odd bounds of a stamp's side, pixels (%d, %d)\n"
-      "  --recentre                 wmom, pgauss: move the weight to the weighted centroid (six Newton\n"
-      "                             steps); by default it stays at the detection's position\n"
-      "  --keep-unlensed            simulations: keep a detection by its position with the cell's\n"
-      "                             recorded shear (G1, G2) undone too, as a tiled survey's cells\n"
-      "                             keep what the shear moves across a lone cell's boundary\n"
+      "%s"
       "  --threads N                worker threads (default: all cores)\n"
       "  --shard I/N                only shard I of N (0 <= I < N): a contiguous 1/N of the cells,\n"
       "                             numbered as in the whole run; `stampede merge` joins the shards\n"
       "  --resume                   continue an interrupted run of the same inputs and options\n"
       "  --overwrite                replace an existing OUT.fits\n"
       "  --quiet                    no progress line\n",
-      d.cell_size, d.cell_buffer, d.step, reconvolution_rule_name(d.reconvolution), d.psf_dilation,
-      static_cast<unsigned long long>(d.seed), detector_kind_name(d.detection.detector), d.detection.threshold, d.detection.min_area,
-      d.detection.deblend_contrast, d.detection.deblend_thresholds, d.detection.filter_fwhm, d.detection.filter_size,
-      d.stamp.size, d.stamp.box_min, d.stamp.box_max);
+      option_lines(d).c_str());
 }
 
 std::vector<std::string> read_list(const std::string& path) {
@@ -140,6 +115,17 @@ std::vector<std::string> read_list(const std::string& path) {
 
 }  // namespace
 
+namespace {
+
+// The table's option whose flag is `flag`; null for another argument.
+const stampede::app::MetadetectOptionKey* option_key(const std::string& flag) {
+  for (const stampede::app::MetadetectOptionKey& k : stampede::app::metadetect_option_keys())
+    if (!k.flag.empty() && k.flag == flag) return &k;
+  return nullptr;
+}
+
+}  // namespace
+
 int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* command, bool print) {
   using namespace stampede;
   app::MetadetectRunOptions& o = command->run;
@@ -150,7 +136,6 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
   for (int i = 1; i < argc; ++i) {
     const std::string s = argv[i];
     auto value = [&] { return tools::option_value(argc, argv, &i); };
-    auto number = [&] { return tools::number_value(argc, argv, &i); };
     auto integer = [&](long long lo, long long hi) { return static_cast<int>(tools::integer_in(argc, argv, &i, lo, hi)); };
     if (s.starts_with("-") && s != "--help" && s != "-h" && s != "--meds" && !seen.insert(s == "-o" ? "--output" : s).second)
       throw std::invalid_argument("option " + s + " is given twice");
@@ -175,62 +160,10 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
       o.psfex = value();
     } else if (s == "--input-list") {
       for (std::string& p : read_list(value())) o.inputs.push_back(std::move(p));
-    } else if (s == "--cell-size") {
-      m.cell_size = integer(16, 4096);
-    } else if (s == "--cell-buffer") {
-      m.cell_buffer = integer(0, 2048);
-    } else if (s == "--step") {
-      m.step = number();
-    } else if (s == "--psf-dilation") {
-      m.psf_dilation = number();
-    } else if (s == "--reconvolution-psf") {
-      const std::string v = value();
-      if (!parse_reconvolution_rule(v, &m.reconvolution))
-        throw std::invalid_argument("option --reconvolution-psf " + tools::quoted_value(v) + ": must be auto, gauss or moffat");
-    } else if (s == "--stamp-size") {
-      m.stamp.size = integer(0, 255);
-    } else if (s == "--recentre") {
-      m.recentre = true;
-    } else if (s == "--keep-unlensed") {
-      m.keep_unlensed = true;
-    } else if (s == "--per-object-metacal") {
-      m.per_object_metacal = true;
-    } else if (s == "--no-fixnoise") {
-      m.fixnoise = false;
-    } else if (s == "--double-images") {
-      m.double_images = true;
-    } else if (s == "--no-noise-plane") {
-      m.noise_plane = false;
-    } else if (s == "--seed") {
-      m.seed = static_cast<std::uint64_t>(tools::integer_in(argc, argv, &i, 0, (1LL << 62)));
-    } else if (s == "--measurement") {
-      const std::string v = value();
-      if (!parse_metadetect_measurement(v, &m.measurement))
-        throw std::invalid_argument("option --measurement " + tools::quoted_value(v) + ": must be wmom, pgauss, exp or bd");
-    } else if (s == "--weight-fwhm") {
-      m.weight_fwhm = number();
-    } else if (s == "--detector") {
-      const std::string v = value();
-      if (!parse_detector_kind(v, &m.detection.detector))
-        throw std::invalid_argument("option --detector " + tools::quoted_value(v) + ": must be tree or sep");
-    } else if (s == "--detect-threshold") {
-      m.detection.threshold = number();
-    } else if (s == "--detect-min-area") {
-      m.detection.min_area = integer(1, 1000000);
-    } else if (s == "--deblend-contrast") {
-      m.detection.deblend_contrast = number();
-    } else if (s == "--deblend-thresholds") {
-      m.detection.deblend_thresholds = integer(1, 256);
-    } else if (s == "--filter-fwhm") {
-      m.detection.filter_fwhm = number();
-    } else if (s == "--filter-size") {
-      m.detection.filter_size = integer(3, 31);
-    } else if (s == "--no-clean") {
-      m.detection.clean = false;
-    } else if (s == "--box-min") {
-      m.stamp.box_min = integer(9, 4095);
-    } else if (s == "--box-max") {
-      m.stamp.box_max = integer(9, 4095);
+    } else if (const app::MetadetectOptionKey* k = option_key(s)) {
+      const std::string v = k->kind == app::MetadetectOptionKey::Kind::kSwitch ? (k->switch_sets ? "true" : "false") : value();
+      if (const std::string why = k->set(m, v); !why.empty())
+        throw std::invalid_argument("option " + s + " " + tools::quoted_value(v) + ": " + why);
     } else if (s == "--threads") {
       o.threads = integer(1, 4096);
     } else if (s == "--shard") {
@@ -256,6 +189,8 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
     throw std::invalid_argument("--meds takes cell tiles and no image files (see stampede metadetect --help)");
   if (o.tile) o.inputs = meds;
   if (o.resume && o.overwrite) throw std::invalid_argument("--resume and --overwrite exclude each other");
+  // The options' rules, in the command line's words (the core names the fields).
+  if (std::string why; !m.IsValid(&why)) throw std::invalid_argument(app::with_metadetect_flags(why));
   return -1;
 }
 

@@ -71,42 +71,44 @@ bool refuse(std::string* why, const char* option, T value, const char* rule) {
 }  // namespace
 
 bool MetadetectOptions::IsValid(std::string* why) const {
-  if (cell_size < 16 || cell_size > 4096) return refuse(why, "--cell-size", cell_size, "must be in [16, 4096] pixels");
+  if (cell_size < 16 || cell_size > 4096) return refuse(why, "cell_size", cell_size, "must be in [16, 4096] pixels");
   if (cell_buffer < 0 || 2 * cell_buffer >= cell_size)
-    return refuse(why, "--cell-buffer", cell_buffer, "must be >= 0 and less than half the cell size");
-  if (!(step >= 1e-3 && step <= 0.1)) return refuse(why, "--step", step, "must be in [0.001, 0.1]");
+    return refuse(why, "cell_buffer", cell_buffer, "must be >= 0 and less than half the cell size");
+  if (!(step >= 1e-3 && step <= 0.1)) return refuse(why, "step", step, "must be in [0.001, 0.1]");
   if (!(psf_dilation == 0 || (psf_dilation >= 1 && psf_dilation <= 3)))
-    return refuse(why, "--psf-dilation", psf_dilation, "must be 0 (automatic) or in [1, 3]");
+    return refuse(why, "psf_dilation", psf_dilation, "must be 0 (automatic) or in [1, 3]");
   if (measurement != MetadetectMeasurement::kWmom && measurement != MetadetectMeasurement::kPgauss &&
       measurement != MetadetectMeasurement::kExp && measurement != MetadetectMeasurement::kBd)
-    return refuse(why, "--measurement", static_cast<int>(measurement), "must be wmom, pgauss, exp or bd");
+    return refuse(why, "measurement", static_cast<int>(measurement), "must be wmom, pgauss, exp or bd");
   if (!(weight_fwhm >= 0 && std::isfinite(weight_fwhm)))
-    return refuse(why, "--weight-fwhm", weight_fwhm, "must be > 0 arcsec, or 0 for the measurement's default");
+    return refuse(why, "weight_fwhm", weight_fwhm, "must be > 0 arcsec, or 0 for the measurement's default");
   if (per_object_metacal && measurement != MetadetectMeasurement::kWmom)
-    return refuse(why, "--measurement", metadetect_measurement_name(measurement),
-                  "--per-object-metacal measures with wmom only");
+    return refuse(why, "measurement", metadetect_measurement_name(measurement),
+                  "per_object_metacal measures with wmom only");
   if (weight_fwhm != 0 && is_model_fit(measurement))
-    return refuse(why, "--weight-fwhm", weight_fwhm,
-                  "weighs wmom and pgauss; a model fit (--measurement exp or bd) has no weight");
+    return refuse(why, "weight_fwhm", weight_fwhm,
+                  "weighs wmom and pgauss; a model fit (exp or bd) has no weight");
   if (detection.detector != DetectorKind::kTree && detection.detector != DetectorKind::kSep)
-    return refuse(why, "--detector", static_cast<int>(detection.detector), "must be tree or sep");
+    return refuse(why, "detector", static_cast<int>(detection.detector), "must be tree or sep");
   if (!(detection.threshold > 0 && std::isfinite(detection.threshold)))
-    return refuse(why, "--detect-threshold", detection.threshold, "must be > 0 (sigma)");
-  if (detection.min_area < 1) return refuse(why, "--detect-min-area", detection.min_area, "must be >= 1 pixel");
+    return refuse(why, "detect_threshold", detection.threshold, "must be > 0 (sigma)");
+  if (detection.min_area < 1 || detection.min_area > 1000000)
+    return refuse(why, "detect_min_area", detection.min_area, "must be in [1, 1000000] pixels");
   if (!(detection.deblend_contrast >= 0 && detection.deblend_contrast <= 1))
-    return refuse(why, "--deblend-contrast", detection.deblend_contrast, "must be in [0, 1]");
+    return refuse(why, "deblend_contrast", detection.deblend_contrast, "must be in [0, 1]");
   if (detection.deblend_thresholds < 1 || detection.deblend_thresholds > 256)
-    return refuse(why, "--deblend-thresholds", detection.deblend_thresholds, "must be in [1, 256]");
+    return refuse(why, "deblend_thresholds", detection.deblend_thresholds, "must be in [1, 256]");
   if (!(detection.filter_fwhm >= 0 && detection.filter_fwhm <= 20))
-    return refuse(why, "--filter-fwhm", detection.filter_fwhm, "must be in [0, 20] pixels (0: no filter)");
+    return refuse(why, "filter_fwhm", detection.filter_fwhm, "must be in [0, 20] pixels (0: no filter)");
   if (detection.filter_size < 3 || detection.filter_size > 31 || detection.filter_size % 2 == 0)
-    return refuse(why, "--filter-size", detection.filter_size, "must be odd, in [3, 31]");
+    return refuse(why, "filter_size", detection.filter_size, "must be odd, in [3, 31]");
   if (stamp.size != 0 && (stamp.size < 8 || stamp.size > 255))
-    return refuse(why, "--stamp-size", stamp.size, "must be in [8, 255] pixels, or 0 for stamps sized by the isophote");
+    return refuse(why, "stamp_size", stamp.size, "must be in [8, 255] pixels, or 0 for stamps sized by the isophote");
   if (stamp.box_min < 9 || stamp.box_min % 2 == 0)
-    return refuse(why, "--box-min", stamp.box_min, "must be odd and >= 9");
-  if (stamp.box_max < stamp.box_min || stamp.box_max % 2 == 0)
-    return refuse(why, "--box-max", stamp.box_max, "must be odd and >= --box-min");
+    return refuse(why, "box_min", stamp.box_min, "must be odd and >= 9");
+  if (stamp.box_max < stamp.box_min || stamp.box_max % 2 == 0 || stamp.box_max > 4095)
+    return refuse(why, "box_max", stamp.box_max, "must be odd, >= box_min and <= 4095");
+  if (seed > (std::uint64_t{1} << 62)) return refuse(why, "seed", seed, "must be in [0, 2^62]");
   return true;
 }
 

@@ -99,7 +99,8 @@ struct MetadetectOptions {
   // wmom, DES Y6's 2.0" for pgauss (a wider pre-PSF weight: the deconvolution's noise at high k is
   // what the weight's transform cuts).
   double weight_fwhm_arcsec() const;
-  // Message names the option as on the command line, its value and the rule.
+  // Message names the field as Python's keyword does ("cell_size = 3: must be ..."), its value and
+  // the rule; front ends translate fields to their own spelling (app/metadetect_option_keys).
   bool IsValid(std::string* why) const;
 };
 

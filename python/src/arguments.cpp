@@ -53,7 +53,7 @@ std::string describe(py::handle value) {
 }
 
 Arguments::Arguments(std::string function, const py::args& args, const py::kwargs& kwargs,
-                     std::initializer_list<Parameter> parameters)
+                     const std::vector<Parameter>& parameters)
     : function_(std::move(function)) {
   std::size_t positional = 0;
   for (const Parameter& p : parameters) {

@@ -31,7 +31,11 @@ class Arguments {
   // Matches args and kwargs to `parameters` as Python would: TypeError (naming the function) for too
   // many positionals, an unknown or repeated keyword, or a missing required argument.
   Arguments(std::string function, const pybind11::args& args, const pybind11::kwargs& kwargs,
-            std::initializer_list<Parameter> parameters);
+            std::initializer_list<Parameter> parameters)
+      : Arguments(std::move(function), args, kwargs, std::vector<Parameter>(parameters)) {}
+  // Parameters made at run time (a table's keywords); names must outlive the Arguments.
+  Arguments(std::string function, const pybind11::args& args, const pybind11::kwargs& kwargs,
+            const std::vector<Parameter>& parameters);
 
   // The value given for `name`, or None when it was not given.
   pybind11::object object(const char* name) const;

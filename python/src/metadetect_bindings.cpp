@@ -9,7 +9,9 @@
 #include <vector>
 
 #include "app/metadetect_metrics.hpp"
+#include "app/metadetect_option_keys.hpp"
 #include "app/metadetect_run.hpp"
+#include "io/option_text.hpp"
 #include "arguments.hpp"
 #include "engine/metacal/metacal_type.hpp"
 #include "engine/metadetect/object_detector.hpp"
@@ -79,43 +81,44 @@ void read_detection_options(const Arguments& a, DetectionOptions* d) {
   d->clean = a.flag("clean", d->clean);
 }
 
+// metadetect()'s parameters: the image's, then every option of the table by its field's name.
+std::vector<Parameter> metadetect_parameters() {
+  std::vector<Parameter> p = {{"image", true}, {"weight", true}, {"psf", true}, {"pixel_scale", true},
+                              {"bmask"},       {"threads"},      {"noise", false, true}};
+  for (const app::MetadetectOptionKey& k : app::metadetect_option_keys())
+    if (k.python()) p.push_back({k.field.c_str(), false, true});
+  return p;
+}
+
+// The options given as keywords, each read as its kind and set through the table.
+MetadetectOptions read_metadetect_options(const Arguments& a) {
+  MetadetectOptions o;
+  using Kind = app::MetadetectOptionKey::Kind;
+  for (const app::MetadetectOptionKey& k : app::metadetect_option_keys()) {
+    const char* name = k.field.c_str();
+    if (!k.python() || !a.given(name)) continue;
+    std::string text;
+    switch (k.kind) {
+      case Kind::kInteger: text = std::to_string(a.integer(name, 0)); break;
+      case Kind::kReal: text = io::format_double(a.real(name, 0)); break;
+      case Kind::kSwitch: text = io::format_bool(a.flag(name, false)); break;
+      case Kind::kChoice: text = a.text(name); break;
+    }
+    if (const std::string why = k.set(o, text); !why.empty())
+      throw py::value_error(a.where(name) + ": '" + text + "' " + why);
+  }
+  return o;
+}
+
 py::object metadetect(py::args args, py::kwargs kwargs) {
-  const Arguments a("metadetect", args, kwargs,
-                    {{"image", true}, {"weight", true}, {"psf", true}, {"pixel_scale", true}, {"bmask"}, {"threads"},
-                     {"noise", false, true},
-                     {"cell_size", false, true}, {"cell_buffer", false, true}, {"step", false, true},
-                     {"psf_dilation", false, true}, {"fixnoise", false, true}, {"seed", false, true},
-                     {"double_images", false, true}, {"weight_fwhm", false, true}, {"detector", false, true}, {"detect_threshold", false, true},
-                     {"detect_min_area", false, true},
-                     {"deblend_contrast", false, true}, {"deblend_thresholds", false, true},
-                     {"filter_fwhm", false, true}, {"filter_size", false, true}, {"clean", false, true},
-                     {"box_min", false, true}, {"box_max", false, true}, {"per_object_metacal", false, true},
-                     {"measurement", false, true}, {"reconvolution_psf", false, true}, {"stamp_size", false, true},
-                     {"recentre", false, true}});
+  static const std::vector<Parameter> parameters = metadetect_parameters();
+  const Arguments a("metadetect", args, kwargs, parameters);
   const DoubleArray image = as_float64(a.object("image"), {2}, "image");
   const DoubleArray weight = as_float64(a.object("weight"), {2}, "weight");
   const DoubleArray psf = as_float64(a.object("psf"), {2}, "psf");
   if (weight.shape(0) != image.shape(0) || weight.shape(1) != image.shape(1))
     throw py::value_error(a.where("weight") + ": shape differs from the image's");
-  MetadetectOptions o;
-  o.cell_size = static_cast<int>(a.integer("cell_size", o.cell_size));
-  o.cell_buffer = static_cast<int>(a.integer("cell_buffer", o.cell_buffer));
-  o.step = a.real("step", o.step);
-  o.psf_dilation = a.real("psf_dilation", o.psf_dilation);
-  if (const std::string v = a.text("reconvolution_psf", "auto"); !parse_reconvolution_rule(v, &o.reconvolution))
-    throw py::value_error(a.where("reconvolution_psf") + ": '" + v + "' must be auto, gauss or moffat");
-  o.stamp.size = static_cast<int>(a.integer("stamp_size", o.stamp.size));
-  o.recentre = a.flag("recentre", o.recentre);
-  o.fixnoise = a.flag("fixnoise", o.fixnoise);
-  o.double_images = a.flag("double_images", o.double_images);
-  o.seed = static_cast<std::uint64_t>(a.integer_in("seed", static_cast<long long>(o.seed), 0, 1LL << 62));
-  if (const std::string v = a.text("measurement", "wmom"); !parse_metadetect_measurement(v, &o.measurement))
-    throw py::value_error(a.where("measurement") + ": '" + v + "' must be wmom, pgauss, exp or bd");
-  o.weight_fwhm = a.real("weight_fwhm", o.weight_fwhm);
-  read_detection_options(a, &o.detection);
-  o.stamp.box_min = static_cast<int>(a.integer("box_min", o.stamp.box_min));
-  o.stamp.box_max = static_cast<int>(a.integer("box_max", o.stamp.box_max));
-  o.per_object_metacal = a.flag("per_object_metacal", false);
+  const MetadetectOptions o = read_metadetect_options(a);
   const double scale = a.real("pixel_scale", 0);
   if (!(scale > 0)) throw py::value_error(a.where("pixel_scale") + ": must be > 0 (arcsec per pixel)");
   const int threads = static_cast<int>(a.integer_in("threads", 0, 0, 4096));

@@ -72,7 +72,8 @@ def test_bad_arguments_name_themselves(cell):
         stampede.metadetect(image, weight, np.zeros((5, 5)), 0.25)
     with pytest.raises(stampede.ConfigError, match="smaller than one cell"):
         stampede.metadetect(image[:100, :100], weight[:100, :100], psf, 0.25)
-    with pytest.raises(stampede.ConfigError, match="--cell-buffer"):
+    # Python is told the keyword it gave, not a command-line flag.
+    with pytest.raises(stampede.ConfigError, match="^cell_buffer = 200: "):
         stampede.metadetect(image, weight, psf, 0.25, cell_buffer=200)
     with pytest.raises(ValueError, match="noise"):
         stampede.metadetect(image, weight, psf, 0.25, noise=weight[:10])
@@ -127,5 +128,5 @@ def test_detect_finds_the_grid_with_either_detector(cell):
         stampede.detect(image, sigma, detector="sextractor")
     with pytest.raises(ValueError, match="sigma"):
         stampede.detect(image, 0.0)
-    with pytest.raises(ValueError, match="detect-min-area"):
+    with pytest.raises(ValueError, match="detect: detect_min_area = 0"):  # the keyword, not a flag
         stampede.detect(image, sigma, detect_min_area=0)

@@ -78,5 +78,21 @@ TEST(MetadetectCommand, EveryFileSizeLimitResumesToTheUninterruptedTable) {
   EXPECT_GT(whole, 0);
 }
 
+// The options' rules in the command line's words: the core names fields (cell_size), the command
+// speaks flags (--cell-size); a value that does not read names the flag and the text.
+TEST(MetadetectCommand, BadOptionsAreRefusedInTheCommandLinesWords) {
+  testing::ScratchDir dir("stampede_mdet_options_");
+  const testing::RunResult size = run({"in.fits", "-o", dir.path("o.fits"), "--cell-size", "3"}, dir.path("a.txt"), "metadetect");
+  EXPECT_NE(size.exit_code, 0);
+  EXPECT_NE(size.err.find("--cell-size = 3: must be in [16, 4096] pixels"), std::string::npos) << size.err;
+  const testing::RunResult box = run({"in.fits", "-o", dir.path("o.fits"), "--box-max", "31"}, dir.path("b.txt"), "metadetect");
+  EXPECT_NE(box.err.find("--box-max = 31: must be odd, >= --box-min and <= 4095"), std::string::npos) << box.err;
+  const testing::RunResult m = run({"in.fits", "-o", dir.path("o.fits"), "--measurement", "gauss"}, dir.path("c.txt"), "metadetect");
+  EXPECT_NE(m.err.find("option --measurement 'gauss': must be wmom, pgauss, exp or bd"), std::string::npos) << m.err;
+  const testing::RunResult n = run({"in.fits", "-o", dir.path("o.fits"), "--step", "1e"}, dir.path("d.txt"), "metadetect");
+  EXPECT_NE(n.err.find("option --step '1e': "), std::string::npos) << n.err;
+  EXPECT_FALSE(fs::exists(dir.path("o.fits")));
+}
+
 }  // namespace
 }  // namespace stampede
