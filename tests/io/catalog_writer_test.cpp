@@ -31,6 +31,7 @@
 
 #include "io/durable_file.hpp"
 #include "io/fits_file.hpp"
+#include "support/file_size_limit.hpp"
 #include "support/result_records.hpp"
 #include "support/scratch_dir.hpp"
 
@@ -680,16 +681,7 @@ TEST_F(CatalogWriterTest, SurvivesSigkillMidBatch) {
 // appends `records` 100 at a time until an append fails, then abandon()s it. Returns the error
 // message ("no failure" when none; "child ..." when the child itself went wrong).
 std::string write_until_the_limit(const CatalogWriterOptions& o, const std::vector<ObjectRecord>& records, rlim_t limit) {
-  int pipe_fds[2];
-  if (::pipe(pipe_fds) != 0) return "child: no pipe";
-  const pid_t pid = ::fork();
-  if (pid < 0) return "child: no fork";
-  if (pid == 0) {
-    ::close(pipe_fds[0]);
-    rlimit l{};
-    ::getrlimit(RLIMIT_FSIZE, &l);
-    l.rlim_cur = limit;
-    if (::setrlimit(RLIMIT_FSIZE, &l) != 0) ::_exit(3);
+  return testing::in_child_with_file_size_limit(static_cast<long long>(limit), [&] {
     std::string message = "no failure";
     try {
       auto w = CatalogWriter::create(o);
@@ -703,18 +695,8 @@ std::string write_until_the_limit(const CatalogWriterOptions& o, const std::vect
     } catch (const std::exception& e) {
       message = std::string("create: ") + e.what();
     }
-    const bool sent = ::write(pipe_fds[1], message.data(), message.size()) == static_cast<ssize_t>(message.size());
-    ::_exit(sent ? 0 : 4);
-  }
-  ::close(pipe_fds[1]);
-  std::string message;
-  char buf[512];
-  for (ssize_t n; (n = ::read(pipe_fds[0], buf, sizeof buf)) > 0;) message.append(buf, static_cast<std::size_t>(n));
-  ::close(pipe_fds[0]);
-  int wstatus = 0;
-  ::waitpid(pid, &wstatus, 0);
-  if (!WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0) return "child status " + std::to_string(wstatus) + ": " + message;
-  return message;
+    return message;
+  });
 }
 
 // A write that fails for want of room (here the process's file-size limit, RLIMIT_FSIZE, in a

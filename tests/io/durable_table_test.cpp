@@ -6,9 +6,6 @@
 #include "io/durable_table.hpp"
 
 #include <gtest/gtest.h>
-#include <sys/resource.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -21,6 +18,7 @@
 
 #include "io/durable_file.hpp"
 #include "support/error_assertions.hpp"
+#include "support/file_size_limit.hpp"
 #include "support/scratch_dir.hpp"
 
 namespace stampede::io {
@@ -87,40 +85,20 @@ void run_to_end(DurableTable& t) {
 // In a child whose file-size limit is `limit` bytes: create and run to the end until something
 // fails, then abandon. Returns the error ("" none; "child ..." when the child itself went wrong).
 std::string run_under_limit(const DurableTableOptions& o, long long limit) {
-  int fds[2];
-  if (::pipe(fds) != 0) return "child: no pipe";
-  const pid_t pid = ::fork();
-  if (pid < 0) return "child: no fork";
-  if (pid == 0) {
-    ::close(fds[0]);
-    rlimit l{};
-    ::getrlimit(RLIMIT_FSIZE, &l);
-    l.rlim_cur = static_cast<rlim_t>(limit);
-    if (::setrlimit(RLIMIT_FSIZE, &l) != 0) ::_exit(3);
-    std::string message;
+  return testing::in_child_with_file_size_limit(limit, [&]() -> std::string {
     try {
       auto t = DurableTable::create(o);
       try {
         run_to_end(*t);
       } catch (const CatalogError& e) {
-        message = e.what();
         t->abandon();
+        return e.what();
       }
     } catch (const std::exception& e) {
-      message = std::string("create: ") + e.what();
+      return std::string("create: ") + e.what();
     }
-    const bool sent = ::write(fds[1], message.data(), message.size()) == static_cast<ssize_t>(message.size());
-    ::_exit(sent ? 0 : 4);
-  }
-  ::close(fds[1]);
-  std::string message;
-  char buf[512];
-  for (ssize_t n; (n = ::read(fds[0], buf, sizeof buf)) > 0;) message.append(buf, static_cast<std::size_t>(n));
-  ::close(fds[0]);
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) return "child status " + std::to_string(status) + ": " + message;
-  return message;
+    return "";
+  });
 }
 
 TEST(DurableTable, EveryFileSizeLimitResumesToTheUninterruptedTable) {
