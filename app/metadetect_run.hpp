@@ -40,7 +40,7 @@ struct MetadetectRunOptions {
   int cells_per_batch = 2;
   // Job-array shard `shard` of `shards` (`--shard i/N`): the contiguous cells [T i / N, T (i + 1) /
   // N) of the run's T, numbered as in the whole run (their rows are the whole run's); header key
-  // SHARD "i/N". app/metadetect_merge joins the shards' tables.
+  // SHARD "i/N". app/shard_merge joins the shards' tables.
   int shard = 0, shards = 1;
   bool resume = false;
   bool overwrite = false;

@@ -5,23 +5,23 @@
 #include <chrono>
 #include <map>
 #include <optional>
+#include <set>
+#include <span>
 #include <utility>
 
-#include "app/fit_run.hpp"
-#include "engine/pipeline/range_source.hpp"
-#include "io/catalog_reader.hpp"
-#include "io/catalog_writer.hpp"
+#include "app/run_harness.hpp"
+#include "io/catalog_error.hpp"
+#include "io/config_error.hpp"
 #include "io/output_check.hpp"
 #include "io/output_lock.hpp"
 #include "app/run_config.hpp"
 #include "io/fits_file.hpp"
 #include "io/simulation_identity.hpp"
+#include "io/table_join.hpp"
 
 namespace stampede::app {
 
 namespace {
-
-constexpr long long kChunkRows = 4096;
 
 // The header keys fit records its input files' contents under (size and digest); the keys that
 // name those files as typed are compared only for tables without them (written before they were).
@@ -49,51 +49,90 @@ std::vector<std::string> run_keys() {
   return keys;
 }
 
+// What a shard table says of itself. Fit: `units` are its objects (a row each), `total` the whole
+// input's (SHARDTOT), `header` the run keys. Metadetect: its cells (NCELLSW) of the run's NCELLS,
+// `header` every key but the shard's own.
 struct Shard {
   std::string path;
+  bool metadetect = false;
   int index = 0, count = 0;
-  long long total = 0;  // the whole input's objects
-  long long rows = 0;
-  io::PositionColumns positions = io::PositionColumns::kGrid;
-  bool metacal = false;
-  std::vector<std::string> bands;  // a multi-band run's
-  std::vector<std::pair<std::string, std::string>> header;  // run_keys() present, with their values
+  long long total = 0, units = 0;
+  std::vector<std::pair<std::string, std::string>> header;
 };
+
+[[noreturn]] void refuse(const std::string& path, const std::string& why) { throw io::CatalogError(path + ": " + why); }
+
+// The keys a metadetect shard's header holds beside the table's structure, the shard's own left out.
+bool metadetect_run_key(const std::string& key) {
+  static const std::set<std::string> fixed = {"XTENSION", "BITPIX",   "NAXIS", "NAXIS1", "NAXIS2", "PCOUNT",
+                                              "GCOUNT",   "TFIELDS",  "EXTNAME", "LONGSTRN", kShardKey, "NCELLSW"};
+  if (fixed.count(key)) return false;
+  for (const char* prefix : {"TTYPE", "TFORM", "TUNIT", "TCOMM"})
+    if (key.starts_with(prefix) && key.size() > 5 && key.find_first_not_of("0123456789", 5) == std::string::npos)
+      return false;
+  return true;
+}
 
 Shard read_shard(const std::string& path) {
   refuse_unfinished_table(io::fits_root_name(path), "shard");
-  io::CatalogReader r = io::CatalogReader::open(path);
+  io::FitsFile f = io::FitsFile::open_read(path);
   Shard s;
   s.path = path;
-  s.rows = r.rows();
-  io::FitsFile& f = r.file();
+  s.metadetect = f.move_to_if_present("METADETECT");
+  if (!s.metadetect && !f.move_to_if_present("RESULTS"))
+    refuse(path, "no RESULTS or METADETECT table: not the table of `stampede fit` or `stampede metadetect`");
+  const char* run = s.metadetect ? "`stampede metadetect --shard i/N`" : "`stampede fit --shard i/N`";
   const auto shard = f.read_key_string(kShardKey);
-  if (!shard)
-    throw io::CatalogError(path + ": no " + std::string(kShardKey) +
-                           " key: not the table of a `stampede fit --shard i/N` run");
+  if (!shard) refuse(path, std::string("no ") + kShardKey + " key: not the table of a " + run + " run");
   const auto parsed = parse_shard(*shard);
-  if (!parsed) throw io::CatalogError(path + ": " + kShardKey + " = '" + *shard + "' is not i/N with 0 <= i < N");
-  s.index = parsed->first;
-  s.count = parsed->second;
-  s.positions = r.positions();
-  s.metacal = r.metacal();
-  s.bands = r.bands();
-  s.total = f.key_long(kShardTotalKey);
-  for (const std::string& k : run_keys())
-    if (auto v = f.read_key_string(k)) s.header.emplace_back(k, *v);
-  const long long expected = shard_begin(s.total, s.index + 1, s.count) - shard_begin(s.total, s.index, s.count);
-  if (s.rows != expected)
-    throw io::CatalogError(path + ": shard " + *shard + " of " + std::to_string(s.total) + " objects has " +
-                           std::to_string(s.rows) + " rows, not " + std::to_string(expected));
+  if (!parsed) refuse(path, std::string(kShardKey) + " = '" + *shard + "' is not i/N with 0 <= i < N");
+  s.index = parsed->first, s.count = parsed->second;
+  if (s.metadetect) {
+    s.total = f.key_long("NCELLS");
+    const auto written = f.read_key_long("NCELLSW");
+    if (!written) refuse(path, "unfinished (no NCELLSW key): finish the shard's run (--resume) first");
+    s.units = *written;
+    for (const io::FitsFile::HeaderCard& c : f.header_cards())
+      if (c.type != io::FitsFile::HeaderCard::Type::kCommentary && metadetect_run_key(c.key)) s.header.emplace_back(c.key, c.value);
+  } else {
+    s.total = f.key_long(kShardTotalKey);
+    s.units = f.table_rows();
+    for (const std::string& k : run_keys())
+      if (auto v = f.read_key_string(k)) s.header.emplace_back(k, *v);
+  }
+  const ShardRange range = shard_range(s.total, s.index, s.count);
+  const char* units = s.metadetect ? " cells" : " objects";
+  if (s.units != range.end - range.begin)
+    refuse(path, "shard " + *shard + " of " + std::to_string(s.total) + units + " holds " + std::to_string(s.units) +
+                     (s.metadetect ? " cells" : " rows") + ", not its range's " + std::to_string(range.end - range.begin));
   return s;
 }
 
 // "" when b belongs to a's run; else why not, naming b.
 std::string difference(const Shard& a, const Shard& b) {
+  if (a.metadetect != b.metadetect)
+    return b.path + " is a " + (b.metadetect ? "metadetect" : "fit") + " table, " + a.path + " a " +
+           (a.metadetect ? "metadetect" : "fit") + " one";
+  const char* units = a.metadetect ? " cells" : " objects";
   if (a.count != b.count || a.total != b.total)
     return b.path + " is shard " + std::to_string(b.index) + "/" + std::to_string(b.count) + " of " +
-           std::to_string(b.total) + " objects, " + a.path + " one of " + std::to_string(a.count) + " shards of " +
+           std::to_string(b.total) + units + ", " + a.path + " one of " + std::to_string(a.count) + " shards of " +
            std::to_string(a.total);
+  if (a.metadetect) {  // every key the run records, in its order; RUNFP (their digest) only if alone
+    std::map<std::string, std::string> bv(b.header.begin(), b.header.end());
+    for (const bool digest : {false, true})
+      for (const auto& [k, x] : a.header) {
+        if ((k == kRunFingerprintKey) != digest) continue;
+        const auto y = bv.find(k);
+        if (y == bv.end() || y->second != x)
+          return b.path + " is from another run than " + a.path + ": " + k + " = " +
+                 (y == bv.end() ? "(absent)" : "'" + y->second + "'") + " there, '" + x + "' here (other inputs or options)";
+      }
+    std::map<std::string, std::string> av(a.header.begin(), a.header.end());
+    for (const auto& [k, y] : b.header)
+      if (!av.count(k)) return b.path + " is from another run than " + a.path + ": " + k + " = '" + y + "' there, (absent) here";
+    return "";
+  }
   std::map<std::string, std::string> av(a.header.begin(), a.header.end()), bv(b.header.begin(), b.header.end());
   const auto identified = [](const std::map<std::string, std::string>& h) {
     return h.count("INDIGEST") > 0 || h.count("MEDSDIGS") > 0;
@@ -117,9 +156,8 @@ ShardMergeSummary merge_shards(const ShardMergeOptions& o) {
   if (o.output.empty()) throw io::ConfigError("merge: no output given (-o OUT.fits)");
   std::vector<io::RunInput> inputs;
   for (const std::string& p : o.shards) inputs.push_back({"shard", io::fits_root_name(p)});
-  const std::vector<io::RunOutput> outputs = {
-      {"-o", o.output, {o.output + ".partial", o.output + ".checkpoint", io::OutputLock::path_for(o.output)}}};
-  io::check_outputs(outputs, inputs, o.overwrite);
+  const io::RunOutput output = table_output("-o", o.output);
+  io::check_outputs(std::span(&output, 1), inputs, o.overwrite);
   const io::OutputLock lock = io::OutputLock::acquire(o.output);
 
   std::vector<Shard> shards;
@@ -131,47 +169,35 @@ ShardMergeSummary merge_shards(const ShardMergeOptions& o) {
     auto& slot = by_index[static_cast<std::size_t>(shards[k].index)];
     if (slot)
       throw io::CatalogError("merge: " + shards[*slot].path + " and " + shards[k].path + " are both shard " +
-                             std::to_string(shards[k].index) + "/" + std::to_string(shards[k].count));
+                             shard_text(shards[k].index, shards[k].count) + " (a shard given twice)");
     slot = k;
   }
   for (std::size_t i = 0; i < by_index.size(); ++i)
     if (!by_index[i])
-      throw io::CatalogError("merge: shard " + std::to_string(i) + "/" + std::to_string(by_index.size()) +
-                             " is missing (" + std::to_string(shards.size()) + " of " +
-                             std::to_string(by_index.size()) + " given)");
-
-  io::CatalogWriterOptions wo;
-  wo.path = o.output;
-  wo.positions = shards[*by_index[0]].positions;
-  wo.metacal = shards[*by_index[0]].metacal;
-  wo.bands = shards[*by_index[0]].bands;
-  wo.header = shards.front().header;  // the run's keys, as a single process writes them
-  for (const io::OptionInfo& info : app::run_config_options())
-    if (info.type != io::HeaderValueType::kText) wo.header_types[info.name] = info.type;
-  wo.header_types["metacal_gamma_fwhm"] = io::HeaderValueType::kReal;
-  wo.fingerprint = "stampede merge of " + std::to_string(by_index.size()) + " shards\n";
-  wo.keep_on_write_failure = false;  // a merge has no --resume: a failed one is redone whole
-  auto writer = io::CatalogWriter::create(wo);
-  ShardMergeSummary summary;
-  summary.shards = static_cast<int>(by_index.size());
-  const long long total = shards.front().total;
-  try {
-    for (const auto& slot : by_index) {
-      io::CatalogReader r = io::CatalogReader::open(shards[*slot].path);
-      if (shards[*slot].positions != wo.positions || shards[*slot].metacal != wo.metacal || shards[*slot].bands != wo.bands)
-        throw io::CatalogError("merge: " + shards[*slot].path + " has other columns than the first shard");
-      for (long long first = 0; first < r.rows(); first += kChunkRows) {
-        const auto rows = r.records(first, std::min(kChunkRows, r.rows() - first));
-        writer->append(rows);
-        summary.rows += static_cast<long long>(rows.size());
-        if (o.on_progress) o.on_progress(summary.rows, total);
-      }
-    }
-    writer->finish();
-  } catch (...) {
-    writer->abandon();
-    throw;
+      throw io::CatalogError("merge: shard " + shard_text(static_cast<int>(i), static_cast<int>(by_index.size())) +
+                             " is missing (" + std::to_string(shards.size()) + " of " + std::to_string(by_index.size()) +
+                             " given)");
+  const Shard& first = shards.front();
+  io::TableJoinOptions join;
+  for (const auto& slot : by_index) join.tables.push_back(shards[*slot].path);
+  join.output = o.output;
+  join.on_progress = o.on_progress;
+  if (first.metadetect) {
+    join.extname = "METADETECT";
+    join.dropped_keys = {kShardKey, "NCELLSW"};
+    join.final_keys = {{"NCELLSW", first.total}};
+    join.final_key_comment = "cells whose rows this table holds";
+  } else {
+    // A shard's RUNFP covers its range: the joined table is the whole run's, which a shard's
+    // identity does not name.
+    join.extname = "RESULTS";
+    join.dropped_keys = {kShardKey, kShardTotalKey, kRunFingerprintKey};
   }
+  ShardMergeSummary summary;
+  summary.metadetect = first.metadetect;
+  summary.shards = static_cast<int>(by_index.size());
+  summary.rows = io::join_tables(join);
+  summary.units = first.total;
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
 }

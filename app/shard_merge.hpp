@@ -1,10 +1,12 @@
-// Joining the tables of a job array's shards (`stampede fit --shard i/N`, one job each) into the
-// table one process would have written: every column but time_us equal, rows in input order.
-// Refuses, naming the shard file: a table that is not a shard, a missing or duplicated shard,
-// shards of different runs (another input, configuration or shard count), and a shard whose row
-// count is not its range's (an unfinished or cut table). Memory is a fixed chunk of rows, whatever
-// the table's size; the output is written as `stampede fit` writes its own (a partial renamed when
-// complete), checked and locked first.
+// Joining the tables of a job array's shards into the table one process would have written: one
+// merge for both kinds of run, told apart by the table's HDU. `stampede fit --shard i/N` (RESULTS:
+// every column but time_us equal, rows in input order) and `stampede metadetect --shard i/N` or
+// `stampede-mpi metadetect`'s ranks (METADETECT: the whole run's table byte for byte). Refuses,
+// naming the shard file: a table that is not a shard, an unfinished run's partial or checkpoint, a
+// missing or duplicated shard, shards of different runs (another input, configuration or shard
+// count), and a shard that does not hold its whole range (an unfinished or cut table). The rows
+// are copied as bytes (io/table_join), a fixed chunk at a time; the output is checked and locked
+// first and written through a partial renamed when complete.
 #pragma once
 
 #include <functional>
@@ -22,8 +24,10 @@ struct ShardMergeOptions {
 };
 
 struct ShardMergeSummary {
+  bool metadetect = false;  // the shards were metadetect tables
   int shards = 0;
   long long rows = 0;
+  long long units = 0;  // objects (fit) or cells (metadetect) the joined table covers
   double seconds = 0;
 };
 

@@ -8,7 +8,6 @@
 #include <stdexcept>
 #include <string>
 
-#include "app/metadetect_merge.hpp"
 #include "app/shard_merge.hpp"
 #include "tools/arguments.hpp"
 #include "tools/progress_printer.hpp"
@@ -60,14 +59,6 @@ int run_merge_command(int argc, char** argv) {
     std::fputs(kUsage, stderr);
     return 2;
   }
-  if (stampede::app::is_metadetect_table(o.shards.front())) {
-    const stampede::app::MetadetectMergeSummary s =
-        stampede::app::merge_metadetect_shards({o.shards, o.output, o.overwrite});
-    if (!quiet)
-      std::fprintf(stderr, "stampede merge: %d metadetect shards, %lld cells, %lld rows; wrote %s\n", s.shards, s.cells,
-                   s.rows, o.output.c_str());
-    return 0;
-  }
   stampede::tools::ProgressPrinter printer(stderr, isatty(fileno(stderr)));
   const auto start = std::chrono::steady_clock::now();
   if (!quiet)
@@ -78,7 +69,8 @@ int run_merge_command(int argc, char** argv) {
   const stampede::app::ShardMergeSummary s = stampede::app::merge_shards(o);
   printer.finish();
   if (!quiet)
-    std::fprintf(stderr, "stampede merge: %d shards, %lld rows in %.1f s; wrote %s\n", s.shards, s.rows, s.seconds,
+    std::fprintf(stderr, "stampede merge: %d %sshards, %lld %s, %lld rows in %.1f s; wrote %s\n", s.shards,
+                 s.metadetect ? "metadetect " : "", s.units, s.metadetect ? "cells" : "objects", s.rows, s.seconds,
                  o.output.c_str());
   return 0;
 }

@@ -25,7 +25,7 @@
 #include <vector>
 
 #include "app/cell_simulation.hpp"
-#include "app/metadetect_merge.hpp"
+#include "app/shard_merge.hpp"
 #include "io/config_error.hpp"
 #include "engine/metadetect/metadetect_row.hpp"
 #include "engine/sim/cell_sim.hpp"
@@ -382,10 +382,10 @@ TEST(MetadetectRun, BandTilesGiveBandColumnsTheSameForAnyThreadsAndShards) {
   }
   EXPECT_GT(usable, 3 * 5 * 40);
   // Shards of a band run merge to its table, band columns included.
-  MetadetectMergeOptions mo;
+  ShardMergeOptions mo;
   mo.shards = testing::run_metadetect_shards(o, 2, scratch, "part");
   mo.output = scratch.path("merged.fits");
-  merge_metadetect_shards(mo);
+  merge_shards(mo);
   EXPECT_EQ(bytes(scratch.path("merged.fits")), bytes(scratch.path("one.fits")));
 }
 

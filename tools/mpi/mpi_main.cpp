@@ -15,7 +15,7 @@
 #include <thread>
 #include <vector>
 
-#include "app/metadetect_merge.hpp"
+#include "app/shard_merge.hpp"
 #include "app/run_harness.hpp"
 #include "app/metadetect_run.hpp"
 #include "io/durable_file.hpp"
@@ -163,7 +163,9 @@ int run_metadetect_over_ranks(int argc, char** argv, int rank, int ranks) {
       } else {
         std::vector<std::string> parts;
         for (int r = 0; r < ranks; ++r) parts.push_back(part(r));
-        stampede::app::merge_metadetect_shards({parts, output, o.overwrite || o.resume});
+        stampede::app::ShardMergeOptions merge;
+        merge.shards = parts, merge.output = output, merge.overwrite = o.overwrite || o.resume;
+        stampede::app::merge_shards(merge);
         for (const std::string& p : parts) stampede::io::remove_if_present(p);
       }
       if (!command.quiet) std::fprintf(stderr, "stampede-mpi metadetect: %d ranks joined into %s\n", ranks, output.c_str());
