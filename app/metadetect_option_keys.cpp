@@ -189,18 +189,21 @@ std::string with_metadetect_flags(std::string message) {
     const auto k = std::find_if(keys.begin(), keys.end(), [&](const MetadetectOptionKey& e) { return e.field == token; });
     return k != keys.end() && !k->flag.empty() ? k->flag : std::string(token);
   };
-  // The field the message opens with, and any field of two words or more in it (a one-word field
-  // such as "step" is not told from the word).
+  // The field the message opens with, and any field of two words or more standing as a word of the
+  // text (after a space or '(', before a space, ')', ',', ':' or '='): never a part of a path.
+  auto opens = [](char c) { return c == ' ' || c == '('; };
+  auto closes = [](char c) { return c == ' ' || c == ')' || c == ',' || c == ':' || c == '='; };
   std::string out;
   for (std::size_t i = 0; i < message.size();) {
-    if (!word(message[i]) || (i > 0 && (word(message[i - 1]) || message[i - 1] == '-'))) {
+    if (!word(message[i]) || (i > 0 && !opens(message[i - 1]))) {
       out += message[i++];
       continue;
     }
     std::size_t j = i;
     while (j < message.size() && word(message[j])) ++j;
     const std::string_view token(message.data() + i, j - i);
-    out += i == 0 || token.find('_') != std::string_view::npos ? flag_of(token) : std::string(token);
+    const bool whole = j == message.size() || closes(message[j]);
+    out += whole && (i == 0 || token.find('_') != std::string_view::npos) ? flag_of(token) : std::string(token);
     i = j;
   }
   return out;

@@ -15,6 +15,7 @@
 #include "app/fit_run.hpp"
 #include "app/metadetect_option_keys.hpp"
 #include "app/metadetect_run.hpp"
+#include "io/config_error.hpp"
 #include "tools/arguments.hpp"
 #include "tools/progress_printer.hpp"
 
@@ -229,5 +230,9 @@ int run_metadetect_with_reports(const MetadetectCommandLine& command) {
 int run_metadetect_command(int argc, char** argv) {
   MetadetectCommandLine command;
   if (const int code = parse_metadetect_arguments(argc, argv, &command, true); code >= 0) return code;
-  return run_metadetect_with_reports(command);
+  try {
+    return run_metadetect_with_reports(command);
+  } catch (const stampede::io::ConfigError& e) {  // the core names option fields: the command line's are flags
+    throw stampede::io::ConfigError(stampede::app::with_metadetect_flags(e.what()));
+  }
 }

@@ -26,12 +26,12 @@ std::vector<AxisCell> axis_cells(long length, int size, int buffer) {
 std::vector<CellPlacement> cell_layout(long width, long height, int size, int buffer, std::string* error) {
   if (size <= 2 * buffer) {
     *error = "a cell of " + std::to_string(size) + " pixels has no inner region with a buffer of " +
-             std::to_string(buffer) + " (--cell-size must exceed twice --cell-buffer)";
+             std::to_string(buffer) + " (cell_size must exceed twice cell_buffer)";
     return {};
   }
   if (width < size || height < size) {
     *error = "the image is " + std::to_string(width) + " x " + std::to_string(height) +
-             " pixels, smaller than one cell (--cell-size " + std::to_string(size) + ")";
+             " pixels, smaller than one cell (cell_size " + std::to_string(size) + ")";
     return {};
   }
   std::vector<CellPlacement> out;

@@ -149,7 +149,7 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
   if (options_.per_object_metacal && !cell.other_bands.empty())
     return fail("per-object metacal measures one band");
   if (fitter_ && !cell.other_bands.empty())
-    return fail(std::string("--measurement ") + metadetect_measurement_name(options_.measurement) +
+    return fail(std::string("measurement ") + metadetect_measurement_name(options_.measurement) +
                 " fits one band (wmom and pgauss measure several)");
   bands_.clear();
   bands_.push_back({cell.pixels, cell.weight, cell.noise, cell.psf});

@@ -78,6 +78,11 @@ TEST(MetadetectOptionKeys, TheCoresFieldsBecomeTheCommandLinesFlags) {
   o = MetadetectOptions();
   o.step = 0.5;  // a one-word field is translated where the message opens with it
   EXPECT_EQ(with_metadetect_flags(refusal(o)), "--step = 0.5: must be in [0.001, 0.1]");
+  // Inside a message only a field standing as a word: never part of a path.
+  EXPECT_EQ(with_metadetect_flags("/data/cell_size/a.fits: 40 x 40 pixels, smaller than one cell (cell_size 64)"),
+            "/data/cell_size/a.fits: 40 x 40 pixels, smaller than one cell (--cell-size 64)");
+  EXPECT_EQ(with_metadetect_flags("cell_buffer.fits: no step (cell_size must exceed twice cell_buffer)"),
+            "cell_buffer.fits: no step (--cell-size must exceed twice --cell-buffer)");
 }
 
 }  // namespace
