@@ -172,11 +172,11 @@ std::vector<ObjectRecord> fit_array_stamps(const app::RunConfig& config, const A
 
   ArraySource source(in);
   RowsSink sink(&rows);
-  PipelineOptions po;
-  po.threads = threads;
-  po.batch_size = cfg.batch_size;
+  PipelineOptions pipeline_options;
+  pipeline_options.threads = threads;
+  pipeline_options.batch_size = cfg.batch_size;
   auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> { return recipe.make(FftPlanning::kEstimate); };
-  run_pipeline(source, sink, make_fitter, po);
+  run_pipeline(source, sink, make_fitter, pipeline_options);
   return rows;
 }
 

@@ -133,32 +133,32 @@ std::string CalibrationBuildSummary::FullReport() const {
 }
 
 CalibrationBuild::CalibrationBuild(CalibrationBuildOptions options) : options_(std::move(options)) {
-  const app::RunConfig& cfg = options_.config;
+  const app::RunConfig& config = options_.config;
   CalibrationGridOptions& g = options_.grid;
   const io::RunOutput output{"-o", options_.output,
                              {options_.output + ".partial", options_.output + ".tmp", io::OutputLock::path_for(options_.output)}};
   io::check_outputs(std::span(&output, 1), {}, options_.overwrite || options_.resume);
   lock_ = io::OutputLock::acquire(options_.output);
-  app::validate(cfg);
-  if (cfg.metacal.enabled)
+  app::validate(config);
+  if (config.metacal.enabled)
     throw io::ConfigError("option 'metacal' = true: calibrate build simulates the plain fit's noise bias; a metacal run "
                           "measures its response from its own images and needs no calibration table");
-  if (cfg.psf_from_catalogue || cfg.psf_kind == PsfKind::kImage)
-    throw io::ConfigError("option 'psf_input' = '" + app::psf_input_value(cfg) +
+  if (config.psf_from_catalogue || config.psf_kind == PsfKind::kImage)
+    throw io::ConfigError("option 'psf_input' = '" + app::psf_input_value(config) +
                           "': calibrate build simulates analytic PSFs only (moffat or airy)");
-  if (!(cfg.fitter.noise_sigma > 0))
+  if (!(config.fitter.noise_sigma > 0))
     throw io::ConfigError("option 'noise_sigma' = 0: the calibration fits (and the science run's) must be weighted; "
                           "set noise_sigma > 0 (the data's noise)");
-  g.noise_sigma = cfg.fitter.noise_sigma;
-  g.stamp_size = cfg.fitter.render.stamp_size;
-  g.bulge_radius_ratio = cfg.fitter.params.spec[index(Param::kRadiusRatio)].start;
+  g.noise_sigma = config.fitter.noise_sigma;
+  g.stamp_size = config.fitter.render.stamp_size;
+  g.bulge_radius_ratio = config.fitter.params.spec[index(Param::kRadiusRatio)].start;
 
   FftPlanCache setup_plans(FftPlanning::kEstimate);
-  psf_ = app::build_shared_psf(cfg, setup_plans);
+  psf_ = app::build_shared_psf(config, setup_plans);
   g.psf = psf_.model;
   grid_ = std::make_unique<CalibrationGrid>(g);  // validates the grid options
   checkpoint_ = std::make_unique<BuildCheckpoint>(options_.output + ".partial",
-                                                  calibration_build_fingerprint(g, app::effective_options(cfg)),
+                                                  calibration_build_fingerprint(g, app::effective_options(config)),
                                                   options_.resume, points());
 }
 
@@ -181,7 +181,7 @@ std::string CalibrationBuild::PlanReport() const {
 }
 
 CalibrationBuildSummary CalibrationBuild::run(const std::function<void(const CalibrationBuildProgress&)>& progress) {
-  const app::RunConfig& cfg = options_.config;
+  const app::RunConfig& config = options_.config;
   const CalibrationGrid& grid = *grid_;
   const int n_points = points(), first = first_point();
   CalibrationBuildSummary summary;
@@ -192,10 +192,10 @@ CalibrationBuildSummary CalibrationBuild::run(const std::function<void(const Cal
     CalibrationSource source(grid);
     const long long total = grid.objects(), before = static_cast<long long>(first) * grid.objects_per_point();
     source.skip_to(before);
-    PipelineOptions po;
-    po.threads = options_.threads;
-    po.batch_size = cfg.batch_size;
-    FitterOptions fitter_options = cfg.fitter;
+    PipelineOptions pipeline_options;
+    pipeline_options.threads = options_.threads;
+    pipeline_options.batch_size = config.batch_size;
+    FitterOptions fitter_options = config.fitter;
     fitter_options.renderer = psf_.kind;
     const app::SharedPsf& psf = psf_;
     auto make_fitter = [&]() -> std::unique_ptr<BatchFitter> {
@@ -216,7 +216,7 @@ CalibrationBuildSummary CalibrationBuild::run(const std::function<void(const Cal
       r.eta_seconds = (total - r.fits_done) / std::max(r.fits_per_second, 1e-9);
       progress(r);
     };
-    const PipelineSummary fitted = run_pipeline(source, sink, make_fitter, po, on_batch);
+    const PipelineSummary fitted = run_pipeline(source, sink, make_fitter, pipeline_options, on_batch);
     summary.fitted = true;
     summary.fits = fitted.objects;
     summary.fit_seconds = fitted.seconds;
@@ -229,7 +229,7 @@ CalibrationBuildSummary CalibrationBuild::run(const std::function<void(const Cal
   table.points = grid.points();
   // The renderer as renderer = auto resolved for this PSF: apply compares it with the science
   // table's, which records its run's resolution alike.
-  app::RunConfig recorded = cfg;
+  app::RunConfig recorded = config;
   recorded.fitter.renderer = psf_.kind;
   table.config = app::effective_options(recorded);
   table.biases = checkpoint_->done();

@@ -212,10 +212,10 @@ std::vector<MetadetectRow> metadetect_image(const io::CellImage& image, const Me
   io::CellSource source(image, options);
   CollectingSink sink;
   set_detection_pixel_stack(static_cast<long long>(options.cell_size) * options.cell_size);
-  PipelineOptions po;
-  po.threads = threads;
-  po.batch_size = 2;
-  run_pipeline(source, sink, [&] { return std::make_unique<CellBatchMeasurer>(options); }, po);
+  PipelineOptions pipeline_options;
+  pipeline_options.threads = threads;
+  pipeline_options.batch_size = 2;
+  run_pipeline(source, sink, [&] { return std::make_unique<CellBatchMeasurer>(options); }, pipeline_options);
   if (cells_failed) *cells_failed = sink.failed;
   return std::move(sink.rows);
 }
@@ -239,49 +239,49 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
 
   io::CellSource source = options.tile ? io::CellSource(io::CellSource::Tile{options.inputs}, options.metadetect)
                                        : io::CellSource(images, options.metadetect);
-  io::MetadetectWriterOptions wo;
-  wo.path = options.output;
-  wo.bands = bands;
+  io::MetadetectWriterOptions writer_options;
+  writer_options.path = options.output;
+  writer_options.bands = bands;
   std::string fingerprint = "stampede " + std::string(program_version()) + " metadetect\n";
-  wo.header.emplace_back("INPUTS", options.tile ? "cell tile" : "images");
+  writer_options.header.emplace_back("INPUTS", options.tile ? "cell tile" : "images");
   fingerprint += options.tile ? "cell tile\n" : "images\n";
   if (!bands.empty()) {
     std::string names;
     for (const std::string& b : bands) names += (names.empty() ? "" : ",") + b;
-    wo.header.emplace_back("BANDS", names);
+    writer_options.header.emplace_back("BANDS", names);
     fingerprint += "bands " + names + "\n";
   }
   for (const auto& [key, value] : metadetect_header_keys(options.metadetect)) {
-    wo.header.emplace_back(key, value);
+    writer_options.header.emplace_back(key, value);
     fingerprint += key + "=" + value + "\n";
   }
   for (std::size_t i = 0; i < files.size(); ++i) {
     const io::FileDigest d = io::digest_file(files[i]);
     const std::string n = std::to_string(i + 1);
-    wo.header.emplace_back("INPUT" + n, files[i]);
-    wo.header.emplace_back("DIGEST" + n, d.text());
+    writer_options.header.emplace_back("INPUT" + n, files[i]);
+    writer_options.header.emplace_back("DIGEST" + n, d.text());
     fingerprint += "input " + files[i] + " " + d.text() + "\n";
   }
   for (std::size_t i = 0; i < images.psfex.size(); ++i) {
     const io::FileDigest d = io::digest_file(images.psfex[i]);
     const std::string n = std::to_string(i + 1);
-    wo.header.emplace_back("PSFEX" + n, images.psfex[i]);
-    wo.header.emplace_back("PSFEXD" + n, d.text());
+    writer_options.header.emplace_back("PSFEX" + n, images.psfex[i]);
+    writer_options.header.emplace_back("PSFEXD" + n, d.text());
     fingerprint += "psfex " + images.psfex[i] + " " + d.text() + "\n";
   }
-  wo.header.emplace_back("NCELLS", std::to_string(source.total_objects()));
+  writer_options.header.emplace_back("NCELLS", std::to_string(source.total_objects()));
   const ShardRange range = shard_range(source.total_objects(), options.shard, options.shards);
   const long long begin = range.begin, end = range.end;
   // RUNFP identifies the measurement, not the shard: the shards' tables join into the whole run's.
   const std::string runfp = RunFingerprint().text(fingerprint).hex();
-  wo.header.emplace_back(kRunFingerprintKey, runfp);
+  writer_options.header.emplace_back(kRunFingerprintKey, runfp);
   if (options.shards > 1) {
-    wo.header.emplace_back(kShardKey, shard_text(options.shard, options.shards));
+    writer_options.header.emplace_back(kShardKey, shard_text(options.shard, options.shards));
     fingerprint += "shard " + shard_text(options.shard, options.shards) + "\n";
   }
-  wo.header_types = metadetect_header_types();
-  wo.header_types["NCELLS"] = io::HeaderValueType::kInteger;
-  wo.fingerprint = fingerprint;
+  writer_options.header_types = metadetect_header_types();
+  writer_options.header_types["NCELLS"] = io::HeaderValueType::kInteger;
+  writer_options.fingerprint = fingerprint;
 
   MetadetectRunSummary summary;
   if (options.resume && is_this_runs_complete_table(options.output, "METADETECT", runfp)) {
@@ -290,9 +290,9 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
   }
   std::unique_ptr<io::MetadetectWriter> writer;
   if (options.resume) {
-    writer = io::MetadetectWriter::resume(wo, &summary.cells_resumed, &summary.resume_started);
+    writer = io::MetadetectWriter::resume(writer_options, &summary.cells_resumed, &summary.resume_started);
   } else {
-    writer = io::MetadetectWriter::create(wo);
+    writer = io::MetadetectWriter::create(writer_options);
   }
   source.skip_to(begin + summary.cells_resumed);
   source.set_end(end);
@@ -300,13 +300,13 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
     // SEP's pixel stack is global: sized for a whole cell above the threshold before threads start.
     set_detection_pixel_stack(source.max_cell_pixels());
     CellSink sink(*writer, source, &summary);
-    PipelineOptions po;
-    po.threads = options.threads;
-    po.batch_size = options.cells_per_batch;
-    po.stop = options.stop;
+    PipelineOptions pipeline_options;
+    pipeline_options.threads = options.threads;
+    pipeline_options.batch_size = options.cells_per_batch;
+    pipeline_options.stop = options.stop;
     const long long resumed = summary.cells_resumed;
     const PipelineSummary ran = run_pipeline(
-        source, sink, [&] { return std::make_unique<CellBatchMeasurer>(options.metadetect); }, po,
+        source, sink, [&] { return std::make_unique<CellBatchMeasurer>(options.metadetect); }, pipeline_options,
         [&](const PipelineProgress& p) {
           if (progress) progress({resumed + p.objects_done, end - begin, p.seconds});
         });

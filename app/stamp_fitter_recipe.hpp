@@ -30,10 +30,10 @@ struct StampFitterRecipe {
   std::unique_ptr<StampFitter> make(FftPlanning planning) const;
 };
 
-// cfg's recipe: per_object, a PSF per object (prepared through a cache); else `psf` when given
-// (`what` names it in errors) or the PSF cfg describes (build_shared_psf). A metacal run's
+// config's recipe: per_object, a PSF per object (prepared through a cache); else `psf` when given
+// (`what` names it in errors) or the PSF config describes (build_shared_psf). A metacal run's
 // reconvolution PSF is checked here (checked_reconvolution_psf), before any fitting.
-StampFitterRecipe stamp_fitter_recipe(const app::RunConfig& cfg, FftPlanCache& plans, bool per_object,
+StampFitterRecipe stamp_fitter_recipe(const app::RunConfig& config, FftPlanCache& plans, bool per_object,
                                       const std::optional<PsfModel>& psf = std::nullopt,
                                       const std::string& what = "");
 
