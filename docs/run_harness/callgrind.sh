@@ -5,6 +5,7 @@
 #   docs/run_harness/callgrind.sh [OLD_BUILD [NEW_BUILD [WORK]]]
 #
 # Defaults: /tmp/old_wt/build (commit 842e248), /work/main/build, /tmp/run_harness_callgrind.
+# The two builds' binaries are copied into WORK first (SNAPSHOT=0: run them in place).
 # The runs (both --threads 1, outputs overwritten):
 #   fit        stampede fit GREAT08-mini nf/set_0.fits (400 stamps), the cheap options of
 #              tests/tools/fit_command_test.cpp (kCheap + kGreat08Psf): a plain grid fit
@@ -21,10 +22,7 @@ PYTHON=${PYTHON:-/usr/bin/python3}
 command -v valgrind > /dev/null || { echo "valgrind is not installed" >&2; exit 2; }
 mkdir -p "$WORK"
 echo "valgrind: $(valgrind --version)"
-echo "old build: $OLD_BUILD ($(git -C "$OLD_BUILD/.." rev-parse --short HEAD 2>/dev/null || echo '?'))"
-echo "new build: $NEW_BUILD ($(git -C "$NEW_BUILD/.." rev-parse --short HEAD 2>/dev/null || echo '?')$(
-  [ -n "$(git -C "$NEW_BUILD/.." status --porcelain --untracked-files=no 2>/dev/null)" ] && echo ', with uncommitted changes'))"
-echo "binaries:  old $(date -r "$OLD_BUILD/tools/stampede" '+%F %T'), new $(date -r "$NEW_BUILD/tools/stampede" '+%F %T')"
+. "$(dirname "$0")/snapshot_builds.sh"
 
 "$NEW_BUILD/tools/stampede" sim cells --cells 4 --seed 5 --out "$WORK/cells" --threads 1 --overwrite > "$WORK/sim.log" 2>&1 ||
   { echo "sim cells failed: $WORK/sim.log" >&2; exit 2; }

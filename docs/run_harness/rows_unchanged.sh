@@ -10,7 +10,9 @@
 # NEW_BUILD  build folder of the refactored tree (default /work/main/build)
 # WORK       scratch folder (default /tmp/rows_unchanged); WORK/old, WORK/new, WORK/inputs are
 #            emptied first
-# (also settable as environment variables of the same names)
+# (also settable as environment variables of the same names). The binaries (stampede,
+# stampede-mpi, python/stampede) are first copied to WORK/build_old and WORK/build_new, so that a
+# rebuild of NEW_BUILD during the run cannot mix two binaries (SNAPSHOT=0: run them in place).
 #
 # Each configuration is run once with each build on the same inputs (simulated with the NEW
 # build, in WORK/inputs; the simulations themselves are compared too), the outputs land in
@@ -42,10 +44,7 @@ IN=$WORK/inputs
 MANIFEST=$WORK/manifest.tsv
 : > "$MANIFEST"
 
-echo "old build: $OLD_BUILD ($(git -C "$OLD_BUILD/.." rev-parse --short HEAD 2>/dev/null || echo '?'))"
-echo "new build: $NEW_BUILD ($(git -C "$NEW_BUILD/.." rev-parse --short HEAD 2>/dev/null || echo '?')$(
-  [ -n "$(git -C "$NEW_BUILD/.." status --porcelain --untracked-files=no 2>/dev/null)" ] && echo ', with uncommitted changes'))"
-echo "binaries:  old $(date -r "$OLD_BUILD/tools/stampede" '+%F %T'), new $(date -r "$NEW_BUILD/tools/stampede" '+%F %T')"
+. "$(dirname "$0")/snapshot_builds.sh"
 echo "work dir:  $WORK"
 echo
 

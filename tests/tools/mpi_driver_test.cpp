@@ -110,6 +110,11 @@ TEST_F(MpiDriver, TwoRanksWriteTheSingleProcessTable) {
                                            path("mpi.txt"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   expect_tables_equal(path("single.fits"), path("mpi.fits"));
+  // One rank (`mpirun -n 1`): rank 0 fits every batch itself.
+  const auto one = stampede::testing::finish(spawn_mpi(1, (std::vector<std::string>{kInput, "-o", path("one.fits")} + kOptions), path("one.txt")),
+                                             path("one.txt"));
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  expect_tables_equal(path("single.fits"), path("one.fits"));
 }
 
 TEST_F(MpiDriver, AKilledWorkerRankThenResumeUnderAnotherRankCountGivesTheSameTable) {
