@@ -424,7 +424,9 @@ std::unique_ptr<DurableTable> DurableTable::resume(const DurableTableOptions& op
   for (const std::string& p : {s->partial, s->text_partial})
     if (!p.empty() && !file_exists(p))
       fail("nothing to resume at " + options.path + ": '" + p + "' does not exist (its checkpoint '" + s->checkpoint +
-           "' is left from a run whose table is gone); run again with --overwrite");
+           "' is left from a run " +
+           (file_exists(options.path) ? "that finished, stopped as it removed the checkpoint: remove the checkpoint"
+                                      : "whose table is gone: run again with --overwrite") + ")");
   std::string bytes;
   {
     std::ifstream in(s->checkpoint, std::ios::binary);

@@ -157,6 +157,11 @@ TEST(DurableTable, ResumeStartsWhatNothingWasCommittedOfAndRefusesAFinishedTable
   const std::string fits = bytes_of(o.path);
   EXPECT_TRUE(Contains(error_of<CatalogError>([&] { DurableTable::resume(o, &c); }), "it is complete"));
   EXPECT_EQ(bytes_of(o.path), fits);
+  // A run stopped between its rename and the checkpoint's removal finished: said so, not resumed.
+  std::ofstream(o.path + ".checkpoint") << "left behind";
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { DurableTable::resume(o, &c); }), "that finished"));
+  EXPECT_EQ(bytes_of(o.path), fits);
+  fs::remove(o.path + ".checkpoint");
   // A checkpoint whose partial is gone is refused, not started over.
   const DurableTableOptions other = options(dir.path("u"));
   auto u = DurableTable::create(other);

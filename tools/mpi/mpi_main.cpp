@@ -20,6 +20,7 @@
 #include "app/metadetect_run.hpp"
 #include "io/durable_file.hpp"
 #include "io/output_check.hpp"
+#include "io/output_lock.hpp"
 #include "tools/fit_command.hpp"
 #include "tools/metadetect_command.hpp"
 #include "tools/mpi/file_dispatch.hpp"
@@ -107,6 +108,7 @@ int run_metadetect_over_ranks(int argc, char** argv, int rank, int ranks) {
   // Rank 0 makes the single process's output checks, on the output and the parts, before any rank
   // starts; a resume continues only the parts of a job of this many ranks.
   int done = 0;
+  stampede::io::OutputLock output_lock;
   if (rank == 0) {
     try {
       std::vector<std::string> parts;
@@ -117,12 +119,16 @@ int run_metadetect_over_ranks(int argc, char** argv, int rank, int ranks) {
         throw std::invalid_argument("--resume: '" + others.front() + "' is a part of a job of another number of ranks "
                                     "than this one's " + std::to_string(ranks) + ": resume it with as many ranks as it "
                                     "had, or run again with --overwrite");
-      for (const std::string& stale : others) remove_table_files(stale);  // a new job: another job's leftovers
       if (o.resume && stampede::io::file_exists(output) && !stampede::io::file_exists(output + ".checkpoint")) {
         // The job was done: as a single process, skipped if the table is this run's, else refused.
         MetadetectCommandLine whole = command;
         if (run_metadetect_with_reports(whole) != 0) failed = 1;
         done = 1;
+      } else {
+        // No other job may write the output or its parts while this one runs (released before the
+        // merge, which takes it itself).
+        output_lock = stampede::io::OutputLock::acquire(output);
+        for (const std::string& stale : others) remove_table_files(stale);  // a new job: another job's leftovers
       }
     } catch (const std::exception& e) {
       std::fprintf(stderr, "stampede-mpi metadetect: error: %s\n", e.what());
@@ -154,6 +160,7 @@ int run_metadetect_over_ranks(int argc, char** argv, int rank, int ranks) {
   MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
   if (any) return 1;
   if (rank == 0) {
+    output_lock.release();
     try {
       if (ranks == 1) {
         // One rank measured every cell (shard 0/1, a whole table with no SHARD key): its part is
