@@ -2,7 +2,6 @@
 #include "app/metadetect_option_keys.hpp"
 
 #include <algorithm>
-#include <cctype>
 
 #include "io/option_text.hpp"
 
@@ -183,30 +182,11 @@ std::map<std::string, io::HeaderValueType> metadetect_header_types() {
 }
 
 std::string with_metadetect_flags(std::string message) {
-  auto word = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
   const auto& keys = metadetect_option_keys();
-  auto flag_of = [&](std::string_view token) -> std::string {
-    const auto k = std::find_if(keys.begin(), keys.end(), [&](const MetadetectOptionKey& e) { return e.field == token; });
-    return k != keys.end() && !k->flag.empty() ? k->flag : std::string(token);
-  };
-  // The field the message opens with, and any field of two words or more standing as a word of the
-  // text (after a space or '(', before a space, ')', ',', ':' or '='): never a part of a path.
-  auto opens = [](char c) { return c == ' ' || c == '('; };
-  auto closes = [](char c) { return c == ' ' || c == ')' || c == ',' || c == ':' || c == '='; };
-  std::string out;
-  for (std::size_t i = 0; i < message.size();) {
-    if (!word(message[i]) || (i > 0 && !opens(message[i - 1]))) {
-      out += message[i++];
-      continue;
-    }
-    std::size_t j = i;
-    while (j < message.size() && word(message[j])) ++j;
-    const std::string_view token(message.data() + i, j - i);
-    const bool whole = j == message.size() || closes(message[j]);
-    out += whole && (i == 0 || token.find('_') != std::string_view::npos) ? flag_of(token) : std::string(token);
-    i = j;
-  }
-  return out;
+  return io::fields_to_flags(message, [&](std::string_view field) {
+    const auto k = std::find_if(keys.begin(), keys.end(), [&](const MetadetectOptionKey& e) { return e.field == field; });
+    return k != keys.end() ? k->flag : std::string();
+  });
 }
 
 }  // namespace stampede::app

@@ -107,4 +107,25 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
   return row[b.size()];
 }
 
+std::string fields_to_flags(std::string_view message, const std::function<std::string(std::string_view)>& flag_of) {
+  auto word = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
+  auto opens = [](char c) { return c == ' ' || c == '('; };
+  auto closes = [](char c) { return c == ' ' || c == ')' || c == ',' || c == ':' || c == '='; };
+  std::string out;
+  for (std::size_t i = 0; i < message.size();) {
+    if (!word(message[i]) || (i > 0 && !opens(message[i - 1]))) {
+      out += message[i++];
+      continue;
+    }
+    std::size_t j = i;
+    while (j < message.size() && word(message[j])) ++j;
+    const std::string_view token = message.substr(i, j - i);
+    const bool whole = j == message.size() || closes(message[j]);
+    const std::string flag = whole && (i == 0 || token.find('_') != std::string_view::npos) ? flag_of(token) : "";
+    out += flag.empty() ? std::string(token) : flag;
+    i = j;
+  }
+  return out;
+}
+
 }  // namespace stampede::io

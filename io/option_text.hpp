@@ -4,6 +4,7 @@
 
 #include <charconv>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -45,6 +46,12 @@ std::string format_bool(bool v);
 // Integer ids separated by commas, spaces around them allowed; "" = none.
 std::string parse_id_list(std::string_view text, std::vector<std::int64_t>* ids);
 std::string format_id_list(const std::vector<std::int64_t>& ids);
+
+// A message of the core, which names option fields ("e_max 0.99: must be ..."), in a front end's
+// words: the field the message opens with, and any field of two words or more standing as a word
+// of the text (after a space or '(', before a space, ')', ',', ':' or '=': never a part of a path),
+// replaced by flag_of(field) where that is not empty.
+std::string fields_to_flags(std::string_view message, const std::function<std::string(std::string_view)>& flag_of);
 
 // Levenshtein distance between two keys, for "did you mean" suggestions.
 std::size_t edit_distance(const std::string& a, const std::string& b);

@@ -11,15 +11,47 @@
 #include <limits>
 #include <memory>
 #include <stdexcept>
+#include <map>
 #include <string>
 #include <vector>
 
 #include "engine/sim/great08_sim.hpp"
 #include "io/great08_writer.hpp"
 #include "io/output_check.hpp"
+#include "io/option_text.hpp"
 #include "tools/arguments.hpp"
 #include "tools/sim_cells_command.hpp"
 #include "tools/sim_meds_command.hpp"
+
+namespace {
+
+// The simulator's messages name its fields; the command line's words are these flags.
+std::string great08_flags(const std::string& message) {
+  static const std::map<std::string, std::string, std::less<>> flags = {
+      {"sets", "--sets"},
+      {"grid", "--grid"},
+      {"stamp_size", "--stamp"},
+      {"snr", "--snr"},
+      {"noise_sigma", "--noise-sigma"},
+      {"size_ratio", "--size"},
+      {"psf", "--psf"},
+      {"psf_fwhm", "--psf-fwhm"},
+      {"e_sigma", "--e-sigma"},
+      {"e_max", "--e-max"},
+      {"shear_max", "--shear-max"},
+      {"shear", "--shear"},
+      {"centre_offset", "--centre-offset"},
+      {"bulge_fraction", "--bulge-fraction"},
+      {"bd_radius_ratio", "--bd-radius-ratio"},
+      {"bd_misalignment", "--bd-misalignment"},
+      {"bd_offset", "--bd-offset"}};
+  return stampede::io::fields_to_flags(message, [](std::string_view field) {
+    const auto f = flags.find(field);
+    return f == flags.end() ? std::string() : f->second;
+  });
+}
+
+}  // namespace
 
 namespace {
 
@@ -159,7 +191,7 @@ int run_sim_command(int argc, char** argv) {
   }
   if (out.empty()) throw std::invalid_argument("--out DIR is required (see stampede sim --help)");
   std::string why;
-  if (!o.IsValid(&why)) throw std::invalid_argument(why);
+  if (!o.IsValid(&why)) throw std::invalid_argument(great08_flags(why));
   std::error_code ec;
   std::filesystem::create_directories(out, ec);
   if (ec) throw std::runtime_error("cannot create output directory '" + out + "': " + ec.message());
@@ -172,7 +204,11 @@ int run_sim_command(int argc, char** argv) {
   tbb::task_arena arena(n_threads);
   const auto start = std::chrono::steady_clock::now();
   std::unique_ptr<Great08Simulator> sim;
-  arena.execute([&] { sim = std::make_unique<Great08Simulator>(o); });
+  try {
+    arena.execute([&] { sim = std::make_unique<Great08Simulator>(o); });
+  } catch (const std::invalid_argument& e) {  // the simulator names fields
+    throw std::invalid_argument(great08_flags(e.what()));
+  }
   const double setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::fprintf(stderr,
                "stampede sim great08: %d set(s) of %d x %d stamps (%d px), %s galaxies, Rgp/Rp %g, S/N %g%s; "

@@ -63,48 +63,48 @@ bool Great08SimOptions::IsValid(std::string* why) const {
   std::ostringstream m;
   std::string psf_why;
   if (sets < 1 || sets > 10000)
-    m << "--sets " << sets << ": must be in [1, 10000]";
+    m << "sets " << sets << ": must be in [1, 10000]";
   else if (grid < 1 || grid > 1000)
-    m << "--grid " << grid << ": must be in [1, 1000]";
+    m << "grid " << grid << ": must be in [1, 1000]";
   else if (stamp_size < 8 || stamp_size > 512)
-    m << "--stamp " << stamp_size << ": must be in [8, 512]";
+    m << "stamp_size " << stamp_size << ": must be in [8, 512]";
   else if (!(snr > 0 && std::isfinite(snr)))
-    m << "--snr " << snr << ": must be positive";
+    m << "snr " << snr << ": must be positive";
   else if (!(noise_sigma > 0 && std::isfinite(noise_sigma)))
-    m << "--noise-sigma " << noise_sigma << ": must be positive";
+    m << "noise_sigma " << noise_sigma << ": must be positive";
   else if (!(size_ratio > 1.0 && size_ratio <= 10.0))
-    m << "--size " << size_ratio << ": Rgp/Rp must be in (1, 10]";
+    m << "size_ratio " << size_ratio << ": Rgp/Rp must be in (1, 10]";
   else if (psf.kind == PsfKind::kImage)
-    m << "--psf: the simulator draws analytic PSFs only (moffat, airy)";
+    m << "psf: the simulator draws analytic PSFs only (moffat, airy)";
   else if (!psf.IsValid(&psf_why))
     m << psf_why;
   else if (!(psf.fwhm() <= stamp_size))  // a PSF wider than the stamp draws nothing to measure, and slowly
-    m << "--psf-fwhm " << psf.fwhm() << ": the PSF's FWHM must be at most the stamp (" << stamp_size << " pixels)";
+    m << "psf_fwhm " << psf.fwhm() << ": the PSF's FWHM must be at most the stamp (" << stamp_size << " pixels)";
   // Below ~1.5 px the exact pixel-integrated draw's alias sum grows without bound in practice
   // (FWHM 1.1 with --size 2.85: a minute per stamp), and such a PSF is far below Nyquist sampling.
   else if (!(psf.fwhm() >= 1.5))
-    m << "--psf-fwhm " << psf.fwhm() << ": the simulator draws PSFs of FWHM >= 1.5 pixels (undersampled PSFs are "
+    m << "psf_fwhm " << psf.fwhm() << ": the simulator draws PSFs of FWHM >= 1.5 pixels (undersampled PSFs are "
       << "not supported)";
   else if (!(e_sigma >= 0 && e_sigma <= 1))
-    m << "--e-sigma " << e_sigma << ": must be in [0, 1]";
+    m << "e_sigma " << e_sigma << ": must be in [0, 1]";
   else if (!(e_max > 0 && e_max <= 0.95))
-    m << "--e-max " << e_max << ": must be in (0, 0.95]";
+    m << "e_max " << e_max << ": must be in (0, 0.95]";
   else if (e_sigma > 0 && e_max < 0.01 * e_sigma)
-    m << "--e-max " << e_max << ": too small for --e-sigma " << e_sigma;
+    m << "e_max " << e_max << ": too small for e_sigma " << e_sigma;
   else if (!(shear_max >= 0 && shear_max <= 0.2))
-    m << "--shear-max " << shear_max << ": must be in [0, 0.2]";
+    m << "shear_max " << shear_max << ": must be in [0, 0.2]";
   else if (fixed_shear && !(std::abs(shear1) <= 0.2 && std::abs(shear2) <= 0.2))
-    m << "--shear " << shear1 << "," << shear2 << ": each component must be in [-0.2, 0.2]";
+    m << "shear " << shear1 << "," << shear2 << ": each component must be in [-0.2, 0.2]";
   else if (!(centre_offset >= 0 && centre_offset <= 0.25 * stamp_size))
-    m << "--centre-offset " << centre_offset << ": must be in [0, stamp/4]";
+    m << "centre_offset " << centre_offset << ": must be in [0, stamp/4]";
   else if (!(bulge_fraction_min >= 0 && bulge_fraction_min <= bulge_fraction_max && bulge_fraction_max <= 1))
-    m << "--bulge-fraction " << bulge_fraction_min << "," << bulge_fraction_max << ": need 0 <= min <= max <= 1";
+    m << "bulge_fraction " << bulge_fraction_min << "," << bulge_fraction_max << ": need 0 <= min <= max <= 1";
   else if (!(bd_radius_ratio >= 0.1 && bd_radius_ratio <= 10))
-    m << "--bd-radius-ratio " << bd_radius_ratio << ": must be in [0.1, 10]";
+    m << "bd_radius_ratio " << bd_radius_ratio << ": must be in [0.1, 10]";
   else if (!(bd_misalignment_deg >= 0 && bd_misalignment_deg <= 90))
-    m << "--bd-misalignment " << bd_misalignment_deg << ": must be in [0, 90] degrees";
+    m << "bd_misalignment " << bd_misalignment_deg << ": must be in [0, 90] degrees";
   else if (!(bd_offset >= 0 && bd_offset <= 5))
-    m << "--bd-offset " << bd_offset << ": must be in [0, 5] pixels";
+    m << "bd_offset " << bd_offset << ": must be in [0, 5] pixels";
   if (m.str().empty()) return true;
   if (why) *why = m.str();
   return false;
@@ -130,12 +130,12 @@ double Great08Simulator::half_light_radius(double bulge_fraction) const {
   // Bracket in h (FWHM grows monotonically with h), then Illinois regula falsi.
   double lo = 1e-3, hi = 1.0;
   double f_lo = excess(lo), f_hi = excess(hi);
-  if (f_lo >= 0) throw std::invalid_argument("size ratio reached by a point source: raise --size");
+  if (f_lo >= 0) throw std::invalid_argument("size_ratio reached by a point source: raise size_ratio");
   while (f_hi < 0) {
     lo = hi;
     f_lo = f_hi;
     hi *= 2;
-    if (hi > 100) throw std::invalid_argument("--size needs a half-light radius above 100 pixels");
+    if (hi > 100) throw std::invalid_argument("size_ratio needs a half-light radius above 100 pixels");
     f_hi = excess(hi);
   }
   int side = 0;
@@ -180,7 +180,7 @@ Great08Simulator::Great08Simulator(const Great08SimOptions& options) : options_(
   const double g = options.fixed_shear ? std::hypot(options.shear1, options.shear2) : std::sqrt(2.0) * options.shear_max;
   ro.max_e = std::min(0.98, (options.e_max + g) / (1 + options.e_max * g));
   ro.max_half_light_radius = 1.1 * largest;
-  if (ro.max_half_light_radius > 100) throw std::invalid_argument("--size needs galaxies larger than 100 pixels");
+  if (ro.max_half_light_radius > 100) throw std::invalid_argument("size_ratio needs galaxies larger than 100 pixels");
   renderer_ = std::make_unique<SimRenderer>(options.psf, ro);
   fwhm_solver_ = std::make_unique<RoundFwhmSolver>(*renderer_, true);  // every galaxy's radius is solved
 }

@@ -65,7 +65,8 @@ struct Great08SimOptions {
   std::uint64_t seed = 7;
 
   static PsfModel default_psf();  // Moffat beta 3, FWHM 2.85 px, e = (0, 0.05), as GREAT08-mini
-  // Message names the option as on the command line (--snr, --grid, ...), its value and the rule.
+  // Message names the field (snr, stamp_size, ...; Python's keywords), its value and the rule;
+  // front ends translate fields to their own spelling (the command line: tools/sim_command).
   bool IsValid(std::string* why) const;
 };
 

@@ -173,6 +173,8 @@ def test_argument_errors_name_the_argument_and_never_print_the_array(stamps):
          r"option 'psf_fwhm' must be a number, bool or str, not numpy.ndarray float64 \(39, 39\)"),
         (lambda: stampede.simulate_great08(grid=2.5), TypeError, r"simulate_great08\(\): grid must be an int"),
         (lambda: stampede.simulate_great08(0, 2), TypeError, "takes at most 1 positional argument"),
+        # The simulator's rules name the keyword given, not the command line's flag (--size).
+        (lambda: stampede.simulate_great08(grid=2, size_ratio=0.9), ValueError, r"^size_ratio 0.9: Rgp/Rp must be in"),
         (lambda: stampede.read_results(3), TypeError, r"read_results\(\): path must be a str or a path"),
         (lambda: stampede.merge_shards("a.fits", "o.fits"), TypeError, "shards must be a list of paths, not str"),
         (lambda: stampede.shear_metrics([dict(g1_true=0, g2_true=0, g1="x", g2=0, err1=1, err2=1)] * 2), TypeError,
