@@ -187,10 +187,9 @@ MetadetectFiles files_read(const MetadetectRunOptions& options, const std::vecto
   return out;
 }
 
-}  // namespace
-
-void check_metadetect_outputs(const MetadetectRunOptions& options, const std::vector<std::string>& parts) {
-  const MetadetectFiles read = files_read(options, metadetect_bands(options));
+// check_metadetect_outputs, given the files the run reads.
+void check_outputs_of(const MetadetectRunOptions& options, const MetadetectFiles& read,
+                      const std::vector<std::string>& parts) {
   for (const std::string& in : read.files)
     if (io::same_file(in, options.output)) throw io::ConfigError("the output '" + options.output + "' is the input");
   for (const std::string& p : read.images.psfex)
@@ -203,6 +202,12 @@ void check_metadetect_outputs(const MetadetectRunOptions& options, const std::ve
   for (const std::string& p : read.images.psfex) reads.push_back({"--psfex", p});
   io::check_outputs(outputs, reads, true);
   if (!options.resume) io::refuse_to_replace(options.output, options.overwrite);
+}
+
+}  // namespace
+
+void check_metadetect_outputs(const MetadetectRunOptions& options, const std::vector<std::string>& parts) {
+  check_outputs_of(options, files_read(options, metadetect_bands(options)), parts);
 }
 
 std::vector<MetadetectRow> metadetect_image(const io::CellImage& image, const MetadetectOptions& options, int threads,
@@ -234,7 +239,7 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
   const MetadetectFiles read = files_read(options, bands);
   const io::CellSource::Images& images = read.images;
   const std::vector<std::string>& files = read.files;
-  check_metadetect_outputs(options);
+  check_outputs_of(options, read, {});
   const io::OutputLock lock = io::OutputLock::acquire(options.output);
 
   io::CellSource source = options.tile ? io::CellSource(io::CellSource::Tile{options.inputs}, options.metadetect)

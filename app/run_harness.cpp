@@ -45,9 +45,9 @@ io::RunOutput table_output(const std::string& option, const std::string& path) {
 }
 
 void refuse_unfinished_table(const std::string& path, const std::string& role) {
-  for (const char* suffix : {".partial", ".checkpoint", ".checkpoint.tmp", ".lock"})
+  for (const std::string& suffix : table_output("", "").companions)  // ".partial", ".checkpoint", ...
     if (path.ends_with(suffix))
-      throw io::CatalogError(path + ": a run's unfinished " + std::string(suffix + 1) + " file, not a " + role +
+      throw io::CatalogError(path + ": a run's unfinished " + suffix.substr(1) + " file, not a " + role +
                              ": finish that run (--resume) and give its table");
   if (std::filesystem::exists(path + ".checkpoint"))
     throw io::CatalogError(path + ": a run that replaces it is unfinished ('" + path + ".checkpoint' is beside it), so it "

@@ -5,7 +5,6 @@
 #include <chrono>
 #include <map>
 #include <optional>
-#include <set>
 #include <span>
 #include <utility>
 
@@ -64,13 +63,7 @@ struct Shard {
 
 // The keys a metadetect shard's header holds beside the table's structure, the shard's own left out.
 bool metadetect_run_key(const std::string& key) {
-  static const std::set<std::string> fixed = {"XTENSION", "BITPIX",   "NAXIS", "NAXIS1", "NAXIS2", "PCOUNT",
-                                              "GCOUNT",   "TFIELDS",  "EXTNAME", "LONGSTRN", kShardKey, "NCELLSW"};
-  if (fixed.count(key)) return false;
-  for (const char* prefix : {"TTYPE", "TFORM", "TUNIT", "TCOMM"})
-    if (key.starts_with(prefix) && key.size() > 5 && key.find_first_not_of("0123456789", 5) == std::string::npos)
-      return false;
-  return true;
+  return !io::is_table_structure_key(key) && key != "LONGSTRN" && key != kShardKey && key != "NCELLSW";
 }
 
 Shard read_shard(const std::string& path) {

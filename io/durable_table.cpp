@@ -392,19 +392,17 @@ std::unique_ptr<DurableTable> DurableTable::create(const DurableTableOptions& op
       if (directory_of(s->text_partial) != directory_of(s->partial)) sync_directory_of(s->text_partial);
     }
     s->commit(0, 0);
-  } catch (const FileError& e) {
-    s->close_quietly();
-    std::error_code ignored;
-    for (const std::string& p : {s->checkpoint, s->checkpoint_tmp, s->partial, s->text_partial})
-      if (!p.empty()) std::filesystem::remove(p, ignored);
-    fail(e.what());
   } catch (...) {
     // Leave nothing that resume could mistake for a run.
     s->close_quietly();
     std::error_code ignored;
     for (const std::string& p : {s->checkpoint, s->checkpoint_tmp, s->partial, s->text_partial})
       if (!p.empty()) std::filesystem::remove(p, ignored);
-    throw;
+    try {
+      throw;
+    } catch (const FileError& e) {
+      fail(e.what());
+    }
   }
   return std::unique_ptr<DurableTable>(new DurableTable(std::move(s)));
 }
@@ -549,6 +547,5 @@ void DurableTable::abandon() noexcept {
 
 long long DurableTable::rows() const { return s_->rows; }
 long long DurableTable::units() const { return s_->units; }
-const std::string& DurableTable::partial_path() const { return s_->partial; }
 
 }  // namespace stampede::io

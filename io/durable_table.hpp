@@ -119,7 +119,6 @@ class DurableTable {
 
   long long rows() const;
   long long units() const;
-  const std::string& partial_path() const;
 
  private:
   struct State;

@@ -97,23 +97,13 @@ class OpenTable {
         if (!dropping) out.push_back(record);
         continue;
       }
-      dropping = structural(name) || std::find(dropped.begin(), dropped.end(), name) != dropped.end();
+      dropping = is_table_structure_key(name) || std::find(dropped.begin(), dropped.end(), name) != dropped.end();
       if (!dropping && record.find_first_not_of(' ') != std::string::npos) out.push_back(record);
     }
     return out;
   }
 
  private:
-  static bool structural(const std::string& key) {
-    for (const char* k : {"XTENSION", "BITPIX", "NAXIS", "NAXIS1", "NAXIS2", "PCOUNT", "GCOUNT", "TFIELDS", "EXTNAME"})
-      if (key == k) return true;
-    for (const char* prefix : {"TTYPE", "TFORM", "TUNIT", "TCOMM", "TZERO", "TSCAL"})
-      if (key.starts_with(prefix) && key.size() > std::strlen(prefix) &&
-          key.find_first_not_of("0123456789", std::strlen(prefix)) == std::string::npos)
-        return true;
-    return false;
-  }
-
   std::string path_;
   fitsfile* f_ = nullptr;
   long long rows_ = 0;
@@ -121,6 +111,16 @@ class OpenTable {
 };
 
 }  // namespace
+
+bool is_table_structure_key(const std::string& key) {
+  for (const char* k : {"XTENSION", "BITPIX", "NAXIS", "NAXIS1", "NAXIS2", "PCOUNT", "GCOUNT", "TFIELDS", "EXTNAME"})
+    if (key == k) return true;
+  for (const char* prefix : {"TTYPE", "TFORM", "TUNIT", "TCOMM", "TZERO", "TSCAL"})
+    if (key.starts_with(prefix) && key.size() > std::strlen(prefix) &&
+        key.find_first_not_of("0123456789", std::strlen(prefix)) == std::string::npos)
+      return true;
+  return false;
+}
 
 long long join_tables(const TableJoinOptions& o) {
   if (o.tables.empty()) throw CatalogError("no tables to join");

@@ -23,6 +23,10 @@ struct TableJoinOptions {
   std::function<void(long long rows_done, long long rows_total)> on_progress;
 };
 
+// Whether `key` describes a binary table's structure (XTENSION ... TFIELDS, EXTNAME, TTYPEn, TFORMn,
+// TUNITn, TCOMMn, TZEROn, TSCALn), not the run that wrote it.
+bool is_table_structure_key(const std::string& key);
+
 // The rows joined. Throws CatalogError naming a table whose columns differ from the first's, or
 // FitsError for an unreadable one; the output's errors as the durable table's.
 long long join_tables(const TableJoinOptions& options);

@@ -69,8 +69,11 @@ std::vector<std::string> parts_of_other_jobs(const std::string& output, int rank
   for (const fs::directory_entry& e : fs::directory_iterator(out.has_parent_path() ? out.parent_path() : fs::path("."), error)) {
     std::string name = e.path().filename().string();
     if (!name.starts_with(prefix)) continue;
-    for (const char* suffix : {".partial", ".checkpoint", ".lock"})
-      if (name.ends_with(suffix)) name.resize(name.size() - std::strlen(suffix));
+    for (const std::string& suffix : stampede::app::table_output("", "").companions)  // a part's own files
+      if (name.ends_with(suffix)) {
+        name.resize(name.size() - suffix.size());
+        break;
+      }
     const std::size_t of = name.rfind("-of-");
     if (of == std::string::npos || !name.ends_with(".fits") || name.substr(of) == mine) continue;
     const std::string part = (out.has_parent_path() ? (out.parent_path() / name).string() : name);
