@@ -1,16 +1,15 @@
-// A fit run: the composition of `stampede fit` for any front end (the command line, later the
-// Python module and the MPI driver). It chooses the source (a stamp grid, an image with a
-// catalogue, or a MEDS tile's objects), sets up the PSF, the writer and its fingerprint, runs the pipeline with the
-// requested threads in a task arena of its own, saves the images named by save_images, and
-// returns a RunSummary. It prints nothing and never exits: progress and warnings go to the
-// callbacks the caller gives; a systemic failure throws the error types of io/ (ConfigError,
-// FitsError, CatalogError, FileError) or std::runtime_error.
+// A fit run: the composition of `stampede fit` for any front end (the command line, the Python
+// module, the MPI driver) over the run harness (app/run_harness): its input (app/fit_input: a
+// stamp grid, an image with a catalogue, or MEDS tiles, with the PSF set up), the fit catalogue's
+// schema (io/catalog_writer) and the sink that writes it (app/fit_table_sink), the pipeline with
+// the requested threads, and a RunSummary. It prints nothing and never exits: progress and
+// warnings go to the callbacks the caller gives; a systemic failure throws the error types of io/
+// (ConfigError, FitsError, CatalogError, FileError) or std::runtime_error.
 //
-// Outputs are checked before anything is read (io/output_check.hpp: not a directory, not an input,
-// not an existing file unless overwrite or resume) and locked for the run's life
-// (io/output_lock.hpp). A run that fails with an error removes its partial outputs, unless a write
-// ran out of room after rows were committed (they are kept for resume); a killed one leaves them
-// for resume, whose fingerprint covers the inputs' contents (app/run_fingerprint.hpp).
+// The harness checks and locks the outputs before anything is read, resumes, skips this run's
+// complete table, and keeps the committed rows of a run whose write ran out of room; a run that
+// fails otherwise removes its partial outputs; a killed one leaves them for resume, whose
+// fingerprint covers the inputs' contents (app/run_fingerprint.hpp).
 #pragma once
 
 #include <atomic>
@@ -28,16 +27,6 @@
 #include "app/run_config.hpp"
 
 namespace stampede::app {
-
-struct FitRunProgress {
-  long long objects_done = 0;   // committed, including the resumed ones
-  long long objects_total = 0;
-  double seconds = 0;           // since the pipeline started
-  double objects_per_second = 0;  // fitted by this run
-  double eta_seconds = 0;
-  // "D/T objects (P%), R objects/s, ETA E s   " (padded so that a shorter line overwrites it).
-  std::string Line() const;
-};
 
 // How a run spreads its fits beyond this process (the MPI driver): given the run's final
 // configuration (and, for survey input, its tiles and bands) and the factory of local per-thread
@@ -76,21 +65,21 @@ struct FitRunOptions {
   std::string output;       // FITS table; "" = none: rows only go to on_rows (no resume, no save_images)
   std::string text_output;  // the table also as whitespace text; "" = none
   bool resume = false;      // continue the interrupted run at `output` (same input and options)
-  bool overwrite = false;   // replace existing outputs (table, text, images); else they are refused
   // With resume, an output that is already complete (no checkpoint) is this run's when its RUNFP
-  // matches: the run is skipped (RunSummary::skipped); another run's is refused. `--input-list`.
-  bool skip_if_complete = false;
+  // matches: the run is skipped (RunSummary::skipped); another run's is refused.
+  bool overwrite = false;   // replace existing outputs (table, text, images); else they are refused
   int threads = 0;          // worker threads; 0 = all of the calling task arena's (all cores by default)
   // Job-array shard `shard` of `shards` (`--shard i/N`): the contiguous objects
   // [total*i/N, total*(i+1)/N) of the input, with their whole-input ids; the table records SHARD
-  // "i/N" and SHARDTOT (the input's objects) for app/shard_merge. 0 of 1: the whole input.
+  // "i/N" and SHARDTOT (the input's objects) for app/shard_merge, and the whole run's RUNFP. 0 of
+  // 1: the whole input.
   int shard = 0;
   int shards = 1;
   bool quiet = false;       // no end-of-run warnings (FFTW wisdom not saved); input warnings still go out
   app::RunConfig config;     // validated by run(); stamp_size from the grid's STAMPSZ unless set
 
   // Called from the pipeline's writer thread, at most every progress_interval seconds.
-  std::function<void(const FitRunProgress&)> on_progress;
+  std::function<void(const RunProgress&)> on_progress;
   double progress_interval = 0.5;
   // A problem that does not stop the run (e.g. the input records another PSF); the text has no prefix.
   std::function<void(const std::string&)> on_warning;

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "app/run_harness.hpp"
 #include "engine/metadetect/metadetect_options.hpp"
 #include "engine/metadetect/metadetect_row.hpp"
 #include "io/cell_image_reader.hpp"
@@ -45,38 +46,26 @@ struct MetadetectRunOptions {
   bool resume = false;
   bool overwrite = false;
   const std::atomic<bool>* stop = nullptr;
-};
-
-struct MetadetectProgress {
-  long long cells_done = 0, cells_total = 0;
-  double seconds = 0;
+  std::function<void(const std::string&)> on_warning;  // e.g. a resume that found nothing committed
+  std::function<void(const RunProgress&)> on_progress;  // at most every progress_interval seconds
+  double progress_interval = 0.5;
 };
 
 struct MetadetectRunSummary {
   long long cells = 0, cells_failed = 0, rows = 0;
   long long cells_resumed = 0;  // committed by an earlier run
-  bool resume_started = false;
-  bool skipped = false;  // resume found the output complete, this run's table (its RUNFP)  // resume found nothing committed: the run started from the first cell
+  bool skipped = false;  // resume found the output complete, this run's table (its RUNFP)
   int threads = 0;
   double seconds = 0;
   bool stopped = false;
   std::vector<std::string> problems;  // "FILE cell K: why" for each failed cell (first 100)
 };
 
-// The run's band names (empty: one band, no band columns), checked: one per tile, distinct
-// whatever their case, column-name characters, at most kMaxMetadetectBands; image paths (and
-// --psfex) that are templates exactly when several bands are named, no file a band of itself;
-// throws io::ConfigError naming the option.
-std::vector<std::string> metadetect_bands(const MetadetectRunOptions& options);
-
 // An image in memory (Python's numpy arrays) cut into cells and measured on `threads` threads (0:
 // all cores) through the same pipeline; the rows in cell order, as a file run writes them (cells
 // numbered from 0). Throws io::ConfigError for bad options or an image smaller than a cell.
 std::vector<MetadetectRow> metadetect_image(const io::CellImage& image, const MetadetectOptions& options, int threads,
                                             long long* cells_failed = nullptr);
-
-// `path` with each `{band}` replaced by `band`.
-std::string expand_band(const std::string& path, const std::string& band);
 
 // The checks run_metadetect makes of its output before any work, for any front end; `parts`: the
 // tables a job writes before joining them into the output (stampede-mpi's ranks' parts). None of
@@ -87,7 +76,6 @@ void check_metadetect_outputs(const MetadetectRunOptions& options, const std::ve
 
 // Throws stampede::Error subclasses (io::FitsError, io::CatalogError, ConfigError) naming the file,
 // HDU, key or option.
-MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options,
-                                    const std::function<void(const MetadetectProgress&)>& progress = {});
+MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options);
 
 }  // namespace stampede::app

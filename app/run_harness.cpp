@@ -1,7 +1,9 @@
 // The shared pieces of every table-writing run; see run_harness.hpp.
 #include "app/run_harness.hpp"
 
+#include <algorithm>
 #include <charconv>
+#include <cstdio>
 #include <filesystem>
 
 #include "engine/pipeline/range_source.hpp"
@@ -10,6 +12,7 @@
 #include "io/durable_file.hpp"
 #include "io/fits_file.hpp"
 #include "io/output_lock.hpp"
+#include "app/run_fingerprint.hpp"
 
 namespace stampede::app {
 
@@ -71,6 +74,79 @@ bool is_this_runs_complete_table(const std::string& path, const std::string& ext
                                                 runfp + "'") +
                         ": the input's content, the options or the program version differ); remove it, or run it "
                         "again with --overwrite");
+}
+
+std::string RunProgress::Line() const {
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "%lld/%lld %ss (%.1f%%), %.1f %ss/s, ETA %.0f s   ", done, total, unit,
+                100.0 * done / std::max(total, 1LL), per_second, unit, eta_seconds);
+  return buf;
+}
+
+std::vector<io::OutputLock> protect_outputs(const TableRun& run, const std::vector<io::RunOutput>& outputs,
+                                            const std::vector<io::RunInput>& inputs) {
+  io::check_outputs(outputs, inputs, run.overwrite || run.resume);
+  std::vector<io::OutputLock> locks;
+  for (const io::RunOutput& o : outputs)  // those whose companions name their lock
+    if (std::find(o.companions.begin(), o.companions.end(), io::OutputLock::path_for(o.path)) != o.companions.end())
+      locks.push_back(io::OutputLock::acquire(o.path));
+  return locks;
+}
+
+void seal_identity(const TableRun& run, long long units, io::TableWriterOptions* table, const char* total_key) {
+  table->header.emplace_back(kRunFingerprintKey, RunFingerprint().text(table->fingerprint).hex());
+  if (run.shards <= 1) return;
+  if (units < 0) throw io::ConfigError("--shard needs an input whose " + std::string(run.unit) + " count is known");
+  table->header.emplace_back(kShardKey, shard_text(run.shard, run.shards));
+  if (total_key) {
+    table->header.emplace_back(total_key, std::to_string(units));
+    table->header_types[total_key] = io::HeaderValueType::kInteger;
+  }
+  table->fingerprint += "shard " + shard_text(run.shard, run.shards) + " of " + std::to_string(units) + "\n";
+}
+
+std::string recorded_runfp(const io::TableWriterOptions& table) {
+  for (const auto& [key, value] : table.header)
+    if (key == kRunFingerprintKey) return value;
+  return "";
+}
+
+std::unique_ptr<StampSource> shard_source(const TableRun& run, StampSource& whole, long long committed) {
+  if (run.shards <= 1) {
+    whole.skip_to(committed);
+    return nullptr;
+  }
+  const ShardRange range = shard_range(whole.total_objects(), run.shard, run.shards);
+  auto shard = std::make_unique<RangeSource>(whole, range.begin, range.end);
+  shard->skip_to(committed);
+  return shard;
+}
+
+PipelineSummary measure_table(const TableRun& run, StampSource& source, long long committed, BatchSink& sink,
+                              io::TableWriter* table, const std::function<std::unique_ptr<BatchFitter>()>& make_measurer,
+                              PipelineOptions pipeline) {
+  pipeline.stop = run.stop;
+  const long long total = source.total_objects();
+  auto progress = [&run, total, committed, last = -1.0](const PipelineProgress& p) mutable {
+    if (!run.on_progress || p.seconds - last < run.progress_interval) return;
+    last = p.seconds;
+    RunProgress r;
+    r.done = committed + p.objects_done;
+    r.total = total;
+    r.seconds = p.seconds;
+    r.per_second = p.objects_done / std::max(p.seconds, 1e-9);
+    r.eta_seconds = (total - r.done) / std::max(r.per_second, 1e-9);
+    r.unit = run.unit;
+    run.on_progress(r);
+  };
+  try {
+    const PipelineSummary summary = run_pipeline(source, sink, make_measurer, pipeline, progress);
+    if (table && !summary.stopped) table->finish();  // stopped: the partials stay, as a kill leaves them
+    return summary;
+  } catch (...) {
+    if (table) table->abandon();
+    throw;
+  }
 }
 
 }  // namespace stampede::app

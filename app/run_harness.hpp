@@ -1,13 +1,33 @@
-// What every run that writes a table shares, fit and metadetect and their MPI modes alike: the
-// worker-thread rule, the shard arithmetic and its header keys, the run's identity in its table,
-// and the checks of a table output made before any rank or thread starts.
+// The run harness: what every run that writes a table does, fit and metadetect and their MPI modes
+// alike, in this order —
+//   1. protect_outputs: the outputs checked against every file the run reads (no output is an
+//      input, a list, a model, or a file written beside another output) and locked, before
+//      anything is read or any rank or thread starts;
+//   2. seal_identity: the run's identity in its table (RUNFP, the hash of its fingerprint: inputs'
+//      contents, options, program version) and its shard's keys;
+//   3. open_table: this run's complete table skipped, an interrupted one resumed (or started afresh
+//      when nothing was committed), else the table created;
+//   4. measure_table: the shard's units after the committed ones through the pipeline (a per-thread
+//      measurer, the composition's sink writing the schema's rows), with stop and progress; the
+//      table finished, or abandoned on an error (its committed rows kept when a write ran out of
+//      room).
+// A composition (app/fit_run, app/metadetect_run) brings its io source, its measurer and its
+// table's schema (an io::TableWriter) and its header keys; the rest is here.
 #pragma once
 
+#include <atomic>
+#include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
+#include "engine/pipeline/pipeline.hpp"
+#include "io/config_error.hpp"
 #include "io/output_check.hpp"
+#include "io/output_lock.hpp"
+#include "io/table_writer.hpp"
 
 namespace stampede::app {
 
@@ -15,8 +35,8 @@ namespace stampede::app {
 inline constexpr const char* kShardKey = "SHARD";
 inline constexpr const char* kShardTotalKey = "SHARDTOT";
 // The run's identity in its table's header: RUNFP, 16 hex digits of the hash of its fingerprint
-// (inputs' contents, options, program version; a fit shard's range too), which a resume of a
-// complete table compares.
+// (inputs' contents, options, program version; not the shard: a run's shards share it), which a
+// resume of a complete table compares.
 inline constexpr const char* kRunFingerprintKey = "RUNFP";
 
 // Worker threads, one rule for every front end (CLI --threads, Python threads=, MPI): 0 = all of
@@ -49,5 +69,67 @@ void refuse_unfinished_table(const std::string& path, const std::string& role);
 // `runfp` as kRunFingerprintKey: the run is done and is skipped. False when there is no complete
 // table there. Throws io::ConfigError naming it when it is another run's (or not a table).
 bool is_this_runs_complete_table(const std::string& path, const std::string& extname, const std::string& runfp);
+
+// A run's progress: units done (the resumed ones included) of the run's (its shard's).
+struct RunProgress {
+  long long done = 0, total = 0;
+  double seconds = 0;         // since the pipeline started
+  double per_second = 0;      // measured by this run
+  double eta_seconds = 0;
+  const char* unit = "object";
+  // "D/T UNITs (P%), R UNITs/s, ETA E s   " (padded so that a shorter line overwrites it).
+  std::string Line() const;
+};
+
+// What a table-writing run asks of the harness, in its front end's words.
+struct TableRun {
+  std::string output;
+  std::string extname;        // the table's HDU ("RESULTS", "METADETECT")
+  const char* unit = "object";  // what it measures one by one ("cell"), in messages
+  bool resume = false;
+  bool overwrite = false;
+  int shard = 0, shards = 1;  // --shard i/N
+  const std::atomic<bool>* stop = nullptr;  // set from another thread: no batch is read after it
+  std::function<void(const RunProgress&)> on_progress;  // at most every progress_interval seconds
+  double progress_interval = 0.5;
+  std::function<void(const std::string&)> on_warning;
+  void warn(const std::string& text) const {
+    if (on_warning) on_warning(text);
+  }
+};
+
+// 1. Throws io::FileError naming the option and the files (io/output_check.hpp); locks each output
+// whose companions name its lock (io::OutputLock::path_for) until the locks are released.
+std::vector<io::OutputLock> protect_outputs(const TableRun& run, const std::vector<io::RunOutput>& outputs,
+                                            const std::vector<io::RunInput>& inputs);
+
+// 2. Appends RUNFP (the hash of table->fingerprint) to the header, then for a shard its key SHARD
+// (and with `total_key`, the whole run's `units` under it) and "shard i/N of T" to the fingerprint:
+// the shards of one run share RUNFP (their tables join into the whole run's), and a shard resumes
+// only as that shard. Throws io::ConfigError for a shard of an input whose count is unknown (< 0).
+void seal_identity(const TableRun& run, long long units, io::TableWriterOptions* table, const char* total_key = nullptr);
+
+// The RUNFP that seal_identity recorded in `table`'s header.
+std::string recorded_runfp(const io::TableWriterOptions& table);
+
+// 3. The table of a schema (Writer::create, Writer::resume), or null when the run's output is this
+// run's complete table (its RUNFP, as seal_identity recorded it): the run is done.
+template <class Writer, class Options>
+std::unique_ptr<Writer> open_table(const TableRun& run, const Options& options) {
+  if (run.resume && is_this_runs_complete_table(run.output, run.extname, recorded_runfp(options))) return nullptr;
+  if (!run.resume) return Writer::create(options);
+  std::unique_ptr<Writer> writer = Writer::resume(options);
+  if (writer->started_afresh())
+    run.warn("nothing to resume at " + run.output + ": no " + run.unit + " was committed; the run starts from the first");
+  return writer;
+}
+
+// 4. The shard of `whole` (null for the whole run), moved past its `committed` units.
+std::unique_ptr<StampSource> shard_source(const TableRun& run, StampSource& whole, long long committed);
+// Runs the pipeline over `source` (its units after `committed`), `sink` writing `table` (null:
+// none); finishes the table unless stopped; abandons it on an error, and rethrows.
+PipelineSummary measure_table(const TableRun& run, StampSource& source, long long committed, BatchSink& sink,
+                              io::TableWriter* table, const std::function<std::unique_ptr<BatchFitter>()>& make_measurer,
+                              PipelineOptions pipeline);
 
 }  // namespace stampede::app

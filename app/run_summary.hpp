@@ -16,7 +16,7 @@ struct RunSummary {
   long long objects = 0;  // fitted by this run
   long long resumed = 0;  // committed by the interrupted run this one continued
   bool interrupted = false;  // stopped by FitRunOptions::stop: the output is partial, resumable
-  bool skipped = false;   // the output was already this run's complete table (skip_if_complete)
+  bool skipped = false;   // resume found the output complete, this run's table (its RUNFP)
   long long batches = 0;
   int threads = 0;        // worker threads the pipeline ran with
 

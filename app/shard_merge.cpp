@@ -181,10 +181,8 @@ ShardMergeSummary merge_shards(const ShardMergeOptions& o) {
     join.final_keys = {{"NCELLSW", first.total}};
     join.final_key_comment = "cells whose rows this table holds";
   } else {
-    // A shard's RUNFP covers its range: the joined table is the whole run's, which a shard's
-    // identity does not name.
-    join.extname = "RESULTS";
-    join.dropped_keys = {kShardKey, kShardTotalKey, kRunFingerprintKey};
+    join.extname = "RESULTS";  // the shards share the whole run's RUNFP
+    join.dropped_keys = {kShardKey, kShardTotalKey};
   }
   ShardMergeSummary summary;
   summary.metadetect = first.metadetect;

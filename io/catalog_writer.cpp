@@ -121,15 +121,12 @@ void describe(const CatalogWriterOptions& o, fitsfile* fits, int* status) {
 
 DurableTableOptions table_options(const CatalogWriterOptions& o, std::span<const ResultColumn> columns) {
   DurableTableOptions t;
-  t.path = o.path;
   t.text_path = o.text_path;
   t.text_header = o.text_path.empty() ? "" : text_header_line(columns);
   t.extname = "RESULTS";
   for (const ResultColumn& c : columns) t.columns.push_back({c.name, tform(c.type), c.unit, c.description});
   t.describe = [o](fitsfile* fits, int* status) { describe(o, fits, status); };
-  t.header = o.header;
-  t.header_types = o.header_types;
-  t.fingerprint = o.fingerprint;
+  static_cast<TableWriterOptions&>(t) = o;
   t.layout = std::string("fit catalogue, ") + position_name(o.positions) + " positions";
   t.keep_on_write_failure = o.keep_on_write_failure;
   return t;
@@ -140,7 +137,7 @@ DurableTableOptions table_options(const CatalogWriterOptions& o, std::span<const
 struct CatalogWriter::State {
   ResultSchema schema;
   std::span<const ResultColumn> columns;
-  std::unique_ptr<DurableTable> table;
+  DurableTable* table = nullptr;  // the writer's
   // Per-chunk column buffers, reused across appends.
   std::vector<double> f64 = std::vector<double>(kChunkRows);
   std::vector<LONGLONG> i64 = std::vector<LONGLONG>(kChunkRows);
@@ -196,25 +193,18 @@ struct CatalogWriter::State {
   }
 };
 
-// ---- public API ---------------------------------------------------------------------------------
-
-CatalogWriter::CatalogWriter(std::unique_ptr<State> state) : s_(std::move(state)) {}
+CatalogWriter::CatalogWriter(const CatalogWriterOptions& options, bool resume) : s_(std::make_unique<State>(options)) {
+  open(table_options(options, s_->columns), resume);
+  s_->table = &table();
+}
 CatalogWriter::~CatalogWriter() = default;
 
 std::unique_ptr<CatalogWriter> CatalogWriter::create(const CatalogWriterOptions& options) {
-  auto s = std::make_unique<State>(options);
-  s->table = DurableTable::create(table_options(options, s->columns));
-  return std::unique_ptr<CatalogWriter>(new CatalogWriter(std::move(s)));
+  return std::unique_ptr<CatalogWriter>(new CatalogWriter(options, false));
 }
 
-std::unique_ptr<CatalogWriter> CatalogWriter::resume(const CatalogWriterOptions& options, long long* rows_committed,
-                                                     bool* started) {
-  auto s = std::make_unique<State>(options);
-  DurableTable::Committed committed;
-  s->table = DurableTable::resume(table_options(options, s->columns), &committed);
-  if (rows_committed != nullptr) *rows_committed = committed.rows;
-  if (started != nullptr) *started = committed.fresh;
-  return std::unique_ptr<CatalogWriter>(new CatalogWriter(std::move(s)));
+std::unique_ptr<CatalogWriter> CatalogWriter::resume(const CatalogWriterOptions& options) {
+  return std::unique_ptr<CatalogWriter>(new CatalogWriter(options, true));
 }
 
 void CatalogWriter::append(std::span<const ObjectRecord> rows) {
@@ -231,8 +221,5 @@ void CatalogWriter::append(std::span<const ObjectRecord> rows) {
   });
 }
 
-void CatalogWriter::finish() { s_->table->finish(); }
-void CatalogWriter::abandon() noexcept { s_->table->abandon(); }
-long long CatalogWriter::rows() const { return s_->table->rows(); }
 
 }  // namespace stampede::io

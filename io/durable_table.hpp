@@ -42,6 +42,7 @@
 
 #include "io/catalog_error.hpp"
 #include "io/header_value.hpp"
+#include "io/table_writer.hpp"
 
 namespace stampede::io {
 
@@ -59,8 +60,7 @@ struct FinalKey {
   std::string comment;
 };
 
-struct DurableTableOptions {
-  std::string path;       // the final FITS path (uncompressed)
+struct DurableTableOptions : TableWriterOptions {  // path, header and its types, fingerprint
   std::string text_path;  // the text companion's final path; "" none
   std::string text_header;  // the text companion's first line(s), checked on resume
   std::string extname;    // the table HDU's EXTNAME
@@ -68,12 +68,7 @@ struct DurableTableOptions {
   // The schema's own header cards (status names, comments), written after the columns' and before
   // `header`. CFITSIO's status convention.
   std::function<void(fitsfile*, int* status)> describe;
-  // String keys of the run, as CatalogWriterOptions::header; the types of those that are numbers.
-  std::vector<std::pair<std::string, std::string>> header;
-  std::map<std::string, HeaderValueType> header_types;
-  // What identifies the run (lines of text) and the table's layout (the schema's variant): resume
-  // refuses a checkpoint with another, naming the first line that differs.
-  std::string fingerprint;
+  // The table's layout (the schema's variant): a resume refuses a checkpoint of another.
   std::string layout;
   int reserved_keys = 0;        // how many keys finish() adds
   std::string units = "rows";  // what the run resumes by, in messages ("cells")

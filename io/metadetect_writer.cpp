@@ -47,14 +47,11 @@ constexpr int kNumColumns = static_cast<int>(std::size(kColumns));
 
 DurableTableOptions table_options(const MetadetectWriterOptions& o) {
   DurableTableOptions t;
-  t.path = o.path;
+  static_cast<TableWriterOptions&>(t) = o;
   t.extname = "METADETECT";
   for (const Column& c : kColumns) t.columns.push_back({c.name, c.tform, c.unit, c.comment});
   for (const std::string& b : o.bands) t.columns.push_back({"flux_" + b, "1D", "", "band " + b + ": its stamp's flux under the weight"});
   for (const std::string& b : o.bands) t.columns.push_back({"snr_" + b, "1D", "", "band " + b + ": its stamp's flux over its error"});
-  t.header = o.header;
-  t.header_types = o.header_types;
-  t.fingerprint = o.fingerprint;
   t.layout = "metadetect table";
   t.reserved_keys = 1;  // NCELLSW
   t.units = "cells";
@@ -73,7 +70,7 @@ std::vector<std::string> metadetect_columns(const std::vector<std::string>& band
 
 struct MetadetectWriter::State {
   MetadetectWriterOptions options;
-  std::unique_ptr<DurableTable> table;
+  DurableTable* table = nullptr;  // the writer's
   std::vector<double> f64;
   std::vector<LONGLONG> i64;
   std::vector<int> i32;
@@ -129,23 +126,19 @@ struct MetadetectWriter::State {
   }
 };
 
-MetadetectWriter::MetadetectWriter(std::unique_ptr<State> s) : s_(std::move(s)) {}
+MetadetectWriter::MetadetectWriter(const MetadetectWriterOptions& options, bool resume)
+    : s_(std::make_unique<State>(options)) {
+  open(table_options(options), resume);
+  s_->table = &table();
+}
 MetadetectWriter::~MetadetectWriter() = default;
 
 std::unique_ptr<MetadetectWriter> MetadetectWriter::create(const MetadetectWriterOptions& options) {
-  auto s = std::make_unique<State>(options);
-  s->table = DurableTable::create(table_options(options));
-  return std::unique_ptr<MetadetectWriter>(new MetadetectWriter(std::move(s)));
+  return std::unique_ptr<MetadetectWriter>(new MetadetectWriter(options, false));
 }
 
-std::unique_ptr<MetadetectWriter> MetadetectWriter::resume(const MetadetectWriterOptions& options,
-                                                           long long* cells_committed, bool* started) {
-  auto s = std::make_unique<State>(options);
-  DurableTable::Committed committed;
-  s->table = DurableTable::resume(table_options(options), &committed);
-  *cells_committed = committed.units;
-  if (started != nullptr) *started = committed.fresh;
-  return std::unique_ptr<MetadetectWriter>(new MetadetectWriter(std::move(s)));
+std::unique_ptr<MetadetectWriter> MetadetectWriter::resume(const MetadetectWriterOptions& options) {
+  return std::unique_ptr<MetadetectWriter>(new MetadetectWriter(options, true));
 }
 
 void MetadetectWriter::append(std::span<const MetadetectRow> rows, long long cells) {
@@ -155,14 +148,6 @@ void MetadetectWriter::append(std::span<const MetadetectRow> rows, long long cel
   });
 }
 
-void MetadetectWriter::finish() {
-  // The cells whose rows the table holds: a merge checks a shard against its range with it (a cell
-  // may yield no rows).
-  s_->table->finish({{"NCELLSW", s_->table->units(), "cells whose rows this table holds"}});
-}
-
-void MetadetectWriter::abandon() noexcept { s_->table->abandon(); }
-long long MetadetectWriter::rows() const { return s_->table->rows(); }
-long long MetadetectWriter::cells() const { return s_->table->units(); }
+void MetadetectWriter::finish() { s_->table->finish({{"NCELLSW", units(), "cells whose rows this table holds"}}); }
 
 }  // namespace stampede::io

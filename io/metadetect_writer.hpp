@@ -11,24 +11,17 @@
 // psf_T flux snr mfrac box_size isophotal_area sep_flags flags [flux_<band>... snr_<band>...]. Not thread-safe: the pipeline's
 // serial output stage drives it.
 #pragma once
-#include <map>
 #include <memory>
 #include <span>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "engine/metadetect/metadetect_row.hpp"
-#include "io/catalog_error.hpp"
-#include "io/header_value.hpp"
+#include "io/table_writer.hpp"
 
 namespace stampede::io {
 
-struct MetadetectWriterOptions {
-  std::string path;
-  std::vector<std::pair<std::string, std::string>> header;  // string keys, as CatalogWriterOptions::header
-  std::map<std::string, HeaderValueType> header_types;
-  std::string fingerprint;
+struct MetadetectWriterOptions : TableWriterOptions {  // path, header and its types, fingerprint
   // Band names (several bands, or one named): columns flux_<band> and snr_<band> after the
   // others, from each row's band_flux and band_snr.
   std::vector<std::string> bands;
@@ -37,29 +30,23 @@ struct MetadetectWriterOptions {
 // The column names in order (readers and tests).
 std::vector<std::string> metadetect_columns(const std::vector<std::string>& bands = {});
 
-class MetadetectWriter {
+class MetadetectWriter final : public TableWriter {
  public:
   // Throws CatalogError naming the path.
   static std::unique_ptr<MetadetectWriter> create(const MetadetectWriterOptions& options);
-  // *cells_committed: the cells whose rows are all on disk; the run continues at that cell.
-  // *started (if not null): nothing was committed, the table was started anew.
-  static std::unique_ptr<MetadetectWriter> resume(const MetadetectWriterOptions& options, long long* cells_committed,
-                                                  bool* started = nullptr);
-  ~MetadetectWriter();
-  MetadetectWriter(const MetadetectWriter&) = delete;
-  MetadetectWriter& operator=(const MetadetectWriter&) = delete;
+  // Continues an interrupted run at units(), the cells whose rows are all on disk (afresh when
+  // nothing was committed: started_afresh()).
+  static std::unique_ptr<MetadetectWriter> resume(const MetadetectWriterOptions& options);
+  ~MetadetectWriter() override;
   // Appends the rows of the next `cells` cells and commits them.
   void append(std::span<const MetadetectRow> rows, long long cells);
-  void finish();
-  // A failed run: removes the partial and checkpoint unless a write failed after commits (kept
-  // for --resume). Never throws.
-  void abandon() noexcept;
-  long long rows() const;
-  long long cells() const;
+  // Records the cells in NCELLSW (a merge checks a shard against its range with it: a cell may
+  // yield no rows), then finishes the table.
+  void finish() override;
 
  private:
   struct State;
-  explicit MetadetectWriter(std::unique_ptr<State> s);
+  MetadetectWriter(const MetadetectWriterOptions& options, bool resume);
   std::unique_ptr<State> s_;
 };
 

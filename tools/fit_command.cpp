@@ -187,7 +187,7 @@ int parse_fit_arguments(int argc, char** argv, FitCommandLine* command, bool mes
 
 int run_fit_with_reports(app::FitRunOptions& r) {
   tools::ProgressPrinter printer(stderr, isatty(fileno(stderr)));
-  if (!r.quiet) r.on_progress = [&](const app::FitRunProgress& p) { printer.update(p.seconds, p.Line()); };
+  if (!r.quiet) r.on_progress = [&](const app::RunProgress& p) { printer.update(p.seconds, p.Line()); };
   r.on_warning = [](const std::string& w) { std::fprintf(stderr, "stampede fit: warning: %s\n", w.c_str()); };
   const app::RunSummary summary = app::FitRun(r).run();
   printer.finish();
@@ -213,11 +213,8 @@ int run_fit_command(int argc, char** argv) {
   FitCommandLine command;
   if (const int exit_code = parse_fit_arguments(argc, argv, &command); exit_code >= 0) return exit_code;
   // --resume of an output that is already complete: this run's table is left as it is (exit 0),
-  // another run's is refused (app::FitRunOptions::skip_if_complete).
-  if (command.input_list.empty()) {
-    command.run.skip_if_complete = command.run.resume;
-    return run_fit_with_reports(command.run);
-  }
+  // another run's is refused (app/run_harness).
+  if (command.input_list.empty()) return run_fit_with_reports(command.run);
   for (const app::ListedInput& input : listed_inputs(command))
     if (const int code = run_listed_input(command, input); code != 0) return code;
   return 0;
@@ -241,7 +238,6 @@ int run_listed_input(const FitCommandLine& command, const app::ListedInput& inpu
   r.output = input.output;
   // A complete output is skipped only when it is this run's (the run checks its RUNFP); one not
   // started yet is fitted afresh.
-  r.skip_if_complete = true;
   if (r.resume && !std::filesystem::exists(input.output) && !std::filesystem::exists(input.output + ".checkpoint"))
     r.resume = false;
   return run_fit_with_reports(r);

@@ -197,26 +197,17 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
 
 int run_metadetect_with_reports(const MetadetectCommandLine& command) {
   using namespace stampede;
-  const app::MetadetectRunOptions& o = command.run;
+  app::MetadetectRunOptions o = command.run;
   const bool quiet = command.quiet;
   tools::ProgressPrinter printer(stderr, isatty(STDERR_FILENO) != 0);
-  double last = -1;
-  const app::MetadetectRunSummary r = app::run_metadetect(o, [&](const app::MetadetectProgress& p) {
-    if (quiet || p.seconds - last < 0.5) return;
-    last = p.seconds;
-    char line[160];
-    std::snprintf(line, sizeof line, "stampede metadetect: %lld/%lld cells, %.1f s", p.cells_done, p.cells_total,
-                  p.seconds);
-    printer.update(p.seconds, line);
-  });
+  o.on_warning = [](const std::string& text) { std::fprintf(stderr, "stampede metadetect: warning: %s\n", text.c_str()); };
+  if (!quiet) o.on_progress = [&](const app::RunProgress& p) { printer.update(p.seconds, "stampede metadetect: " + p.Line()); };
+  const app::MetadetectRunSummary r = app::run_metadetect(o);
   printer.finish();
   if (r.skipped) {
     if (!quiet) std::fprintf(stderr, "stampede metadetect: %s is complete, skipped\n", o.output.c_str());
     return 0;
   }
-  if (r.resume_started)
-    std::fprintf(stderr, "stampede metadetect: warning: nothing to resume at %s: no cell was committed; the run started "
-                 "from the first\n", o.output.c_str());
   for (const std::string& p : r.problems) std::fprintf(stderr, "stampede metadetect: warning: %s\n", p.c_str());
   if (r.cells_failed > static_cast<long long>(r.problems.size()))
     std::fprintf(stderr, "stampede metadetect: warning: %lld more cells failed\n",

@@ -59,13 +59,13 @@ py::dict run_watched(app::FitRunOptions a, py::object progress) {
     std::mutex mutex;
     std::condition_variable changed;
     bool done = false;
-    std::optional<app::FitRunProgress> progress;
+    std::optional<app::RunProgress> progress;
     std::vector<std::string> warnings;
   } shared;
   std::atomic<bool> stop{false};
   a.stop = &stop;
   if (!progress.is_none()) {
-    a.on_progress = [&](const app::FitRunProgress& p) {
+    a.on_progress = [&](const app::RunProgress& p) {
       const std::lock_guard<std::mutex> lock(shared.mutex);
       shared.progress = p;
       shared.changed.notify_one();
@@ -92,7 +92,7 @@ py::dict run_watched(app::FitRunOptions a, py::object progress) {
   std::optional<py::error_already_set> python_error;
   try {
     for (bool done = false; !done;) {
-      std::optional<app::FitRunProgress> p;
+      std::optional<app::RunProgress> p;
       std::vector<std::string> warnings;
       {
         py::gil_scoped_release release;
@@ -106,7 +106,7 @@ py::dict run_watched(app::FitRunOptions a, py::object progress) {
       if (python_error) continue;  // stopping: drain until the run has ended
       for (const std::string& w : warnings)
         if (PyErr_WarnEx(PyExc_UserWarning, w.c_str(), 1) != 0) throw py::error_already_set();
-      if (p) progress(p->objects_done, p->objects_total, p->seconds);
+      if (p) progress(p->done, p->total, p->seconds);
       if (PyErr_CheckSignals() != 0) throw py::error_already_set();
     }
   } catch (py::error_already_set& e) {
@@ -162,7 +162,6 @@ void bind_run(py::module_& m) {
         app::check_threads(threads, in.where("threads"));
         a.threads = static_cast<int>(threads);
         a.resume = in.flag("resume", false);
-        a.skip_if_complete = a.resume;  // as `stampede fit --resume`: this run's complete output is left as it is
         a.overwrite = in.flag("overwrite", false);
         const py::object progress = in.object("progress");
         if (!progress.is_none() && !PyCallable_Check(progress.ptr()))

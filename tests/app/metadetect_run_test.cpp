@@ -148,9 +148,11 @@ TEST(MetadetectRun, StoppedRunResumesToTheUninterruptedTable) {
   o.output = scratch.path("resumed.fits");
   std::atomic<bool> stop{false};
   o.stop = &stop;
-  const MetadetectRunSummary first = run_metadetect(o, [&](const MetadetectProgress& p) {
-    if (p.cells_done >= 1) stop = true;
-  });
+  o.progress_interval = 0;
+  o.on_progress = [&](const RunProgress& p) {
+    if (p.done >= 1) stop = true;
+  };
+  const MetadetectRunSummary first = run_metadetect(o);
   ASSERT_TRUE(first.stopped);
   ASSERT_LT(first.cells, 5);
   EXPECT_TRUE(io::file_exists(o.output + ".partial"));
@@ -201,9 +203,11 @@ TEST(MetadetectRun, TheReconvolutionRuleTheStampAndTheWeightAreRecordedAndIdenti
   m.cells_per_batch = 1;
   std::atomic<bool> stop{false};
   m.stop = &stop;
-  run_metadetect(m, [&](const MetadetectProgress& p) {
-    if (p.cells_done >= 1) stop = true;
-  });
+  m.progress_interval = 0;
+  m.on_progress = [&](const RunProgress& p) {
+    if (p.done >= 1) stop = true;
+  };
+  run_metadetect(m);
   io::FitsFile p = io::FitsFile::open_read(m.output + ".partial");
   p.move_to("METADETECT");
   EXPECT_EQ(p.read_key_string("MCRECONV").value_or(""), "moffat");

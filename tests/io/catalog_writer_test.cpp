@@ -370,7 +370,8 @@ TEST_F(CatalogWriterTest, ResumeCutsUncommittedRowsAndMatchesUninterruptedRun) {
   append_bytes(o.text_path + ".partial", "200 13 11 19.5 19.5 0.1\n201 14 11 19.25 1");
 
   long long committed = -1;
-  auto w = CatalogWriter::resume(o, &committed);
+  auto w = CatalogWriter::resume(o);
+  committed = w->units();
   EXPECT_EQ(committed, 200);
   EXPECT_EQ(w->rows(), 200);
   append_batches(*w, records, committed, {60, 40});
@@ -405,7 +406,11 @@ TEST_F(CatalogWriterTest, ResumeThenFinishKeepsOnlyCommittedRows) {
   }
   append_bytes(o.text_path + ".partial", "20 3 1 nan nan\n");
   long long committed = -1;
-  CatalogWriter::resume(o, &committed)->finish();
+  {
+    auto w = CatalogWriter::resume(o);
+    committed = w->units();
+    w->finish();
+  }
   EXPECT_EQ(committed, 20);
   expect_table(o.path, records, PositionColumns::kGrid);
   EXPECT_TRUE(read_bytes(o.path) == ref_fits) << "FITS differs from the uninterrupted run";
@@ -434,7 +439,8 @@ TEST_F(CatalogWriterTest, ResumeZeroesRowsThatReachedDiskBeyondNaxis2) {
     ::close(fd);
   }
   long long committed = -1;
-  auto w = CatalogWriter::resume(o, &committed);
+  auto w = CatalogWriter::resume(o);
+  committed = w->units();
   EXPECT_EQ(committed, 7);
   append_batches(*w, records, committed, {43});
   w->finish();
@@ -449,13 +455,15 @@ TEST_F(CatalogWriterTest, ResumeRightAfterCreateAndTwice) {
   CatalogWriterOptions o = options("run");
   CatalogWriter::create(o).reset();
   long long committed = -1;
-  CatalogWriter::resume(o, &committed).reset();
+  committed = CatalogWriter::resume(o)->units();
   EXPECT_EQ(committed, 0);
   {
-    auto w = CatalogWriter::resume(o, &committed);
+    auto w = CatalogWriter::resume(o);
+    committed = w->units();
     append_batches(*w, records, 0, {10});
   }
-  auto w = CatalogWriter::resume(o, &committed);
+  auto w = CatalogWriter::resume(o);
+  committed = w->units();
   EXPECT_EQ(committed, 10);
   append_batches(*w, records, committed, {20});
   w->finish();
@@ -490,16 +498,16 @@ TEST_F(CatalogWriterTest, ResumeRefusesADifferentRun) {
       o.path + ".checkpoint was written by a different run (input or configuration changed)";
   CatalogWriterOptions other = o;
   other.fingerprint += "x";
-  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(other, nullptr); }), expected));
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(other); }), expected));
   other = o;
   other.positions = PositionColumns::kCatalogue;
-  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(other, nullptr); }), expected));
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(other); }), expected));
   other = o;
   other.text_path.clear();
-  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(other, nullptr); }), expected));
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(other); }), expected));
   // A refusal leaves the run resumable.
   long long committed = -1;
-  CatalogWriter::resume(o, &committed);
+  committed = CatalogWriter::resume(o)->units();
   EXPECT_EQ(committed, 10);
 }
 
@@ -508,16 +516,17 @@ TEST_F(CatalogWriterTest, ResumeRefusesADifferentRun) {
 TEST_F(CatalogWriterTest, ResumeWithNothingCommittedStartsTheTable) {
   CatalogWriterOptions o = options();
   long long committed = -1;
-  auto w = CatalogWriter::resume(o, &committed);
+  auto w = CatalogWriter::resume(o);
+  committed = w->units();
   EXPECT_EQ(committed, 0);
   EXPECT_TRUE(fs::exists(o.path + ".partial") && fs::exists(o.path + ".checkpoint"));
   w->finish();
-  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); }),
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(o); }),
                        "nothing to resume at " + o.path));
   // Nor does a checkpoint whose partial output is gone.
   CatalogWriter::create(o).reset();
   fs::remove(o.text_path + ".partial");
-  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); }),
+  EXPECT_TRUE(Contains(error_of<CatalogError>([&] { CatalogWriter::resume(o); }),
                        "nothing to resume at " + o.path));
 }
 
@@ -538,34 +547,34 @@ TEST_F(CatalogWriterTest, ResumeReportsCorruptFiles) {
 
   start();
   overwrite(o.path + ".partial", 0, "garbage garbage garbage");
-  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); });
+  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o); });
   EXPECT_TRUE(Contains(msg, o.path + ".partial is corrupt"));
 
   start();
   // The last block, holding the committed rows, lost; the header intact.
   fs::resize_file(o.path + ".partial", fs::file_size(o.path + ".partial") - 2880);
-  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); });
+  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o); });
   EXPECT_TRUE(Contains(msg, o.path + ".partial is corrupt"));
 
   start();
   fs::resize_file(o.text_path + ".partial", 100);
-  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); });
+  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o); });
   EXPECT_TRUE(Contains(msg, o.text_path + ".partial is corrupt"));
 
   start();
   overwrite(o.text_path + ".partial", 0, "% not our header");
-  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); });
+  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o); });
   EXPECT_TRUE(Contains(msg, o.text_path + ".partial is corrupt"));
 
   start();  // the committed text must end a line
   overwrite(o.text_path + ".partial",
             static_cast<long long>(fs::file_size(o.text_path + ".partial")) - 1, "X");
-  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); });
+  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o); });
   EXPECT_TRUE(Contains(msg, o.text_path + ".partial is corrupt"));
 
   start();
   overwrite(o.path + ".checkpoint", 0, "stampede catalogue checkpoint 2");
-  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); });
+  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o); });
   EXPECT_TRUE(Contains(msg, o.path + ".checkpoint is corrupt"));
 
   // A different layout (here: another writer's positions) in the partial itself.
@@ -576,7 +585,7 @@ TEST_F(CatalogWriterTest, ResumeReportsCorruptFiles) {
   cat.positions = PositionColumns::kCatalogue;
   CatalogWriter::create(cat).reset();
   fs::copy_file(cat.path + ".partial", o.path + ".partial", fs::copy_options::overwrite_existing);
-  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o, nullptr); });
+  msg = error_of<CatalogError>([&] { CatalogWriter::resume(o); });
   EXPECT_TRUE(Contains(msg, o.path + ".partial is corrupt"));
 }
 
@@ -663,7 +672,8 @@ TEST_F(CatalogWriterTest, SurvivesSigkillMidBatch) {
     ASSERT_TRUE(WIFSIGNALED(wstatus) && WTERMSIG(wstatus) == SIGKILL) << "status " << wstatus;
 
     long long committed = -1;
-    auto w = CatalogWriter::resume(o, &committed);
+    auto w = CatalogWriter::resume(o);
+    committed = w->units();
     ASSERT_TRUE(committed == n1 + n2 || committed == n1 + n2 + n3) << committed;
     if (committed == n1 + n2) ++interrupted_mid_batch;
     const long long left = static_cast<long long>(records.size()) - committed;
@@ -718,7 +728,8 @@ TEST_F(CatalogWriterTest, AWriteFailureNamesTheLimitAndKeepsTheCommittedRows) {
   EXPECT_FALSE(fs::exists(o.path));
 
   long long committed = -1;
-  auto w = CatalogWriter::resume(o, &committed);
+  auto w = CatalogWriter::resume(o);
+  committed = w->units();
   EXPECT_GT(committed, 0);
   EXPECT_LT(committed, 3000);
   EXPECT_EQ(committed % 100, 0);

@@ -1,0 +1,30 @@
+// The inputs of a metadetect run (app/metadetect_run): its bands, checked, and every file it reads
+// (image paths expanded per band, PSFEx models), as the cell source and the output checks take them.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "app/metadetect_run.hpp"
+#include "io/cell_source.hpp"
+
+namespace stampede::app {
+
+// The run's band names (empty: one band, no band columns), checked: one per tile, distinct
+// whatever their case, column-name characters, at most kMaxMetadetectBands; image paths (and
+// --psfex) that are templates exactly when several bands are named, no file a band of itself;
+// throws io::ConfigError naming the option.
+std::vector<std::string> metadetect_bands(const MetadetectRunOptions& options);
+
+// `path` with each `{band}` replaced by `band`.
+std::string expand_band(const std::string& path, const std::string& band);
+
+// Every file a run reads: the inputs (each image path expanded per band, scene by scene), then the
+// PSFEx models (one per band).
+struct MetadetectFiles {
+  io::CellSource::Images images;  // image files: as the cell source takes them
+  std::vector<std::string> files;  // the inputs, band by band within a scene
+};
+MetadetectFiles metadetect_files(const MetadetectRunOptions& options, const std::vector<std::string>& bands);
+
+}  // namespace stampede::app
