@@ -40,12 +40,12 @@ std::string cell_path(const std::string& bdir, int cell) {
 
 void check(const CellSimOptions& options, const CellOutputOptions& out) {
   if (out.cells < 1 || out.cells > 10000000)
-    throw std::invalid_argument("--cells " + std::to_string(out.cells) + ": must be in [1, 10000000]");
+    throw std::invalid_argument("cells " + std::to_string(out.cells) + ": must be in [1, 10000000]");
   if (!out.band_names.empty() && static_cast<int>(out.band_names.size()) != options.bands)
-    throw std::invalid_argument("--bands: " + std::to_string(out.band_names.size()) + " names for " +
+    throw std::invalid_argument("band_names: " + std::to_string(out.band_names.size()) + " names for " +
                                 std::to_string(options.bands) + " bands");
   std::string why;
-  if (!io::are_band_names(out.band_names, &why)) throw std::invalid_argument("--bands: " + why);
+  if (!io::are_band_names(out.band_names, &why)) throw std::invalid_argument("band_names: " + why);
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
 }
 

@@ -11,10 +11,12 @@
 #include <optional>
 #include <set>
 #include <stdexcept>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "app/calibration_build.hpp"
+#include "tools/field_flags.hpp"
 #include "engine/calibration/calibration_grid.hpp"
 #include "engine/calibration/noise_bias.hpp"
 #include "engine/pipeline/pipeline.hpp"
@@ -139,7 +141,17 @@ int run_build(int argc, char** argv) {
   o.overwrite = overwrite;
   if (!config.empty()) app::load_ini(o.config, config);
   for (const auto& s : sets) app::apply_set(o.config, s);
-  app::CalibrationBuild build(o);
+  // The grid's rules name its fields: the command line's words are its flags.
+  static const tools::FieldFlags kGridFlags = {{"radii", "--radii"},   {"bulge_fractions", "--bulge-fractions"},
+                                               {"e_max", "--e-max"},   {"e_steps", "--e-steps"},
+                                               {"snr", "--snr"},       {"realisations", "--realisations"}};
+  std::unique_ptr<app::CalibrationBuild> built;
+  try {
+    built = std::make_unique<app::CalibrationBuild>(o);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(tools::with_flags(e.what(), kGridFlags));
+  }
+  app::CalibrationBuild& build = *built;
   if (!quiet) std::fprintf(stderr, "%s\n", build.PlanReport().c_str());
   tools::ProgressPrinter printer(stderr, isatty(fileno(stderr)));
   std::function<void(const app::CalibrationBuildProgress&)> progress;

@@ -12,6 +12,7 @@
 
 #include "app/cell_simulation.hpp"
 #include "tools/arguments.hpp"
+#include "tools/field_flags.hpp"
 
 namespace {
 
@@ -206,9 +207,22 @@ int run_sim_cells_command(int argc, char** argv) {
   if (dir.empty()) throw std::invalid_argument("--out DIR is required (see stampede sim cells --help)");
   std::unique_ptr<tbb::global_control> limit;
   if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
-  app::write_cell_simulation(o, out, dir, [](int done, int total) {
-    std::fprintf(stderr, "\rstampede sim cells: %d/%d cells", done, total);
-  });
+  // The simulator's rules name its fields: the command line's words are its flags.
+  static const tools::FieldFlags kFlags = {
+      {"cells", "--cells"},           {"band_names", "--bands"},         {"bands", "--bands"},
+      {"size", "--size"},             {"pixel_scale", "--pixel-scale"},  {"buffer", "--buffer"},
+      {"grid", "--grid"},             {"grid_shift", "--grid-shift"},    {"density", "--density"},
+      {"hlr", "--hlr"},               {"flux", "--flux"},                {"bulge_fraction_max", "--bulge-fraction-max"},
+      {"shape_noise", "--shape-noise"}, {"keep_clear", "--keep-clear"},  {"e_max", "--e-max"},
+      {"psf_fwhm", "--psf-fwhm"},     {"psf_beta", "--psf-beta"},        {"psf_size", "--psf-size"},
+      {"g1, g2", "--shear"},          {"snr", "--snr"}};
+  try {
+    app::write_cell_simulation(o, out, dir, [](int done, int total) {
+      std::fprintf(stderr, "\rstampede sim cells: %d/%d cells", done, total);
+    });
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(tools::with_flags(e.what(), kFlags));
+  }
   std::fprintf(stderr, "\nstampede sim cells: wrote %d cell%s%s%s to %s\n", out.cells, out.cells == 1 ? "" : "s",
                out.pair ? " and their shear pairs" : "", out.tile ? " (and cell tiles)" : "", dir.c_str());
   return 0;

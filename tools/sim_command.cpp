@@ -11,7 +11,6 @@
 #include <limits>
 #include <memory>
 #include <stdexcept>
-#include <map>
 #include <string>
 #include <vector>
 
@@ -20,36 +19,31 @@
 #include "io/output_check.hpp"
 #include "io/option_text.hpp"
 #include "tools/arguments.hpp"
+#include "tools/field_flags.hpp"
 #include "tools/sim_cells_command.hpp"
 #include "tools/sim_meds_command.hpp"
 
 namespace {
 
 // The simulator's messages name its fields; the command line's words are these flags.
-std::string great08_flags(const std::string& message) {
-  static const std::map<std::string, std::string, std::less<>> flags = {
-      {"sets", "--sets"},
-      {"grid", "--grid"},
-      {"stamp_size", "--stamp"},
-      {"snr", "--snr"},
-      {"noise_sigma", "--noise-sigma"},
-      {"size_ratio", "--size"},
-      {"psf", "--psf"},
-      {"psf_fwhm", "--psf-fwhm"},
-      {"e_sigma", "--e-sigma"},
-      {"e_max", "--e-max"},
-      {"shear_max", "--shear-max"},
-      {"shear", "--shear"},
-      {"centre_offset", "--centre-offset"},
-      {"bulge_fraction", "--bulge-fraction"},
-      {"bd_radius_ratio", "--bd-radius-ratio"},
-      {"bd_misalignment", "--bd-misalignment"},
-      {"bd_offset", "--bd-offset"}};
-  return stampede::io::fields_to_flags(message, [](std::string_view field) {
-    const auto f = flags.find(field);
-    return f == flags.end() ? std::string() : f->second;
-  });
-}
+const stampede::tools::FieldFlags kGreat08Flags = {
+    {"sets", "--sets"},
+    {"grid", "--grid"},
+    {"stamp_size", "--stamp"},
+    {"snr", "--snr"},
+    {"noise_sigma", "--noise-sigma"},
+    {"size_ratio", "--size"},
+    {"psf", "--psf"},
+    {"psf_fwhm", "--psf-fwhm"},
+    {"e_sigma", "--e-sigma"},
+    {"e_max", "--e-max"},
+    {"shear_max", "--shear-max"},
+    {"shear", "--shear"},
+    {"centre_offset", "--centre-offset"},
+    {"bulge_fraction", "--bulge-fraction"},
+    {"bd_radius_ratio", "--bd-radius-ratio"},
+    {"bd_misalignment", "--bd-misalignment"},
+    {"bd_offset", "--bd-offset"}};
 
 }  // namespace
 
@@ -191,7 +185,7 @@ int run_sim_command(int argc, char** argv) {
   }
   if (out.empty()) throw std::invalid_argument("--out DIR is required (see stampede sim --help)");
   std::string why;
-  if (!o.IsValid(&why)) throw std::invalid_argument(great08_flags(why));
+  if (!o.IsValid(&why)) throw std::invalid_argument(stampede::tools::with_flags(why, kGreat08Flags));
   std::error_code ec;
   std::filesystem::create_directories(out, ec);
   if (ec) throw std::runtime_error("cannot create output directory '" + out + "': " + ec.message());
@@ -207,7 +201,7 @@ int run_sim_command(int argc, char** argv) {
   try {
     arena.execute([&] { sim = std::make_unique<Great08Simulator>(o); });
   } catch (const std::invalid_argument& e) {  // the simulator names fields
-    throw std::invalid_argument(great08_flags(e.what()));
+    throw std::invalid_argument(stampede::tools::with_flags(e.what(), kGreat08Flags));
   }
   const double setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::fprintf(stderr,

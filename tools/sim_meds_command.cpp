@@ -13,6 +13,7 @@
 #include "app/meds_simulation.hpp"
 #include "io/result_columns.hpp"
 #include "tools/arguments.hpp"
+#include "tools/field_flags.hpp"
 
 namespace {
 
@@ -159,8 +160,18 @@ int run_sim_meds_command(int argc, char** argv) {
     }
   }
   if (out.empty()) throw std::invalid_argument("--out DIR is required (see stampede sim meds --help)");
+  // The simulator's rules name its fields: the command line's words are its flags.
+  static const tools::FieldFlags kFlags = {
+      {"objects", "--objects"},          {"epochs", "--epochs"},
+      {"images", "--images"},            {"box_size", "--box-size"},
+      {"pixel_scale", "--pixel-scale"},  {"scale_jitter", "--scale-jitter"},
+      {"wcs_shear", "--wcs-shear"},      {"psf_fwhm_min, psf_fwhm_max", "--psf-fwhm"},
+      {"psf_e_max", "--psf-e-max"},      {"g1, g2", "--shear"},
+      {"snr", "--snr"},                  {"noise_sigma", "--noise-sigma"},
+      {"hlr_min, hlr_max", "--hlr"},     {"magzp_jitter", "--magzp-jitter"},
+      {"bad_column_fraction", "--bad-columns"}, {"neighbour_fraction", "--neighbours"}};
   std::string why;
-  if (!o.IsValid(&why)) throw std::invalid_argument(why);
+  if (!o.IsValid(&why)) throw std::invalid_argument(tools::with_flags(why, kFlags));
   std::unique_ptr<tbb::global_control> limit;
   if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
   if (bands.empty()) {

@@ -35,20 +35,20 @@ bool CalibrationGridOptions::IsValid(std::string* why) const {
     return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
   };
   if (radii.empty() || !finite(radii) || !strictly_increasing(radii) || radii.front() < 0.2 || radii.back() > 50)
-    m << "--radii " << list(radii) << ": need increasing radii in [0.2, 50] pixels";
+    m << "radii " << list(radii) << ": need increasing radii in [0.2, 50] pixels";
   else if (bulge_fractions.empty() || !finite(bulge_fractions) || !strictly_increasing(bulge_fractions) ||
            bulge_fractions.front() < 0 || bulge_fractions.back() > 1)
-    m << "--bulge-fractions " << list(bulge_fractions) << ": need increasing fractions in [0, 1]";
+    m << "bulge_fractions " << list(bulge_fractions) << ": need increasing fractions in [0, 1]";
   else if (!(e_max > 0 && e_max <= 0.9))
-    m << "--e-max " << e_max << ": must be in (0, 0.9]";
+    m << "e_max " << e_max << ": must be in (0, 0.9]";
   else if (e_steps < 4 || e_steps > 201)
-    m << "--e-steps " << e_steps << ": must be in [4, 201] (a cubic needs four points)";
+    m << "e_steps " << e_steps << ": must be in [4, 201] (a cubic needs four points)";
   else if (!(snr > 0 && std::isfinite(snr)))
-    m << "--snr " << snr << ": must be positive";
+    m << "snr " << snr << ": must be positive";
   else if (!(noise_sigma > 0 && std::isfinite(noise_sigma)))
     m << "noise_sigma " << noise_sigma << ": the calibration fits must be weighted (noise_sigma > 0)";
   else if (realisations < 2 || realisations > 1000000)
-    m << "--realisations " << realisations << ": must be in [2, 1000000] (noise pairs per point)";
+    m << "realisations " << realisations << ": must be in [2, 1000000] (noise pairs per point)";
   else if (stamp_size < 8 || stamp_size > 512)
     m << "stamp_size " << stamp_size << ": must be in [8, 512]";
   else if (!(bulge_radius_ratio > 0.01 && bulge_radius_ratio <= 100))

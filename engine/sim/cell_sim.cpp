@@ -64,29 +64,29 @@ bool CellSimOptions::IsValid(std::string* why) const {
     if (why) *why = w;
     return false;
   };
-  if (size < 16 || size > 4096) return fail("--size " + std::to_string(size) + ": must be in [16, 4096] pixels");
-  if (!(pixel_scale > 0 && pixel_scale <= 10)) return fail("--pixel-scale " + text(pixel_scale) + ": must be in (0, 10] arcsec");
+  if (size < 16 || size > 4096) return fail("size " + std::to_string(size) + ": must be in [16, 4096] pixels");
+  if (!(pixel_scale > 0 && pixel_scale <= 10)) return fail("pixel_scale " + text(pixel_scale) + ": must be in (0, 10] arcsec");
   if (buffer < 0 || 2 * buffer >= size)
-    return fail("--buffer " + std::to_string(buffer) + ": must be >= 0 and leave an interior (2 x buffer < --size " +
+    return fail("buffer " + std::to_string(buffer) + ": must be >= 0 and leave an interior (2 x buffer < size " +
                 std::to_string(size) + ")");
-  if (grid < 1 || grid > 1000) return fail("--grid " + std::to_string(grid) + ": must be in [1, 1000]");
-  if (!(grid_shift >= 0 && grid_shift <= 10)) return fail("--grid-shift " + text(grid_shift) + ": must be in [0, 10] pixels");
-  if (!(density > 0 && density <= 10000)) return fail("--density " + text(density) + ": must be in (0, 10000] per arcmin^2");
-  if (!(hlr > 0 && hlr / pixel_scale <= 50)) return fail("--hlr " + text(hlr) + ": must be > 0 and at most 50 pixels");
-  if (!(flux > 0 && std::isfinite(flux))) return fail("--flux " + text(flux) + ": must be > 0");
+  if (grid < 1 || grid > 1000) return fail("grid " + std::to_string(grid) + ": must be in [1, 1000]");
+  if (!(grid_shift >= 0 && grid_shift <= 10)) return fail("grid_shift " + text(grid_shift) + ": must be in [0, 10] pixels");
+  if (!(density > 0 && density <= 10000)) return fail("density " + text(density) + ": must be in (0, 10000] per arcmin^2");
+  if (!(hlr > 0 && hlr / pixel_scale <= 50)) return fail("hlr " + text(hlr) + ": must be > 0 and at most 50 pixels");
+  if (!(flux > 0 && std::isfinite(flux))) return fail("flux " + text(flux) + ": must be > 0");
   if (!(bulge_fraction_max >= 0 && bulge_fraction_max <= 1))
-    return fail("--bulge-fraction-max " + text(bulge_fraction_max) + ": must be in [0, 1]");
-  if (!(shape_noise >= 0 && shape_noise <= 1)) return fail("--shape-noise " + text(shape_noise) + ": must be in [0, 1]");
-  if (!(keep_clear >= 0 && keep_clear <= buffer)) return fail("--keep-clear " + text(keep_clear) + ": must be in [0, --buffer]");
-  if (!(e_max > 0 && e_max <= 0.9)) return fail("--e-max " + text(e_max) + ": must be in (0, 0.9]");
+    return fail("bulge_fraction_max " + text(bulge_fraction_max) + ": must be in [0, 1]");
+  if (!(shape_noise >= 0 && shape_noise <= 1)) return fail("shape_noise " + text(shape_noise) + ": must be in [0, 1]");
+  if (!(keep_clear >= 0 && keep_clear <= buffer)) return fail("keep_clear " + text(keep_clear) + ": must be in [0, buffer]");
+  if (!(e_max > 0 && e_max <= 0.9)) return fail("e_max " + text(e_max) + ": must be in (0, 0.9]");
   if (!(psf_fwhm > 0 && psf_fwhm / pixel_scale >= 1 && psf_fwhm / pixel_scale <= 50))
-    return fail("--psf-fwhm " + text(psf_fwhm) + ": must be between 1 and 50 pixels (" + text(pixel_scale) + " arcsec each)");
-  if (!(psf_beta > 1.5 && psf_beta <= 100)) return fail("--psf-beta " + text(psf_beta) + ": must be in (1.5, 100]");
+    return fail("psf_fwhm " + text(psf_fwhm) + ": must be between 1 and 50 pixels (" + text(pixel_scale) + " arcsec each)");
+  if (!(psf_beta > 1.5 && psf_beta <= 100)) return fail("psf_beta " + text(psf_beta) + ": must be in (1.5, 100]");
   if (psf_size < 5 || psf_size % 2 == 0 || psf_size > 255)
-    return fail("--psf-size " + std::to_string(psf_size) + ": must be odd and in [5, 255]");
-  if (!(std::hypot(g1, g2) < 0.3)) return fail("--shear " + text(g1) + "," + text(g2) + ": |g| must be < 0.3");
-  if (!(snr > 0 && std::isfinite(snr))) return fail("--snr " + text(snr) + ": must be > 0");
-  if (bands < 1 || bands > 8) return fail("--bands: " + std::to_string(bands) + " bands (1 to 8)");
+    return fail("psf_size " + std::to_string(psf_size) + ": must be odd and in [5, 255]");
+  if (!(std::hypot(g1, g2) < 0.3)) return fail("g1, g2 " + text(g1) + "," + text(g2) + ": |g| must be < 0.3");
+  if (!(snr > 0 && std::isfinite(snr))) return fail("snr " + text(snr) + ": must be > 0");
+  if (bands < 1 || bands > 8) return fail("bands " + std::to_string(bands) + ": must be in [1, 8]");
   return true;
 }
 

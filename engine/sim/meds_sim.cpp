@@ -44,30 +44,30 @@ bool MedsSimOptions::IsValid(std::string* why) const {
     *why = w;
     return false;
   };
-  if (objects < 2 || objects % 2) return fail("--objects " + std::to_string(objects) + ": must be even and >= 2 (ring pairs)");
-  if (epochs < 1 || epochs > 64) return fail("--epochs " + std::to_string(epochs) + ": must be in [1, 64]");
-  if (images < epochs || images > 100000) return fail("--images " + std::to_string(images) + ": must be >= --epochs and <= 100000");
-  if (box_size < 16 || box_size > 512) return fail("--box-size " + std::to_string(box_size) + ": must be in [16, 512]");
-  if (!(pixel_scale > 0)) return fail("--pixel-scale " + text(pixel_scale) + ": must be > 0");
-  if (!(scale_jitter >= 0 && scale_jitter < 0.5)) return fail("--scale-jitter " + text(scale_jitter) + ": must be in [0, 0.5)");
-  if (!(wcs_shear >= 0 && wcs_shear < 0.3)) return fail("--wcs-shear " + text(wcs_shear) + ": must be in [0, 0.3)");
+  if (objects < 2 || objects % 2) return fail("objects " + std::to_string(objects) + ": must be even and >= 2 (ring pairs)");
+  if (epochs < 1 || epochs > 64) return fail("epochs " + std::to_string(epochs) + ": must be in [1, 64]");
+  if (images < epochs || images > 100000) return fail("images " + std::to_string(images) + ": must be >= epochs and <= 100000");
+  if (box_size < 16 || box_size > 512) return fail("box_size " + std::to_string(box_size) + ": must be in [16, 512]");
+  if (!(pixel_scale > 0)) return fail("pixel_scale " + text(pixel_scale) + ": must be > 0");
+  if (!(scale_jitter >= 0 && scale_jitter < 0.5)) return fail("scale_jitter " + text(scale_jitter) + ": must be in [0, 0.5)");
+  if (!(wcs_shear >= 0 && wcs_shear < 0.3)) return fail("wcs_shear " + text(wcs_shear) + ": must be in [0, 0.3)");
   if (!(psf_fwhm_min > 0 && psf_fwhm_max >= psf_fwhm_min))
-    return fail("--psf-fwhm " + text(psf_fwhm_min) + "," + text(psf_fwhm_max) + ": must be 0 < min <= max");
-  if (!(psf_e_max >= 0 && psf_e_max < 0.3)) return fail("--psf-e-max " + text(psf_e_max) + ": must be in [0, 0.3)");
-  if (!(psf_beta > 1.5)) return fail("--psf-beta " + text(psf_beta) + ": must be > 1.5");
-  if (psf_size < 5 || psf_size % 2 == 0 || psf_size > box_size) return fail("--psf-size " + std::to_string(psf_size) + ": must be odd, >= 5 and <= --box-size");
-  if (!(std::hypot(g1, g2) < 0.3)) return fail("--shear " + text(g1) + "," + text(g2) + ": |g| must be < 0.3");
-  if (!(snr > 0)) return fail("--snr " + text(snr) + ": must be > 0");
-  if (!(noise_sigma > 0)) return fail("--noise-sigma " + text(noise_sigma) + ": must be > 0");
-  if (!(hlr_min > 0 && hlr_max >= hlr_min)) return fail("--hlr " + text(hlr_min) + "," + text(hlr_max) + ": must be 0 < min <= max");
-  if (!(bulge_fraction_max >= 0 && bulge_fraction_max <= 1)) return fail("--bulge-fraction-max " + text(bulge_fraction_max) + ": must be in [0, 1]");
-  if (!(e_sigma >= 0 && e_max > 0 && e_max < 0.95)) return fail("--e-sigma/--e-max: need e_sigma >= 0 and 0 < e_max < 0.95");
-  if (!(centre_offset >= 0 && centre_offset < 1)) return fail("--centre-offset " + text(centre_offset) + ": must be in [0, 1) arcsec");
-  if (!(magzp_jitter >= 0 && magzp_jitter < 3)) return fail("--magzp-jitter " + text(magzp_jitter) + ": must be in [0, 3)");
-  if (!(bad_column_fraction >= 0 && bad_column_fraction <= 1)) return fail("--bad-columns " + text(bad_column_fraction) + ": must be in [0, 1]");
-  if (!(neighbour_fraction >= 0 && neighbour_fraction <= 1)) return fail("--neighbours " + text(neighbour_fraction) + ": must be in [0, 1]");
+    return fail("psf_fwhm_min, psf_fwhm_max " + text(psf_fwhm_min) + "," + text(psf_fwhm_max) + ": must be 0 < min <= max");
+  if (!(psf_e_max >= 0 && psf_e_max < 0.3)) return fail("psf_e_max " + text(psf_e_max) + ": must be in [0, 0.3)");
+  if (!(psf_beta > 1.5)) return fail("psf_beta " + text(psf_beta) + ": must be > 1.5");
+  if (psf_size < 5 || psf_size % 2 == 0 || psf_size > box_size) return fail("psf_size " + std::to_string(psf_size) + ": must be odd, >= 5 and <= box_size");
+  if (!(std::hypot(g1, g2) < 0.3)) return fail("g1, g2 " + text(g1) + "," + text(g2) + ": |g| must be < 0.3");
+  if (!(snr > 0)) return fail("snr " + text(snr) + ": must be > 0");
+  if (!(noise_sigma > 0)) return fail("noise_sigma " + text(noise_sigma) + ": must be > 0");
+  if (!(hlr_min > 0 && hlr_max >= hlr_min)) return fail("hlr_min, hlr_max " + text(hlr_min) + "," + text(hlr_max) + ": must be 0 < min <= max");
+  if (!(bulge_fraction_max >= 0 && bulge_fraction_max <= 1)) return fail("bulge_fraction_max " + text(bulge_fraction_max) + ": must be in [0, 1]");
+  if (!(e_sigma >= 0 && e_max > 0 && e_max < 0.95)) return fail("e_sigma, e_max " + text(e_sigma) + "," + text(e_max) + ": need e_sigma >= 0 and 0 < e_max < 0.95");
+  if (!(centre_offset >= 0 && centre_offset < 1)) return fail("centre_offset " + text(centre_offset) + ": must be in [0, 1) arcsec");
+  if (!(magzp_jitter >= 0 && magzp_jitter < 3)) return fail("magzp_jitter " + text(magzp_jitter) + ": must be in [0, 3)");
+  if (!(bad_column_fraction >= 0 && bad_column_fraction <= 1)) return fail("bad_column_fraction " + text(bad_column_fraction) + ": must be in [0, 1]");
+  if (!(neighbour_fraction >= 0 && neighbour_fraction <= 1)) return fail("neighbour_fraction " + text(neighbour_fraction) + ": must be in [0, 1]");
   if (bands < 1 || bands > 8 || band < 0 || band >= bands)
-    return fail("--bands: band " + std::to_string(band) + " of " + std::to_string(bands) + " (1..8 bands)");
+    return fail("band, bands " + std::to_string(band) + "," + std::to_string(bands) + ": band must be in [0, bands), bands in [1, 8]");
   return true;
 }
 

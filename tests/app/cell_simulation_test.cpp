@@ -170,15 +170,15 @@ TEST(CellSimulation, RefusesExistingOutputsAndBadOptions) {
   };
   CellOutputOptions zero = out;
   zero.cells = 0;
-  EXPECT_NE(message(zero, o).find("--cells 0"), std::string::npos);
+  EXPECT_NE(message(zero, o).find("cells 0"), std::string::npos);
   CellOutputOptions twice = out;
   twice.band_names = {"r", "r"};
   CellSimOptions two = o;
   two.bands = 2;
-  EXPECT_NE(message(twice, two).find("--bands: band 'r' is given twice"), std::string::npos);
+  EXPECT_NE(message(twice, two).find("band_names: band 'r' is given twice"), std::string::npos);
   CellOutputOptions odd = out;
   odd.band_names = {"r-1"};
-  EXPECT_NE(message(odd, o).find("--bands"), std::string::npos);
+  EXPECT_NE(message(odd, o).find("band_names"), std::string::npos);
   EXPECT_FALSE(fs::exists(dir.path("bad")));
 }
 

@@ -143,4 +143,24 @@ TEST_F(SimCommand, BadOptionsAreClearErrors) {
   EXPECT_EQ(sim(path("y"), {"--sets", "1", "--grid", "2", "--overwrite"}).exit_code, 0);
 }
 
+// `sim meds`: the simulator's rules name its fields; the command line says them in its flags,
+// a pair of fields one flag sets (--hlr MIN,MAX) as that flag.
+TEST_F(SimCommand, SimMedsBadOptionsAreSaidInItsFlags) {
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"--box-size", "16"}, "psf_size 25: must be odd, >= 5 and <= --box-size"},
+      {{"--hlr", "0.7,0.3"}, "--hlr 0.7,0.3: must be 0 < min <= max"},
+      {{"--psf-fwhm", "1.2,0.9"}, "--psf-fwhm 1.2,0.9: must be 0 < min <= max"},
+      {{"--shear", "0.3,0.1"}, "--shear 0.3,0.1: |g| must be < 0.3"},
+      {{"--epochs", "4", "--images", "2"}, "--images 2: must be >= epochs"},
+      {{"--bad-columns", "1.5"}, "--bad-columns 1.5: must be in [0, 1]"},
+  };
+  for (const auto& [args, message] : cases) {
+    std::vector<std::string> full = {"meds", "--out", path("m")};
+    full.insert(full.end(), args.begin(), args.end());
+    const RunResult r = run("sim", full);
+    EXPECT_EQ(r.exit_code, 1) << args[0];
+    EXPECT_NE(r.err.find(message), std::string::npos) << args[0] << ": " << r.err;
+  }
+}
+
 }  // namespace

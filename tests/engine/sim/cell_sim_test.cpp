@@ -279,16 +279,16 @@ TEST(CellSim, BadOptionsNameTheOption) {
     EXPECT_THROW(CellSimulator{o}, std::invalid_argument);
     return w;
   };
-  EXPECT_NE(why([](CellSimOptions& o) { o.size = 8; }).find("--size 8"), std::string::npos);
-  EXPECT_NE(why([](CellSimOptions& o) { o.buffer = 130; }).find("--buffer 130"), std::string::npos);
-  EXPECT_NE(why([](CellSimOptions& o) { o.snr = 0; }).find("--snr 0"), std::string::npos);
-  EXPECT_NE(why([](CellSimOptions& o) { o.psf_size = 32; }).find("--psf-size 32: must be odd"), std::string::npos);
-  EXPECT_NE(why([](CellSimOptions& o) { o.g1 = 0.4; }).find("--shear 0.4,0"), std::string::npos);
-  EXPECT_NE(why([](CellSimOptions& o) { o.density = -1; }).find("--density -1"), std::string::npos);
-  EXPECT_NE(why([](CellSimOptions& o) { o.psf_fwhm = 0.1; }).find("--psf-fwhm 0.1"), std::string::npos);
-  EXPECT_NE(why([](CellSimOptions& o) { o.shape_noise = -0.1; }).find("--shape-noise -0.1"), std::string::npos);
-  EXPECT_NE(why([](CellSimOptions& o) { o.hlr = 0; }).find("--hlr 0"), std::string::npos);
-  EXPECT_NE(why([](CellSimOptions& o) { o.psf_beta = 1; }).find("--psf-beta 1"), std::string::npos);
+  EXPECT_NE(why([](CellSimOptions& o) { o.size = 8; }).find("size 8"), std::string::npos);
+  EXPECT_NE(why([](CellSimOptions& o) { o.buffer = 130; }).find("buffer 130"), std::string::npos);
+  EXPECT_NE(why([](CellSimOptions& o) { o.snr = 0; }).find("snr 0"), std::string::npos);
+  EXPECT_NE(why([](CellSimOptions& o) { o.psf_size = 32; }).find("psf_size 32: must be odd"), std::string::npos);
+  EXPECT_NE(why([](CellSimOptions& o) { o.g1 = 0.4; }).find("g1, g2 0.4,0"), std::string::npos);
+  EXPECT_NE(why([](CellSimOptions& o) { o.density = -1; }).find("density -1"), std::string::npos);
+  EXPECT_NE(why([](CellSimOptions& o) { o.psf_fwhm = 0.1; }).find("psf_fwhm 0.1"), std::string::npos);
+  EXPECT_NE(why([](CellSimOptions& o) { o.shape_noise = -0.1; }).find("shape_noise -0.1"), std::string::npos);
+  EXPECT_NE(why([](CellSimOptions& o) { o.hlr = 0; }).find("hlr 0"), std::string::npos);
+  EXPECT_NE(why([](CellSimOptions& o) { o.psf_beta = 1; }).find("psf_beta 1"), std::string::npos);
 }
 
 }  // namespace
