@@ -2,6 +2,7 @@
 #include "app/metadetect_run.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <chrono>
 #include <memory>
@@ -19,6 +20,7 @@
 #include "io/cell_source.hpp"
 #include "io/config_error.hpp"
 #include "io/file_digest.hpp"
+#include "io/option_text.hpp"
 #include "io/metadetect_writer.hpp"
 #include "io/output_check.hpp"
 #include "io/output_lock.hpp"
@@ -78,6 +80,30 @@ std::vector<io::RunInput> inputs_of(const MetadetectFiles& read) {
   return inputs;
 }
 
+// What every image records alike of its scene (SHEAR1, SHEAR2, SCNSEED, SCNROT), by which metrics
+// checks a shear pair (app/metadetect_metrics); a key some image lacks or records otherwise is left
+// out. Derived from the inputs, whose digests the fingerprint holds.
+void record_scene(const std::vector<std::string>& files, io::MetadetectWriterOptions* table) {
+  if (files.empty()) return;
+  io::SceneRecord common = io::read_scene_record(files[0]);
+  for (std::size_t k = 1; k < files.size(); ++k) {
+    const io::SceneRecord r = io::read_scene_record(files[k]);
+    if (!(r.g1 == common.g1 && r.g2 == common.g2)) common.g1 = common.g2 = NAN;
+    if (r.seed != common.seed) common.seed.clear();
+    if (r.rotated != common.rotated) common.rotated.clear();
+  }
+  if (std::isfinite(common.g1) && std::isfinite(common.g2)) {
+    table->header.emplace_back("SHEAR1", io::format_double(common.g1));
+    table->header.emplace_back("SHEAR2", io::format_double(common.g2));
+    table->header_types["SHEAR1"] = table->header_types["SHEAR2"] = io::HeaderValueType::kReal;
+  }
+  for (const auto& [key, value] : {std::pair{"SCNSEED", &common.seed}, std::pair{"SCNROT", &common.rotated}})
+    if (!value->empty()) {
+      table->header.emplace_back(key, *value);
+      table->header_types[key] = io::HeaderValueType::kInteger;
+    }
+}
+
 TableRun table_run(const MetadetectRunOptions& options) {
   TableRun table;
   table.output = options.output;
@@ -134,6 +160,8 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   io::MetadetectWriterOptions writer_options;
   writer_options.path = options.output;
   writer_options.bands = bands;
+  writer_options.header_types = metadetect_header_types();
+  writer_options.header_types["NCELLS"] = io::HeaderValueType::kInteger;
   std::string& fingerprint = writer_options.fingerprint;
   fingerprint = "stampede " + std::string(program_version()) + " metadetect\n";
   const auto record = [&](const std::string& key, const std::string& value, const std::string& line) {
@@ -157,9 +185,8 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   };
   record_files(read.files, "INPUT", "DIGEST", "input");
   record_files(read.images.psfex, "PSFEX", "PSFEXD", "psfex");
+  if (!options.tile) record_scene(read.files, &writer_options);
   writer_options.header.emplace_back("NCELLS", std::to_string(source.total_objects()));
-  writer_options.header_types = metadetect_header_types();
-  writer_options.header_types["NCELLS"] = io::HeaderValueType::kInteger;
   seal_identity(table, source.total_objects(), &writer_options);
   // SEP's pixel stack is global: sized for a whole cell above the threshold before threads start.
   set_detection_pixel_stack(source.max_cell_pixels());

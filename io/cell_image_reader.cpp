@@ -76,6 +76,15 @@ CellImageShape read_cell_image_shape(const std::string& path) {
   return shape;
 }
 
+SceneRecord read_scene_record(const std::string& path) {
+  FitsFile f = FitsFile::open_read(path);
+  SceneRecord r;
+  r.g1 = f.read_key_double("G1").value_or(NAN), r.g2 = f.read_key_double("G2").value_or(NAN);
+  if (const auto seed = f.read_key_long("SEED")) r.seed = std::to_string(*seed);
+  if (const auto rotated = f.read_key_long("ROTATED")) r.rotated = std::to_string(*rotated);
+  return r;
+}
+
 CellImage read_cell_image(const std::string& path, bool with_psf) {
   FitsFile f = FitsFile::open_read(path);
   CellImage out;

@@ -44,6 +44,14 @@ void apply_cell_masks(std::span<const double> bmask, CellImage* image);
 // bands' images match, before reading pixels).
 CellImageShape read_cell_image_shape(const std::string& path);
 
+// What a simulated image records of its scene in HDU 0 (as `sim cells` writes it: G1, G2, SEED,
+// ROTATED): how metrics tells the images of a shear pair apart. Absent: NaN, "".
+struct SceneRecord {
+  double g1 = NAN, g2 = NAN;
+  std::string seed, rotated;  // the integers' text
+};
+SceneRecord read_scene_record(const std::string& path);
+
 // with_psf false: the PSF HDU is neither required nor read (a PSFEx model gives the PSF).
 CellImage read_cell_image(const std::string& path, bool with_psf = true);
 

@@ -6,16 +6,25 @@
 
 #include "engine/metacal/metacal_type.hpp"
 #include "io/fits_file.hpp"
+#include "io/table_join.hpp"
 
 namespace stampede::io {
+
+std::optional<std::string> MetadetectTable::key(const std::string& name) const {
+  for (const auto& [k, v] : header)
+    if (k == name) return v;
+  return std::nullopt;
+}
 
 MetadetectTable read_metadetect_table(const std::string& path) {
   FitsFile f = FitsFile::open_read(path);
   if (!f.move_to_if_present("METADETECT"))
     throw FitsError(path + ": no METADETECT table (is it a `stampede metadetect` catalogue?)");
   MetadetectTable t;
+  t.path = path;
   t.step = f.key_double("MCSTEP");
-  t.first_input = f.read_key_string("INPUT1").value_or("");
+  for (const FitsFile::HeaderCard& c : f.header_cards())
+    if (c.type != FitsFile::HeaderCard::Type::kCommentary && !is_table_structure_key(c.key)) t.header.emplace_back(c.key, c.value);
   const long long n = f.table_rows();
   auto doubles = [&](const char* name) { return f.read_column(name); };
   auto integers = [&](const char* name) {

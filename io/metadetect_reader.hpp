@@ -1,8 +1,10 @@
-// Reads back what io/metadetect_writer wrote: the columns `stampede metrics --metadetect` needs and
-// the run's metacal step (header key MCSTEP) and first input (INPUT1). Throws FitsError naming the
-// file, HDU and column.
+// Reads back what io/metadetect_writer wrote: the columns `stampede metrics --metadetect` needs, the
+// run's metacal step (header key MCSTEP) and its header's keys (the options, the inputs and their
+// digests, what the inputs record of their scene). Throws FitsError naming the file, HDU and column.
 #pragma once
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "engine/metadetect/metadetect_row.hpp"
@@ -14,7 +16,11 @@ struct MetadetectTable {
   std::vector<int> shear_type;  // MetacalType
   std::vector<double> e1, e2, snr, t_ratio;
   double step = 0;
-  std::string first_input;  // "" when not recorded
+  std::string path;
+  // Every keyword card of the table's HDU but its structure (TTYPEn, NAXIS2, ...), in order.
+  std::vector<std::pair<std::string, std::string>> header;
+  // The value of header key `key`, or nullopt.
+  std::optional<std::string> key(const std::string& key) const;
 };
 
 MetadetectTable read_metadetect_table(const std::string& path);

@@ -18,7 +18,7 @@ namespace {
 using namespace stampede;
 
 void print_help() {
-  const MetadetectCuts d;
+  const MetadetectCuts d = app::default_metadetect_cuts("wmom"), pgauss = app::default_metadetect_cuts("pgauss");
   std::printf(
       "usage: stampede metrics --metadetect TABLE.fits [--minus MINUS.fits] [--shear G1,G2] [options]\n"
       "\n"
@@ -35,16 +35,20 @@ void print_help() {
       "  --rotated PATH        the catalogue of the same cells' scenes turned by 90 degrees (`sim\n"
       "                        cells --rotate`), and --rotated-minus PATH its pair: each joins its cell\n"
       "                        (intrinsic shapes cancel, as in ring pairs)\n"
-      "  --shear G1,G2         the true shear of TABLE (default: keywords G1, G2 of its first input,\n"
-      "                        as `sim cells` writes them)\n"
+      "  --shear G1,G2         the true shear of TABLE (default: the one its inputs record, as `sim\n"
+      "                        cells` writes it)\n"
       "  --cut-snr X           keep rows with snr > X (%g)\n"
-      "  --cut-t-ratio Q       keep rows with T_ratio > Q (%g)\n"
+      "  --cut-t-ratio Q       keep rows with T_ratio > Q (%g; a pgauss table's: %g)\n"
       "  --estimator E         composed: g = <e> (1 - |g|^2) / R (default); package: <e> / R, the\n"
       "                        reference metadetect package's\n"
       "  --bootstrap N         bootstrap resamples (200)\n"
       "  --seed N              bootstrap seed (1)\n"
-      "  --json PATH           also write the figures as JSON\n",
-      d.min_snr, d.min_t_ratio);
+      "  --json PATH           also write the figures as JSON\n"
+      "\n"
+      "The tables of a pair must be measured alike on other files; where their inputs record their\n"
+      "scene (sim cells' do), opposite shears of one scene, turned exactly where given as --rotated.\n"
+      "Cuts that keep no row are an error.\n",
+      d.min_snr, d.min_t_ratio, pgauss.min_t_ratio);
 }
 
 std::string number(double v) {
@@ -59,7 +63,7 @@ std::string number(double v) {
 int run_metadetect_metrics_command(int argc, char** argv) {
   std::string plus_path, minus_path, rotated_path, rotated_minus_path, json;
   std::optional<std::array<double, 2>> shear;
-  MetadetectCuts cuts;
+  std::optional<double> cut_snr, cut_t_ratio;
   MetadetectEstimator estimator = MetadetectEstimator::kComposed;
   int resamples = 200;
   std::uint64_t seed = 1;
@@ -83,9 +87,9 @@ int run_metadetect_metrics_command(int argc, char** argv) {
     } else if (a == "--shear") {
       shear = tools::number_pair(a, value(), "two numbers G1,G2");
     } else if (a == "--cut-snr") {
-      cuts.min_snr = tools::number_value(argc, argv, &i);
+      cut_snr = tools::number_value(argc, argv, &i);
     } else if (a == "--cut-t-ratio") {
-      cuts.min_t_ratio = tools::number_value(argc, argv, &i);
+      cut_t_ratio = tools::number_value(argc, argv, &i);
     } else if (a == "--estimator") {
       const std::string v = value();
       if (!parse_metadetect_estimator(v, &estimator))
@@ -105,14 +109,17 @@ int run_metadetect_metrics_command(int argc, char** argv) {
                                     {"--rotated-minus", rotated_minus_path}});
   app::MetadetectMetricsOptions mo;
   mo.table = plus_path, mo.minus = minus_path, mo.rotated = rotated_path, mo.rotated_minus = rotated_minus_path;
-  mo.shear = shear, mo.cuts = cuts, mo.resamples = resamples, mo.seed = seed, mo.estimator = estimator;
+  mo.shear = shear, mo.cut_snr = cut_snr, mo.cut_t_ratio = cut_t_ratio, mo.resamples = resamples, mo.seed = seed, mo.estimator = estimator;
   const app::MetadetectMetrics r = app::metadetect_metrics(mo);
   const MetadetectShear& s = r.shear;
+  const MetadetectCuts& cuts = r.cuts;
   std::printf("%s: %lld cells, %.0f noshear rows kept (snr > %g, T_ratio > %g, flags 0)\n", plus_path.c_str(), s.cells,
               s.kept_noshear, cuts.min_snr, cuts.min_t_ratio);
   std::printf("  R11 = %.5f +- %.5f   R22 = %.5f +- %.5f\n", s.r11, s.r11_err, s.r22, s.r22_err);
   std::printf("  g1  = %+.3e +- %.1e   g2 = %+.3e +- %.1e\n", s.g1, s.g1_err, s.g2, s.g2_err);
+  if (s.cells < 2) std::printf("  (one cell: no errors; they are a bootstrap over cells, which needs two)\n");
   std::string out = "{\"table\": " + tools::json_string(plus_path) + ", \"cells\": " + std::to_string(s.cells) +
+                    ", \"cut_snr\": " + number(cuts.min_snr) + ", \"cut_t_ratio\": " + number(cuts.min_t_ratio) +
                     ", \"R11\": " + number(s.r11) +
                     ", \"R11_err\": " + number(s.r11_err) + ", \"R22\": " + number(s.r22) + ", \"R22_err\": " +
                     number(s.r22_err) + ", \"g1\": " + number(s.g1) + ", \"g1_err\": " + number(s.g1_err) +

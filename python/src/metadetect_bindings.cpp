@@ -174,8 +174,8 @@ py::dict metadetect_metrics(py::args args, py::kwargs kwargs) {
     if (g.size() != 2) throw py::value_error(a.where("shear") + ": two numbers (g1, g2)");
     o.shear = std::array<double, 2>{g.data()[0], g.data()[1]};
   }
-  o.cuts.min_snr = a.real("cut_snr", o.cuts.min_snr);
-  o.cuts.min_t_ratio = a.real("cut_t_ratio", o.cuts.min_t_ratio);
+  if (a.given("cut_snr")) o.cut_snr = a.real("cut_snr", 0);
+  if (a.given("cut_t_ratio")) o.cut_t_ratio = a.real("cut_t_ratio", 0);
   o.resamples = static_cast<int>(a.integer_in("bootstrap", 200, 2, 100000));
   o.seed = static_cast<std::uint64_t>(a.integer_in("seed", 1, 0, 1LL << 62));
   if (const std::string v = a.text("estimator", "composed"); !parse_metadetect_estimator(v, &o.estimator))
@@ -188,6 +188,7 @@ py::dict metadetect_metrics(py::args args, py::kwargs kwargs) {
   py::dict d;
   const MetadetectShear& s = r.shear;
   d["cells"] = s.cells, d["kept_noshear"] = s.kept_noshear;
+  d["cut_snr"] = r.cuts.min_snr, d["cut_t_ratio"] = r.cuts.min_t_ratio;
   d["R11"] = s.r11, d["R11_err"] = s.r11_err, d["R22"] = s.r22, d["R22_err"] = s.r22_err;
   d["g1"] = s.g1, d["g1_err"] = s.g1_err, d["g2"] = s.g2, d["g2_err"] = s.g2_err;
   if (r.has_bias) {

@@ -181,8 +181,14 @@ def test_bad_metadetect_inputs_are_refused_by_name(pair, tmp_path):
     run_cli("metadetect", *[str(pair["dir"] / "sim" / "minus" / f"cell_{k:04d}.fits") for k in range(2)],
             "-o", str(other), "--threads", "2", "--quiet")
     refused(tmp_path, "not_pair", [plus, other], plus, other, "not a shear pair")
-    # The true shear not found (the first input is gone): the error says to give it; given, the page.
-    gone = edited_bytes(plus, tmp_path / "gone.fits", b"cell_0000.fits", b"cell_9999.fits")
+    # The table records its inputs' shear (SHEAR1, SHEAR2): the page needs no input file. A table
+    # without that record (an older run's) takes it from its first input; that input gone, the
+    # error says to give it; given, the page.
+    moved = edited_bytes(plus, tmp_path / "moved.fits", b"cell_0000.fits", b"cell_9999.fits")
+    r = report(moved, minus, "-o", tmp_path / "recorded")
+    assert r.returncode == 0, r.stderr
+    assert "g = (0.02, 0), 3 pairs of cells" in page_text(tmp_path / "recorded")
+    gone = edited_bytes(moved, tmp_path / "gone.fits", b"SHEAR1  =", b"OLDSHR1 =")
     refused(tmp_path, "no_shear", [gone, minus], gone, "cell_9999.fits' is not found here: give it (--shear G1,G2)")
     r = report(gone, minus, "--shear", "0.02,0", "-o", tmp_path / "given")
     assert r.returncode == 0, r.stderr
