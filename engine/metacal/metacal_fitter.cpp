@@ -50,6 +50,7 @@ bool MetacalOptions::IsValid(std::string* why) const {
   }
   return true;
 }
+
 MetacalFitter::MetacalFitter(const FitterOptions& fit_options, const MetacalOptions& options, FftPlanning planning,
                              ImageWeight image_weight)
     : fit_options_(metacal_fit_options(fit_options, options.model)),
