@@ -29,7 +29,7 @@ SurveyObjectFitter::SurveyObjectFitter(const MedsFitOptions& options, std::vecto
                                 std::to_string(bands_.size()) + " bands (1.." + std::to_string(kMaxBands) + ")");
   if (options.model == MedsModel::kBulgeOrDisc)
     bulge_fitter_ = std::make_unique<ObjectFitter>(single_component(options.fitter, Param::kDiscA));
-  if (options.metacal.enabled) metacal_ = std::make_unique<MultiEpochMetacalFitter>(options.fitter, options.metacal);
+  if (options.metacal.enabled) metacal_ = std::make_unique<MetacalFitter>(options.fitter, options.metacal);
 }
 
 SurveyObjectFitter::~SurveyObjectFitter() = default;

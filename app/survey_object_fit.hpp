@@ -3,7 +3,7 @@
 // the parallel fit stage, by this thread's renderers; the object is then fitted jointly on every
 // usable cutout (ObjectFitter: one shape, a bulge and a disc amplitude per band), bord choosing the
 // pure bulge or the pure disc, or measured by
-// metacalibration (MultiEpochMetacalFitter: one Gamma over every cutout, R the combined response).
+// metacalibration (MetacalFitter: one Gamma over every cutout, R the combined response).
 // A band whose cutouts are all unusable is left out of a multi-band fit (its n_epochs 0, its
 // problem in the row's, prefixed with the band). One band named by --bands is the single tile's fit
 // with band columns, so its rows are a single-tile run's.
@@ -20,7 +20,7 @@
 
 #include "engine/fit/multi_band_result.hpp"
 #include "engine/fit/object_fitter.hpp"
-#include "engine/metacal/multi_epoch_metacal_fitter.hpp"
+#include "engine/metacal/metacal_fitter.hpp"
 #include "engine/pipeline/object_record.hpp"
 #include "engine/pipeline/pipeline.hpp"
 #include "io/meds_options.hpp"
@@ -32,7 +32,7 @@ using MedsModel = io::MedsModel;
 struct MedsFitOptions : io::MedsOptions {
   FitterOptions fitter;  // renderer must be exact; stamp_size is each cutout's; amplitudes free for bd
   PsfModel psf_model;    // psf = kOptions: the PSF of every cutout, in its pixels
-  MetacalOptions metacal;  // enabled: each object's five metacal fits (MultiEpochMetacalFitter)
+  MetacalOptions metacal;  // enabled: each object's five metacal fits (MetacalFitter)
 };
 
 struct MedsObjectResult {
@@ -76,7 +76,7 @@ class SurveyObjectFitter {
   std::vector<std::string> bands_;
   ObjectFitter fitter_;  // bd; bord: the pure disc. Its renderers prepare every cutout's PSF
   std::unique_ptr<ObjectFitter> bulge_fitter_;  // bord: the pure bulge
-  std::unique_ptr<MultiEpochMetacalFitter> metacal_;    // metacal runs
+  std::unique_ptr<MetacalFitter> metacal_;    // metacal runs
   std::map<int, std::shared_ptr<const PreparedPsf>> options_psf_;  // meds_psf = options, per box size
   std::vector<Observation> epochs_;                // the current object's, reused
   std::vector<const PsfModel*> epoch_psfs_;       // metacal: their PSFs, unprepared

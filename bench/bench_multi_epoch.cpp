@@ -25,7 +25,7 @@
 #include <vector>
 
 #include "engine/fit/object_fitter.hpp"
-#include "engine/metacal/multi_epoch_metacal_fitter.hpp"
+#include "engine/metacal/metacal_fitter.hpp"
 #include "engine/sim/sim_renderer.hpp"
 
 namespace {
@@ -156,7 +156,7 @@ void metacal_epochs(benchmark::State& state, int epochs, MetacalModel model = Me
   MetacalOptions mo;
   mo.enabled = true;
   mo.model = model;
-  MultiEpochMetacalFitter fitter(options(), mo);
+  MetacalFitter fitter(options(), mo);
   std::vector<MetacalEpoch> data;
   for (const Cutout& c : cutouts()) data.push_back({c.pixels, c.weight, kBox, c.frame, image_psf ? &c.psf_image : &c.psf, 1.0});
   long long n = 0, failed = 0;

@@ -17,11 +17,10 @@ StampFitter::StampFitter(const FitterOptions& options, std::shared_ptr<const Pre
       psf_e2_(psf_e2),
       psf_fwhm_(psf_fwhm),
       metacal_(std::move(metacal)) {
-  if (metacal_) {
-    metacal_fitter_ = std::make_unique<MetacalFitter>(options_, metacal_->options, options_.render.stamp_size, planning);
-    std::string ignored;  // a PSF metacal cannot use: every row says kPsfFailure
-    if (!per_object_) metacal_fitter_->set_psf(metacal_->shared_psf, &ignored);
-  }
+  // A stamp's masked pixels weigh in metacal's fits as the rest (its row flagged unusable).
+  if (metacal_)
+    metacal_fitter_ = std::make_unique<MetacalFitter>(options_, metacal_->options, planning,
+                                                      MetacalFitter::ImageWeight::kUniform);
 }
 
 void StampFitter::fit(StampBatch& batch) {
@@ -47,10 +46,13 @@ void StampFitter::fit(StampBatch& batch) {
     const std::span<const double> pixels = batch.observations.pixels(stamp);
     const std::span<const double> weight = batch.observations.weights(stamp);
     if (metacal_fitter_) {
-      std::string ignored;
-      if (per_object_ && !metacal_fitter_->set_psf(stamp.psf, &ignored)) input_flags |= kFlagPsfFailure;
-      metacal_fitter_->fit(pixels, weight, stamp.weight_kind, rec.id, kFlagMetacalFailure, &rec.fit, &rec.metacal,
-                           &input_flags);
+      // A PSF metacal cannot use is every row's kPsfFailure; an object's own is also its flag.
+      const MetacalEpoch epoch{pixels, weight, stamp.box_size, PixelFrame{}, per_object_ ? &stamp.psf : &metacal_->shared_psf,
+                               1.0, 0, stamp.weight_kind};
+      metacal_problem_.clear();
+      metacal_fitter_->fit({&epoch, 1}, rec.id, kFlagMetacalFailure, &rec.fit, &rec.metacal, &input_flags,
+                           &metacal_problem_);
+      if (per_object_ && rec.fit.status == FitStatus::kPsfFailure) input_flags |= kFlagPsfFailure;
     } else {
       observation_.pixels = pixels, observation_.weight = weight, observation_.weight_kind = stamp.weight_kind;
       observation_.box_size = stamp.box_size;

@@ -1,5 +1,6 @@
 // The pipeline's per-thread fitting state for grid and catalogue stamps: each stamp one observation
-// in its pixel grid, fitted by the object fitter (or measured by metacal), and the run's PSF handling.
+// in its pixel grid, fitted by the object fitter (or measured by metacal, the stamp one epoch in
+// its pixel grid), and the run's PSF handling.
 #pragma once
 
 #include <memory>
@@ -38,6 +39,7 @@ class StampFitter final : public BatchFitter {
   std::optional<MetacalSetup> metacal_;
   std::unique_ptr<MetacalFitter> metacal_fitter_;  // metacal runs: replaces fitter_'s fit
   Observation observation_;  // the stamp being fitted
+  std::string metacal_problem_;  // why metacal could not calibrate the stamp (not in the row)
 };
 
 }  // namespace stampede

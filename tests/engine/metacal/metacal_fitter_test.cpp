@@ -11,6 +11,8 @@
 #include <complex>
 #include <cstdio>
 #include <memory>
+#include <span>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -38,6 +40,36 @@ FitterOptions fit_options(double noise_sigma = 0) {
   fo.render.stamp_size = kStamp;
   fo.noise_sigma = noise_sigma;
   return fo;
+}
+
+// Grid stamps as metacal takes them: one epoch in its pixel grid, no weight map (noise_sigma's),
+// its images weighed uniformly (StampFitter's rule).
+constexpr MetacalFitter::ImageWeight kStampWeight = MetacalFitter::ImageWeight::kUniform;
+
+MetacalEpoch stamp_epoch(std::span<const double> pixels, const PsfModel& psf) {
+  return {pixels, {}, kStamp, PixelFrame{}, &psf};
+}
+
+void fit_stamp(MetacalFitter& mcal, std::span<const double> pixels, const PsfModel& psf, std::int64_t id, FitResult* r,
+               MetacalRecord* rec, std::uint32_t* flags, std::string* problem = nullptr) {
+  std::string ignored;
+  const MetacalEpoch epoch = stamp_epoch(pixels, psf);
+  mcal.fit({&epoch, 1}, id, kFailure, r, rec, flags, problem ? problem : &ignored);
+}
+
+// The five images of a stamp into mcal.images(0); *variance their noise variance.
+void stamp_images(MetacalFitter& mcal, std::span<const double> pixels, const PsfModel& psf, std::int64_t id,
+                  double* variance) {
+  std::string error;
+  EXPECT_TRUE(mcal.make_images(stamp_epoch(pixels, psf), id, variance, &error)) << error;
+}
+
+// Gamma for stamps of `psf` (made here, kept by the fitter while the PSF is the same), so that
+// mcal.reconvolution(0) is it.
+bool set_stamp_psf(MetacalFitter& mcal, const PsfModel& psf, std::string* error) {
+  const std::vector<double> blank(kStamp * kStamp, 0.0);
+  double variance = 0;
+  return mcal.make_images(stamp_epoch(blank, psf), 0, &variance, error);
 }
 
 struct Galaxy {
@@ -80,18 +112,18 @@ TEST(MetacalFitter, NoiseFreeResponseMatchesTrulyShearedRefits) {
   FftPlanCache plans(FftPlanning::kEstimate);
   MetacalOptions mo;
   mo.model = MetacalModel::kBulgeDisc;
-  MetacalFitter mcal(fit_options(), mo, kStamp, FftPlanning::kEstimate);
+  MetacalFitter mcal(fit_options(), mo, FftPlanning::kEstimate, kStampWeight);
   std::string error;
-  ASSERT_TRUE(mcal.set_psf(kPsf, &error)) << error;
+  ASSERT_TRUE(set_stamp_psf(mcal, kPsf, &error)) << error;
   Fitter truth(fit_options(), nullptr, plans);
-  truth.set_psf(truth.renderer().prepare_psf(mcal.reconvolution(), &error));
+  truth.set_psf(truth.renderer().prepare_psf(mcal.reconvolution(0), &error));
   double mean_mcal[4] = {0, 0, 0, 0}, mean_true[4] = {0, 0, 0, 0}, worst = 0;
   for (std::size_t k = 0; k < kGalaxies.size(); ++k) {
     const Galaxy& gal = kGalaxies[k];
     FitResult noshear;
     MetacalRecord rec;
     std::uint32_t flags = 0;
-    mcal.fit(draw(gal, 0, 0, kPsf), {}, WeightKind::kInverseVariance, static_cast<std::int64_t>(k), kFailure, &noshear,
+    fit_stamp(mcal, draw(gal, 0, 0, kPsf), kPsf, static_cast<std::int64_t>(k), &noshear,
              &rec, &flags);
     ASSERT_EQ(noshear.status, FitStatus::kOk);
     ASSERT_FALSE(flags & kFailure);
@@ -100,7 +132,7 @@ TEST(MetacalFitter, NoiseFreeResponseMatchesTrulyShearedRefits) {
     const double step = mo.step;
     const double shears[4][2] = {{step, 0}, {-step, 0}, {0, step}, {0, -step}};
     for (int t = 0; t < 4; ++t) {
-      const FitResult r = truth.fit(draw(gal, shears[t][0], shears[t][1], mcal.reconvolution()));
+      const FitResult r = truth.fit(draw(gal, shears[t][0], shears[t][1], mcal.reconvolution(0)));
       ASSERT_EQ(r.status, FitStatus::kOk);
       e[t][0] = r.params[index(Param::kE1)];
       e[t][1] = r.params[index(Param::kE2)];
@@ -138,17 +170,16 @@ TEST(MetacalFitter, TheResponseIsResolvedDownToTheStepFloor) {
       mo.model = model;
       mo.step = step;
       mo.psf_dilation = 1.1;  // >= (1 + 2 step) sqrt(1.05 / 0.95), the automatic rule, at every step here
-      MetacalFitter mcal(fit_options(), mo, kStamp, FftPlanning::kEstimate);
+      MetacalFitter mcal(fit_options(), mo, FftPlanning::kEstimate, kStampWeight);
       std::string error;
-      ASSERT_TRUE(mcal.set_psf(kPsf, &error)) << error;
+      ASSERT_TRUE(set_stamp_psf(mcal, kPsf, &error)) << error;
       double worst = 0, mean_r11 = 0, mean_r22 = 0;
       int flagged = 0;
       for (std::size_t k = 0; k < kGalaxies.size(); ++k) {
         FitResult noshear;
         MetacalRecord rec;
         std::uint32_t flags = 0;
-        mcal.fit(draw(kGalaxies[k], 0, 0, kPsf), {}, WeightKind::kInverseVariance, static_cast<std::int64_t>(k), kFailure,
-                 &noshear, &rec, &flags);
+        fit_stamp(mcal, draw(kGalaxies[k], 0, 0, kPsf), kPsf, static_cast<std::int64_t>(k), &noshear, &rec, &flags);
         flagged += noshear.status != FitStatus::kOk || (flags & kFailure);
         const std::array<double, 4> r = {rec.r11, rec.r12, rec.r21, rec.r22};
         if (step == steps[0]) reference.push_back(r);
@@ -179,9 +210,9 @@ TEST_P(MetacalModels, NoiseFreeRingPairsCalibratedByTheirResponseRecoverTheShear
   FftPlanCache plans(FftPlanning::kEstimate);
   MetacalOptions mo;
   mo.model = GetParam();
-  MetacalFitter mcal(fit_options(), mo, kStamp, FftPlanning::kEstimate);
+  MetacalFitter mcal(fit_options(), mo, FftPlanning::kEstimate, kStampWeight);
   std::string error;
-  ASSERT_TRUE(mcal.set_psf(kPsf, &error)) << error;
+  ASSERT_TRUE(set_stamp_psf(mcal, kPsf, &error)) << error;
   const double g1 = 0.02, g2 = -0.015;
   double e_sum[2] = {0, 0}, r_sum[4] = {0, 0, 0, 0};
   int n = 0;
@@ -192,7 +223,7 @@ TEST_P(MetacalModels, NoiseFreeRingPairsCalibratedByTheirResponseRecoverTheShear
       FitResult noshear;
       MetacalRecord rec;
       std::uint32_t flags = 0;
-      mcal.fit(draw(gal, g1, g2, kPsf), {}, WeightKind::kInverseVariance, n, kFailure, &noshear, &rec, &flags);
+      fit_stamp(mcal, draw(gal, g1, g2, kPsf), kPsf, n, &noshear, &rec, &flags);
       ASSERT_EQ(noshear.status, FitStatus::kOk);
       if (mo.model == MetacalModel::kExponential) {
         ASSERT_EQ(noshear.params[index(Param::kBulgeA)], 0.0);
@@ -247,8 +278,8 @@ TEST(MetacalFitter, FixnoiseMakesTheNoiseCorrelationIsotropic) {
     MetacalOptions mo;
     mo.fixnoise = fixnoise;
     mo.step = 0.05;  // a larger shear makes the effect measurable on few stamps
-    MetacalFitter mcal(fit_options(1.0), mo, kStamp, FftPlanning::kEstimate);
-    EXPECT_TRUE(mcal.set_psf(moffat(3.0, 2.85, 0.0, 0.15), &error)) << error;
+    MetacalFitter mcal(fit_options(1.0), mo, FftPlanning::kEstimate, kStampWeight);
+    const PsfModel psf = moffat(3.0, 2.85, 0.0, 0.15);
     double xi0 = 0, xi_x = 0, xi_y = 0, xi_d = 0, xi_a = 0;
     std::vector<double> diffs_axes, diffs_diag;
     const int stamps = 200, border = 6;
@@ -257,8 +288,8 @@ TEST(MetacalFitter, FixnoiseMakesTheNoiseCorrelationIsotropic) {
       RandomStream rng({99, static_cast<std::uint64_t>(k)});
       for (double& v : noise) v = rng.normal();
       double variance = 0;
-      mcal.make_images(noise, {}, WeightKind::kInverseVariance, 1000 + k, &variance);
-      const std::span<const double> img = mcal.images().subspan(static_cast<int>(MetacalType::k1p) * kStamp * kStamp,
+      stamp_images(mcal, noise, psf, 1000 + k, &variance);
+      const std::span<const double> img = mcal.images(0).subspan(static_cast<int>(MetacalType::k1p) * kStamp * kStamp,
                                                                  kStamp * kStamp);
       auto at = [&](int x, int y) { return img[y * kStamp + x]; };
       double s0 = 0, sx = 0, sy = 0, sd = 0, sa = 0;
@@ -301,25 +332,25 @@ TEST(MetacalFitter, EachImageIsFittedFromItsOwnStart) {
   FftPlanCache plans(FftPlanning::kEstimate);
   MetacalOptions bd;
   bd.model = MetacalModel::kBulgeDisc;
-  MetacalFitter mcal(fit_options(1.0), bd, kStamp, FftPlanning::kEstimate);
+  MetacalFitter mcal(fit_options(1.0), bd, FftPlanning::kEstimate, kStampWeight);
   std::string error;
-  ASSERT_TRUE(mcal.set_psf(kPsf, &error)) << error;
+  ASSERT_TRUE(set_stamp_psf(mcal, kPsf, &error)) << error;
   Fitter fresh(fit_options(1.0), nullptr, plans);
-  fresh.set_psf(fresh.renderer().prepare_psf(mcal.reconvolution(), &error));
+  fresh.set_psf(fresh.renderer().prepare_psf(mcal.reconvolution(0), &error));
   std::vector<double> stamp = draw(kGalaxies[2], 0, 0, kPsf);
   RandomStream rng({5, 6});
   for (double& v : stamp) v = v / 40 + rng.normal();  // S/N ~ 20
   FitResult noshear;
   MetacalRecord rec;
   std::uint32_t flags = 0;
-  mcal.fit(stamp, {}, WeightKind::kInverseVariance, 3, kFailure, &noshear, &rec, &flags);
+  fit_stamp(mcal, stamp, kPsf, 3, &noshear, &rec, &flags);
   ASSERT_EQ(noshear.status, FitStatus::kOk);
   double variance = 0;
-  mcal.make_images(stamp, {}, WeightKind::kInverseVariance, 3, &variance);
+  stamp_images(mcal, stamp, kPsf, 3, &variance);
   const std::vector<double> weight(kStamp * kStamp, 1 / variance);
   const std::size_t npix = kStamp * kStamp;
   for (int t = 0; t < kNumMetacalTypes; ++t) {
-    const FitResult r = fresh.fit(mcal.images().subspan(t * npix, npix), weight, WeightKind::kInverseVariance);
+    const FitResult r = fresh.fit(mcal.images(0).subspan(t * npix, npix), weight, WeightKind::kInverseVariance);
     const double e1 = t == 0 ? noshear.params[index(Param::kE1)] : rec.e1[t - 1];
     const double e2 = t == 0 ? noshear.params[index(Param::kE2)] : rec.e2[t - 1];
     EXPECT_EQ(r.params[index(Param::kE1)], e1) << "image " << t;
@@ -331,35 +362,39 @@ TEST(MetacalFitter, EachImageIsFittedFromItsOwnStart) {
 // else was fitted before it (so any thread count gives the same output), another object another.
 TEST(MetacalFitter, TheFixnoiseFieldIsKeyedByTheObject) {
   FftPlanCache plans(FftPlanning::kEstimate);
-  MetacalFitter mcal(fit_options(2.0), MetacalOptions(), kStamp, FftPlanning::kEstimate);
+  MetacalFitter mcal(fit_options(2.0), MetacalOptions(), FftPlanning::kEstimate, kStampWeight);
   std::string error;
-  ASSERT_TRUE(mcal.set_psf(kPsf, &error)) << error;
+  ASSERT_TRUE(set_stamp_psf(mcal, kPsf, &error)) << error;
   const std::vector<double> stamp = draw(kGalaxies[0], 0, 0, kPsf);
   double v = 0;
-  mcal.make_images(stamp, {}, WeightKind::kInverseVariance, 7, &v);
-  const std::vector<double> first(mcal.images().begin(), mcal.images().end());
-  mcal.make_images(stamp, {}, WeightKind::kInverseVariance, 8, &v);
-  const std::vector<double> other(mcal.images().begin(), mcal.images().end());
-  mcal.make_images(stamp, {}, WeightKind::kInverseVariance, 7, &v);
-  EXPECT_TRUE(std::equal(first.begin(), first.end(), mcal.images().begin()));
+  stamp_images(mcal, stamp, kPsf, 7, &v);
+  const std::vector<double> first(mcal.images(0).begin(), mcal.images(0).end());
+  stamp_images(mcal, stamp, kPsf, 8, &v);
+  const std::vector<double> other(mcal.images(0).begin(), mcal.images(0).end());
+  stamp_images(mcal, stamp, kPsf, 7, &v);
+  EXPECT_TRUE(std::equal(first.begin(), first.end(), mcal.images(0).begin()));
   EXPECT_FALSE(std::equal(first.begin(), first.end(), other.begin()));
   EXPECT_GT(v, 0);
 }
 
-// Metacal needs a PSF it can deconvolve everywhere on the grid: the Airy disc is refused by name.
+// Metacal needs a PSF it can deconvolve everywhere on the grid: the Airy disc is refused by name,
+// and the stamp's row is a PSF failure, flagged, without R.
 TEST(MetacalFitter, APsfItCannotUseIsRefusedWithAMessage) {
   FftPlanCache plans(FftPlanning::kEstimate);
-  MetacalFitter mcal(fit_options(), MetacalOptions(), kStamp, FftPlanning::kEstimate);
+  MetacalFitter mcal(fit_options(), MetacalOptions(), FftPlanning::kEstimate, kStampWeight);
+  const PsfModel airy = PsfModel::Airy({2.0, 0.0});
   std::string error;
-  EXPECT_FALSE(mcal.set_psf(PsfModel::Airy({2.0, 0.0}), &error));
+  EXPECT_FALSE(set_stamp_psf(mcal, airy, &error));
   EXPECT_NE(error.find("needs a Moffat or image PSF"), std::string::npos) << error;
   FitResult r;
   MetacalRecord rec;
   std::uint32_t flags = 0;
-  mcal.fit(std::vector<double>(kStamp * kStamp, 1.0), {}, WeightKind::kInverseVariance, 1, kFailure, &r, &rec, &flags);
+  std::string problem;
+  fit_stamp(mcal, draw(kGalaxies[0], 0, 0, kPsf), airy, 1, &r, &rec, &flags, &problem);
   EXPECT_EQ(r.status, FitStatus::kPsfFailure);
   EXPECT_TRUE(flags & kFailure);
   EXPECT_TRUE(std::isnan(rec.r11));
+  EXPECT_NE(problem.find("needs a Moffat or image PSF"), std::string::npos) << problem;
 }
 
 // A set simulated with noise pairs (objects 4q+2, 4q+3 are 4q, 4q+1 with the noise negated): with
@@ -373,12 +408,12 @@ TEST(MetacalFitter, NoisePairsShareTheirFixnoiseFieldNegated) {
   auto images = [&](bool noise_pairs, std::int64_t id) {
     MetacalOptions mo;
     mo.noise_pairs = noise_pairs;
-    MetacalFitter mcal(fit_options(1.0), mo, kStamp, FftPlanning::kEstimate);
-    EXPECT_TRUE(mcal.set_psf(kPsf, &error)) << error;
+    MetacalFitter mcal(fit_options(1.0), mo, FftPlanning::kEstimate, kStampWeight);
+    EXPECT_TRUE(set_stamp_psf(mcal, kPsf, &error)) << error;
     double variance = 0;
-    mcal.make_images(blank, {}, WeightKind::kInverseVariance, id, &variance);
+    stamp_images(mcal, blank, kPsf, id, &variance);
     EXPECT_GT(variance, 0);
-    return std::vector<double>(mcal.images().begin(), mcal.images().end());
+    return std::vector<double>(mcal.images(0).begin(), mcal.images(0).end());
   };
   auto negated = [](const std::vector<double>& a, const std::vector<double>& b) {
     for (std::size_t i = 0; i < a.size(); ++i)
@@ -440,14 +475,14 @@ NoiseScatter noise_scatter(const MetacalOptions& mo, const Galaxy& gal, int n, s
   std::string error;
   MetacalOptions quiet = mo;
   quiet.fixnoise = false;
-  MetacalFitter noise_free(fit_options(), quiet, kStamp, FftPlanning::kEstimate);
-  EXPECT_TRUE(noise_free.set_psf(kPsf, &error)) << error;
+  MetacalFitter noise_free(fit_options(), quiet, FftPlanning::kEstimate, kStampWeight);
+  EXPECT_TRUE(set_stamp_psf(noise_free, kPsf, &error)) << error;
   double v0 = 0;
-  noise_free.make_images(clean, {}, WeightKind::kInverseVariance, 0, &v0);
+  stamp_images(noise_free, clean, kPsf, 0, &v0);
   const std::size_t npix = kStamp * kStamp;
-  const std::vector<double> filter(noise_free.images().begin(), noise_free.images().begin() + npix);
-  MetacalFitter mcal(fit_options(sigma), mo, kStamp, FftPlanning::kEstimate);
-  EXPECT_TRUE(mcal.set_psf(kPsf, &error)) << error;
+  const std::vector<double> filter(noise_free.images(0).begin(), noise_free.images(0).begin() + npix);
+  MetacalFitter mcal(fit_options(sigma), mo, FftPlanning::kEstimate, kStampWeight);
+  EXPECT_TRUE(set_stamp_psf(mcal, kPsf, &error)) << error;
   std::vector<double> e1, e2, err1, err2, snr, stat, stamp(npix);
   for (int k = 0; k < n; ++k) {
     RandomStream rng({seed, static_cast<std::uint64_t>(k)});
@@ -455,7 +490,7 @@ NoiseScatter noise_scatter(const MetacalOptions& mo, const Galaxy& gal, int n, s
     FitResult r;
     MetacalRecord rec;
     std::uint32_t flags = 0;
-    mcal.fit(stamp, {}, WeightKind::kInverseVariance, k, kFailure, &r, &rec, &flags);
+    fit_stamp(mcal, stamp, kPsf, k, &r, &rec, &flags);
     if (r.status != FitStatus::kOk || (r.flags & kFlagAtBound)) continue;
     e1.push_back(r.params[index(Param::kE1)]), e2.push_back(r.params[index(Param::kE2)]);
     err1.push_back(r.e1_err), err2.push_back(r.e2_err), snr.push_back(r.snr);
@@ -463,7 +498,7 @@ NoiseScatter noise_scatter(const MetacalOptions& mo, const Galaxy& gal, int n, s
     if (mo.model == MetacalModel::kWeightedMoments) {
       y = r.flux;
     } else {
-      for (std::size_t i = 0; i < npix; ++i) y += filter[i] * mcal.images()[i];
+      for (std::size_t i = 0; i < npix; ++i) y += filter[i] * mcal.images(0)[i];
     }
     stat.push_back(y);
   }
@@ -541,13 +576,13 @@ TEST(MetacalNoise, BulgeDiscErrorsAndSnrMatchTheScatterOverNoise) {
 // the sheared images' neither.
 TEST(MetacalNoise, NoiseFreeRowsHaveNoSnr) {
   FftPlanCache plans(FftPlanning::kEstimate);
-  MetacalFitter mcal(fit_options(), MetacalOptions(), kStamp, FftPlanning::kEstimate);
+  MetacalFitter mcal(fit_options(), MetacalOptions(), FftPlanning::kEstimate, kStampWeight);
   std::string error;
-  ASSERT_TRUE(mcal.set_psf(kPsf, &error)) << error;
+  ASSERT_TRUE(set_stamp_psf(mcal, kPsf, &error)) << error;
   FitResult r;
   MetacalRecord rec;
   std::uint32_t flags = 0;
-  mcal.fit(draw(kGalaxies[1], 0, 0, kPsf), {}, WeightKind::kInverseVariance, 1, kFailure, &r, &rec, &flags);
+  fit_stamp(mcal, draw(kGalaxies[1], 0, 0, kPsf), kPsf, 1, &r, &rec, &flags);
   ASSERT_EQ(r.status, FitStatus::kOk);
   EXPECT_TRUE(r.flags & kFlagUnweighted);
   EXPECT_TRUE(std::isnan(r.snr));

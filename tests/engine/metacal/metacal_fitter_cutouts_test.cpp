@@ -1,10 +1,11 @@
-// Tests for multi-epoch metacalibration (engine/metacal/multi_epoch_metacal_fitter): on noise-free
-// cutouts with random WCS Jacobians and PSFs the response is the sky's (the derivative of the
-// reduced-shear transformation at the galaxy's e, in (u, v)); cutouts with masked pixels are left
-// out, an object that cannot be calibrated is a flagged row that says why, and with weighted
-// moments (wmom) R is the moments' own response to a shear of the galaxy on the sky; wmom's and bd's
-// errors and S/N match the scatter over noise.
-#include "engine/metacal/multi_epoch_metacal_fitter.hpp"
+// Tests for metacalibration on cutouts (engine/metacal/metacal_fitter, an object's epochs with
+// their WCS): on noise-free cutouts with random WCS Jacobians and PSFs the response is the sky's
+// (the derivative of the reduced-shear transformation at the galaxy's e, in (u, v)); cutouts with
+// masked pixels are left out, an object that cannot be calibrated is a flagged row that says why,
+// and with weighted moments (wmom) R is the moments' own response to a shear of the galaxy on the
+// sky; wmom's and bd's errors and S/N match the scatter over noise; an object's row depends on it
+// alone, and a cutout in its pixel grid is weighed as a stamp where nothing is masked.
+#include "engine/metacal/metacal_fitter.hpp"
 
 #include <gtest/gtest.h>
 
@@ -17,7 +18,6 @@
 #include <random>
 #include <vector>
 
-#include "engine/metacal/metacal_fitter.hpp"
 #include "engine/sim/sim_renderer.hpp"
 #include "kernels/math/lensing.hpp"
 #include "support/sky_epochs.hpp"
@@ -76,10 +76,10 @@ std::vector<MetacalEpoch> epochs(const std::vector<Cutout>& cs) {
 
 // The response of e to a reduced shear g at g = 0, e' = (e + g) / (1 + g* e) to first order:
 // e' = e + g - e^2 g*, so R = [[1 - e1^2 + e2^2, -2 e1 e2], [-2 e1 e2, 1 + e1^2 - e2^2]].
-TEST(MultiEpochMetacalFitter, NoiseFreeResponseIsTheSkysShearResponse) {
+TEST(MetacalFitterCutouts, NoiseFreeResponseIsTheSkysShearResponse) {
   MetacalOptions bd = metacal(false);
   bd.model = MetacalModel::kBulgeDisc;  // a fit of the disc: its R is the reduced-shear transformation's
-  MultiEpochMetacalFitter fitter(options(), bd);
+  MetacalFitter fitter(options(), bd);
   for (const auto& [e1, e2] : {std::pair{0.3, -0.2}, std::pair{-0.1, 0.45}}) {
     const std::vector<Cutout> cs = cutouts(e1, e2, 0.6, 7);
     FitResult noshear;
@@ -109,8 +109,8 @@ TEST(MultiEpochMetacalFitter, NoiseFreeResponseIsTheSkysShearResponse) {
   }
 }
 
-TEST(MultiEpochMetacalFitter, CutoutsWithMaskedPixelsAreLeftOut) {
-  MultiEpochMetacalFitter fitter(options(), metacal(true));
+TEST(MetacalFitterCutouts, CutoutsWithMaskedPixelsAreLeftOut) {
+  MetacalFitter fitter(options(), metacal(true));
   std::vector<Cutout> cs = cutouts(0.2, 0.1, 0.6, 11);
   cs[1].weight[100] = 0;
   FitResult noshear;
@@ -130,8 +130,8 @@ TEST(MultiEpochMetacalFitter, CutoutsWithMaskedPixelsAreLeftOut) {
   EXPECT_NE(problem.find("every cutout has masked pixels"), std::string::npos) << problem;
 }
 
-TEST(MultiEpochMetacalFitter, APsfItCannotDeconvolveIsAFlaggedRowNamingTheCutout) {
-  MultiEpochMetacalFitter fitter(options(), metacal(true));
+TEST(MetacalFitterCutouts, APsfItCannotDeconvolveIsAFlaggedRowNamingTheCutout) {
+  MetacalFitter fitter(options(), metacal(true));
   std::vector<Cutout> cs = cutouts(0.2, 0.1, 0.6, 13, 2);
   cs[1].psf.kind = PsfKind::kAiry;
   FitResult noshear;
@@ -149,10 +149,10 @@ TEST(MultiEpochMetacalFitter, APsfItCannotDeconvolveIsAFlaggedRowNamingTheCutout
 // metacal_model = wmom on cutouts: the response metacal measures is the moments' true response to
 // a shear of the galaxy on the sky, the derivative of the noshear e of cutouts drawn of the
 // galaxy sheared by +-step (same frames, PSFs and so Gamma).
-TEST(MultiEpochMetacalFitter, WeightedMomentsResponseIsTheirResponseToASkyShear) {
+TEST(MetacalFitterCutouts, WeightedMomentsResponseIsTheirResponseToASkyShear) {
   MetacalOptions mo = metacal(false);
   mo.model = MetacalModel::kWeightedMoments;
-  MultiEpochMetacalFitter fitter(options(), mo);
+  MetacalFitter fitter(options(), mo);
   const double e1 = 0.3, e2 = -0.2, step = mo.step;
   auto measure = [&](double g1, double g2, MetacalRecord* rec) {
     const std::complex<double> e = kernels::lens_ellipticity({e1, e2}, {g1, g2});
@@ -212,7 +212,7 @@ ScatterRatios scatter_over_noise(MetacalModel model, double dilation, int n) {
   MetacalOptions mo = metacal(true);
   mo.model = model;
   mo.psf_dilation = dilation;
-  MultiEpochMetacalFitter fitter(options(), mo);
+  MetacalFitter fitter(options(), mo);
   std::vector<Cutout> noisy = clean;
   for (Cutout& c : noisy) c.weight.assign(kBox * kBox, 1 / (sigma * sigma));
   double s1 = 0, s11 = 0, s2 = 0, s22 = 0, sf = 0, sff = 0, err1 = 0, err2 = 0, snr = 0;
@@ -249,7 +249,7 @@ ScatterRatios scatter_over_noise(MetacalModel model, double dilation, int n) {
 // cutouts' noise and the fixnoise fields drawn afresh), with the default Gamma and a 1.5x one.
 // Before, they took the images' noise as white: sd / error ~1.3 and ~4. 800 realisations measure a
 // standard deviation to ~2.5 %; the bound is issue 43's 0.9 .. 1.1.
-TEST(MultiEpochMetacalFitter, WmomErrorsAndSnrMatchTheScatterOverNoise) {
+TEST(MetacalFitterCutouts, WmomErrorsAndSnrMatchTheScatterOverNoise) {
   for (double dilation : {0.0, 1.5}) {
     const ScatterRatios r = scatter_over_noise(MetacalModel::kWeightedMoments, dilation, 800);
     std::printf("4 cutouts, wmom, dilation %.1f: sd(e1)/err %.3f, sd(e2)/err %.3f, S/N measured/stated %.3f (stated %.1f)\n",
@@ -266,7 +266,7 @@ TEST(MultiEpochMetacalFitter, WmomErrorsAndSnrMatchTheScatterOverNoise) {
 // of this nonlinear fit land far out (heavy tails no single error describes), nor is the flux's
 // S/N, which the bd model's matched-filter snr does not state for a disc this small against the
 // PSF (both measured in docs/metacal.md, "4-epoch MEDS tiles by noise pairs").
-TEST(MultiEpochMetacalFitter, BdErrorsMatchTheCoreOfTheScatterOverNoise) {
+TEST(MetacalFitterCutouts, BdErrorsMatchTheCoreOfTheScatterOverNoise) {
   const ScatterRatios r = scatter_over_noise(MetacalModel::kBulgeDisc, 0.0, 300);
   std::printf("4 cutouts, bd: robust sd(e1)/err %.3f, sd(e2)/err %.3f (sd %.3f, %.3f), beyond 4 errors %d of 300, "
               "flux S/N measured/stated %.3f (stated %.1f)\n",
@@ -279,10 +279,27 @@ TEST(MultiEpochMetacalFitter, BdErrorsMatchTheCoreOfTheScatterOverNoise) {
 // A double's bits: equal for the same value, NaN included (wmom leaves the model's parameters NaN).
 std::uint64_t bits(double v) { return std::bit_cast<std::uint64_t>(v); }
 
-// One cutout whose frame is its pixel grid (unit Jacobian, flux scale 1) is a grid stamp: the
-// multi-epoch path gives the single-stamp MetacalFitter's rows bit for bit (noshear fit, R and the
-// sheared fits), for the model fit and for weighted moments, noise-free and with noise and fixnoise.
-TEST(MultiEpochMetacalFitter, OneCutoutInItsPixelGridIsTheStampMetacalBitForBit) {
+void expect_same_rows(const FitResult& a, const MetacalRecord& ra, const FitResult& b, const MetacalRecord& rb) {
+  EXPECT_EQ(a.status, b.status);
+  EXPECT_EQ(a.flags, b.flags);
+  for (int p = 0; p < kNumParams; ++p) EXPECT_EQ(bits(a.params[p]), bits(b.params[p])) << "parameter " << p;
+  EXPECT_EQ(bits(a.snr), bits(b.snr));
+  EXPECT_EQ(bits(a.e1_err), bits(b.e1_err));
+  EXPECT_EQ(bits(ra.r11), bits(rb.r11));
+  EXPECT_EQ(bits(ra.r12), bits(rb.r12));
+  EXPECT_EQ(bits(ra.r21), bits(rb.r21));
+  EXPECT_EQ(bits(ra.r22), bits(rb.r22));
+  for (std::size_t k = 0; k < 4; ++k) {
+    EXPECT_EQ(bits(ra.e1[k]), bits(rb.e1[k])) << "sheared image " << k;
+    EXPECT_EQ(bits(ra.e2[k]), bits(rb.e2[k])) << "sheared image " << k;
+  }
+}
+
+// A grid stamp is one epoch in its pixel grid weighed uniformly (StampFitter), a cutout by its
+// data's mask: the two rules differ only at masked pixels, so on a clean cutout in its pixel grid
+// they give the same rows bit for bit (noshear fit, R and the sheared fits), for the model fit and
+// for weighted moments, with and without fixnoise.
+TEST(MetacalFitterCutouts, OneCleanCutoutInItsPixelGridIsWeighedAsAStamp) {
   const std::vector<Cutout> clean = cutouts(0.2, -0.1, 0.6, 17, 1);
   Cutout stamp = clean[0];
   stamp.frame = PixelFrame{};  // the pixel grid, positions from its origin as a grid stamp's
@@ -297,40 +314,49 @@ TEST(MultiEpochMetacalFitter, OneCutoutInItsPixelGridIsTheStampMetacalBitForBit)
       const bool with_noise = c == &noisy;
       MetacalOptions mo = metacal(with_noise);
       mo.model = model;
-      FitterOptions fo = options();
-      fo.render.stamp_size = kBox;
-      fo.noise_sigma = with_noise ? sigma : 0;
-      SCOPED_TRACE(::testing::Message() << "model " << static_cast<int>(model) << (with_noise ? ", noisy" : ", noise-free"));
-      MetacalFitter single(metacal_fit_options(fo, model), mo, kBox, FftPlanning::kEstimate);
-      std::string why;
-      ASSERT_TRUE(single.set_psf(c->psf, &why)) << why;
-      FitResult single_fit;
-      MetacalRecord single_rec;
-      std::uint32_t single_flags = 0;
-      single.fit(c->pixels, c->weight, WeightKind::kInverseVariance, 9, kFailure, &single_fit, &single_rec,
-                 &single_flags);
-      MultiEpochMetacalFitter multi(fo, mo);
-      FitResult multi_fit;
-      MetacalRecord multi_rec;
-      std::uint32_t multi_flags = 0;
-      std::string problem;
+      SCOPED_TRACE(::testing::Message() << "model " << static_cast<int>(model) << (with_noise ? ", noisy" : ", weight 1"));
       const MetacalEpoch one{c->pixels, c->weight, kBox, c->frame, &c->psf, 1.0};
-      multi.fit({&one, 1}, 9, kFailure, &multi_fit, &multi_rec, &multi_flags, &problem);
-      ASSERT_EQ(single_fit.status, FitStatus::kOk);
-      EXPECT_EQ(multi_fit.status, single_fit.status) << problem;
-      EXPECT_EQ(multi_flags, single_flags) << problem;
-      for (int p = 0; p < kNumParams; ++p)
-        EXPECT_EQ(bits(multi_fit.params[p]), bits(single_fit.params[p])) << "parameter " << p;
-      EXPECT_EQ(bits(multi_fit.snr), bits(single_fit.snr));
-      EXPECT_EQ(bits(multi_rec.r11), bits(single_rec.r11));
-      EXPECT_EQ(bits(multi_rec.r12), bits(single_rec.r12));
-      EXPECT_EQ(bits(multi_rec.r21), bits(single_rec.r21));
-      EXPECT_EQ(bits(multi_rec.r22), bits(single_rec.r22));
-      for (std::size_t k = 0; k < 4; ++k) {
-        EXPECT_EQ(bits(multi_rec.e1[k]), bits(single_rec.e1[k])) << "sheared image " << k;
-        EXPECT_EQ(bits(multi_rec.e2[k]), bits(single_rec.e2[k])) << "sheared image " << k;
+      FitResult fits[2];
+      MetacalRecord records[2];
+      std::uint32_t flags[2] = {0, 0};
+      std::string problems[2];
+      const MetacalFitter::ImageWeight rules[2] = {MetacalFitter::ImageWeight::kUniform, MetacalFitter::ImageWeight::kDataMask};
+      for (int i = 0; i < 2; ++i) {
+        MetacalFitter fitter(options(), mo, FftPlanning::kEstimate, rules[i]);
+        fitter.fit({&one, 1}, 9, kFailure, &fits[i], &records[i], &flags[i], &problems[i]);
       }
+      ASSERT_EQ(fits[0].status, FitStatus::kOk) << problems[0];
+      EXPECT_EQ(flags[0], 0u);
+      EXPECT_EQ(flags[1], flags[0]) << problems[1];
+      expect_same_rows(fits[0], records[0], fits[1], records[1]);
     }
+}
+
+// The fitter keeps Gamma while the epochs' PSFs and frames are the last object's: an object's row
+// is the same whatever was fitted before it (so any thread count and batch gives the same table).
+TEST(MetacalFitterCutouts, AnObjectsRowDependsOnItAlone) {
+  for (MetacalModel model : {MetacalModel::kBulgeDisc, MetacalModel::kWeightedMoments}) {
+    MetacalOptions mo = metacal(true);
+    mo.model = model;
+    std::vector<Cutout> a = cutouts(0.2, 0.1, 0.6, 21), b = cutouts(-0.1, 0.3, 0.7, 22);
+    for (std::vector<Cutout>* cs : {&a, &b})
+      for (Cutout& c : *cs) c.weight.assign(c.weight.size(), 4.0);
+    FitResult first, again, fresh, other;
+    MetacalRecord first_rec, again_rec, fresh_rec, other_rec;
+    std::uint32_t flags = 0;
+    std::string problem;
+    MetacalFitter fitter(options(), mo);
+    fitter.fit(epochs(a), 5, kFailure, &first, &first_rec, &flags, &problem);
+    fitter.fit(epochs(b), 6, kFailure, &other, &other_rec, &flags, &problem);
+    fitter.fit(epochs(a), 5, kFailure, &again, &again_rec, &flags, &problem);
+    fitter.fit(epochs(a), 5, kFailure, &again, &again_rec, &flags, &problem);  // Gamma kept
+    MetacalFitter(options(), mo).fit(epochs(a), 5, kFailure, &fresh, &fresh_rec, &flags, &problem);
+    ASSERT_EQ(first.status, FitStatus::kOk) << problem;
+    EXPECT_EQ(flags, 0u) << problem;
+    EXPECT_NE(bits(first_rec.r11), bits(other_rec.r11));
+    expect_same_rows(first, first_rec, again, again_rec);
+    expect_same_rows(first, first_rec, fresh, fresh_rec);
+  }
 }
 
 }  // namespace
