@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "io/cell_image_writer.hpp"
+#include "io/durable_file.hpp"
 #include "io/meds_writer.hpp"
 #include "io/output_check.hpp"
 #include "io/result_columns.hpp"
@@ -47,6 +48,18 @@ void check(const CellSimOptions& options, const CellOutputOptions& out) {
   std::string why;
   if (!io::are_band_names(out.band_names, &why)) throw std::invalid_argument("band_names: " + why);
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
+}
+
+// An earlier run's cells in `bdir` that this one does not write (it has fewer cells, or no tile):
+// left beside the new ones, a run over the directory would measure them as this simulation's.
+void remove_stale_cells(const std::string& bdir, const CellOutputOptions& out) {
+  for (const fs::directory_entry& e : fs::directory_iterator(bdir)) {
+    const std::string name = e.path().filename().string();
+    int index = -1;
+    char tail = 0;
+    const bool cell = std::sscanf(name.c_str(), "cell_%d.fits%c", &index, &tail) == 1 && cell_path("", index) == name;
+    if ((cell && index >= out.cells) || (name == "cells_meds.fits" && !out.tile)) io::remove_if_present(e.path().string());
+  }
 }
 
 // The cell tile's layout: object k = cell k, one cutout (the cell) on a notional square tile.
@@ -96,7 +109,10 @@ void write_cell_simulation(const CellSimOptions& options, const CellOutputOption
   const CellSimulator sim(options);
   const int signs = out.pair ? 2 : 1, bands = options.bands;
   for (int sign = 0; sign < signs; ++sign)
-    for (int b = 0; b < bands; ++b) fs::create_directories(band_dir(dir, sign, out, b));
+    for (int b = 0; b < bands; ++b) {
+      fs::create_directories(band_dir(dir, sign, out, b));
+      if (out.overwrite) remove_stale_cells(band_dir(dir, sign, out, b), out);
+    }
 
   // One tile per sign and band, its layout fixed up front.
   std::vector<std::unique_ptr<io::MedsWriter>> tiles;

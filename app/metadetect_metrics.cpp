@@ -108,7 +108,11 @@ std::array<double, 2> true_shear_of(const io::MetadetectTable& plus) {
     throw std::invalid_argument("the true shear: '" + input + "' is not the file " + plus.path + " measured (its digest " +
                                 digest + ", the table records " + *recorded + "): give --shear G1,G2");
   io::FitsFile in = io::FitsFile::open_read(input);
-  return {in.key_double("G1"), in.key_double("G2")};
+  const std::optional<double> g1 = in.read_key_double("G1"), g2 = in.read_key_double("G2");
+  if (!g1 || !g2)
+    throw std::invalid_argument("the true shear: " + plus.path + "'s first input '" + input + "' records no shear (G1, "
+                                "G2 of its primary HDU, as `sim cells` images do; a cell tile does not): give --shear G1,G2");
+  return {*g1, *g2};
 }
 
 // What the cuts leave, checked: a catalogue none of whose rows pass is an error that says why.

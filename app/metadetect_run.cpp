@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <chrono>
+#include <map>
 #include <memory>
 
 #include "app/metadetect_input.hpp"
@@ -176,15 +177,21 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   }
   for (const auto& [key, value] : metadetect_header_keys(options.metadetect)) record(key, value, key + "=" + value);
   const auto record_files = [&](const std::vector<std::string>& files, const char* path_key, const char* digest_key,
-                                const char* role) {
+                                const char* role, bool each_once) {
+    std::map<std::string, std::string> seen;  // digest -> the file that has it
     for (std::size_t i = 0; i < files.size(); ++i) {
       const std::string d = io::digest_file(files[i]).text(), n = std::to_string(i + 1);
+      // The same image twice (a repeated list line, a link, another spelling, a copy) would be
+      // measured twice, with other fixnoise, as if its cells were independent.
+      if (const auto [at, added] = seen.emplace(d, files[i]); each_once && !added)
+        throw io::ConfigError(std::string(role) + " '" + files[i] + "' holds the same bytes as '" + at->second + "' (" +
+                              d + "): each image once");
       writer_options.header.emplace_back(path_key + n, files[i]);
       record(digest_key + n, d, role + (" " + files[i]) + " " + d);
     }
   };
-  record_files(read.files, "INPUT", "DIGEST", "input");
-  record_files(read.images.psfex, "PSFEX", "PSFEXD", "psfex");
+  record_files(read.files, "INPUT", "DIGEST", "input", true);
+  record_files(read.images.psfex, "PSFEX", "PSFEXD", "psfex", false);  // bands may share a model
   if (!options.tile) record_scene(read.files, &writer_options);
   writer_options.header.emplace_back("NCELLS", std::to_string(source.total_objects()));
   seal_identity(table, source.total_objects(), &writer_options);

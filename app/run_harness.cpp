@@ -2,7 +2,10 @@
 #include "app/run_harness.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
+#include <cstdlib>
+#include <map>
 #include <cstdio>
 #include <filesystem>
 
@@ -57,13 +60,43 @@ void refuse_unfinished_table(const std::string& path, const std::string& role) {
                            "is not a finished " + role + ": finish that run (--resume) first");
 }
 
-bool is_this_runs_complete_table(const std::string& path, const std::string& extname, const std::string& runfp) {
+namespace {
+
+// Two header values alike: the same text, or the same number however written.
+bool same_value(const std::string& a, const std::string& b) {
+  if (a == b) return true;
+  char *ea = nullptr, *eb = nullptr;
+  const double x = std::strtod(a.c_str(), &ea), y = std::strtod(b.c_str(), &eb);
+  return ea != a.c_str() && *ea == '\0' && eb != b.c_str() && *eb == '\0' && x == y;
+}
+
+// What differs between a table's header and this run's keys: " (KEY = 'a' there, 'b' in this run)"
+// for the first key that does, "" when none does (the program version, which no key holds).
+std::string first_key_difference(io::FitsFile& f, const std::vector<std::pair<std::string, std::string>>& header) {
+  std::map<std::string, std::string> recorded;
+  for (const io::FitsFile::HeaderCard& c : f.header_cards()) recorded[c.key] = c.value;
+  for (const auto& [key, value] : header) {
+    if (key == kRunFingerprintKey || key == kShardKey || key == kShardTotalKey) continue;
+    std::string upper = key;
+    for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    const auto at = recorded.find(upper);
+    if (at == recorded.end()) return " (" + key + " is not recorded there; this run has '" + value + "')";
+    if (!same_value(at->second, value)) return " (" + key + " = '" + at->second + "' there, '" + value + "' in this run)";
+  }
+  return "";
+}
+
+}  // namespace
+
+bool is_this_runs_complete_table(const std::string& path, const std::string& extname, const std::string& runfp,
+                                 const std::vector<std::pair<std::string, std::string>>& header) {
   if (!std::filesystem::exists(path) || std::filesystem::exists(path + ".checkpoint")) return false;
-  std::string recorded;
+  std::string recorded, differs;
   try {
     io::FitsFile f = io::FitsFile::open_read(path);
     f.move_to(extname);
     recorded = f.read_key_string(kRunFingerprintKey).value_or("");
+    if (recorded != runfp) differs = first_key_difference(f, header);
   } catch (const std::exception& e) {
     throw io::ConfigError(path + " exists and is not a table --resume can check: " + e.what());
   }
@@ -72,8 +105,8 @@ bool is_this_runs_complete_table(const std::string& path, const std::string& ext
                         (recorded.empty() ? std::string("it records no ") + kRunFingerprintKey
                                           : std::string(kRunFingerprintKey) + " = '" + recorded + "', this run's '" +
                                                 runfp + "'") +
-                        ": the input's content, the options or the program version differ); remove it, or run it "
-                        "again with --overwrite");
+                        ": " + (differs.empty() ? "the program version differs" : "the inputs or options differ" + differs) +
+                        "); remove it, or run it again with --overwrite");
 }
 
 std::string RunProgress::Line() const {

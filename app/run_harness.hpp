@@ -67,8 +67,10 @@ void refuse_unfinished_table(const std::string& path, const std::string& role);
 
 // For a resume: true when `path` is a complete table (no checkpoint) whose HDU `extname` records
 // `runfp` as kRunFingerprintKey: the run is done and is skipped. False when there is no complete
-// table there. Throws io::ConfigError naming it when it is another run's (or not a table).
-bool is_this_runs_complete_table(const std::string& path, const std::string& extname, const std::string& runfp);
+// table there. Throws io::ConfigError naming it when it is another run's, with the first of this
+// run's `header` keys whose value differs there (or not a table).
+bool is_this_runs_complete_table(const std::string& path, const std::string& extname, const std::string& runfp,
+                                 const std::vector<std::pair<std::string, std::string>>& header = {});
 
 // A run's progress: units done (the resumed ones included) of the run's (its shard's).
 struct RunProgress {
@@ -116,7 +118,8 @@ std::string recorded_runfp(const io::TableWriterOptions& table);
 // run's complete table (its RUNFP, as seal_identity recorded it): the run is done.
 template <class Writer, class Options>
 std::unique_ptr<Writer> open_table(const TableRun& run, const Options& options) {
-  if (run.resume && is_this_runs_complete_table(run.output, run.extname, recorded_runfp(options))) return nullptr;
+  if (run.resume && is_this_runs_complete_table(run.output, run.extname, recorded_runfp(options), options.header))
+    return nullptr;
   if (!run.resume) return Writer::create(options);
   std::unique_ptr<Writer> writer = Writer::resume(options);
   if (writer->started_afresh())

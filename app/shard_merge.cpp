@@ -56,6 +56,7 @@ struct Shard {
   bool metadetect = false;
   int index = 0, count = 0;
   long long total = 0, units = 0;
+  long long rows = 0;  // metadetect: the table's
   std::vector<std::pair<std::string, std::string>> header;
 };
 
@@ -63,7 +64,7 @@ struct Shard {
 
 // The keys a metadetect shard's header holds beside the table's structure, the shard's own left out.
 bool metadetect_run_key(const std::string& key) {
-  return !io::is_table_structure_key(key) && key != "LONGSTRN" && key != kShardKey && key != "NCELLSW";
+  return !io::is_table_structure_key(key) && key != "LONGSTRN" && key != kShardKey && key != "NCELLSW" && key != "NROWSW";
 }
 
 Shard read_shard(const std::string& path) {
@@ -85,6 +86,11 @@ Shard read_shard(const std::string& path) {
     const auto written = f.read_key_long("NCELLSW");
     if (!written) refuse(path, "unfinished (no NCELLSW key): finish the shard's run (--resume) first");
     s.units = *written;
+    // A table that lost (or gained) rows since its run wrote it is not that run's shard.
+    s.rows = f.table_rows();
+    if (const auto rows = f.read_key_long("NROWSW"); rows && *rows != s.rows)
+      refuse(path, "holds " + std::to_string(s.rows) + " rows, but its run wrote " + std::to_string(*rows) +
+                       " (NROWSW): rows were lost or added since; run that shard again");
     for (const io::FitsFile::HeaderCard& c : f.header_cards())
       if (c.type != io::FitsFile::HeaderCard::Type::kCommentary && metadetect_run_key(c.key)) s.header.emplace_back(c.key, c.value);
   } else {
@@ -177,9 +183,11 @@ ShardMergeSummary merge_shards(const ShardMergeOptions& o) {
   join.on_progress = o.on_progress;
   if (first.metadetect) {
     join.extname = "METADETECT";
-    join.dropped_keys = {kShardKey, "NCELLSW"};
-    join.final_keys = {{"NCELLSW", first.total}};
-    join.final_key_comment = "cells whose rows this table holds";
+    long long rows = 0;
+    for (const Shard& shard : shards) rows += shard.rows;
+    join.dropped_keys = {kShardKey, "NCELLSW", "NROWSW"};
+    join.final_keys = {{"NCELLSW", first.total, "cells whose rows this table holds"},
+                       {"NROWSW", rows, "rows its run wrote (a merge checks none is lost)"}};
   } else {
     join.extname = "RESULTS";  // the shards share the whole run's RUNFP
     join.dropped_keys = {kShardKey, kShardTotalKey};

@@ -1,7 +1,9 @@
 // Reading an image for metadetection; see cell_image_reader.hpp.
 #include "io/cell_image_reader.hpp"
 
+#include <cctype>
 #include <cmath>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -11,6 +13,20 @@ namespace stampede::io {
 namespace {
 
 [[noreturn]] void fail(FitsFile& f, const std::string& what) { throw FitsError(f.describe() + ": " + what); }
+
+// A plane given twice (two WEIGHT HDUs) is refused rather than one of them silently used.
+void refuse_repeated_planes(FitsFile& f) {
+  const int here = f.hdu_index();
+  std::set<std::string> seen;
+  for (int k = 1; k < f.hdu_count(); ++k) {
+    f.move_to(k);
+    std::string name = f.read_key_string("EXTNAME").value_or("");
+    for (char& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    for (const char* plane : {"WEIGHT", "BMASK", "NOISE", "PSF"})
+      if (name == plane && !seen.insert(name).second) fail(f, std::string("a second ") + plane + " HDU: give each plane once");
+  }
+  f.move_to(here);
+}
 
 CellImageShape primary_shape(FitsFile& f) {
   f.move_to(0);
@@ -59,12 +75,14 @@ void apply_cell_masks(std::span<const double> bmask, CellImage* image) {
   image->masked = 0;
   const bool noise = !image->noise.empty();
   for (std::size_t i = 0; i < image->pixels.size(); ++i) {
-    if (!bmask.empty() && bmask[i] != 0) image->weight[i] = 0;
-    if (!std::isfinite(image->pixels[i]) || !std::isfinite(image->weight[i])) image->weight[i] = 0;
-    if (noise && !std::isfinite(image->noise[i])) image->weight[i] = 0;
+    const bool by_bmask = !bmask.empty() && bmask[i] != 0;
+    const bool not_finite = !std::isfinite(image->pixels[i]) || !std::isfinite(image->weight[i]) ||
+                            (noise && !std::isfinite(image->noise[i]));
+    if (by_bmask || not_finite) image->weight[i] = 0;
     if (image->weight[i] == 0) {
       image->pixels[i] = 0, ++image->masked;
       if (noise) image->noise[i] = 0;
+      ++(by_bmask ? image->masked_by_bmask : not_finite ? image->masked_not_finite : image->masked_by_weight);
     }
   }
 }
@@ -74,6 +92,53 @@ CellImageShape read_cell_image_shape(const std::string& path) {
   CellImageShape shape = primary_shape(f);
   shape.pixel_scale = pixel_scale(f);
   return shape;
+}
+
+std::string CellImage::masked_text() const {
+  std::string out;
+  const auto add = [&out](long long n, const char* why) {
+    if (n > 0) out += (out.empty() ? "" : ", ") + std::to_string(n) + why;
+  };
+  add(masked_by_bmask, " by BMASK");
+  add(masked_not_finite, " NaN or infinite");
+  add(masked_by_weight, " of zero weight");
+  return out;
+}
+
+std::string cell_psf_problem(const PsfImage& psf) {
+  double sum = 0, sx = 0, sy = 0;
+  for (int y = 0; y < psf.ny; ++y)
+    for (int x = 0; x < psf.nx; ++x) {
+      const double v = psf.pixels[static_cast<std::size_t>(y) * psf.nx + x];
+      sum += v, sx += v * x, sy += v * y;
+    }
+  if (!(sum > 0) || !std::isfinite(sum)) return "the PSF image's sum is not positive and finite";
+  if (psf.nx % 2 == 0 || psf.ny % 2 == 0)
+    return "the PSF image is " + std::to_string(psf.nx) + " x " + std::to_string(psf.ny) +
+           " pixels: its sides must be odd, the PSF centred on the middle pixel";
+  // To a millionth of a pixel: the sums' rounding is not an offset worth printing.
+  const double dx = std::round((sx / sum - 0.5 * (psf.nx - 1)) * 1e6) / 1e6 + 0.0,
+               dy = std::round((sy / sum - 0.5 * (psf.ny - 1)) * 1e6) / 1e6 + 0.0;
+  if (std::hypot(dx, dy) > 0.5) {
+    std::ostringstream m;
+    m << "the PSF image's centroid is (" << dx << ", " << dy << ") pixels from its middle pixel: it must be centred "
+      << "there (every position would move by the offset)";
+    return m.str();
+  }
+  return "";
+}
+
+std::string cell_noise_problem(const CellImage& image) {
+  double noise = 0, variance = 0;
+  for (std::size_t i = 0; i < image.noise.size(); ++i)
+    if (image.weight[i] > 0) noise += image.noise[i] * image.noise[i], variance += 1 / image.weight[i];
+  if (image.noise.empty() || !(variance > 0)) return "";
+  const double ratio = std::sqrt(noise / variance);
+  if (ratio >= 0.5 && ratio <= 2) return "";
+  std::ostringstream m;
+  m << "the NOISE plane's rms is " << ratio << " times the noise the weights state: it must be a realisation of "
+    << "the image's noise (ratio in [0.5, 2])";
+  return m.str();
 }
 
 SceneRecord read_scene_record(const std::string& path) {
@@ -93,6 +158,7 @@ CellImage read_cell_image(const std::string& path, bool with_psf) {
   out.pixel_scale = pixel_scale(f);
   out.g1 = f.read_key_double("G1").value_or(NAN), out.g2 = f.read_key_double("G2").value_or(NAN);
   out.pixels = f.read_image();
+  refuse_repeated_planes(f);
   if (!f.move_to_if_present("WEIGHT"))
     fail(f, "no WEIGHT HDU (inverse variance): detection needs the noise level");
   out.weight = plane(f, shape);
@@ -105,8 +171,15 @@ CellImage read_cell_image(const std::string& path, bool with_psf) {
   } catch (const std::invalid_argument& e) {
     fail(f, e.what());
   }
+  if (const std::string why = cell_noise_problem(out); !why.empty()) {
+    f.move_to("NOISE");
+    fail(f, why);
+  }
   if (!with_psf) return out;
-  if (!f.move_to_if_present("PSF")) fail(f, "no PSF HDU (a centred PSF image at the image's pixel scale)");
+  if (!f.move_to_if_present("PSF")) {
+    f.move_to(0);  // the file lacks it: named at its primary HDU, not the last one read
+    fail(f, "no PSF HDU (a centred PSF image at the image's pixel scale)");
+  }
   if (auto scale = f.read_key_double("SCALE"); scale && std::abs(*scale / out.pixel_scale - 1) > 1e-6) {
     std::ostringstream m;
     m << "the PSF's SCALE " << *scale << " arcsec/px differs from the image's " << out.pixel_scale
@@ -117,9 +190,7 @@ CellImage read_cell_image(const std::string& path, bool with_psf) {
   auto psf = std::make_shared<PsfImage>();
   psf->nx = static_cast<int>(ps.nx), psf->ny = static_cast<int>(ps.ny);
   psf->pixels = f.read_image();
-  double sum = 0;
-  for (double v : psf->pixels) sum += v;
-  if (!(sum > 0) || !std::isfinite(sum)) fail(f, "the PSF image's sum is not positive and finite");
+  if (const std::string why = cell_psf_problem(*psf); !why.empty()) fail(f, why);
   out.psf = std::move(psf);
   return out;
 }

@@ -3,7 +3,7 @@
 // extensions found by EXTNAME: WEIGHT (inverse variance, required: detection thresholds on the
 // noise), BMASK (non-zero masks a pixel), NOISE (a realisation of the image's noise: metacal's
 // fixnoise field, else one is drawn from the weight), PSF (a centred PSF image at the image's pixel
-// scale, required; a SCALE keyword there must equal the image's). NaN or infinite pixels, weights
+// scale, required; a SCALE keyword there must equal the image's), each at most once. NaN or infinite pixels, weights
 // and noise values are masked (weight 0). What `stampede sim cells` writes (io/cell_image_writer) reads back.
 //
 // Every failure throws FitsError naming the file, the HDU and the keyword or the rule.
@@ -30,6 +30,11 @@ struct CellImage {
   std::vector<double> noise;           // the NOISE plane (0 where masked); empty: none
   std::shared_ptr<const PsfImage> psf;  // null when read without it
   long long masked = 0;  // pixels masked (weight 0, BMASK, non-finite)
+  // Why, each pixel counted once in this order: a BMASK bit, a NaN or infinite value (pixel,
+  // weight or noise), a zero (or NaN) weight.
+  long long masked_by_bmask = 0, masked_not_finite = 0, masked_by_weight = 0;
+  // "N by BMASK, M NaN or infinite, K of zero weight" (the non-zero counts), for messages.
+  std::string masked_text() const;
   // The shear a simulation drew the scene with (HDU 0's G1, G2, as `sim cells` writes them); NaN
   // when absent.
   double g1 = NAN, g2 = NAN;
@@ -39,6 +44,15 @@ struct CellImage {
 // (bmask empty: none), a non-finite pixel, weight or noise value, or a zero weight masks the pixel:
 // its weight, value and noise become 0, and `masked` counts it. Throws std::invalid_argument for a negative weight.
 void apply_cell_masks(std::span<const double> bmask, CellImage* image);
+
+// Why `psf` cannot be a cell's PSF image: its sum is not positive and finite, a side is even (no
+// centre pixel), or its centroid is more than half a pixel from the centre pixel (every position
+// would move by the offset); "" when it can.
+std::string cell_psf_problem(const PsfImage& psf);
+// Why the image's NOISE plane is not a realisation of the noise its weights state: its rms over the
+// unmasked pixels outside [0.5, 2] times the weights' (fixnoise would add the wrong noise); "" when
+// it is, or there is none.
+std::string cell_noise_problem(const CellImage& image);
 
 // HDU 0's size and pixel scale alone (cheap: the run lays out its cells, and checks that several
 // bands' images match, before reading pixels).

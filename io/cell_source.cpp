@@ -257,6 +257,11 @@ void CellSource::fill_image_cell(StampBatch& batch, CellBatch& data) {
       std::copy_n(im.weight.begin() + from, s, weights.begin() + static_cast<std::size_t>(y) * s);
       if (noise) std::copy_n(im.noise.begin() + from, s, data.noise.begin() + band_noise + static_cast<long long>(y) * s);
     }
+    // Nothing to measure: said with the image's reasons, so a NaN image is not taken for bad weights.
+    if (cell.problem.empty() && std::all_of(weights.begin(), weights.end(), [](double w) { return w == 0; }))
+      cell.problem = std::string(bands > 1 ? "band " + std::to_string(b) + ": " : "") +
+                     "every pixel of the cell is masked (the image's " + std::to_string(im.masked) + " masked pixels: " +
+                     im.masked_text() + ")";
   }
   data.cells.push_back(std::move(cell));
   batch.records[batch.count].id = next_;

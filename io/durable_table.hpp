@@ -53,13 +53,6 @@ struct TableColumn {
   std::string comment;  // TCOMMn; "" none
 };
 
-// A key finish() writes; its room is reserved at creation.
-struct FinalKey {
-  std::string key;
-  long long value = 0;
-  std::string comment;
-};
-
 struct DurableTableOptions : TableWriterOptions {  // path, header and its types, fingerprint
   std::string text_path;  // the text companion's final path; "" none
   std::string text_header;  // the text companion's first line(s), checked on resume

@@ -53,7 +53,7 @@ DurableTableOptions table_options(const MetadetectWriterOptions& o) {
   for (const std::string& b : o.bands) t.columns.push_back({"flux_" + b, "1D", "", "band " + b + ": its stamp's flux under the weight"});
   for (const std::string& b : o.bands) t.columns.push_back({"snr_" + b, "1D", "", "band " + b + ": its stamp's flux over its error"});
   t.layout = "metadetect table";
-  t.reserved_keys = 1;  // NCELLSW
+  t.reserved_keys = 2;  // NCELLSW, NROWSW
   t.units = "cells";
   return t;
 }
@@ -148,6 +148,9 @@ void MetadetectWriter::append(std::span<const MetadetectRow> rows, long long cel
   });
 }
 
-void MetadetectWriter::finish() { s_->table->finish({{"NCELLSW", units(), "cells whose rows this table holds"}}); }
+void MetadetectWriter::finish() {
+  s_->table->finish({{"NCELLSW", units(), "cells whose rows this table holds"},
+                     {"NROWSW", rows(), "rows its run wrote (a merge checks none is lost)"}});
+}
 
 }  // namespace stampede::io

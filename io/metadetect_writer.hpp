@@ -41,7 +41,8 @@ class MetadetectWriter final : public TableWriter {
   // Appends the rows of the next `cells` cells and commits them.
   void append(std::span<const MetadetectRow> rows, long long cells);
   // Records the cells in NCELLSW (a merge checks a shard against its range with it: a cell may
-  // yield no rows), then finishes the table.
+  // yield no rows) and the rows in NROWSW (a merge refuses a shard that lost some), then finishes
+  // the table.
   void finish() override;
 
  private:

@@ -175,9 +175,7 @@ long long join_tables(const TableJoinOptions& o) {
         if (o.on_progress) o.on_progress(written, total);
       }
     }
-    std::vector<FinalKey> keys;
-    for (const auto& [key, value] : o.final_keys) keys.push_back({key, value, o.final_key_comment});
-    out->finish(keys);
+    out->finish(o.final_keys);
   } catch (...) {
     out->abandon();
     throw;

@@ -9,6 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include "io/table_writer.hpp"
+
 namespace stampede::io {
 
 struct TableJoinOptions {
@@ -16,9 +18,7 @@ struct TableJoinOptions {
   std::string extname;              // the table HDU of each
   std::string output;
   std::vector<std::string> dropped_keys;  // the first table's keys left out (a shard's own: SHARD, ...)
-  // Integer keys the joined table gains at its end (NCELLSW), with their comments.
-  std::vector<std::pair<std::string, long long>> final_keys;
-  std::string final_key_comment;
+  std::vector<FinalKey> final_keys;  // integer keys the joined table gains at its end (NCELLSW)
   // After each chunk: rows written so far, and in all.
   std::function<void(long long rows_done, long long rows_total)> on_progress;
 };

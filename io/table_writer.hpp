@@ -18,6 +18,13 @@ namespace stampede::io {
 class DurableTable;
 struct DurableTableOptions;
 
+// An integer key a table gains when it is finished (NCELLSW); its room is reserved at creation.
+struct FinalKey {
+  std::string key;
+  long long value = 0;
+  std::string comment;
+};
+
 // What every schema's options hold: the table's path and the run's identity in it.
 struct TableWriterOptions {
   std::string path;  // final FITS path, e.g. out.fits (uncompressed: no .gz / .fz)

@@ -251,6 +251,10 @@ void check_fit_method(const CalibrationTable& table, const std::string& calibrat
   }
 }
 
+// Below this fraction of the calibration's S/N the (S/N)^-2 scaling of its m and c is an
+// extrapolation of more than a factor 4.
+constexpr double kLowSnrFactor = 0.5;
+
 int run_apply(int argc, char** argv) {
   std::string science, calibration, deep, output;
   bool per_object = false, overwrite = false, quiet = false;
@@ -334,6 +338,8 @@ int run_apply(int argc, char** argv) {
   }
 
   const std::string partial = output + ".partial";
+  long long rows = 0, nan_rows = 0, clamped = 0, low_snr = 0;
+  double max_m = 0;
   {
     io::FitsFile out = io::FitsFile::create(partial, true);
     in.file().copy_all_hdus_to(out);
@@ -345,7 +351,6 @@ int run_apply(int argc, char** argv) {
     out.add_column("nbc_c1", "noise-bias c1 applied, scaled and turned to the row's PSF");
     out.add_column("nbc_c2", "noise-bias c2 applied, scaled and turned to the row's PSF");
     std::vector<double> e1c, e2c, m, c1, c2;
-    long long rows = 0, nan_rows = 0;
     double sum_m = 0;
     for_chunks(in, science_fields, [&](long long first, const std::vector<std::vector<double>>& c) {
       const std::size_t n = c[0].size();
@@ -354,7 +359,9 @@ int run_apply(int argc, char** argv) {
         Bias b = population;
         if (per_object) {
           const GalaxyProperties p = properties(c[5][i], c[6][i], c[7][i], c[0][i], c[1][i]);
-          b = finite(p) ? model.at(p) : Bias{NAN, NAN, NAN};
+          bool outside = false;
+          b = finite(p) ? model.at(p, &outside) : Bias{NAN, NAN, NAN};
+          clamped += outside;
         }
         const Bias k = object_correction(b, model.snr_ref(), model.psf_e0(), c[2][i], {c[3][i], c[4][i]});
         m[i] = k.m;
@@ -362,8 +369,13 @@ int run_apply(int argc, char** argv) {
         c2[i] = k.c2;
         calibrate_ellipticity(k, c[0][i], c[1][i], &e1c[i], &e2c[i]);
         ++rows;
-        if (std::isfinite(e1c[i])) sum_m += k.m;
-        else ++nan_rows;
+        if (std::isfinite(e1c[i])) {
+          sum_m += k.m;
+          max_m = std::max(max_m, std::abs(k.m));
+          low_snr += c[2][i] < kLowSnrFactor * model.snr_ref();
+        } else {
+          ++nan_rows;
+        }
       }
       out.write_column_rows("e1_cal", first, e1c);
       out.write_column_rows("e2_cal", first, e2c);
@@ -377,6 +389,8 @@ int run_apply(int argc, char** argv) {
     out.write_key("NBCPSFE1", model.psf_e0().real(), "PSF e1 of the calibration (c turned from it)");
     out.write_key("NBCPSFE2", model.psf_e0().imag(), "PSF e2 of the calibration");
     out.write_key("NBCDIFF", static_cast<long long>(differing), "configuration keys differing from the calibration's");
+    out.write_key("NBCNLOW", low_snr, "rows below half NBCSNREF: m, c extrapolated (S/N)^-2");
+    if (per_object) out.write_key("NBCNCLMP", clamped, "rows outside the grid, clamped to its edge");
     if (!per_object) {
       out.write_key("NBCDEEP", deep, "deep catalogue giving the population");
       out.write_key("NBCNDEEP", deep_used, "usable deep rows averaged");
@@ -401,6 +415,19 @@ int run_apply(int argc, char** argv) {
     }
   }
   std::filesystem::rename(partial, output);
+  // Said even with --quiet: numbers a user would otherwise take as calibrated.
+  if (low_snr > 0)
+    std::fprintf(stderr,
+                 "stampede calibrate apply: warning: %lld of %lld rows (%.1f%%) have S/N below %g, half the calibration's "
+                 "%g: their m and c are the calibration's scaled by (S/N)^-2 beyond its reach (|m| up to %.3g); build "
+                 "a calibration at their S/N (calibrate build --snr)\n",
+                 low_snr, rows - nan_rows, 100.0 * low_snr / std::max(1LL, rows - nan_rows),
+                 kLowSnrFactor * model.snr_ref(), model.snr_ref(), max_m);
+  if (per_object && clamped > 0)
+    std::fprintf(stderr,
+                 "stampede calibrate apply: warning: %lld of %lld rows lie outside the calibration's grid (radius or "
+                 "bulge fraction): their bias is the grid edge's (header NBCNCLMP)\n",
+                 clamped, rows);
   return 0;
 }
 

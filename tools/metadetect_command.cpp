@@ -81,8 +81,9 @@ void print_help() {
       "output: OUT.fits, table METADETECT, a row per (cell, shear type, detection): cell shear_type id\n"
       "x y (0-based pixels of the input image) u v (arcsec) e1 e2 e1_err e2_err T (arcsec^2) T_ratio\n"
       "psf_T flux snr mfrac box_size isophotal_area sep_flags flags; a cell that cannot be measured is\n"
-      "one row with id -1 and flags 8. The options and the inputs' digests are in the header.\n"
-      "Written through OUT.fits.partial and a checkpoint: a killed run continues with --resume.\n"
+      "one row with id -1 and flags 8. The options and the inputs' digests are in the header; each\n"
+      "image once (the same bytes twice are refused). Written through OUT.fits.partial and a\n"
+      "checkpoint: a killed run continues with --resume. Exit status 3: no cell could be measured.\n"
       "\n"
       "options:\n"
       "  -o, --output PATH          output table (required)\n"
@@ -215,6 +216,11 @@ int run_metadetect_with_reports(const MetadetectCommandLine& command) {
   std::fprintf(stderr, "stampede metadetect: %lld cells (%lld resumed, %lld failed), %lld rows, %.2f s on %d threads%s -> %s\n",
                r.cells + r.cells_resumed, r.cells_resumed, r.cells_failed, r.rows, r.seconds, r.threads,
                r.stopped ? " (stopped)" : "", o.output.c_str());
+  if (r.cells > 0 && r.cells_failed == r.cells) {  // the table holds only flagged rows: no measurement at all
+    std::fprintf(stderr, "stampede metadetect: error: none of the %lld cells could be measured (the warnings above say "
+                 "why); the table holds their flagged rows\n", r.cells);
+    return 3;
+  }
   return r.stopped ? 1 : 0;
 }
 

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "app/run_harness.hpp"
 #include "engine/common/number_text.hpp"
 #include "engine/fit/fit_result.hpp"
 #include "engine/pipeline/object_record.hpp"
@@ -129,6 +130,7 @@ SetData read_set(const std::string& fit_path, const std::string& truth_path, con
                  const std::string& e2_column, int bootstrap, std::uint64_t seed, const Cuts& cuts, double* psf_e1,
                  double* psf_e2, bool units) {
   using F = io::ResultField;
+  app::refuse_unfinished_table(io::fits_root_name(fit_path), "fit catalogue");  // a .partial holds a run in progress
   io::CatalogReader fit = io::CatalogReader::open(fit_path, {F::kId, F::kStatus, F::kFlags, F::kPsfE1, F::kPsfE2});
   const auto id = fit.column(F::kId), e1 = fit.column(e1_column), e2 = fit.column(e2_column),
              status = fit.column(F::kStatus), flags = fit.column(F::kFlags), pe1 = fit.column(F::kPsfE1),

@@ -66,7 +66,20 @@ RandomStream fixnoise_stream(std::uint64_t seed, long long cell, std::size_t ban
 bool CellMeasurer::prepare_psf(double pixel_scale, std::string* problem) {
   bool same = have_psf_ && pixel_scale == psf_scale_ && psfs_.size() == bands_.size();
   for (std::size_t b = 0; same && b < bands_.size(); ++b) same = same_psf(*bands_[b].psf, psfs_[b]);
-  if (same) return !filters_.empty();
+  if (same) {
+    // A cell with the PSF that failed last fails alike, and says why (every failed cell is counted).
+    if (filters_.empty()) *problem = psf_problem_;
+    return !filters_.empty();
+  }
+  if (!prepare_new_psf(pixel_scale, problem)) {
+    filters_.clear();
+    psf_problem_ = *problem;
+    return false;
+  }
+  return true;
+}
+
+bool CellMeasurer::prepare_new_psf(double pixel_scale, std::string* problem) {
   have_psf_ = true;
   psfs_.clear();
   for (const MetadetectBand& b : bands_) psfs_.push_back(*b.psf);
@@ -98,6 +111,16 @@ bool CellMeasurer::prepare_psf(double pixel_scale, std::string* problem) {
     filters_ = std::move(gamma.filters);
   }
   weight_fwhm_px_ = options_.weight_fwhm_arcsec() / pixel_scale;
+  // The weight is drawn on a stamp of 8 FWHM: narrower than half a pixel it samples nothing, wider
+  // than half the cell it weighs the neighbours and the cell's edge (and costs the square of it).
+  const int cell_size = images_set_->stamp_size();
+  if (!(weight_fwhm_px_ >= 0.5 && weight_fwhm_px_ <= 0.5 * cell_size)) {
+    char b[200];
+    std::snprintf(b, sizeof b, "weight_fwhm = %g arcsec is %g pixels of %g arcsec: must be in [0.5, %g] (half the cell)",
+                  options_.weight_fwhm_arcsec(), weight_fwhm_px_, pixel_scale, 0.5 * cell_size);
+    *problem = b;
+    return false;
+  }
   psf_k_.clear();
   fit_psfs_.clear();
   // The point source's T under the same weight, as the detections' T is measured. pgauss's T_ratio

@@ -70,7 +70,10 @@ class CellMeasurer {
   double psf_t_pixels() const { return psf_t_; }
 
  private:
+  // The reconvolution filters of the cell's PSFs: kept while they are the last cell's (a failure
+  // too, with its reason); prepare_new_psf makes them.
   bool prepare_psf(double pixel_scale, std::string* problem);
+  bool prepare_new_psf(double pixel_scale, std::string* problem);
   // Detections of image `type` (every band's) measured into rows; `variances` per band.
   void measure_image(const MetadetectCell& cell, int type, std::vector<MetadetectRow>* rows);
   // Whether the cell keeps detection d of image `type` (its unsheared position in the keep region).
@@ -104,6 +107,7 @@ class CellMeasurer {
   std::vector<std::shared_ptr<const MetacalFilters>> filters_;
   std::vector<PsfModel> psfs_;
   bool have_psf_ = false;
+  std::string psf_problem_;  // why the PSFs prepared last serve no reconvolution ("" when they do)
   double psf_scale_ = 0, psf_t_ = 0, weight_fwhm_px_ = 0;
   std::vector<float> image_f_;
   ObjectDetector detector_;

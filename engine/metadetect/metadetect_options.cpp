@@ -72,8 +72,11 @@ bool refuse(std::string* why, const char* option, T value, const char* rule) {
 
 bool MetadetectOptions::IsValid(std::string* why) const {
   if (cell_size < 16 || cell_size > 4096) return refuse(why, "cell_size", cell_size, "must be in [16, 4096] pixels");
-  if (cell_buffer < 0 || 2 * cell_buffer >= cell_size)
-    return refuse(why, "cell_buffer", cell_buffer, "must be >= 0 and less than half the cell size");
+  if (cell_buffer < 0 || cell_size - 2 * cell_buffer < kMinCellInterior) {
+    const std::string rule = "must be >= 0 and leave an interior of at least " + std::to_string(kMinCellInterior) +
+                             " pixels (cell_size " + std::to_string(cell_size) + " - 2 cell_buffer): detections are kept only there";
+    return refuse(why, "cell_buffer", cell_buffer, rule.c_str());
+  }
   if (!(step >= 1e-3 && step <= 0.1)) return refuse(why, "step", step, "must be in [0.001, 0.1]");
   if (!(psf_dilation == 0 || (psf_dilation >= 1 && psf_dilation <= 3)))
     return refuse(why, "psf_dilation", psf_dilation, "must be 0 (automatic) or in [1, 3]");
@@ -106,8 +109,10 @@ bool MetadetectOptions::IsValid(std::string* why) const {
     return refuse(why, "stamp_size", stamp.size, "must be in [8, 255] pixels, or 0 for stamps sized by the isophote");
   if (stamp.box_min < 9 || stamp.box_min % 2 == 0)
     return refuse(why, "box_min", stamp.box_min, "must be odd and >= 9");
-  if (stamp.box_max < stamp.box_min || stamp.box_max % 2 == 0 || stamp.box_max > 4095)
-    return refuse(why, "box_max", stamp.box_max, "must be odd, >= box_min and <= 4095");
+  if (stamp.box_max < stamp.box_min || stamp.box_max % 2 == 0 || stamp.box_max > 4095) {
+    const std::string rule = "must be odd, >= box_min (" + std::to_string(stamp.box_min) + ") and <= 4095";
+    return refuse(why, "box_max", stamp.box_max, rule.c_str());
+  }
   if (seed > (std::uint64_t{1} << 62)) return refuse(why, "seed", seed, "must be in [0, 2^62]");
   return true;
 }

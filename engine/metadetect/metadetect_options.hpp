@@ -64,6 +64,9 @@ struct DetectionStampOptions {
 struct MetadetectOptions {
   int cell_size = 251;    // pixels: an image larger than a cell is cut into cells of this side
   int cell_buffer = 34;   // pixels at each cell edge whose detections another cell (or none) keeps
+  // The fewest pixels a cell's interior (cell_size - 2 cell_buffer) may have: its detections alone
+  // are kept, so a thinner one keeps next to nothing.
+  static constexpr int kMinCellInterior = 16;
   double step = 0.01;     // metacal shear
   double psf_dilation = 0.0;  // reconvolution PSF FWHM over the PSF's (0: the rule's own)
   ReconvolutionRule reconvolution = ReconvolutionRule::kAuto;  // Gamma's rule (engine/metacal/reconvolution_psf)

@@ -120,7 +120,7 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
     throw py::value_error(a.where("weight") + ": shape differs from the image's");
   const MetadetectOptions o = read_metadetect_options(a);
   const double scale = a.real("pixel_scale", 0);
-  if (!(scale > 0)) throw py::value_error(a.where("pixel_scale") + ": must be > 0 (arcsec per pixel)");
+  if (!(scale > 0 && std::isfinite(scale))) throw py::value_error(a.where("pixel_scale") + ": must be finite and > 0 (arcsec per pixel)");
   const int threads = static_cast<int>(a.integer_in("threads", 0, 0, 4096));
   io::CellImage im;
   im.width = static_cast<long>(image.shape(1)), im.height = static_cast<long>(image.shape(0));
@@ -130,9 +130,7 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
   auto p = std::make_shared<PsfImage>();
   p->nx = static_cast<int>(psf.shape(1)), p->ny = static_cast<int>(psf.shape(0));
   p->pixels.assign(psf.data(), psf.data() + psf.size());
-  double sum = 0;
-  for (double v : p->pixels) sum += v;
-  if (!(sum > 0) || !std::isfinite(sum)) throw py::value_error(a.where("psf") + ": its sum is not positive and finite");
+  if (const std::string why = io::cell_psf_problem(*p); !why.empty()) throw py::value_error(a.where("psf") + ": " + why);
   im.psf = p;
   std::vector<double> mask;
   if (a.given("bmask")) {
@@ -152,6 +150,7 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
   } catch (const std::invalid_argument& e) {
     throw py::value_error(a.where("weight") + ": " + e.what());
   }
+  if (const std::string why = io::cell_noise_problem(im); !why.empty()) throw py::value_error(a.where("noise") + ": " + why);
   std::vector<MetadetectRow> rows;
   {
     py::gil_scoped_release release;

@@ -147,6 +147,27 @@ TEST(CellSimulation, SameFilesForOneAndTwoThreads) {
   }
 }
 
+// Overwritten with fewer cells and no tile, the directory holds this run's cells alone: an earlier
+// run's extra cells (and its tile) would be measured as this simulation's.
+TEST(CellSimulation, OverwriteWithFewerCellsLeavesNoEarlierCell) {
+  testing::ScratchDir dir("cell_fewer_");
+  CellOutputOptions out;
+  out.cells = 3;
+  out.tile = true;
+  const CellSimOptions o = small();
+  write_cell_simulation(o, out, dir.dir().string());
+  std::ofstream(dir.path("cell_notes.txt")) << "kept";
+  out.cells = 1;
+  out.tile = false;
+  out.overwrite = true;
+  write_cell_simulation(o, out, dir.dir().string());
+  EXPECT_TRUE(fs::exists(dir.path("cell_0000.fits")));
+  EXPECT_FALSE(fs::exists(dir.path("cell_0001.fits")));
+  EXPECT_FALSE(fs::exists(dir.path("cell_0002.fits")));
+  EXPECT_FALSE(fs::exists(dir.path("cells_meds.fits")));
+  EXPECT_TRUE(fs::exists(dir.path("cell_notes.txt")));  // not a cell: left alone
+}
+
 TEST(CellSimulation, RefusesExistingOutputsAndBadOptions) {
   testing::ScratchDir dir("cell_refuse_");
   CellOutputOptions out;

@@ -71,7 +71,7 @@ TEST(MetadetectOptionKeys, TheCoresFieldsBecomeTheCommandLinesFlags) {
   EXPECT_EQ(with_metadetect_flags(refusal(o)).substr(0, 16), "--cell-size = 3:");
   o = MetadetectOptions();
   o.stamp.box_max = 31;
-  EXPECT_EQ(with_metadetect_flags(refusal(o)), "--box-max = 31: must be odd, >= --box-min and <= 4095");
+  EXPECT_EQ(with_metadetect_flags(refusal(o)), "--box-max = 31: must be odd, >= --box-min (33) and <= 4095");
   o = MetadetectOptions();
   o.per_object_metacal = true, o.measurement = MetadetectMeasurement::kPgauss;
   EXPECT_EQ(with_metadetect_flags(refusal(o)), "--measurement = pgauss: --per-object-metacal measures with wmom only");

@@ -175,6 +175,7 @@ TEST(MetadetectRun, StoppedRunResumesToTheUninterruptedTable) {
     ADD_FAILURE() << "another run's complete table was not refused";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("is complete but was written by another run"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("(MCSEED = '"), std::string::npos) << e.what();  // naming what differs
   }
   EXPECT_EQ(bytes(o.output), done);
 }
@@ -316,6 +317,7 @@ TEST(MetadetectRun, BadInputIsAClearErrorOrAFlaggedCell) {
   const std::string no_psf = error_of(write_image(scratch.path("nopsf.fits"), 251, {"WEIGHT"}));
   EXPECT_NE(no_psf.find("nopsf.fits"), std::string::npos) << no_psf;
   EXPECT_NE(no_psf.find("no PSF HDU"), std::string::npos) << no_psf;
+  EXPECT_EQ(no_psf.find("'WEIGHT'"), std::string::npos) << no_psf;  // named at the file, not its last HDU read
   const std::string no_weight = error_of(write_image(scratch.path("noweight.fits"), 251, {"PSF"}));
   EXPECT_NE(no_weight.find("no WEIGHT HDU"), std::string::npos) << no_weight;
   const std::string small = error_of(write_image(scratch.path("small.fits"), 60, {"WEIGHT", "PSF"}));
@@ -341,6 +343,9 @@ TEST(MetadetectRun, BadInputIsAClearErrorOrAFlaggedCell) {
     EXPECT_EQ(r.rows, 1) << name;
     ASSERT_EQ(r.problems.size(), 1u) << name;
     EXPECT_NE(r.problems[0].find(name), std::string::npos) << r.problems[0];
+    // Told apart: the pixels' values, not the weights, are what is wrong in nan.fits.
+    EXPECT_NE(r.problems[0].find(name == std::string("zero.fits") ? "63001 of zero weight)" : "63001 NaN or infinite)"),
+              std::string::npos) << r.problems[0];
     const io::MetadetectTable t = io::read_metadetect_table(o.output);
     ASSERT_EQ(t.flags.size(), 1u);
     EXPECT_EQ(t.flags[0], kMetadetectCellFailed);
@@ -359,6 +364,84 @@ void sim_band_tiles(const std::string& dir, int cells) {
   out.band_names = {"g", "r"};
   const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);  // as sim_cells'
   write_cell_simulation(so, out, dir);
+}
+
+// An image with a PSF HDU of `psf` (nx x ny), a WEIGHT of 1 and, when `noise_rms` > 0, a NOISE
+// plane of that rms (alternating signs); `weights` WEIGHT HDUs.
+std::string write_planes(const std::string& path, int nx, int ny, double psf_dx, double noise_rms, int weights = 1) {
+  io::FitsFile f = io::FitsFile::create(path, true);
+  const int size = 251;
+  f.write_image(size, size, std::vector<double>(static_cast<std::size_t>(size) * size, 0.0));
+  f.write_key("SCALE", 0.25, "arcsec per pixel");
+  for (int k = 0; k < weights; ++k) f.write_image(size, size, std::vector<double>(static_cast<std::size_t>(size) * size, 1.0), "WEIGHT");
+  if (noise_rms > 0) {
+    std::vector<double> noise(static_cast<std::size_t>(size) * size);
+    for (std::size_t i = 0; i < noise.size(); ++i) noise[i] = (i % 2 ? 1 : -1) * noise_rms;
+    f.write_image(size, size, noise, "NOISE");
+  }
+  std::vector<double> psf(static_cast<std::size_t>(nx) * ny);
+  for (int y = 0; y < ny; ++y)
+    for (int x = 0; x < nx; ++x) {
+      const double dx = x - 0.5 * (nx - 1) - psf_dx, dy = y - 0.5 * (ny - 1);
+      psf[static_cast<std::size_t>(y) * nx + x] = std::exp(-(dx * dx + dy * dy) / 8.0);
+    }
+  f.write_image(nx, ny, psf, "PSF");
+  f.close();
+  return path;
+}
+
+// Inputs that would give plausible numbers with exit 0 are refused naming the file, HDU and rule:
+// an even or off-centre PSF, a NOISE plane that is not the weights' noise, a plane given twice, the
+// same image twice; a weight no cell can use fails every cell with its reason (each counted, the
+// cells sharing the PSF included), and a cell with almost no interior is refused.
+TEST(MetadetectRun, PlausibleBadInputIsRefusedOrEveryCellCounted) {
+  testing::ScratchDir scratch("stampede_mdet_plausible_");
+  MetadetectRunOptions o;
+  o.output = scratch.path("out.fits");
+  o.threads = 1;
+  auto error_of = [&](std::vector<std::string> inputs) {
+    o.inputs = std::move(inputs);
+    try {
+      run_metadetect(o);
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string even = error_of({write_planes(scratch.path("even.fits"), 24, 25, 0, 0)});
+  EXPECT_NE(even.find("'PSF'"), std::string::npos) << even;
+  EXPECT_NE(even.find("24 x 25 pixels: its sides must be odd"), std::string::npos) << even;
+  const std::string off = error_of({write_planes(scratch.path("off.fits"), 25, 25, 1.5, 0)});
+  EXPECT_NE(off.find("centroid is (1.5, 0) pixels from its middle pixel"), std::string::npos) << off;
+  const std::string noise = error_of({write_planes(scratch.path("noise.fits"), 25, 25, 0, 100)});
+  EXPECT_NE(noise.find("'NOISE'"), std::string::npos) << noise;
+  EXPECT_NE(noise.find("rms is 100 times the noise the weights state"), std::string::npos) << noise;
+  const std::string twice = error_of({write_planes(scratch.path("two_weights.fits"), 25, 25, 0, 0, 2)});
+  EXPECT_NE(twice.find("a second WEIGHT HDU"), std::string::npos) << twice;
+  // The same image twice: as given twice, through a link, spelt otherwise, or copied.
+  const std::string good = write_planes(scratch.path("good.fits"), 25, 25, 0, 1);
+  std::filesystem::create_symlink(good, scratch.path("link.fits"));
+  std::filesystem::copy_file(good, scratch.path("copy.fits"));
+  for (const std::string& again : {good, scratch.path("link.fits"), scratch.dir().string() + "/./good.fits", scratch.path("copy.fits")}) {
+    const std::string e = error_of({good, again});
+    EXPECT_NE(e.find("holds the same bytes as '" + good + "'"), std::string::npos) << again << ": " << e;
+  }
+  EXPECT_FALSE(std::filesystem::exists(o.output));
+  // A weight narrower than half a pixel or wider than half the cell: every cell fails, saying why.
+  const std::vector<std::string> cells = sim_cells(scratch.path("sims"), 3);
+  for (const double fwhm : {1e-6, 1000.0}) {
+    o.inputs = cells;
+    o.metadetect.weight_fwhm = fwhm;
+    o.overwrite = true;
+    const MetadetectRunSummary r = run_metadetect(o);
+    EXPECT_EQ(r.cells_failed, 3) << fwhm;
+    ASSERT_EQ(r.problems.size(), 3u) << fwhm;
+    for (const std::string& p : r.problems) EXPECT_NE(p.find("weight_fwhm = "), std::string::npos) << p;
+  }
+  o.metadetect.weight_fwhm = 0;
+  o.metadetect.cell_size = 69;  // the default buffer of 34 leaves 1 pixel
+  const std::string thin = error_of(cells);
+  EXPECT_NE(thin.find("cell_buffer = 34: must be >= 0 and leave an interior of at least 16 pixels"), std::string::npos) << thin;
 }
 
 TEST(MetadetectRun, BandTilesGiveBandColumnsTheSameForAnyThreadsAndShards) {

@@ -5,6 +5,7 @@
 // shards, the same merge gives the whole run's table byte for byte.
 #include "app/shard_merge.hpp"
 
+#include <fitsio.h>
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -216,6 +217,21 @@ TEST(ShardMerge, MetadetectShardsJoinToTheWholeRunsTableByteForByte) {
   std::ofstream(shards[1] + ".checkpoint") << "a run replacing it";
   const std::string replaced = refusal(merge({shards[0], shards[1], shards[2]}, scratch.path("m.fits")));
   EXPECT_NE(replaced.find(".checkpoint' is beside it"), std::string::npos) << replaced;
+  std::filesystem::remove(shards[1] + ".checkpoint");
+  // A shard that lost a row since its run wrote it (NROWSW records what it wrote) is refused.
+  std::filesystem::copy_file(shards[2], scratch.path("lost2.fits"));
+  {
+    fitsfile* f = nullptr;
+    int status = 0;
+    fits_open_file(&f, scratch.path("lost2.fits").c_str(), READWRITE, &status);
+    fits_movnam_hdu(f, BINARY_TBL, const_cast<char*>("METADETECT"), 0, &status);
+    fits_delete_rows(f, 1, 1, &status);
+    fits_close_file(f, &status);
+    ASSERT_EQ(status, 0);
+  }
+  const std::string lost = refusal(merge({shards[0], shards[1], scratch.path("lost2.fits")}, scratch.path("m.fits")));
+  EXPECT_NE(lost.find("lost2.fits: holds "), std::string::npos) << lost;
+  EXPECT_NE(lost.find("(NROWSW): rows were lost or added since"), std::string::npos) << lost;
   EXPECT_FALSE(std::filesystem::exists(scratch.path("m.fits")));
 }
 

@@ -66,10 +66,19 @@ def test_bad_arguments_name_themselves(cell):
     _, image, weight, psf = cell
     with pytest.raises(ValueError, match="weight"):
         stampede.metadetect(image, weight[:10], psf, 0.25)
-    with pytest.raises(ValueError, match="pixel_scale"):
-        stampede.metadetect(image, weight, psf, 0.0)
+    for scale in (0.0, float("inf"), float("nan")):
+        with pytest.raises(ValueError, match="pixel_scale"):
+            stampede.metadetect(image, weight, psf, scale)
     with pytest.raises(ValueError, match="psf"):
         stampede.metadetect(image, weight, np.zeros((5, 5)), 0.25)
+    # A PSF image with no middle pixel, or not centred there, would move every position.
+    with pytest.raises(ValueError, match="psf.*sides must be odd"):
+        stampede.metadetect(image, weight, psf[:-1, :], 0.25)
+    with pytest.raises(ValueError, match="psf.*centroid is"):
+        stampede.metadetect(image, weight, np.roll(psf, 2, axis=1), 0.25)
+    # A NOISE plane that is not the weights' noise.
+    with pytest.raises(ValueError, match="noise.*rms is"):
+        stampede.metadetect(image, weight, psf, 0.25, noise=100 / np.sqrt(weight))
     with pytest.raises(stampede.ConfigError, match="smaller than one cell"):
         stampede.metadetect(image[:100, :100], weight[:100, :100], psf, 0.25)
     # Python is told the keyword it gave, not a command-line flag.

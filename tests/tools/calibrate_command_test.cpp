@@ -52,13 +52,13 @@ class CalibrateCommand : public ::testing::Test {
   // A fit-like catalogue with the columns apply reads (and one it must carry along), and the header
   // keys of the fit method (renderer "" = none recorded).
   void write_catalogue(const std::string& file, const std::string& renderer = "exact",
-                       const std::string& surrogate = "true") {
+                       const std::string& surrogate = "true", double snr_scale = 1) {
     std::vector<double> id, e1, e2, snr, pe1, pe2, radius, bf, df, status, flags, extra;
     for (int i = 0; i < 40; ++i) {
       id.push_back(i);
       e1.push_back(0.4 * std::sin(i * 0.7));
       e2.push_back(0.3 * std::cos(i * 1.3));
-      snr.push_back(i == 5 ? NAN : 10.0 + i);
+      snr.push_back(i == 5 ? NAN : snr_scale * (10.0 + i));
       pe1.push_back(i % 2 ? 0.0 : 0.03);
       pe2.push_back(0.05);
       radius.push_back(1.0 + 0.03 * i);
@@ -82,6 +82,12 @@ class CalibrateCommand : public ::testing::Test {
   stampede::testing::ScratchDir scratch{std::string("stampede_calibrate_") +
                                           ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_"};
 };
+
+long long header_long(const std::string& file, const std::string& key) {
+  FitsFile f = FitsFile::open_read(file);
+  f.move_to("RESULTS");
+  return f.key_long(key);
+}
 
 std::vector<double> column(const std::string& file, const std::string& hdu, const std::string& name) {
   FitsFile f = FitsFile::open_read(file);
@@ -153,6 +159,21 @@ TEST_F(CalibrateCommand, BuildWritesTheGridAndApplyCorrectsByTheModel) {
     const Bias own = model.at({radius[i], bf[i] / (bf[i] + df[i]), std::hypot(e1[i], e2[i])});
     EXPECT_NEAR(m_obj[i], own.m * (20 / snr[i]) * (20 / snr[i]), 1e-15);
   }
+  // Rows outside the grid (radius outside [1.2, 2]) are counted and said: their bias is the edge's.
+  long long outside = 0;
+  for (double r : radius) outside += r < 1.2 || r > 2.0;
+  ASSERT_GT(outside, 0);
+  EXPECT_EQ(header_long(path("obj.fits"), "NBCNCLMP"), outside);
+  EXPECT_NE(a.err.find("warning: " + std::to_string(outside) + " of 40 rows lie outside the calibration's grid"),
+            std::string::npos) << a.err;
+  EXPECT_EQ(a.err.find("S/N below"), std::string::npos) << a.err;  // every row's S/N is >= 10, half of 20
+  // Rows far below the calibration's S/N get its bias scaled (S/N)^-2 beyond its reach: said, counted.
+  write_catalogue(path("faint.fits"), "exact", "true", 0.25);
+  a = run({"apply", path("faint.fits"), "--calibration", path("cal.fits"), "--per-object", "-o", path("faint_cal.fits")});
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  EXPECT_NE(a.err.find("warning: 29 of 39 rows (74.4%) have S/N below 10, half the calibration's 20"), std::string::npos)
+      << a.err;
+  EXPECT_EQ(header_long(path("faint_cal.fits"), "NBCNLOW"), 29);
   // The output is not replaced silently.
   a = run({"apply", path("science.fits"), "--calibration", path("cal.fits"), "--per-object", "-o", path("obj.fits")});
   EXPECT_EQ(a.exit_code, 1);

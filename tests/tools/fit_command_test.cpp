@@ -152,11 +152,14 @@ TEST_F(FitCommand, AListResumeSkipsOnlyTheSameRunsCompleteOutputs) {
   const RunResult options = run(list + opts + std::vector<std::string>{"--resume", "--set", "minimizer_max_iterations=3"});
   EXPECT_EQ(options.exit_code, 1);
   EXPECT_NE(options.err.find("a_fit.fits is complete but was written by another run"), std::string::npos) << options.err;
+  // ... naming what differs.
+  EXPECT_NE(options.err.find("(minimizer_max_iterations = '2' there, '3' in this run)"), std::string::npos) << options.err;
   fs::remove(path("a.fits"));
   fs::copy_file(data("galsim-great08-mini/nf/set_1.fits"), path("a.fits"));  // new content, same path
   const RunResult content = run(list + opts + std::vector<std::string>{"--resume"});
   EXPECT_EQ(content.exit_code, 1);
   EXPECT_NE(content.err.find("is complete but was written by another run"), std::string::npos) << content.err;
+  EXPECT_NE(content.err.find("the inputs or options differ (INSETID = '"), std::string::npos) << content.err;
   std::ofstream(path("file")) << "x";
   const RunResult file = run(std::vector<std::string>{"--input-list", path("list.txt"), "-o", path("file")} + opts);
   EXPECT_EQ(file.exit_code, 1);

@@ -153,8 +153,10 @@ int run_metadetect_over_ranks(int argc, char** argv, int rank, int ranks) {
                           !stampede::io::file_exists(mine.run.output + ".checkpoint");
     mine.run.resume = o.resume && stampede::io::file_exists(mine.run.output + ".checkpoint");
     if (o.resume && !mine.run.resume) mine.run.overwrite = true;
-    if (!(o.resume && complete) && run_metadetect_with_reports(mine) != 0)
-      throw std::runtime_error("rank " + std::to_string(rank) + " stopped before its cells were done");
+    // 3: every cell of this rank's part failed, each a flagged row; the part is complete.
+    if (!(o.resume && complete))
+      if (const int code = run_metadetect_with_reports(mine); code != 0 && code != 3)
+        throw std::runtime_error("rank " + std::to_string(rank) + " stopped before its cells were done");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "stampede-mpi metadetect: error (rank %d): %s\n", rank, e.what());
     failed = 1;

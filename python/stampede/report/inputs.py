@@ -46,7 +46,16 @@ def simulation_identity(header):
 def checked_table(path, extname, required, what, no_hdu):
     """The table HDU `extname` of `path`, with every `required` column and a row at least; else a
     ReportError naming the file (`no_hdu(fits)` its message when the HDU is absent) and `what` the
-    table should have been."""
+    table should have been. A run's unfinished table (NAME.partial, .checkpoint, .lock, or a table
+    with a checkpoint beside it) is refused: its rows are not the run's."""
+    path = str(path)
+    for suffix in (".partial", ".checkpoint", ".checkpoint.tmp", ".lock"):
+        if path.endswith(suffix):
+            raise ReportError(f"{path}: a run's unfinished {suffix[1:]} file, not a {what}: finish that run "
+                              "(--resume) and give its table")
+    if os.path.exists(path + ".checkpoint"):
+        raise ReportError(f"{path}: a run that replaces it is unfinished ('{path}.checkpoint' is beside it), so "
+                          f"it is not a finished {what}: finish that run (--resume) first")
     try:
         fits = FitsFile(path)
         t = fits.table(extname)
