@@ -123,16 +123,7 @@ RunSummary FitRun::run() const {
   check_threads(run.threads, "threads");
   if (run.output.empty() && run.resume) throw std::invalid_argument("fit run: resume needs the output to resume");
   shard_range(0, run.shard, run.shards);  // checks the shard before anything is read
-  TableRun table;
-  table.output = run.output;
-  table.extname = "RESULTS";
-  table.resume = run.resume;
-  table.overwrite = run.overwrite;
-  table.shard = run.shard, table.shards = run.shards;
-  table.stop = run.stop;
-  table.on_progress = run.on_progress;
-  table.progress_interval = run.progress_interval;
-  table.on_warning = run.on_warning;
+  const TableRun table = table_run(run, "RESULTS", "object");
   FitInput input = run.meds.empty() ? open_stamp_input(run, table) : open_survey_input(run, table);
   return run_input(run, table, input, start);
 }

@@ -105,21 +105,6 @@ void record_scene(const std::vector<std::string>& files, io::MetadetectWriterOpt
     }
 }
 
-TableRun table_run(const MetadetectRunOptions& options) {
-  TableRun table;
-  table.output = options.output;
-  table.extname = "METADETECT";
-  table.unit = "cell";
-  table.resume = options.resume;
-  table.overwrite = options.overwrite;
-  table.shard = options.shard, table.shards = options.shards;
-  table.stop = options.stop;
-  table.on_progress = options.on_progress;
-  table.progress_interval = options.progress_interval;
-  table.on_warning = options.on_warning;
-  return table;
-}
-
 }  // namespace
 
 void check_metadetect_outputs(const MetadetectRunOptions& options, const std::vector<std::string>& parts) {
@@ -151,7 +136,7 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   if (options.output.empty()) throw io::ConfigError("no output: give -o OUT.fits");
   if (options.cells_per_batch < 1) throw io::ConfigError("cells per batch must be >= 1");
   shard_range(0, options.shard, options.shards);  // checks the shard before anything is read
-  const TableRun table = table_run(options);
+  const TableRun table = table_run(options, "METADETECT", "cell");
   const std::vector<std::string> bands = metadetect_bands(options);
   const MetadetectFiles read = metadetect_files(options, bands);
   const std::vector<io::OutputLock> locks = protect_outputs(table, outputs_of(options, {}), inputs_of(read));

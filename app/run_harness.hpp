@@ -100,6 +100,24 @@ struct TableRun {
   }
 };
 
+// The harness's request from a run's options (FitRunOptions, MetadetectRunOptions: each holds these
+// fields under these names).
+template <class RunOptions>
+TableRun table_run(const RunOptions& options, std::string extname, const char* unit) {
+  TableRun table;
+  table.output = options.output;
+  table.extname = std::move(extname);
+  table.unit = unit;
+  table.resume = options.resume;
+  table.overwrite = options.overwrite;
+  table.shard = options.shard, table.shards = options.shards;
+  table.stop = options.stop;
+  table.on_progress = options.on_progress;
+  table.progress_interval = options.progress_interval;
+  table.on_warning = options.on_warning;
+  return table;
+}
+
 // 1. Throws io::FileError naming the option and the files (io/output_check.hpp); locks each output
 // whose companions name its lock (io::OutputLock::path_for) until the locks are released.
 std::vector<io::OutputLock> protect_outputs(const TableRun& run, const std::vector<io::RunOutput>& outputs,

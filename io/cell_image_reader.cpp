@@ -129,11 +129,16 @@ std::string cell_psf_problem(const PsfImage& psf) {
 }
 
 std::string cell_noise_problem(const CellImage& image) {
-  double noise = 0, variance = 0;
-  for (std::size_t i = 0; i < image.noise.size(); ++i)
-    if (image.weight[i] > 0) noise += image.noise[i] * image.noise[i], variance += 1 / image.weight[i];
-  if (image.noise.empty() || !(variance > 0)) return "";
-  const double ratio = std::sqrt(noise / variance);
+  // The mean of noise^2 x weight over the unmasked pixels: 1 for a realisation of the weights' noise
+  // (masked pixels have weight 0 and add nothing; no division per pixel).
+  double sum = 0;
+  long long unmasked = 0;
+  for (std::size_t i = 0; i < image.noise.size(); ++i) {
+    sum += image.noise[i] * image.noise[i] * image.weight[i];
+    unmasked += image.weight[i] > 0;
+  }
+  if (image.noise.empty() || unmasked == 0) return "";
+  const double ratio = std::sqrt(sum / static_cast<double>(unmasked));
   if (ratio >= 0.5 && ratio <= 2) return "";
   std::ostringstream m;
   m << "the NOISE plane's rms is " << ratio << " times the noise the weights state: it must be a realisation of "
