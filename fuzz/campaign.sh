@@ -8,7 +8,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 T="$1"; QUOTA="${2:-3600}"; B="${3:-build-fuzz}"; W="${4:-/tmp/stampede-fuzz}/$T"
-declare -A dict=([run_config]=ini.dict [fit_command_line]=args.dict)
+declare -A dict=([run_config]=ini.dict [fit_command_line]=args.dict [metadetect_metrics_arguments]=metadetect_metrics.dict)
 mkdir -p "$W/corpus" "$W/findings"
 log="$W/campaign.log"
 nice -n 19 /usr/bin/time -f 'cpu: user %U s, system %S s' "$B/fuzz/fuzz_$T" "$W/corpus" "fuzz/corpus/$T" \

@@ -9,6 +9,7 @@ C=fuzz/corpus
 T="$(mktemp -d)"
 trap 'rm -rf "$T"' EXIT
 mkdir -p "$C"/{stamp_grid,weight_map,catalogue,run_config,psf_image,calibration_table,catalog_reader,meds,psfex}
+mkdir -p "$C"/{metadetect_table,cell_image,metadetect_metrics_arguments}
 q=(--quiet --threads 1)
 
 # Grids: 2 x 2 stamps of 8 (16 x 16, the weight target's image shape) and 1 x 1 stamp of 8.
@@ -47,4 +48,20 @@ c++ -O1 -o "$T/cut_meds_seed" fuzz/cut_meds_seed.cpp $(pkg-config --cflags --lib
 cp "$SAMPLE/psfex/se_e1.psf" "$C/psfex/degree1.psf"
 cp "$SAMPLE/psfex/se_e2.psf" "$C/psfex/degree0.psf"
 chmod 644 "$C/psfex/"*.psf
+# Metadetection: a 32 x 32 cell image (WEIGHT, NOISE, PSF 9 x 9), one band and two; the tables of
+# metadetect over them (16-pixel interiors); metrics --metadetect command lines over the fixed
+# tables fuzz_metadetect_metrics_arguments makes.
+"$S" sim cells --out "$T/c1" --cells 1 --size 32 --buffer 8 --grid 1 --psf-size 9 --threads 1 >/dev/null 2>&1
+"$S" sim cells --out "$T/c2" --cells 1 --size 32 --buffer 8 --grid 1 --psf-size 9 --bands g,r --threads 1 >/dev/null 2>&1
+cp "$T/c1/cell_0000.fits" "$C/cell_image/cell_32.fits"
+md=(--cell-size 32 --cell-buffer 8 "${q[@]}")
+"$S" metadetect "$T/c1/cell_0000.fits" -o "$C/metadetect_table/one_band.fits" "${md[@]}" 2>/dev/null
+"$S" metadetect "$T/c2/{band}/cell_0000.fits" --bands g,r -o "$C/metadetect_table/two_bands.fits" "${md[@]}" 2>/dev/null
+F=/tmp/stampede-fuzz-metadetect-metrics
+args() { printf '%s\0' "$@" | head -c -1; }  # NUL-separated, as the target splits them
+args --metadetect $F/plus.fits --minus $F/minus.fits > "$C/metadetect_metrics_arguments/pair"
+args --metadetect $F/plus.fits --minus $F/minus.fits --rotated $F/turned.fits --rotated-minus $F/turned_minus.fits \
+  > "$C/metadetect_metrics_arguments/turned_pair"
+args --metadetect $F/pgauss.fits --cut-snr 5 --estimator package --bootstrap 20 > "$C/metadetect_metrics_arguments/pgauss_cuts"
+args --metadetect $F/plus.fits --minus $F/copy.fits --shear 0.02,0 > "$C/metadetect_metrics_arguments/copy"
 ls -l "$C"/*

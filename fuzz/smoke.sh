@@ -13,10 +13,12 @@ F="$B/fuzz-findings"
 mkdir -p "$F"
 declare -A dict=([run_config]=ini.dict [catalogue]=fits.dict [stamp_grid]=fits.dict [weight_map]=fits.dict
                  [psf_image]=fits.dict [calibration_table]=fits.dict [catalog_reader]=fits.dict
-                 [meds]=fits.dict [psfex]=fits.dict [fit_command_line]=args.dict)
+                 [meds]=fits.dict [psfex]=fits.dict [fit_command_line]=args.dict [metadetect_table]=fits.dict
+                 [cell_image]=fits.dict [metadetect_metrics_arguments]=metadetect_metrics.dict)
 declare -A runs=([stamp_grid]=60000 [weight_map]=30000 [catalogue]=30000 [psf_image]=2000
                  [calibration_table]=18000 [catalog_reader]=13000 [run_config]=5000
-                 [meds]=30000 [psfex]=50000 [fit_command_line]=40000)
+                 [meds]=30000 [psfex]=50000 [fit_command_line]=40000 [metadetect_table]=15000 [cell_image]=12000
+                 [metadetect_metrics_arguments]=30000)
 run() {
   local t="$1" work="$B/fuzz-corpus/$1"
   mkdir -p "$work"  # new inputs go here; the committed corpus is only read
@@ -29,7 +31,7 @@ run() {
 }
 status=0
 targets=(stamp_grid weight_map catalogue psf_image calibration_table catalog_reader run_config meds psfex
-         fit_command_line)
+         fit_command_line metadetect_table cell_image metadetect_metrics_arguments)
 for ((i = 0; i < ${#targets[@]}; i += 2)); do
   run "${targets[i]}" & a=$!
   if ((i + 1 < ${#targets[@]})); then run "${targets[i + 1]}" & b=$!; wait "$b" || status=1; fi

@@ -26,8 +26,16 @@ fitsfile* as_fits(void* p) { return static_cast<fitsfile*>(p); }
 
 // The file part of a CFITSIO path ("a.fits[CASES]" -> "a.fits", "!a.fits" -> "a.fits"), so error
 // messages name the file as it is on disk. Falls back to the path itself.
+// A CFITSIO URL ("http://", "ftp://", "mem://", ...): not a file on disk. stampede identifies a
+// run by its files' bytes, so it reads and writes files on disk only (CFITSIO's parse of an
+// unknown scheme also leaks).
+bool is_url(const std::string& path) {
+  const std::size_t scheme = path.find("://");
+  return scheme != std::string::npos && !path.starts_with("file://");
+}
+
 std::string root_name(const std::string& path) {
-  if (path.empty() || path.size() >= FLEN_FILENAME) return path;  // ffrtnm's buffers are fixed
+  if (path.empty() || path.size() >= FLEN_FILENAME || is_url(path)) return path;  // ffrtnm's buffers are fixed
   std::string url = path;  // ffrtnm takes a non-const char*
   char root[FLEN_FILENAME] = {};
   int status = 0;
@@ -87,6 +95,7 @@ FitsFile::FitsFile(void* fptr, std::string path, bool auto_image)
     : fptr_(fptr), path_(std::move(path)), root_(root_name(path_)), auto_image_(auto_image) {}
 
 FitsFile FitsFile::open_read(const std::string& path) {
+  if (is_url(path)) throw FitsError("cannot open FITS file '" + path + "': a URL, not a file on disk");
   check_fits_headers(fits_root_name(path));  // before CFITSIO parses what would crash it
   fitsfile* f = nullptr;
   int status = 0;
@@ -102,6 +111,7 @@ FitsFile FitsFile::open_read(const std::string& path) {
 FitsFile FitsFile::create(const std::string& path, bool overwrite) {
   // CFITSIO's "!" prefix means "replace an existing file".
   const std::string name = (overwrite && !path.starts_with('!')) ? "!" + path : path;
+  if (is_url(path)) throw FitsError("cannot create FITS file '" + path + "': a URL, not a file on disk");
   fitsfile* f = nullptr;
   int status = 0;
   fits_create_file(&f, name.c_str(), &status);

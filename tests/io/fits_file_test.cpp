@@ -53,6 +53,21 @@ class FitsFileTmp : public ::testing::Test {
 
 // --- reading the reference data ------------------------------------------------------------------
 
+// A URL is not a file on disk: refused before CFITSIO is given it (no network access, no leak in
+// its parse of an unknown scheme); a file:// path is a file.
+TEST(FitsFileRead, AUrlIsRefusedByName) {
+  for (const std::string url : {"http://example.invalid/a.fits", "ftp://example.invalid/a.fits", "met://rics/minus.fits",
+                                "mem://x"}) {
+    try {
+      FitsFile::open_read(url);
+      ADD_FAILURE() << url << " was opened";
+    } catch (const FitsError& e) {
+      EXPECT_NE(std::string(e.what()).find("'" + url + "': a URL, not a file on disk"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(FitsFile::create(url, true), FitsError) << url;
+  }
+}
+
 TEST(FitsFileRead, Great08SetShapeAndHeader) {
   FitsFile f = FitsFile::open_read(kSet0);
   EXPECT_EQ(f.path(), kSet0);
