@@ -47,8 +47,11 @@ void StampFitter::fit(StampBatch& batch) {
     const std::span<const double> weight = batch.observations.weights(stamp);
     if (metacal_fitter_) {
       // A PSF metacal cannot use is every row's kPsfFailure; an object's own is also its flag.
-      const MetacalEpoch epoch{pixels, weight, stamp.box_size, PixelFrame{}, per_object_ ? &stamp.psf : &metacal_->shared_psf,
-                               1.0, 0, stamp.weight_kind};
+      const Observation epoch{.pixels = pixels,
+                              .weight = weight,
+                              .box_size = stamp.box_size,
+                              .weight_kind = stamp.weight_kind,
+                              .psf_model = per_object_ ? &stamp.psf : &metacal_->shared_psf};
       metacal_problem_.clear();
       metacal_fitter_->fit({&epoch, 1}, rec.id, kFlagMetacalFailure, &rec.fit, &rec.metacal, &input_flags,
                            &metacal_problem_);
