@@ -62,14 +62,8 @@ bool SurveyObjectFitter::collect(const ObservationArena& arena, int object, int 
       out.flags |= kFlagPsfCutoutDropped;  // the object is fitted on its other cutouts
       continue;
     }
-    epochs_.push_back({.pixels = arena.pixels(o),
-                       .weight = arena.weights(o),
-                       .box_size = o.box_size,
-                       .frame = o.frame,
-                       .psf = prepared,
-                       .flux_scale = o.flux_scale,
-                       .band = o.band,
-                       .psf_model = &o.psf});
+    epochs_.push_back(arena.observation(o));
+    epochs_.back().psf = prepared;
     const double xx = prepared->xx(), xy = prepared->xy(), yy = prepared->yy();
     psf_e1 += (xx - yy) / (xx + yy), psf_e2 += 2 * xy / (xx + yy), psf_size += std::sqrt(0.5 * (xx + yy));
   }

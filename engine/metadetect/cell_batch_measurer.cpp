@@ -32,13 +32,7 @@ void CellBatchMeasurer::fit(StampBatch& batch) {
     bands_.clear();
     for (int b = 0; b < c.bands; ++b) {
       const ArenaObservation& ob = batch.observations[c.first_observation + b];
-      MetadetectBand& band = bands_.emplace_back();
-      band.image.pixels = batch.observations.pixels(ob);
-      band.image.weight = batch.observations.weights(ob);
-      band.image.box_size = ob.box_size;
-      band.image.band = b;
-      band.image.psf_model = &ob.psf;
-      band.noise = noise(b);
+      bands_.push_back({.image = batch.observations.observation(ob), .noise = noise(b)});
     }
     MetadetectCell cell;
     cell.index = batch.records[k].id;
