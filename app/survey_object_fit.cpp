@@ -62,8 +62,8 @@ bool SurveyObjectFitter::collect(const ObservationArena& arena, int object, int 
       out.flags |= kFlagPsfCutoutDropped;  // the object is fitted on its other cutouts
       continue;
     }
-    epochs_.push_back({arena.pixels(o), arena.weights(o), o.box_size, o.frame, prepared, o.flux_scale, o.band});
-    epoch_psfs_.push_back(&o.psf);
+    epochs_.push_back(arena.observation(o));
+    epochs_.back().psf = prepared;
     const double xx = prepared->xx(), xy = prepared->xy(), yy = prepared->yy();
     psf_e1 += (xx - yy) / (xx + yy), psf_e2 += 2 * xy / (xx + yy), psf_size += std::sqrt(0.5 * (xx + yy));
   }
@@ -92,7 +92,6 @@ bool SurveyObjectFitter::collect(const ObservationArena& arena, int object, int 
 MedsObjectResult SurveyObjectFitter::fit(const ObservationArena& arena, int object, long long row,
                                          const ObjectRecord& identity) {
   epochs_.clear();
-  epoch_psfs_.clear();
   MedsObjectResult out;
   out.id = identity.id, out.number = identity.survey.number, out.ra = identity.survey.ra, out.dec = identity.survey.dec;
   out.bulge_or_disc = options_.model == MedsModel::kBulgeOrDisc;
@@ -113,12 +112,7 @@ void SurveyObjectFitter::fit_one_band(const ObservationArena& arena, int object,
   MedsObjectResult& out = *result;
   if (!collect(arena, object, 0, row, &out)) return;
   if (metacal_) {
-    metacal_epochs_.clear();
-    for (std::size_t k = 0; k < epochs_.size(); ++k) {
-      const Observation& e = epochs_[k];
-      metacal_epochs_.push_back({e.pixels, e.weight, e.box_size, e.frame, epoch_psfs_[k], e.flux_scale});
-    }
-    metacal_->fit(metacal_epochs_, out.id, kFlagMetacalFailure, &out.fit, &out.metacal, &out.flags,
+    metacal_->fit(epochs_, out.id, kFlagMetacalFailure, &out.fit, &out.metacal, &out.flags,
                   &out.problem);
     out.gamma_fwhm = metacal_->gamma_fwhm();
     if (metacal_->epochs_used() > 0) out.n_epochs = metacal_->epochs_used();
@@ -151,7 +145,7 @@ void SurveyObjectFitter::fit_bands(const ObservationArena& arena, int object, lo
     const bool usable = collect(arena, object, b, row, &band);
     if (!band.problem.empty() && out.problem.empty()) out.problem = "band " + bands_[static_cast<std::size_t>(b)] + ": " + band.problem;
     if (!usable) {
-      epochs_.resize(first), epoch_psfs_.resize(first);  // a band left out contributes no cutout
+      epochs_.resize(first);  // a band left out contributes no cutout
       // Why the band was left out excludes the row only when no band is left (below); a band
       // without PSFs keeps kFlagPsfCutoutDropped, which the shear estimates do not cut on.
       constexpr std::uint32_t kWhyLeftOut = kFlagNoUsableEpoch | kFlagTooMasked | kFlagPsfFailure;
@@ -174,12 +168,7 @@ void SurveyObjectFitter::fit_bands(const ObservationArena& arena, int object, lo
   out.masked_fraction = 1.0 - static_cast<double>(pixels_unmasked) / static_cast<double>(pixels_total);
   out.psf_e1 = psf_e1 / out.n_epochs, out.psf_e2 = psf_e2 / out.n_epochs, out.psf_size = psf_size / out.n_epochs;
   if (metacal_) {
-    metacal_epochs_.clear();
-    for (std::size_t k = 0; k < epochs_.size(); ++k) {
-      const Observation& e = epochs_[k];
-      metacal_epochs_.push_back({e.pixels, e.weight, e.box_size, e.frame, epoch_psfs_[k], e.flux_scale, e.band});
-    }
-    metacal_->fit(metacal_epochs_, out.id, kFlagMetacalFailure, &out.fit, &out.metacal, &out.flags, &out.problem, n,
+    metacal_->fit(epochs_, out.id, kFlagMetacalFailure, &out.fit, &out.metacal, &out.flags, &out.problem, n,
                   &out.bands);
     out.gamma_fwhm = metacal_->gamma_fwhm();
     if (metacal_->epochs_used() > 0) out.n_epochs = metacal_->epochs_used();

@@ -78,9 +78,7 @@ class SurveyObjectFitter {
   std::unique_ptr<ObjectFitter> bulge_fitter_;  // bord: the pure bulge
   std::unique_ptr<MetacalFitter> metacal_;    // metacal runs
   std::map<int, std::shared_ptr<const PreparedPsf>> options_psf_;  // meds_psf = options, per box size
-  std::vector<Observation> epochs_;                // the current object's, reused
-  std::vector<const PsfModel*> epoch_psfs_;       // metacal: their PSFs, unprepared
-  std::vector<MetacalEpoch> metacal_epochs_;
+  std::vector<Observation> epochs_;  // the current object's, PSFs prepared and as models (metacal), reused
   std::vector<BandFit> bulge_bands_;  // bord over bands: the pure bulge's band parts, reused
 };
 

@@ -66,7 +66,7 @@ std::span<const double> stamp(int i) {
 }
 
 // A grid stamp as metacal takes it (StampFitter): one epoch in its pixel grid.
-MetacalEpoch stamp_epoch(int i, const PsfModel& p) { return {stamp(i), {}, stamps().size, PixelFrame{}, &p}; }
+Observation stamp_epoch(int i, const PsfModel& p) { return {.pixels = stamp(i), .box_size = stamps().size, .psf_model = &p}; }
 
 void BM_OneFit(benchmark::State& state) {
   FftPlanCache plans(FftPlanning::kEstimate);
@@ -107,7 +107,7 @@ void metacal_rows(benchmark::State& state, MetacalModel model) {
   for (auto _ : state)
     for (int i = 0; i < kStamps; ++i, ++n) {
       std::uint32_t flags = 0;
-      const MetacalEpoch epoch = stamp_epoch(i, p);
+      const Observation epoch = stamp_epoch(i, p);
       mcal.fit({&epoch, 1}, i, 1u << 18, &r, &rec, &flags, &problem);
       failed += flags != 0;
     }

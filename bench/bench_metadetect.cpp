@@ -38,6 +38,7 @@ struct Cells {
   std::vector<SimCell> cells;
   PsfModel psf;
   std::vector<double> weight;
+  std::vector<MetadetectBand> bands;  // each cell's one band
   // reference: the reference package's shear-test cell (`sim cells --reference`): its positions,
   // round galaxies, per-object S/N 1e6 (deep: large isophotes, most galaxies one segment).
   explicit Cells(CellLayout layout, bool reference = false) {
@@ -51,15 +52,18 @@ struct Cells {
     img->pixels = sim.bands()[0].psf;
     psf = PsfModel::Image(img);
     weight.assign(cells[0].bands[0].image.size(), 1.0 / (sim.bands()[0].noise_sigma * sim.bands()[0].noise_sigma));
+    for (const SimCell& c : cells) {
+      MetadetectBand& b = bands.emplace_back();
+      b.image.pixels = c.bands[0].image, b.image.weight = weight, b.image.box_size = options.size;
+      b.image.psf_model = &psf;
+    }
   }
+  Cells(const Cells&) = delete;  // bands point into its own members
   MetadetectCell cell(int k) const {
     MetadetectCell c;
     c.index = k;
-    c.size = options.size;
-    c.pixels = cells[k].bands[0].image;
-    c.weight = weight;
+    c.bands = std::span<const MetadetectBand>(&bands[static_cast<std::size_t>(k)], 1);
     c.pixel_scale = options.pixel_scale;
-    c.psf = &psf;
     c.keep_x0 = c.keep_y0 = options.buffer - 0.5;
     c.keep_x1 = c.keep_y1 = options.size - options.buffer - 0.5;
     return c;

@@ -157,8 +157,8 @@ void metacal_epochs(benchmark::State& state, int epochs, MetacalModel model = Me
   mo.enabled = true;
   mo.model = model;
   MetacalFitter fitter(options(), mo);
-  std::vector<MetacalEpoch> data;
-  for (const Cutout& c : cutouts()) data.push_back({c.pixels, c.weight, kBox, c.frame, image_psf ? &c.psf_image : &c.psf, 1.0});
+  std::vector<Observation> data;
+  for (const Cutout& c : cutouts()) data.push_back({.pixels = c.pixels, .weight = c.weight, .box_size = kBox, .frame = c.frame, .psf_model = image_psf ? &c.psf_image : &c.psf});
   long long n = 0, failed = 0;
   for (auto _ : state)
     for (int g = 0; g < kGalaxies; ++g, ++n) {
@@ -166,7 +166,7 @@ void metacal_epochs(benchmark::State& state, int epochs, MetacalModel model = Me
       MetacalRecord record;
       std::uint32_t flags = 0;
       std::string problem;
-      fitter.fit(std::span<const MetacalEpoch>(data).subspan(g * kEpochs, epochs), g, 1, &noshear, &record, &flags, &problem);
+      fitter.fit(std::span<const Observation>(data).subspan(g * kEpochs, epochs), g, 1, &noshear, &record, &flags, &problem);
       failed += flags != 0;
     }
   state.counters["failed"] = static_cast<double>(failed) / static_cast<double>(n);

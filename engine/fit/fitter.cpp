@@ -1,13 +1,12 @@
 // Single-stamp fitting; see fitter.hpp.
 #include "engine/fit/fitter.hpp"
 
-#include "engine/fit/solve.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
 
+#include "engine/fit/fit_result_assembly.hpp"
 #include "engine/fit/solve.hpp"
 #include "engine/solver/variable_projection.hpp"
 #include "kernels/least_squares.hpp"
@@ -511,42 +510,24 @@ FitResult Fitter::run(const ParamVector& start, std::uint32_t flags) {
     r.flags = flags;
     return r;
   }
-  const ParamVector& p = problem.params();
-  const double chi2 = solved.chi2;
-  const LmMatrix& cov = solved.cov;
-  const bool cov_ok = solved.cov_ok;
-  const LmSummary& sum = solved.summary;
-  // Errors from the inverse of J^T W J, in data units: chi2 = units_.chi2() chi2_internal, so
-  // cov(x_data) = unit_k unit_l cov(x_internal) / units_.chi2().
-  if (!cov_ok) flags |= kFlagNoErrors;
-  for (int k = 0; k < num_free_; ++k) {
-    const int i = index(free_[k]);
-    const double unit = units_.of(free_[k]);
-    if (cov_ok) r.errors[i] = units_.error(free_[k], cov(k, k));
-    // Within 1e-6 of a bound in the fit's units, so the test does not depend on the data's scale.
-    if (std::abs(p[i] - lower_[i] / unit) < 1e-6 || std::abs(p[i] - upper_[i] / unit) < 1e-6) flags |= kFlagAtBound;
-  }
-  // Report the effective (mirrored, softened) values the model was drawn with, in data units.
-  if (std::hypot(p[index(Param::kE1)], p[index(Param::kE2)]) > options_.model.ellipticity_mirror) flags |= kFlagMirrored;
-  ParamVector effective;
-  renderer_->effective_params(p, &effective);
-  r.params = units_.to_data(effective);
-  r.e1_err = r.errors[index(Param::kE1)];
-  r.e2_err = r.errors[index(Param::kE2)];
-  renderer_->component_fluxes(p, &r.bulge_flux, &r.disc_flux);
-  r.bulge_flux *= units_.data;
-  r.disc_flux *= units_.data;
-  r.flux = r.bulge_flux + r.disc_flux;
-  r.chi2 = chi2 * units_.chi2();
-  r.likelihood = -0.5 * r.chi2;
+  // The S/N's signal, sum w m^2 of the best model: none without weights.
+  SolvedBand band{.band = 0, .params = problem.params()};
   if (!(flags & kFlagUnweighted)) {
     double s2 = 0;
     const auto& m = problem_->jacobian_model();
     for (std::size_t i = 0; i < m.size(); ++i) s2 += weight_[i] * m[i] * m[i];
-    r.snr = std::sqrt(s2 * units_.chi2());
+    band.signal = s2;
   }
-  r.status = status_of_stop(sum.reason, &flags);
-  r.flags = flags;
+  assemble_fit_result({.solved = solved,
+                       .free = std::span<const Param>(free_.data(), static_cast<std::size_t>(num_free_)),
+                       .bands = std::span<const SolvedBand>(&band, 1),
+                       .units = units_,
+                       .renderer = *renderer_,
+                       .ellipticity_mirror = options_.model.ellipticity_mirror,
+                       .lower = &lower_,
+                       .upper = &upper_,
+                       .flags = flags},
+                      {}, &r);
   return r;
 }
 

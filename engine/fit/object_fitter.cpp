@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "engine/fit/fit_result_assembly.hpp"
 #include "engine/fit/joint_fit_solve.hpp"
 #include "engine/fit/projected_joint_problem.hpp"
 #include "engine/render/renderer_factory.hpp"
@@ -298,7 +299,7 @@ FitResult ObjectFitter::fit(std::span<const Observation> observations, int n_ban
       std::uint32_t flags = 0;
       const ParamVector start = joint_start(observations, first, &flags);
       amplitude_start_.assign(1, start);
-      r = fit_joint(observations, start, amplitude_start_, slot_of_band_, band_of_slot_, {}, false);
+      r = fit_joint(observations, start, amplitude_start_, slot_of_band_, band_of_slot_, {});
       r.flags |= flags;
     }
     if (!bands.empty()) {
@@ -326,7 +327,7 @@ FitResult ObjectFitter::fit(std::span<const Observation> observations, int n_ban
     const double ratio = a[index(Param::kRadius)] / start[index(Param::kRadius)];
     a[index(Param::kBulgeA)] *= ratio * ratio, a[index(Param::kDiscA)] *= ratio * ratio;
   }
-  r = fit_joint(observations, start, amplitude_start_, slot_of_band_, band_of_slot_, bands, true);
+  r = fit_joint(observations, start, amplitude_start_, slot_of_band_, band_of_slot_, bands);
   r.flags |= flags;
   return r;
 }
@@ -337,12 +338,12 @@ FitResult ObjectFitter::fit_from(std::span<const Observation> observations, cons
   for (const Observation& e : observations)
     if (e.band != 0) throw std::invalid_argument("ObjectFitter::fit_from: one band's observations only");
   amplitude_start_.assign(1, start);
-  return fit_joint(observations, start, amplitude_start_, slot_of_band_, band_of_slot_, {}, false);
+  return fit_joint(observations, start, amplitude_start_, slot_of_band_, band_of_slot_, {});
 }
 
 FitResult ObjectFitter::fit_joint(std::span<const Observation> observations, const ParamVector& start,
                                   std::span<const ParamVector> amplitude_start, std::span<const int> slot_of_band,
-                                  std::span<const int> band_of_slot, std::span<BandFit> bands, bool per_band) {
+                                  std::span<const int> band_of_slot, std::span<BandFit> bands) {
   FitResult r;
   std::array<Param, kNumParams> free_all{};
   const int nf = options_.params.free_params(&free_all);
@@ -376,52 +377,19 @@ FitResult ObjectFitter::fit_joint(std::span<const Observation> observations, con
   } else if (!solve(*problem_, x0, options_, problem_->lm_units(), coarse, &r, &solved)) {
     return r;
   }
-  const LmSummary& sum = solved.summary;
-  std::uint32_t flags = 0;
-  if (!solved.cov_ok) flags |= kFlagNoErrors;
-  // Errors of the shape and, in a one-band fit, of its amplitudes (several bands: per band, unreported).
-  for (int k = 0; k < nf; ++k) {
-    const Param q = free[static_cast<std::size_t>(k)];
-    if (solved.cov_ok && !(per_band && is_amplitude(q))) r.errors[index(q)] = units.error(q, solved.cov(k, k));
-  }
-  const ParamVector p0 = problem_->full(sum.x, 0);
-  if (std::hypot(p0[index(Param::kE1)], p0[index(Param::kE2)]) > options_.model.ellipticity_mirror) flags |= kFlagMirrored;
-  Renderer& any = renderer_for(observations.front().box_size);
-  ParamVector effective{};
-  any.effective_params(p0, &effective);
-  r.params = units.to_data(effective);
-  r.e1_err = r.errors[index(Param::kE1)];
-  r.e2_err = r.errors[index(Param::kE2)];
-  double signal = 0;
-  if (!per_band) {
-    any.component_fluxes(p0, &r.bulge_flux, &r.disc_flux);
-    r.bulge_flux *= units.data, r.disc_flux *= units.data;
-    signal = project_ ? projected_->signal(0) : problem_->signal(0);
-  } else {
-    r.params[index(Param::kBulgeA)] = r.params[index(Param::kDiscA)] = NAN;
-    r.bulge_flux = r.disc_flux = 0;
-    for (int s = 0; s < slots; ++s) {
-      BandFit one;
-      BandFit& band = bands.empty() ? one : bands[static_cast<std::size_t>(band_of_slot[static_cast<std::size_t>(s)])];
-      const ParamVector ps = problem_->full(sum.x, s);
-      any.effective_params(ps, &effective);
-      band.bulge_a = effective[index(Param::kBulgeA)] * units.data, band.disc_a = effective[index(Param::kDiscA)] * units.data;
-      any.component_fluxes(ps, &band.bulge_flux, &band.disc_flux);
-      band.bulge_flux *= units.data, band.disc_flux *= units.data;
-      band.flux = band.bulge_flux + band.disc_flux;
-      const double band_signal = project_ ? projected_->signal(s) : problem_->signal(s);
-      band.snr = std::sqrt(band_signal * units.chi2());
-      r.bulge_flux += band.bulge_flux;
-      r.disc_flux += band.disc_flux;
-      signal += band_signal;
-    }
-  }
-  r.flux = r.bulge_flux + r.disc_flux;
-  r.chi2 = solved.chi2 * units.chi2();
-  r.likelihood = -0.5 * r.chi2;
-  r.snr = std::sqrt(signal * units.chi2());
-  r.status = status_of_stop(sum.reason, &flags);
-  r.flags = flags;
+  // Each band's optimum and signal (sum w m^2 over its cutouts).
+  std::array<SolvedBand, kMaxBands> solved_bands;
+  for (int s = 0; s < slots; ++s)
+    solved_bands[static_cast<std::size_t>(s)] = {.band = band_of_slot[static_cast<std::size_t>(s)],
+                                                  .params = problem_->full(solved.summary.x, s),
+                                                  .signal = project_ ? projected_->signal(s) : problem_->signal(s)};
+  assemble_fit_result({.solved = solved,
+                       .free = free,
+                       .bands = std::span<const SolvedBand>(solved_bands.data(), static_cast<std::size_t>(slots)),
+                       .units = units,
+                       .renderer = renderer_for(observations.front().box_size),
+                       .ellipticity_mirror = options_.model.ellipticity_mirror},
+                      bands, &r);
   return r;
 }
 

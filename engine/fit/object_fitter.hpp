@@ -71,10 +71,11 @@ class ObjectFitter {
   class Problem;
   Fitter& stamp_fitter_for(int box_size);  // the single-stamp fitter for that box size (made on first use)
   // The joint fit from `start` over `slots` bands (slot_of_band: each band's slot, -1 left out),
-  // amplitude_start: each slot's amplitudes' start. Fills bands (when not empty) of those slots.
+  // amplitude_start: each slot's amplitudes' start. Several slots: fills bands (when not empty) of
+  // those slots.
   FitResult fit_joint(std::span<const Observation> observations, const ParamVector& start,
                       std::span<const ParamVector> amplitude_start, std::span<const int> slot_of_band,
-                      std::span<const int> band_of_slot, std::span<BandFit> bands, bool per_band);
+                      std::span<const int> band_of_slot, std::span<BandFit> bands);
 
   FitterOptions options_;
   FftPlanCache plans_;

@@ -75,9 +75,9 @@ bool MetacalFitter::reconvolve(std::string* error) {
   const std::size_t n = used_.size();
   bool same = have_gamma_ && gamma_psfs_.size() == n;
   for (std::size_t k = 0; k < n && same; ++k) {
-    const MetacalEpoch& e = *used_[k];
+    const Observation& e = *used_[k];
     const PixelFrame& f = psfs_[k].frame;
-    same = *e.psf == gamma_psfs_[k] && e.frame.dudx == f.dudx && e.frame.dudy == f.dudy && e.frame.dvdx == f.dvdx &&
+    same = *e.psf_model == gamma_psfs_[k] && e.frame.dudx == f.dudx && e.frame.dudy == f.dudy && e.frame.dvdx == f.dvdx &&
            e.frame.dvdy == f.dvdy && e.frame.x_ref == f.x_ref && e.frame.y_ref == f.y_ref &&
            set_for(e.box_size).period() == psfs_[k].period;
   }
@@ -88,7 +88,7 @@ bool MetacalFitter::reconvolve(std::string* error) {
     prepared_.assign(n, nullptr);
     gamma_error_.clear();
     for (std::size_t k = 0; k < n; ++k) {
-      gamma_psfs_[k] = *used_[k]->psf;
+      gamma_psfs_[k] = *used_[k]->psf_model;
       psfs_[k] = {&gamma_psfs_[k], used_[k]->frame, set_for(used_[k]->box_size).period()};
     }
     gamma_served_ = sky_reconvolution(psfs_, options_, &gamma_, &gamma_error_);
@@ -112,7 +112,7 @@ void MetacalFitter::size_for_used() {
 }
 
 void MetacalFitter::make_epoch_images(std::size_t k, std::int64_t object_id) {
-  const MetacalEpoch& e = *used_[k];
+  const Observation& e = *used_[k];
   const std::size_t npix = static_cast<std::size_t>(e.box_size) * e.box_size;
   images_[k].resize(kNumMetacalTypes * npix);
   // A simulated noise pair's members (4q + r and 4q + 2 + r) share one field, negated for the
@@ -129,7 +129,7 @@ void MetacalFitter::make_epoch_images(std::size_t k, std::int64_t object_id) {
 }
 
 void MetacalFitter::set_fit_weight(std::size_t k) {
-  const MetacalEpoch& e = *used_[k];
+  const Observation& e = *used_[k];
   const std::size_t npix = static_cast<std::size_t>(e.box_size) * e.box_size;
   const double variance = variances_[k];
   weights_[k].resize(npix);
@@ -147,7 +147,7 @@ void MetacalFitter::set_fit_weight(std::size_t k) {
   fit_weights_[k] = weights_[k];
 }
 
-bool MetacalFitter::make_images(const MetacalEpoch& epoch, std::int64_t object_id, double* image_variance,
+bool MetacalFitter::make_images(const Observation& epoch, std::int64_t object_id, double* image_variance,
                                 std::string* error) {
   used_.assign(1, &epoch);
   if (!reconvolve(error)) return false;
@@ -157,7 +157,7 @@ bool MetacalFitter::make_images(const MetacalEpoch& epoch, std::int64_t object_i
   return true;
 }
 
-void MetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int64_t object_id, std::uint32_t failure_flag,
+void MetacalFitter::fit(std::span<const Observation> epochs, std::int64_t object_id, std::uint32_t failure_flag,
                         FitResult* noshear, MetacalRecord* record, std::uint32_t* flags, std::string* problem,
                         int n_bands, std::vector<BandFit>* bands) {
   *record = MetacalRecord();
@@ -172,33 +172,33 @@ void MetacalFitter::fit(std::span<const MetacalEpoch> epochs, std::int64_t objec
   };
   // What the fitter refuses on the data is refused here too: the image operations would spread a
   // NaN over every pixel.
-  for (const MetacalEpoch& e : epochs)
+  for (const Observation& e : epochs)
     for (std::size_t i = 0; i < e.pixels.size(); ++i) {
       const double w = e.weight.empty() ? 1.0 : e.weight[i];
       if (w != 0 && !(std::isfinite(e.pixels[i]) && w > 0 && std::isfinite(w)))
         return fail(FitStatus::kBadPixels, "metacal: a pixel or its weight is not finite, or a weight is negative");
     }
   // The epochs without masked pixels; all of them (masked pixels zeroed) when none is clean.
-  auto clean = [](const MetacalEpoch& e) { return std::all_of(e.weight.begin(), e.weight.end(), [](double w) { return w > 0; }); };
-  auto has_data = [](const MetacalEpoch& e) {
+  auto clean = [](const Observation& e) { return std::all_of(e.weight.begin(), e.weight.end(), [](double w) { return w > 0; }); };
+  auto has_data = [](const Observation& e) {
     return e.weight.empty() || std::any_of(e.weight.begin(), e.weight.end(), [](double w) { return w > 0; });
   };
   used_.clear();
   bool any_data = false;
-  for (const MetacalEpoch& e : epochs) {
+  for (const Observation& e : epochs) {
     any_data = any_data || has_data(e);
     if (clean(e)) used_.push_back(&e);
   }
   if (!any_data) return fail(FitStatus::kNoData, "metacal: every pixel of every cutout is masked");
   if (used_.empty()) {
-    for (const MetacalEpoch& e : epochs)
+    for (const Observation& e : epochs)
       if (has_data(e)) used_.push_back(&e);
     *flags |= failure_flag;
     if (problem->empty()) *problem = "metacal: every cutout has masked pixels (used zeroed; R not usable)";
   }
   // A flat epoch set would give fixnoise a galaxy of noise to fit.
   bool flat = true;
-  for (const MetacalEpoch* e : used_) {
+  for (const Observation* e : used_) {
     double first = NAN;
     for (std::size_t i = 0; i < e->pixels.size() && flat; ++i) {
       if (!e->weight.empty() && e->weight[i] == 0) continue;
@@ -257,7 +257,7 @@ const MultiBandFitResult& MetacalFitter::measure(MetacalType t, int n_bands, boo
   }
   fit_epochs_.clear();
   for (std::size_t k = 0; k < used_.size(); ++k) {
-    const MetacalEpoch& e = *used_[k];
+    const Observation& e = *used_[k];
     const std::size_t npix = static_cast<std::size_t>(e.box_size) * e.box_size;
     fit_epochs_.push_back({std::span<const double>(images_[k]).subspan(static_cast<int>(t) * npix, npix),
                            fit_weights_[k], e.box_size, e.frame, prepared_[k], e.flux_scale, e.band});
@@ -282,7 +282,7 @@ const MultiBandFitResult& MetacalFitter::measure(MetacalType t, int n_bands, boo
 void MetacalFitter::moment_stamps(MetacalType t, int band, bool* unweighted) {
   stamps_.clear();
   for (std::size_t k = 0; k < used_.size(); ++k) {
-    const MetacalEpoch& e = *used_[k];
+    const Observation& e = *used_[k];
     if (band >= 0 && e.band != band) continue;
     const std::size_t npix = static_cast<std::size_t>(e.box_size) * e.box_size;
     kernels::MomentsStamp s;

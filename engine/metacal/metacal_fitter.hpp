@@ -25,7 +25,7 @@
 
 #include "engine/fit/multi_band_result.hpp"
 #include "engine/fit/object_fitter.hpp"
-#include "engine/metacal/metacal_epoch.hpp"
+#include "engine/fit/observation.hpp"
 #include "engine/metacal/metacal_image_set.hpp"
 #include "engine/metacal/metacal_noise.hpp"
 #include "engine/metacal/metacal_options.hpp"
@@ -59,19 +59,20 @@ class MetacalFitter {
                 FftPlanning planning = FftPlanning::kEstimate, ImageWeight image_weight = ImageWeight::kDataMask);
   ~MetacalFitter();
 
+  // epochs: each with its psf_model (their prepared psf is not read: the fits draw with Gamma).
   // *noshear: the noshear fit (sky units); *record: R and the sheared fits; *flags gains
   // failure_flag when R is unusable (a fit not ok, masked pixels in every epoch, no Gamma, bad
   // pixels); *problem (when empty) the first reason. object_id keys the fixnoise fields. Epochs of
   // `n_bands` bands (their `band` in 0..n_bands-1): *bands (when not null) gets the noshear fit's
   // per-band part.
-  void fit(std::span<const MetacalEpoch> epochs, std::int64_t object_id, std::uint32_t failure_flag, FitResult* noshear,
+  void fit(std::span<const Observation> epochs, std::int64_t object_id, std::uint32_t failure_flag, FitResult* noshear,
            MetacalRecord* record, std::uint32_t* flags, std::string* problem, int n_bands = 1,
            std::vector<BandFit>* bands = nullptr);
 
   // The five images of one epoch into images(0), fixnoise included, nothing fitted (for tests and
   // benchmarks); *image_variance: their per-pixel noise variance (0 for noise-free data). False,
   // with *error, when no Gamma serves its PSF.
-  bool make_images(const MetacalEpoch& epoch, std::int64_t object_id, double* image_variance, std::string* error);
+  bool make_images(const Observation& epoch, std::int64_t object_id, double* image_variance, std::string* error);
 
   // The last object's: Gamma's FWHM on the sky (NaN when none served), epochs used.
   double gamma_fwhm() const { return gamma_fwhm_; }
@@ -111,7 +112,7 @@ class MetacalFitter {
   ImageWeight image_weight_;
   ObjectFitter fitter_;
   std::map<int, std::unique_ptr<MetacalImageSet>> sets_;
-  std::vector<const MetacalEpoch*> used_;
+  std::vector<const Observation*> used_;
   std::vector<std::vector<double>> images_, weights_;
   std::vector<std::span<const double>> fit_weights_;  // each used epoch's (empty: noise_sigma's)
   std::vector<double> variances_;                      // each used epoch's image noise variance (0: noise-free)

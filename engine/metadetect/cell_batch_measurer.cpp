@@ -29,21 +29,16 @@ void CellBatchMeasurer::fit(StampBatch& batch) {
       return c.noise_offset < 0 ? std::span<const double>()
                                 : std::span<const double>(data.noise).subspan(c.noise_offset + b * npix, npix);
     };
+    bands_.clear();
+    for (int b = 0; b < c.bands; ++b) {
+      const ArenaObservation& ob = batch.observations[c.first_observation + b];
+      bands_.push_back({.image = batch.observations.observation(ob), .noise = noise(b)});
+    }
     MetadetectCell cell;
     cell.index = batch.records[k].id;
-    cell.size = o.box_size;
-    cell.pixels = batch.observations.pixels(o);
-    cell.weight = batch.observations.weights(o);
-    cell.noise = noise(0);
-    other_bands_.clear();
-    for (int b = 1; b < c.bands; ++b) {
-      const ArenaObservation& ob = batch.observations[c.first_observation + b];
-      other_bands_.push_back({batch.observations.pixels(ob), batch.observations.weights(ob), noise(b), &ob.psf});
-    }
-    cell.other_bands = other_bands_;
+    cell.bands = bands_;
     cell.origin_x = c.place.x0, cell.origin_y = c.place.y0;
     cell.pixel_scale = c.pixel_scale;
-    cell.psf = &o.psf;
     cell.keep_x0 = c.place.keep_x0, cell.keep_x1 = c.place.keep_x1;
     cell.keep_y0 = c.place.keep_y0, cell.keep_y1 = c.place.keep_y1;
     cell.lens_g1 = c.lens_g1, cell.lens_g2 = c.lens_g2;

@@ -18,7 +18,7 @@ class CellBatchMeasurer : public BatchFitter {
 
  private:
   CellMeasurer measurer_;
-  std::vector<MetadetectBand> other_bands_;
+  std::vector<MetadetectBand> bands_;  // the current cell's, reused
 };
 
 }  // namespace stampede

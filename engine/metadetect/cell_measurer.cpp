@@ -65,7 +65,7 @@ RandomStream fixnoise_stream(std::uint64_t seed, long long cell, std::size_t ban
 
 bool CellMeasurer::prepare_psf(double pixel_scale, std::string* problem) {
   bool same = have_psf_ && pixel_scale == psf_scale_ && psfs_.size() == bands_.size();
-  for (std::size_t b = 0; same && b < bands_.size(); ++b) same = same_psf(*bands_[b].psf, psfs_[b]);
+  for (std::size_t b = 0; same && b < bands_.size(); ++b) same = same_psf(*bands_[b].image.psf_model, psfs_[b]);
   if (same) {
     // A cell with the PSF that failed last fails alike, and says why (every failed cell is counted).
     if (filters_.empty()) *problem = psf_problem_;
@@ -82,7 +82,7 @@ bool CellMeasurer::prepare_psf(double pixel_scale, std::string* problem) {
 bool CellMeasurer::prepare_new_psf(double pixel_scale, std::string* problem) {
   have_psf_ = true;
   psfs_.clear();
-  for (const MetadetectBand& b : bands_) psfs_.push_back(*b.psf);
+  for (const MetadetectBand& b : bands_) psfs_.push_back(*b.image.psf_model);
   psf_scale_ = pixel_scale;
   filters_.clear();
   MetacalOptions metacal;
@@ -161,29 +161,33 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
     *problem = why;
     return false;
   };
-  if (!images_set_ || images_set_->stamp_size() != cell.size)
+  if (cell.bands.empty()) return fail("no bands");
+  if (cell.bands.size() > static_cast<std::size_t>(kMaxMetadetectBands))
+    return fail("more than " + std::to_string(kMaxMetadetectBands) + " bands");
+  for (std::size_t b = 1; b < cell.bands.size(); ++b)
+    if (cell.bands[b].image.box_size != cell.size())
+      return fail("band " + std::to_string(b) + " is " + std::to_string(cell.bands[b].image.box_size) +
+                  " pixels, the cell " + std::to_string(cell.size()));
+  if (!images_set_ || images_set_->stamp_size() != cell.size())
     images_set_ = std::make_unique<MetacalImageSet>(
-        cell.size, planning_, MetacalImager::padded_size(cell.size, kCellMargin),
+        cell.size(), planning_, MetacalImager::padded_size(cell.size(), kCellMargin),
         options_.double_images ? MetacalImageSet::Precision::kDouble : MetacalImageSet::Precision::kSingle,
         MetacalImageSet::NoiseDraw::kPairs),
     have_psf_ = false;
-  if (static_cast<int>(cell.other_bands.size()) >= kMaxMetadetectBands)
-    return fail("more than " + std::to_string(kMaxMetadetectBands) + " bands");
-  if (options_.per_object_metacal && !cell.other_bands.empty())
+  if (options_.per_object_metacal && cell.bands.size() > 1)
     return fail("per-object metacal measures one band");
-  if (fitter_ && !cell.other_bands.empty())
+  if (fitter_ && cell.bands.size() > 1)
     return fail(std::string("measurement ") + metadetect_measurement_name(options_.measurement) +
                 " fits one band (wmom and pgauss measure several)");
-  bands_.clear();
-  bands_.push_back({cell.pixels, cell.weight, cell.noise, cell.psf});
-  bands_.insert(bands_.end(), cell.other_bands.begin(), cell.other_bands.end());
+  bands_ = cell.bands;
   for (std::size_t b = 0; b < bands_.size(); ++b)
-    if (!bands_[b].psf) return fail(b == 0 ? std::string("no PSF") : "no PSF for band " + std::to_string(b));
+    if (!bands_[b].image.psf_model) return fail(b == 0 ? std::string("no PSF") : "no PSF for band " + std::to_string(b));
   cell_masked_ = false;
   for (const MetadetectBand& b : bands_)
-    cell_masked_ = cell_masked_ || std::any_of(b.weight.begin(), b.weight.end(), [](double w) { return !(w > 0); });
+    cell_masked_ =
+        cell_masked_ || std::any_of(b.image.weight.begin(), b.image.weight.end(), [](double w) { return !(w > 0); });
   if (!prepare_psf(cell.pixel_scale, problem)) return fail(*problem);
-  const std::size_t npix = static_cast<std::size_t>(cell.size) * cell.size;
+  const std::size_t npix = static_cast<std::size_t>(cell.size()) * cell.size();
   MetacalOptions metacal;
   metacal.enabled = true;
   metacal.step = options_.step;
@@ -192,7 +196,8 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
   variances_.assign(bands_.size(), 0.0);
   for (std::size_t b = 0; b < bands_.size(); ++b) {
     images_[b].resize(kNumMetacalTypes * npix);
-    images_set_->make(bands_[b].pixels, bands_[b].weight, WeightKind::kInverseVariance, 0.0, *filters_[b], metacal,
+    const Observation& image = bands_[b].image;
+    images_set_->make(image.pixels, image.weight, WeightKind::kInverseVariance, 0.0, *filters_[b], metacal,
                       fixnoise_stream(options_.seed, cell.index, b), images_[b], &variances_[b], 1.0, nullptr,
                       bands_[b].noise);
     if (!(variances_[b] > 0) || !std::isfinite(variances_[b]))
@@ -227,7 +232,7 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
                      [](double v) { return static_cast<float>(v); });
     }
     std::string why;
-    if (!detector_.detect(image_f_, cell.size, cell.size, std::sqrt(detection_variance), &detections_, &why))
+    if (!detector_.detect(image_f_, cell.size(), cell.size(), std::sqrt(detection_variance), &detections_, &why))
       return fail(std::string(metacal_type_name(kMetacalTypes[t])) + " image: " + why);
     if (options_.per_object_metacal)
       per_object_rows(cell, rows);
@@ -239,7 +244,7 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
 
 void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::vector<MetadetectRow>* rows) {
   const DetectionStampOptions& so = options_.stamp;
-  const int s = cell.size;
+  const int s = cell.size();
   const std::size_t npix = static_cast<std::size_t>(s) * s, nb = bands_.size();
   const std::span<const double> image(images_[0].data() + static_cast<std::size_t>(type) * npix, npix);
   if (band_stamps_.size() < nb) band_stamps_.resize(nb);
@@ -276,7 +281,8 @@ void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::vect
       if (!cell_masked_) continue;
       for (int i = 0; i < inside; ++i) {
         bool masked_here = false;
-        for (const MetadetectBand& b : bands_) masked_here = masked_here || (!b.weight.empty() && !(b.weight[p0 + i] > 0));
+        for (const MetadetectBand& b : bands_)
+          masked_here = masked_here || (!b.image.weight.empty() && !(b.image.weight[p0 + i] > 0));
         masked += masked_here;
       }
     }
@@ -311,7 +317,7 @@ bool CellMeasurer::owns(const MetadetectCell& cell, int type, const Detection& d
   // or enter it with the metacal shear: a term in R from cell boundaries alone, which the next
   // cell's image (sheared about another centre) does not cancel.
   const std::array<double, 4>& a = filters_[0]->inverse_shear(kMetacalTypes[type]);
-  const double c = 0.5 * (cell.size - 1), dx = d.x - c, dy = d.y - c;
+  const double c = 0.5 * (cell.size() - 1), dx = d.x - c, dy = d.y - c;
   double ux = a[0] * dx + a[1] * dy, uy = a[2] * dx + a[3] * dy;
   if (cell.lens_g1 != 0 || cell.lens_g2 != 0) {
     // The scene was sheared by the lens before metacal's step: undone after it.
@@ -441,10 +447,11 @@ void CellMeasurer::fill_fit(const MetadetectCell& cell, std::span<const double> 
   for (const Detection& n : detections_)
     if (&n != &d && std::abs(n.x - d.x) < box && std::abs(n.y - d.y) < box) fit_neighbours_.push_back({n.x, n.y});
   fit_weight_.resize(static_cast<std::size_t>(box) * box);
+  const int s = cell.size();
   for (int j = 0; j < box; ++j)
     for (int i = 0; i < box; ++i) {
       const double x = x0 + i, y = y0 + j;
-      bool keep = x >= 0 && y >= 0 && x < cell.size && y < cell.size;
+      bool keep = x >= 0 && y >= 0 && x < s && y < s;
       const double own = (x - d.x) * (x - d.x) + (y - d.y) * (y - d.y);
       for (std::size_t k = 0; keep && k < fit_neighbours_.size(); ++k) {
         const double dx = x - fit_neighbours_[k][0], dy = y - fit_neighbours_[k][1];
@@ -529,12 +536,13 @@ void CellMeasurer::fill_band_moments(const MetadetectCell& cell, int box, int x0
 }
 
 void CellMeasurer::per_object_rows(const MetadetectCell& cell, std::vector<MetadetectRow>* rows) {
-  const int box = kPerObjectStamp, half = box / 2, s = cell.size;
+  const int box = kPerObjectStamp, half = box / 2, s = cell.size();
+  const MetadetectBand& band = cell.bands.front();
   const std::size_t npix = static_cast<std::size_t>(box) * box;
   stamp_images_.resize(kNumMetacalTypes * npix);
   stamp_pixels_.resize(npix);
   stamp_weight_.resize(npix);
-  stamp_noise_.resize(cell.noise.empty() ? 0 : npix);
+  stamp_noise_.resize(band.noise.empty() ? 0 : npix);
   MetacalOptions metacal;
   metacal.enabled = true;
   metacal.step = options_.step;
@@ -555,9 +563,9 @@ void CellMeasurer::per_object_rows(const MetadetectCell& cell, std::vector<Metad
           continue;
         }
         const std::size_t p = static_cast<std::size_t>(y) * s + x;
-        stamp_pixels_[q] = cell.pixels[p];
-        if (!stamp_noise_.empty()) stamp_noise_[q] = cell.noise[p];
-        stamp_weight_[q] = cell.weight.empty() ? 1.0 : cell.weight[p];
+        stamp_pixels_[q] = band.image.pixels[p];
+        if (!stamp_noise_.empty()) stamp_noise_[q] = band.noise[p];
+        stamp_weight_[q] = band.image.weight.empty() ? 1.0 : band.image.weight[p];
         if (!(stamp_weight_[q] > 0)) ++masked;
       }
     if (masked > 0 && !(flags & kMetadetectEdge)) flags |= kMetadetectMasked;

@@ -18,6 +18,7 @@
 
 #include "engine/common/fftw_support.hpp"
 #include "engine/fit/object_fitter.hpp"
+#include "engine/fit/observation.hpp"
 #include "engine/metacal/metacal_filters.hpp"
 #include "engine/metacal/metacal_image_set.hpp"
 #include "engine/metadetect/metadetect_options.hpp"
@@ -29,34 +30,30 @@
 
 namespace stampede {
 
-// One band of a cell beyond the first: the same pixels seen in another filter.
+// One band of a cell: its image in the cell's pixel grid (box_size the cell's side, inverse-variance
+// weights, 0 masking; psf_model in the cell's pixels) and a realisation of its noise.
 struct MetadetectBand {
-  std::span<const double> pixels;  // size^2, row-major (x fastest)
-  std::span<const double> weight;  // inverse variance; 0 masks
-  std::span<const double> noise;   // a noise realisation (the input's NOISE plane); empty: drawn from the weight
-  const PsfModel* psf = nullptr;   // in the cell's pixels
+  Observation image;
+  // A realisation of the pixels' noise (the input's NOISE plane), fixnoise's field; empty: a field
+  // drawn from the weight with the cell's stream.
+  std::span<const double> noise{};
 };
 
 struct MetadetectCell {
   long long index = 0;  // the cell's number in the run: keys its fixnoise field
-  int size = 0;
-  // The first (or only) band.
-  std::span<const double> pixels;  // size^2, row-major (x fastest)
-  std::span<const double> weight;  // inverse variance; 0 masks
-  // A realisation of the pixels' noise (the input's NOISE plane), fixnoise's field; empty: a field
-  // drawn from the weight with the cell's stream.
-  std::span<const double> noise;
+  // Every band, the first first (1 to kMaxMetadetectBands), each of the cell's side.
+  std::span<const MetadetectBand> bands{};
   double origin_x = 0, origin_y = 0;  // the input image's pixel of the cell's (0, 0)
   double pixel_scale = 0;             // arcsec per pixel
-  const PsfModel* psf = nullptr;      // in the cell's pixels
-  // The bands after the first (at most kMaxMetadetectBands - 1); empty: one band.
-  std::span<const MetadetectBand> other_bands;
   // Detections kept: barycentre, carried back through the image's metacal shear to the unsheared
   // cell, in [keep_x0, keep_x1) x [keep_y0, keep_y1) (cell pixels); the rest belong to a
   // neighbouring cell or to the image's buffer.
   double keep_x0 = 0, keep_x1 = 0, keep_y0 = 0, keep_y1 = 0;
   // The scene's shear to undo as well when deciding that (MetadetectOptions::keep_unlensed): 0 none.
   double lens_g1 = 0, lens_g2 = 0;
+
+  // The cell's side, pixels: its first band's box (0 without bands).
+  int size() const { return bands.empty() ? 0 : bands.front().image.box_size; }
 };
 
 class CellMeasurer {
@@ -102,8 +99,8 @@ class CellMeasurer {
   FftPlanning planning_;
   std::unique_ptr<MetacalImageSet> images_set_;
   bool cell_masked_ = false;  // some band's weight is not positive somewhere in the cell
-  // The cell's bands (the first and other_bands), their PSFs' filters (one Gamma) and images.
-  std::vector<MetadetectBand> bands_;
+  // The bands of the cell being measured, their PSFs' filters (one Gamma) and images.
+  std::span<const MetadetectBand> bands_;
   std::vector<std::shared_ptr<const MetacalFilters>> filters_;
   std::vector<PsfModel> psfs_;
   bool have_psf_ = false;

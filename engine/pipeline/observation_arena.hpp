@@ -22,7 +22,8 @@
 namespace stampede {
 
 // One usable cutout as read: its pixels and weights at `offset` in the arena, its PSF not yet
-// prepared (that is numerics: the fit stage's).
+// prepared (that is numerics: the fit stage's). The fit stage takes it as the one image type,
+// ObservationArena::observation.
 struct ArenaObservation {
   std::size_t offset = 0;  // first of box_size^2 pixels in ObservationArena::pixels / weights
   int box_size = 0;
@@ -110,6 +111,19 @@ class ObservationArena {
   std::span<const double> weights(const ArenaObservation& o) const {
     if (!o.weighted) return {};
     return {weights_.data() + o.offset, static_cast<std::size_t>(o.box_size) * o.box_size};
+  }
+  // o as the fits, metacal and metadetection take an image: its pixels and weights here (valid
+  // until the next add()), its PSF as the model read; the prepared PSF is the fit stage's to set.
+  Observation observation(const ArenaObservation& o) const {
+    Observation image;
+    image.pixels = pixels(o), image.weight = weights(o);
+    image.box_size = o.box_size;
+    image.frame = o.frame;
+    image.flux_scale = o.flux_scale;
+    image.band = o.band;
+    image.weight_kind = o.weight_kind;
+    image.psf_model = &o.psf;
+    return image;
   }
   std::size_t pixels_used() const { return used_; }
   // For a transport (the MPI driver): the raw arrays of pixels_used() values, the observations

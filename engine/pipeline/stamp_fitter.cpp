@@ -29,6 +29,7 @@ void StampFitter::fit(StampBatch& batch) {
     const ArenaObservation& stamp = batch.observations.first_of(k);
     const auto t0 = std::chrono::steady_clock::now();
     std::uint32_t input_flags = rec.flags;
+    Observation image = batch.observations.observation(stamp);
     rec.psf_e1 = psf_e1_;
     rec.psf_e2 = psf_e2_;
     rec.psf_fwhm = psf_fwhm_;
@@ -37,27 +38,22 @@ void StampFitter::fit(StampBatch& batch) {
         std::string error;
         auto prepared = per_object_->get(stamp.psf, fitter_.renderer_for(stamp.box_size), &error);
         if (!prepared) input_flags |= kFlagPsfFailure;
-        observation_.psf = std::move(prepared);
+        image.psf = std::move(prepared);
       }
       rec.psf_e1 = stamp.psf.e1();
       rec.psf_e2 = stamp.psf.e2();
       rec.psf_fwhm = stamp.psf.fwhm();
     }
-    const std::span<const double> pixels = batch.observations.pixels(stamp);
-    const std::span<const double> weight = batch.observations.weights(stamp);
     if (metacal_fitter_) {
       // A PSF metacal cannot use is every row's kPsfFailure; an object's own is also its flag.
-      const MetacalEpoch epoch{pixels, weight, stamp.box_size, PixelFrame{}, per_object_ ? &stamp.psf : &metacal_->shared_psf,
-                               1.0, 0, stamp.weight_kind};
+      if (!per_object_) image.psf_model = &metacal_->shared_psf;
       metacal_problem_.clear();
-      metacal_fitter_->fit({&epoch, 1}, rec.id, kFlagMetacalFailure, &rec.fit, &rec.metacal, &input_flags,
+      metacal_fitter_->fit({&image, 1}, rec.id, kFlagMetacalFailure, &rec.fit, &rec.metacal, &input_flags,
                            &metacal_problem_);
       if (per_object_ && rec.fit.status == FitStatus::kPsfFailure) input_flags |= kFlagPsfFailure;
     } else {
-      observation_.pixels = pixels, observation_.weight = weight, observation_.weight_kind = stamp.weight_kind;
-      observation_.box_size = stamp.box_size;
-      if (!per_object_) observation_.psf = shared_psf_;
-      rec.fit = fitter_.fit({&observation_, 1});
+      if (!per_object_) image.psf = shared_psf_;
+      rec.fit = fitter_.fit({&image, 1});
     }
     rec.flags = rec.fit.flags | input_flags;
     rec.time_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();

@@ -38,7 +38,6 @@ class StampFitter final : public BatchFitter {
   double psf_e1_, psf_e2_, psf_fwhm_;
   std::optional<MetacalSetup> metacal_;
   std::unique_ptr<MetacalFitter> metacal_fitter_;  // metacal runs: replaces fitter_'s fit
-  Observation observation_;  // the stamp being fitted
   std::string metacal_problem_;  // why metacal could not calibrate the stamp (not in the row)
 };
 

@@ -68,9 +68,10 @@ std::vector<Cutout> cutouts(double e1, double e2, double r, std::uint32_t seed, 
   return out;
 }
 
-std::vector<MetacalEpoch> epochs(const std::vector<Cutout>& cs) {
-  std::vector<MetacalEpoch> out;
-  for (const Cutout& c : cs) out.push_back({c.pixels, c.weight, kBox, c.frame, &c.psf, 1.0});
+std::vector<Observation> epochs(const std::vector<Cutout>& cs) {
+  std::vector<Observation> out;
+  for (const Cutout& c : cs)
+    out.push_back({.pixels = c.pixels, .weight = c.weight, .box_size = kBox, .frame = c.frame, .psf_model = &c.psf});
   return out;
 }
 
@@ -315,7 +316,8 @@ TEST(MetacalFitterCutouts, OneCleanCutoutInItsPixelGridIsWeighedAsAStamp) {
       MetacalOptions mo = metacal(with_noise);
       mo.model = model;
       SCOPED_TRACE(::testing::Message() << "model " << static_cast<int>(model) << (with_noise ? ", noisy" : ", weight 1"));
-      const MetacalEpoch one{c->pixels, c->weight, kBox, c->frame, &c->psf, 1.0};
+      const Observation one{
+          .pixels = c->pixels, .weight = c->weight, .box_size = kBox, .frame = c->frame, .psf_model = &c->psf};
       FitResult fits[2];
       MetacalRecord records[2];
       std::uint32_t flags[2] = {0, 0};

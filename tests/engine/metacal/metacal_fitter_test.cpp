@@ -46,14 +46,14 @@ FitterOptions fit_options(double noise_sigma = 0) {
 // its images weighed uniformly (StampFitter's rule).
 constexpr MetacalFitter::ImageWeight kStampWeight = MetacalFitter::ImageWeight::kUniform;
 
-MetacalEpoch stamp_epoch(std::span<const double> pixels, const PsfModel& psf) {
-  return {pixels, {}, kStamp, PixelFrame{}, &psf};
+Observation stamp_epoch(std::span<const double> pixels, const PsfModel& psf) {
+  return {.pixels = pixels, .box_size = kStamp, .psf_model = &psf};
 }
 
 void fit_stamp(MetacalFitter& mcal, std::span<const double> pixels, const PsfModel& psf, std::int64_t id, FitResult* r,
                MetacalRecord* rec, std::uint32_t* flags, std::string* problem = nullptr) {
   std::string ignored;
-  const MetacalEpoch epoch = stamp_epoch(pixels, psf);
+  const Observation epoch = stamp_epoch(pixels, psf);
   mcal.fit({&epoch, 1}, id, kFailure, r, rec, flags, problem ? problem : &ignored);
 }
 
@@ -356,6 +356,38 @@ TEST(MetacalFitter, EachImageIsFittedFromItsOwnStart) {
     EXPECT_EQ(r.params[index(Param::kE1)], e1) << "image " << t;
     EXPECT_EQ(r.params[index(Param::kE2)], e2) << "image " << t;
   }
+}
+
+// Metacal takes an observation's PSF model: a prepared PSF beside it (a survey object's cutouts
+// carry both) changes nothing, whatever PSF it is.
+TEST(MetacalFitter, AnObservationsPreparedPsfIsNotRead) {
+  FftPlanCache plans(FftPlanning::kEstimate);
+  MetacalOptions bd;
+  bd.model = MetacalModel::kBulgeDisc;
+  MetacalFitter mcal(fit_options(1.0), bd, FftPlanning::kEstimate, kStampWeight);
+  std::vector<double> stamp = draw(kGalaxies[1], 0, 0, kPsf);
+  RandomStream rng({7, 8});
+  for (double& v : stamp) v = v / 40 + rng.normal();
+  PsfModel other = kPsf;
+  other.moffat.fwhm *= 1.5;
+  Fitter any(fit_options(1.0), nullptr, plans);
+  std::string error;
+  Observation both = stamp_epoch(stamp, kPsf);
+  both.psf = any.renderer().prepare_psf(other, &error);
+  ASSERT_NE(both.psf, nullptr) << error;
+  FitResult alone, with_prepared;
+  MetacalRecord rec_alone, rec_with;
+  std::uint32_t flags_alone = 0, flags_with = 0;
+  fit_stamp(mcal, stamp, kPsf, 4, &alone, &rec_alone, &flags_alone);
+  mcal.fit({&both, 1}, 4, kFailure, &with_prepared, &rec_with, &flags_with, &error);
+  ASSERT_EQ(alone.status, FitStatus::kOk);
+  EXPECT_EQ(with_prepared.status, alone.status);
+  EXPECT_EQ(flags_with, flags_alone);
+  for (int k = 0; k < kNumParams; ++k)
+    EXPECT_TRUE(std::isnan(alone.params[k]) ? std::isnan(with_prepared.params[k])
+                                            : with_prepared.params[k] == alone.params[k]) << k;
+  EXPECT_EQ(rec_with.r11, rec_alone.r11);
+  EXPECT_EQ(rec_with.r22, rec_alone.r22);
 }
 
 // The fixnoise field is keyed by the object's id: the same object gives the same images whatever

@@ -37,7 +37,8 @@ struct SimulatedCell {
   SimCell cell;
   PsfModel psf;
   std::vector<double> weight;
-  MetadetectCell in;  // band 0: pixels, weight, psf; its keep region the inner region
+  MetadetectBand band;  // the cell's one band: pixels, weight, PSF
+  MetadetectCell in;    // `band`; its keep region the inner region
   SimulatedCell(const CellSimOptions& so, int index, double g1) {
     CellSimulator sim(so);
     auto ws = sim.make_workspace();
@@ -47,12 +48,13 @@ struct SimulatedCell {
     img.pixels = sim.bands()[0].psf;
     psf = PsfModel::Image(std::make_shared<const PsfImage>(img));
     weight.assign(cell.bands[0].image.size(), 1.0 / std::pow(sim.bands()[0].noise_sigma, 2));
+    band.image.pixels = cell.bands[0].image;
+    band.image.weight = weight;
+    band.image.box_size = so.size;
+    band.image.psf_model = &psf;
     in.index = index;
-    in.size = so.size;
-    in.pixels = cell.bands[0].image;
-    in.weight = weight;
+    in.bands = std::span<const MetadetectBand>(&band, 1);
     in.pixel_scale = so.pixel_scale;
-    in.psf = &psf;
     in.keep_x0 = in.keep_y0 = so.buffer - 0.5;
     in.keep_x1 = in.keep_y1 = so.size - so.buffer - 0.5;
   }
@@ -195,14 +197,16 @@ TEST(CellMeasurer, FixnoiseTakesTheNoisePlaneAsItsField) {
   ASSERT_GT(drawn.size(), 100u);
   // The plane equal to the field the weight would draw: the same rows, bit for bit.
   const std::vector<double> same = drawn_field(mo, c.in.index, c.weight.size(), c.weight[0]);
+  MetadetectBand band = c.band;
+  band.noise = same;
   MetadetectCell in = c.in;
-  in.noise = same;
+  in.bands = std::span<const MetadetectBand>(&band, 1);
   const std::vector<MetadetectRow> given = measure_rows(in, mo);
   ASSERT_EQ(given.size(), drawn.size());
   for (std::size_t i = 0; i < drawn.size(); ++i)
     EXPECT_TRUE(same_row(given[i], drawn[i])) << "row " << i;
   // Another realisation (the simulation's own NOISE plane): other rows.
-  in.noise = c.cell.bands[0].noise;
+  band.noise = c.cell.bands[0].noise;
   const std::vector<MetadetectRow> other = measure_rows(in, mo);
   int differ = other.size() != drawn.size();
   for (std::size_t i = 0; i < std::min(other.size(), drawn.size()); ++i) differ += !same_row(other[i], drawn[i]);
@@ -226,16 +230,18 @@ TEST(CellMeasurer, TwoBandsOfOneSceneScaledDetectAndMeasureAsItsOneBand) {
     std::vector<double> pixels2(npix), weight2(npix), noise2(npix);
     for (std::size_t i = 0; i < npix; ++i)
       pixels2[i] = c * sc.cell.bands[0].image[i], weight2[i] = sc.weight[i] / (c * c), noise2[i] = c * noise[i];
-    const MetadetectBand band2{pixels2, weight2, noise2, &sc.psf};
+    MetadetectBand bands[2] = {sc.band, sc.band};
+    bands[0].noise = noise;
+    bands[1].image.pixels = pixels2, bands[1].image.weight = weight2, bands[1].image.band = 1;
+    bands[1].noise = noise2;
     MetadetectCell two = sc.in;
-    two.noise = noise;
-    two.other_bands = std::span<const MetadetectBand>(&band2, 1);
+    two.bands = bands;
     const MetadetectOptions mo;
     const std::vector<MetadetectRow> rows2 = measure_rows(two, mo);
     MetadetectOptions mo1 = mo;
     mo1.detection.threshold = mo.detection.threshold * std::sqrt(1 + 1 / (c * c)) / (1 + 1 / c);
     MetadetectCell one = sc.in;
-    one.noise = noise;
+    one.bands = std::span<const MetadetectBand>(bands, 1);
     const std::vector<MetadetectRow> rows1 = measure_rows(one, mo1);
     ASSERT_GT(rows1.size(), 100u);
     ASSERT_EQ(rows2.size(), rows1.size()) << "c = " << c;
@@ -268,8 +274,10 @@ TEST(CellMeasurer, EachCellsPsfGetsItsOwnFilters) {
   so.snr = 1e4;
   const SimulatedCell sc(so, 0, 0.0);
   const PsfModel wider = PsfModel::Moffat({3.5, 1.3 * so.psf_fwhm / so.pixel_scale, 0.0, 0.0});  // beta, FWHM px
+  MetadetectBand wide = sc.band;
+  wide.image.psf_model = &wider;
   MetadetectCell a = sc.in, b = sc.in;
-  b.psf = &wider;
+  b.bands = std::span<const MetadetectBand>(&wide, 1);
   const MetadetectOptions mo;
   const std::vector<MetadetectRow> fresh_a = measure_rows(a, mo), fresh_b = measure_rows(b, mo);
   CellMeasurer m(mo);
@@ -430,13 +438,15 @@ TEST(CellMeasurer, ACellWithoutNoiseIsOneFlaggedRow) {
   const SimCell c = sim.simulate(0, *ws);
   const PsfModel psf = PsfModel::Moffat({2.5, 3.6, 0.0, 0.0});
   const std::vector<double> weight(c.bands[0].image.size(), 0.0);  // every pixel masked
+  MetadetectBand band;
+  band.image.pixels = c.bands[0].image;
+  band.image.weight = weight;
+  band.image.box_size = so.size;
+  band.image.psf_model = &psf;
   MetadetectCell in;
   in.index = 3;
-  in.size = so.size;
-  in.pixels = c.bands[0].image;
-  in.weight = weight;
+  in.bands = std::span<const MetadetectBand>(&band, 1);
   in.pixel_scale = so.pixel_scale;
-  in.psf = &psf;
   in.keep_x1 = in.keep_y1 = so.size;
   CellMeasurer m(MetadetectOptions{});
   std::vector<MetadetectRow> rows;
@@ -447,6 +457,29 @@ TEST(CellMeasurer, ACellWithoutNoiseIsOneFlaggedRow) {
   EXPECT_EQ(rows[0].id, -1);
   EXPECT_EQ(rows[0].flags, kMetadetectCellFailed);
   EXPECT_NE(problem.find("noise"), std::string::npos) << problem;
+}
+
+// A cell is its bands' images, each of the cell's side: none, or one of another side, is one
+// flagged row saying so.
+TEST(CellMeasurer, ACellWithoutBandsOrWithABandOfAnotherSizeIsOneFlaggedRow) {
+  CellSimOptions so;
+  const SimulatedCell c(so, 0, 0.0);
+  MetadetectBand bands[2] = {c.band, c.band};
+  bands[1].image.box_size = so.size - 2;
+  bands[1].image.band = 1;
+  MetadetectCell none = c.in, mismatched = c.in;
+  none.bands = {};
+  mismatched.bands = bands;
+  for (const MetadetectCell* in : {&none, &mismatched}) {
+    CellMeasurer m(MetadetectOptions{});
+    std::vector<MetadetectRow> rows;
+    std::string problem;
+    EXPECT_FALSE(m.measure(*in, &rows, &problem));
+    ASSERT_EQ(rows.size(), 1u);
+    EXPECT_EQ(rows[0].id, -1);
+    EXPECT_EQ(rows[0].flags, kMetadetectCellFailed);
+    EXPECT_NE(problem.find(in == &none ? "no bands" : "band 1 is"), std::string::npos) << problem;
+  }
 }
 
 TEST(CellMeasurer, ACellWhosePsfHasNoBoundedGammaIsOneFlaggedRow) {
@@ -466,8 +499,10 @@ TEST(CellMeasurer, ACellWhosePsfHasNoBoundedGammaIsOneFlaggedRow) {
       image->pixels.push_back(sum / 25);
     }
   const PsfModel psf = PsfModel::Image(image);
+  MetadetectBand band = c.band;
+  band.image.psf_model = &psf;
   MetadetectCell in = c.in;
-  in.psf = &psf;
+  in.bands = std::span<const MetadetectBand>(&band, 1);
   for (ReconvolutionRule rule : {ReconvolutionRule::kAuto, ReconvolutionRule::kGauss, ReconvolutionRule::kMoffat}) {
     MetadetectOptions mo;
     mo.reconvolution = rule;
