@@ -26,12 +26,18 @@ fitsfile* as_fits(void* p) { return static_cast<fitsfile*>(p); }
 
 // The file part of a CFITSIO path ("a.fits[CASES]" -> "a.fits", "!a.fits" -> "a.fits"), so error
 // messages name the file as it is on disk. Falls back to the path itself.
-// A CFITSIO URL ("http://", "ftp://", "mem://", ...): not a file on disk. stampede identifies a
-// run by its files' bytes, so it reads and writes files on disk only (CFITSIO's parse of an
-// unknown scheme also leaks).
+// A name CFITSIO may take for a URL or a driver ("http://", "ftp:20", "mem://", "stdin"): a scheme,
+// letters before a ':' (a local file of such a name is given as ./NAME). stampede identifies a run by
+// its files' bytes, so it reads and writes files on disk only; CFITSIO would try the network (and
+// hang), or leak in its parse of an unknown scheme.
 bool is_url(const std::string& path) {
-  const std::size_t scheme = path.find("://");
-  return scheme != std::string::npos && !path.starts_with("file://");
+  if (path.starts_with("file://")) return false;
+  if (path == "stdin" || path == "stdout" || path == "-") return true;
+  std::size_t k = 0;
+  while (k < path.size() && (std::isalnum(static_cast<unsigned char>(path[k])) || path[k] == '+' || path[k] == '.' ||
+                             path[k] == '-'))
+    ++k;
+  return k > 0 && k < path.size() && path[k] == ':' && std::isalpha(static_cast<unsigned char>(path[0]));
 }
 
 std::string root_name(const std::string& path) {
@@ -95,7 +101,7 @@ FitsFile::FitsFile(void* fptr, std::string path, bool auto_image)
     : fptr_(fptr), path_(std::move(path)), root_(root_name(path_)), auto_image_(auto_image) {}
 
 FitsFile FitsFile::open_read(const std::string& path) {
-  if (is_url(path)) throw FitsError("cannot open FITS file '" + path + "': a URL, not a file on disk");
+  if (is_url(path)) throw FitsError("cannot open FITS file '" + path + "': a URL or device, not a file on disk (a local file of this name: ./NAME)");
   check_fits_headers(fits_root_name(path));  // before CFITSIO parses what would crash it
   fitsfile* f = nullptr;
   int status = 0;
@@ -111,7 +117,8 @@ FitsFile FitsFile::open_read(const std::string& path) {
 FitsFile FitsFile::create(const std::string& path, bool overwrite) {
   // CFITSIO's "!" prefix means "replace an existing file".
   const std::string name = (overwrite && !path.starts_with('!')) ? "!" + path : path;
-  if (is_url(path)) throw FitsError("cannot create FITS file '" + path + "': a URL, not a file on disk");
+  if (is_url(path))
+    throw FitsError("cannot create FITS file '" + path + "': a URL or device, not a file on disk (a local file of this name: ./NAME)");
   fitsfile* f = nullptr;
   int status = 0;
   fits_create_file(&f, name.c_str(), &status);

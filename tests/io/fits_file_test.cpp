@@ -57,12 +57,12 @@ class FitsFileTmp : public ::testing::Test {
 // its parse of an unknown scheme); a file:// path is a file.
 TEST(FitsFileRead, AUrlIsRefusedByName) {
   for (const std::string url : {"http://example.invalid/a.fits", "ftp://example.invalid/a.fits", "met://rics/minus.fits",
-                                "mem://x"}) {
+                                "mem://x", "ftp:20", "stdin"}) {
     try {
       FitsFile::open_read(url);
       ADD_FAILURE() << url << " was opened";
     } catch (const FitsError& e) {
-      EXPECT_NE(std::string(e.what()).find("'" + url + "': a URL, not a file on disk"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("'" + url + "': a URL or device, not a file on disk"), std::string::npos) << e.what();
     }
     EXPECT_THROW(FitsFile::create(url, true), FitsError) << url;
   }
