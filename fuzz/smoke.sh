@@ -18,7 +18,7 @@ declare -A dict=([run_config]=ini.dict [catalogue]=fits.dict [stamp_grid]=fits.d
 declare -A runs=([stamp_grid]=60000 [weight_map]=30000 [catalogue]=30000 [psf_image]=2000
                  [calibration_table]=18000 [catalog_reader]=13000 [run_config]=5000
                  [meds]=30000 [psfex]=50000 [fit_command_line]=40000 [metadetect_table]=15000 [cell_image]=12000
-                 [metadetect_metrics_arguments]=30000)
+                 [metadetect_metrics_arguments]=100000)
 run() {
   local t="$1" work="$B/fuzz-corpus/$1"
   mkdir -p "$work"  # new inputs go here; the committed corpus is only read
