@@ -27,12 +27,14 @@ fitsfile* as_fits(void* p) { return static_cast<fitsfile*>(p); }
 // The file part of a CFITSIO path ("a.fits[CASES]" -> "a.fits", "!a.fits" -> "a.fits"), so error
 // messages name the file as it is on disk. Falls back to the path itself.
 // A name CFITSIO may take for a URL or a driver ("http://", "ftp:20", "mem://", "stdin"): a scheme,
-// letters before a ':', or "://" anywhere (a local file of such a name is given as ./NAME). stampede identifies a run by
+// letters before a ':', "://" anywhere, or a leading '~' (a local file of such a name is given as
+// ./NAME; the shell expands an unquoted ~). stampede identifies a run by
 // its files' bytes, so it reads and writes files on disk only; CFITSIO would try the network (and
 // hang), or leak in its parse of an unknown scheme.
 bool is_url(const std::string& path) {
   if (path.starts_with("file://")) return false;
   if (path == "stdin" || path == "stdout" || path == "-") return true;
+  if (path.starts_with('~')) return true;  // CFITSIO's own home-directory expansion crashes on an unknown user
   if (path.find("://") != std::string::npos) return true;  // CFITSIO splits a URL there, wherever it is
   std::size_t k = 0;
   while (k < path.size() && (std::isalnum(static_cast<unsigned char>(path[k])) || path[k] == '+' || path[k] == '.' ||

@@ -2,6 +2,7 @@
 #include "io/metadetect_reader.hpp"
 
 #include <algorithm>
+#include <filesystem>
 #include <type_traits>
 
 #include "engine/metacal/metacal_type.hpp"
@@ -26,6 +27,9 @@ MetadetectTable read_metadetect_table(const std::string& path) {
   for (const FitsFile::HeaderCard& c : f.header_cards())
     if (c.type != FitsFile::HeaderCard::Type::kCommentary && !is_table_structure_key(c.key)) t.header.emplace_back(c.key, c.value);
   const long long n = f.table_rows();
+  // Every row is at least a byte of the file: a NAXIS2 beyond that is a damaged header, not rows.
+  if (n < 0 || static_cast<unsigned long long>(n) > std::filesystem::file_size(fits_root_name(path)))
+    throw FitsError(f.describe() + ": NAXIS2 = " + std::to_string(n) + " rows do not fit in the file");
   auto doubles = [&](const char* name) { return f.read_column(name); };
   auto integers = [&](const char* name) {
     std::vector<long long> v(static_cast<std::size_t>(n));

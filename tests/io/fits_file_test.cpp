@@ -57,7 +57,7 @@ class FitsFileTmp : public ::testing::Test {
 // its parse of an unknown scheme); a file:// path is a file.
 TEST(FitsFileRead, AUrlIsRefusedByName) {
   for (const std::string url : {"http://example.invalid/a.fits", "ftp://example.invalid/a.fits", "met://rics/minus.fits",
-                                "mem://x", "ftp:20", "stdin", "/tmp/a/sta://de/b.fits"}) {
+                                "mem://x", "ftp:20", "stdin", "/tmp/a/sta://de/b.fits", "~no_such_user_x/a.fits"}) {
     try {
       FitsFile::open_read(url);
       ADD_FAILURE() << url << " was opened";
