@@ -258,7 +258,7 @@ void CellSource::fill_image_cell(StampBatch& batch, CellBatch& data) {
       if (noise) std::copy_n(im.noise.begin() + from, s, data.noise.begin() + band_noise + static_cast<long long>(y) * s);
     }
     // Nothing to measure: said with the image's reasons, so a NaN image is not taken for bad weights.
-    if (cell.problem.empty() && std::all_of(weights.begin(), weights.end(), [](double w) { return w == 0; }))
+    if (cell.problem.empty() && im.masked > 0 && std::all_of(weights.begin(), weights.end(), [](double w) { return w == 0; }))
       cell.problem = std::string(bands > 1 ? "band " + std::to_string(b) + ": " : "") +
                      "every pixel of the cell is masked (the image's " + std::to_string(im.masked) + " masked pixels: " +
                      im.masked_text() + ")";
