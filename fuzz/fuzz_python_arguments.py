@@ -138,6 +138,7 @@ def one_case(case, seed, files):
     keys = sorted(stampede.option_help())
     pool = scalars(np)
     stamps = files["stamps"]
+    cell = files["cell"]
 
     # Most arguments valid and one or two hostile, so that cases reach the layers behind the
     # argument checks (the fits, the runs, the readers) as well as the checks themselves.
@@ -163,7 +164,21 @@ def one_case(case, seed, files):
              "sets": lambda: [dict(g1_true=0.01 * k, g2_true=-0.01 * k, g1=0.011 * k, g2=-0.01 * k, err1=1e-3, err2=1e-3)
                               for k in range(rng.choice([2, 3]))],
              "id": lambda: rng.choice([0, 7, 2**62]),
-             "size": lambda: rng.choice([8, 8, 9, 12])}
+             "size": lambda: rng.choice([8, 8, 9, 12]),
+             "cell": lambda: rng.choice([cell["image"], cell["image"].astype("f4"), cell["image"][::-1]]),
+             "cell_weight": lambda: rng.choice([cell["weight"], None if rng.random() < 0.1 else cell["weight"] * 2]),
+             "cell_psf": lambda: rng.choice([cell["psf"], cell["psf"].astype("f4")]),
+             "cell_plane": lambda: rng.choice([None, np.zeros_like(cell["image"]), cell["noise"]]),
+             "cell_size": lambda: rng.choice([64, 48, 40]),
+             "scale": lambda: rng.choice([0.2, 0.263, np.float32(0.25)]),
+             "noise_sigma": lambda: rng.choice([1.0, 0.5, 3.0]),
+             "detector": lambda: rng.choice(["tree", "sep"]),
+             "measurement": lambda: rng.choice(["wmom", "pgauss", "exp"]),
+             "reconvolution": lambda: rng.choice(["auto", "gauss"]),
+             "table": lambda: rng.choice([files["md"], pathlib.Path(files["md"])]),
+             "minus": lambda: rng.choice([None, files["md_minus"]]),
+             "shear": lambda: rng.choice([None, (0.02, 0.0), [0.02, 0], np.array([0.02, 0.0])]),
+             "estimator": lambda: rng.choice(["composed", "package"])}
     hostile = {"int": lambda: rng.choice([-1, 2**31, 2**40, 2**63, 10**6, 4097, np.uint64(2**64 - 1), True, 2.0]),
                "real": lambda: rng.choice([math.nan, math.inf, -1.0, 1e308, 0.0, "1", np.longdouble(2), 1j]),
                "flag": lambda: rng.choice([1, 0, "True", None, np.array([True])]),
@@ -184,9 +199,41 @@ def one_case(case, seed, files):
                "paths": lambda: rng.choice([[files["fit"], files["fit"]], files["fit"], [], [3], [files["grid"]]]),
                "sets": lambda: rng.choice([[], [{}], "sets", [{"g1": "x"}] * 2, [None, None]]),
                "id": lambda: rng.choice([-1, 2**63, 2**64, 1.5]),
-               "size": lambda: rng.choice([0, 1, 7, 513, 10**6, -8, 8.0])}
+               "size": lambda: rng.choice([0, 1, 7, 513, 10**6, -8, 8.0]),
+               "cell": lambda: rng.choice([cell["image"][:10], cell["image"][:, :40], np.full((64, 64), np.nan),
+                                           np.zeros((0, 64)), array(rng, np, 2, 64), array(rng, np),
+                                           cell["image"] + 50.0]),
+               "cell_weight": lambda: rng.choice([-cell["weight"], np.zeros_like(cell["weight"]),
+                                                  np.full((64, 64), np.inf), cell["weight"][:5], array(rng, np, 2, 64)]),
+               "cell_psf": lambda: rng.choice([cell["psf"][:24, :24], cell["psf"][2:, :], np.zeros((25, 25)),
+                                               np.full((25, 25), np.nan), array(rng, np, 2, 25), np.ones((1, 1))]),
+               "cell_plane": lambda: rng.choice([np.ones((3, 3)), cell["noise"] * 100, np.full((64, 64), np.nan),
+                                                 array(rng, np, 2, 64)]),
+               "cell_size": lambda: rng.choice([0, 1, -64, 65, 10**6, 2**31, 64.0, 17]),
+               "scale": lambda: rng.choice([0.0, -0.2, math.inf, math.nan, 1e-300, 1e300, "0.2"]),
+               "noise_sigma": lambda: rng.choice([0.0, -1.0, math.nan, math.inf, 1e-300]),
+               "detector": lambda: rng.choice(["", "SEP", "x\0", "tree "]),
+               "measurement": lambda: rng.choice(["", "gauss", "WMOM", "bd\0"]),
+               "reconvolution": lambda: rng.choice(["", "moffat", "x" * 3000]),
+               "table": lambda: rng.choice([files["fit"], files["grid"], path(rng, files), files["md"] + ".partial"]),
+               "minus": lambda: rng.choice([files["md"], files["fit"], path(rng, files)]),
+               "shear": lambda: rng.choice([(math.nan, 0), "0.02,0", (1,), (2.0, 0), (0.02, 0, 0), {}]),
+               "estimator": lambda: rng.choice(["", "Composed", "x\0"])}
+
+    # Parameters whose valid values are narrower than their type's: (valid values, hostile kind).
+    narrow = {"min_area": ([1, 4, 6], "int"), "levels": ([8, 32], "int"), "filter_size": ([3, 5, 7], "int"),
+              "box_min": ([17, 33], "int"), "box_max": ([63, 255], "int"), "fwhm": ([0.0, 1.2, 2.0], "real"),
+              "threshold": ([0.8, 1.5, 3.0], "real"), "contrast": ([1e-5, 0.005], "real"),
+              "step": ([0.01, 0.02], "real"), "dilation": ([0.0, 1.2], "real"), "buffer": ([8, 4], "int"),
+              "cut": ([10.0, 1.2, 0.5], "real"), "resamples": ([2, 50], "int")}
 
     def value(kind):
+        if kind in narrow:
+            allowed, kind_hostile = narrow[kind]
+            r = rng.random()
+            if r < hostile_rate * 0.3:
+                return rng.choice(pool)
+            return hostile[kind_hostile]() if r < hostile_rate else rng.choice(allowed)
         r = rng.random()
         if r < hostile_rate * 0.3:
             return rng.choice(pool)
@@ -217,18 +264,41 @@ def one_case(case, seed, files):
         "read_results": [("path", "path")],
         "Options": [("options", "options")],
         "Options.from_ini": [("path", "path")],
+        "detect": [("image", "cell"), ("noise_sigma", "noise_sigma"), ("detector", "detector"),
+                   ("detect_threshold", "threshold"), ("detect_min_area", "min_area"),
+                   ("deblend_contrast", "contrast"), ("deblend_thresholds", "levels"), ("filter_fwhm", "fwhm"),
+                   ("filter_size", "filter_size"), ("clean", "flag")],
+        "metadetect": [("image", "cell"), ("weight", "cell_weight"), ("psf", "cell_psf"), ("pixel_scale", "scale"),
+                       ("bmask", "cell_plane"), ("threads", "int"), ("cell_size", "cell_size"),
+                       ("cell_buffer", "buffer"), ("step", "step"), ("reconvolution_psf", "reconvolution"),
+                       ("psf_dilation", "dilation"), ("fixnoise", "flag"), ("double_images", "flag"), ("seed", "int"),
+                       ("measurement", "measurement"), ("weight_fwhm", "fwhm"), ("recentre", "flag"),
+                       ("detector", "detector"), ("detect_threshold", "threshold"), ("detect_min_area", "min_area"),
+                       ("deblend_contrast", "contrast"), ("deblend_thresholds", "levels"), ("filter_fwhm", "fwhm"),
+                       ("filter_size", "filter_size"), ("clean", "flag"), ("stamp_size", "size"),
+                       ("box_min", "box_min"), ("box_max", "box_max"), ("per_object_metacal", "flag"),
+                       ("noise", "cell_plane")],
+        "metadetect_metrics": [("table", "table"), ("minus", "minus"), ("rotated", "minus"),
+                               ("rotated_minus", "minus"), ("shear", "shear"), ("cut_snr", "cut"),
+                               ("cut_t_ratio", "cut"), ("bootstrap", "resamples"), ("seed", "int"),
+                               ("estimator", "estimator")],
     }
     name = rng.choice(sorted(signatures))
     params = signatures[name]
     args, kwargs = [], {}
     positional = rng.randrange(len(params) + 1) if name not in ("simulate_great08",) else rng.choice([0, 1])
     required = {"fit_stamps": 1, "fit_stamp": 1, "merge_shards": 2, "set_shear": 6, "shear_metrics": 1,
-                "read_image": 1, "read_results": 1, "Options.from_ini": 1, "run_fit": 2}.get(name, 0)
+                "read_image": 1, "read_results": 1, "Options.from_ini": 1, "run_fit": 2, "detect": 2,
+                "metadetect": 4, "metadetect_metrics": 1}.get(name, 0)
     positional = max(positional, required if rng.random() < 0.7 else 0)
+    # Keyword-only parameters past these (a positional one there is a TypeError, drawn rarely).
+    keyword_only = {"detect": 2, "metadetect": 6}.get(name)
+    if keyword_only is not None and rng.random() < 0.95:
+        positional = min(positional, keyword_only)
     for k, (param, kind) in enumerate(params):
         if k < positional:
             args.append(value(kind))
-        elif rng.random() < 0.5 or (k < required and rng.random() < 0.9):
+        elif rng.random() < (0.2 if len(params) > 12 else 0.5) or (k < required and rng.random() < 0.9):
             kwargs[param] = value(kind)
     if rng.random() < 0.05:
         kwargs[rng.choice(["thread", "stamp_sise", "weigths", "x"])] = 1
@@ -236,7 +306,10 @@ def one_case(case, seed, files):
         args.append(1)
     names = [param for param, _ in params]
     defaults = {"simulate_great08": {"grid": 1, "stamp_size": 8},  # keep the draws small
-                "fit_stamps": {"threads": 1}, "run_fit": {"threads": 1}}.get(name, {})
+                "fit_stamps": {"threads": 1}, "run_fit": {"threads": 1},
+                # one 64-pixel cell (the default 251 would take seconds a case); 50 resamples
+                "metadetect": {"threads": 1, "cell_size": 64, "cell_buffer": 8},
+                "metadetect_metrics": {"bootstrap": 50}}.get(name, {})
     for param, v in defaults.items():
         if names.index(param) >= len(args):
             kwargs.setdefault(param, v)
@@ -299,8 +372,26 @@ def make_files(work):
     shutil.copytree(os.path.join(os.environ.get("STAMPEDE_DATA_DIR", "../shared/data"), "meds-sample"),
                     work + "/meds-sample", ignore=shutil.ignore_patterns("src", "truth.fits"))
     tile = work + "/meds-sample/meds.fits"
+    # Metadetection: a 64-pixel cell in memory (noise, a few galaxies, a Gaussian PSF) and the
+    # tables of a shear pair of two such cells.
+    rng = np.random.default_rng(5)
+    yy, xx = np.mgrid[0:64, 0:64]
+    image = rng.normal(0, 1, (64, 64))
+    for cx, cy in ((20, 22), (41, 30), (30, 45)):
+        image += 40 * np.exp(-((xx - cx) ** 2 + (yy - cy) ** 2) / 8.0)
+    py, px = np.mgrid[0:25, 0:25]
+    psf = np.exp(-((px - 12) ** 2 + (py - 12) ** 2) / 8.0)
+    cell = {"image": image, "weight": np.ones((64, 64)), "psf": psf / psf.sum(), "noise": rng.normal(0, 1, (64, 64))}
+    subprocess.run([cli, "sim", "cells", "--out", work + "/cells", "--cells", "2", "--size", "64", "--buffer", "8",
+                    "--grid", "2", "--pair", "--threads", "1"], check=True, capture_output=True)
+    md = {}
+    for side, where in (("md", "/cells"), ("md_minus", "/cells/minus")):
+        md[side] = work + "/" + side + ".fits"
+        cells = sorted(str(p) for p in pathlib.Path(work + where).glob("cell_*.fits"))
+        subprocess.run([cli, "metadetect", *cells, "-o", md[side], "--cell-size", "64", "--cell-buffer", "8",
+                        "--threads", "1", "--quiet"], check=True, capture_output=True)
     return {"grid": grid, "fit": fit, "dir": work + "/out", "tile": tile, "stamps": sim["stamps"],
-            "psf": sim["psf_image"]}
+            "psf": sim["psf_image"], "cell": cell, **md}
 
 
 def worker(seed, first, count, work, status_path, timeout):

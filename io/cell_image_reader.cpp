@@ -1,8 +1,10 @@
 // Reading an image for metadetection; see cell_image_reader.hpp.
 #include "io/cell_image_reader.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <iomanip>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -143,6 +145,48 @@ std::string cell_noise_problem(const CellImage& image) {
   std::ostringstream m;
   m << "the NOISE plane's rms is " << ratio << " times the noise the weights state: it must be a realisation of "
     << "the image's noise (ratio in [0.5, 2])";
+  return m.str();
+}
+
+namespace {
+
+// z with 0.5 erfc(z / sqrt 2) = p: the unit Gaussian's quantile p lies z below its mean.
+double gaussian_depth(double p) {
+  double lo = 0, hi = 10;
+  for (int i = 0; i < 60; ++i) {
+    const double z = 0.5 * (lo + hi);
+    (0.5 * std::erfc(z / std::sqrt(2.0)) > p ? lo : hi) = z;
+  }
+  return 0.5 * (lo + hi);
+}
+
+}  // namespace
+
+double cell_sky_level(std::span<const double> pixels, std::span<const double> weight, std::vector<double>* scratch) {
+  scratch->clear();
+  for (std::size_t i = 0; i < pixels.size(); ++i)
+    if (weight[i] > 0) scratch->push_back(pixels[i] * std::sqrt(weight[i]));
+  const double n = static_cast<double>(scratch->size());
+  if (n < 64) return NAN;
+  // Two low quantiles, p small enough that the sources' light hardly reaches it (with at least 8
+  // pixels below: a scatter of ~0.1 sigma) and one 2 sigma below the sky: their distance gives the
+  // pixels' own noise, at most the weights' (an image without noise is its sky at p).
+  const double p = std::max(0.001, 8 / n), p2 = std::max(0.0228, 4 * p);
+  const double z = gaussian_depth(p), z2 = gaussian_depth(p2);
+  const auto k2 = scratch->begin() + static_cast<std::ptrdiff_t>(p2 * (n - 1));
+  std::nth_element(scratch->begin(), k2, scratch->end());
+  const auto k = scratch->begin() + static_cast<std::ptrdiff_t>(p * (n - 1));
+  std::nth_element(scratch->begin(), k, k2);
+  const double sigma = std::clamp((*k2 - *k) / (z - z2), 0.0, 1.0);
+  return *k + z * sigma;
+}
+
+std::string cell_sky_problem(double sky_level) {
+  if (!(std::abs(sky_level) > kMaxCellSkyLevel)) return "";
+  std::ostringstream m;
+  m << "the cell's faintest pixels put its sky at " << std::showpos << std::fixed << std::setprecision(2) << sky_level
+    << std::noshowpos << std::defaultfloat << " sigma of its noise (at most " << kMaxCellSkyLevel << " in magnitude): "
+    << "metadetection needs a background-subtracted image whose sources leave some sky";
   return m.str();
 }
 

@@ -54,6 +54,19 @@ std::string cell_psf_problem(const PsfImage& psf);
 // it is, or there is none.
 std::string cell_noise_problem(const CellImage& image);
 
+// The sky level of a cell's unmasked pixels in units of their noise (each pixel times the square
+// root of its weight): from the distribution's lowest quantile (0.1 %, or 8 pixels), which the
+// sources' light hardly reaches, and the pixels' noise (from a second quantile; at most the
+// weights'); NaN under 64 unmasked pixels. `scratch` is reused.
+double cell_sky_level(std::span<const double> pixels, std::span<const double> weight, std::vector<double>* scratch);
+// The largest |sky level| a cell may have (its noise's units): metadetection measures on
+// background-subtracted images; a sky beyond this lifts every pixel over the detection threshold
+// and moves every detection's moments. Not lower: the faintest pixels of a noise-free simulation's
+// crowded cell lie up to about 1 sigma above zero (docs/reliability.md).
+inline constexpr double kMaxCellSkyLevel = 2.0;
+// Why a cell with that sky level cannot be measured ("" when it can).
+std::string cell_sky_problem(double sky_level);
+
 // HDU 0's size and pixel scale alone (cheap: the run lays out its cells, and checks that several
 // bands' images match, before reading pixels).
 CellImageShape read_cell_image_shape(const std::string& path);

@@ -197,6 +197,7 @@ void CellSource::fill_tile_cell(StampBatch& batch, CellBatch& data) {
     obs.psf = PsfModel::Image(std::move(img));
     std::copy(cell_.pixels.begin(), cell_.pixels.end(), pixels.begin());
     std::copy(cell_.weight.begin(), cell_.weight.end(), weights.begin());
+    check_sky(pixels, weights, b, bands, &cell);
     if (noise)
       std::copy(cell_.noise.begin(), cell_.noise.end(),
                 data.noise.begin() + cell.noise_offset + static_cast<long long>(b * npix));
@@ -262,10 +263,18 @@ void CellSource::fill_image_cell(StampBatch& batch, CellBatch& data) {
       cell.problem = std::string(bands > 1 ? "band " + std::to_string(b) + ": " : "") +
                      "every pixel of the cell is masked (the image's " + std::to_string(im.masked) + " masked pixels: " +
                      im.masked_text() + ")";
+    check_sky(pixels, weights, b, bands, &cell);
   }
   data.cells.push_back(std::move(cell));
   batch.records[batch.count].id = next_;
   ++batch.count, ++in_file_, ++next_;
+}
+
+void CellSource::check_sky(std::span<const double> pixels, std::span<const double> weights, int band, int bands,
+                           CellBatch::Cell* cell) {
+  const double sky = cell_sky_level(pixels, weights, &sky_scratch_);
+  if (const std::string why = cell_sky_problem(sky); cell->problem.empty() && !why.empty())
+    cell->problem = std::string(bands > 1 ? "band " + std::to_string(band) + ": " : "") + why;
 }
 
 void CellSource::add_layout(long width, long height, const std::string& where) {

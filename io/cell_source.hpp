@@ -12,6 +12,7 @@
 
 #include <limits>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -62,6 +63,9 @@ class CellSource : public StampSource {
   void fill_tile_cell(StampBatch& batch, CellBatch& data);
   void fill_image_cell(StampBatch& batch, CellBatch& data);
   void add_layout(long width, long height, const std::string& where);
+  // Sets the cell's problem (where it has none) when band's sky is not background-subtracted.
+  void check_sky(std::span<const double> pixels, std::span<const double> weights, int band, int bands,
+                 CellBatch::Cell* cell);
   const CellImage& image(int band) const { return memory_ ? *memory_ : images_[static_cast<std::size_t>(band)]; }
 
   std::vector<std::string> inputs_;
@@ -75,6 +79,7 @@ class CellSource : public StampSource {
   long long max_tile_box_ = 0;    // the largest, found while laying out the cells
   CellImage cell_;  // a tile's cell as read
   std::vector<double> mask_;
+  std::vector<double> sky_scratch_;
   std::vector<std::vector<CellPlacement>> layouts_;
   long long total_ = 0, next_ = 0, in_file_ = 0, end_ = std::numeric_limits<long long>::max();
   int file_ = 0, loaded_ = -1;

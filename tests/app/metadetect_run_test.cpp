@@ -368,10 +368,11 @@ void sim_band_tiles(const std::string& dir, int cells) {
 
 // An image with a PSF HDU of `psf` (nx x ny), a WEIGHT of 1 and, when `noise_rms` > 0, a NOISE
 // plane of that rms (alternating signs); `weights` WEIGHT HDUs.
-std::string write_planes(const std::string& path, int nx, int ny, double psf_dx, double noise_rms, int weights = 1) {
+std::string write_planes(const std::string& path, int nx, int ny, double psf_dx, double noise_rms, int weights = 1,
+                         double sky = 0) {
   io::FitsFile f = io::FitsFile::create(path, true);
   const int size = 251;
-  f.write_image(size, size, std::vector<double>(static_cast<std::size_t>(size) * size, 0.0));
+  f.write_image(size, size, std::vector<double>(static_cast<std::size_t>(size) * size, sky));
   f.write_key("SCALE", 0.25, "arcsec per pixel");
   for (int k = 0; k < weights; ++k) f.write_image(size, size, std::vector<double>(static_cast<std::size_t>(size) * size, 1.0), "WEIGHT");
   if (noise_rms > 0) {
@@ -392,7 +393,7 @@ std::string write_planes(const std::string& path, int nx, int ny, double psf_dx,
 
 // Inputs that would give plausible numbers with exit 0 are refused naming the file, HDU and rule:
 // an even or off-centre PSF, a NOISE plane that is not the weights' noise, a plane given twice, the
-// same image twice; a weight no cell can use fails every cell with its reason (each counted, the
+// same image twice; a weight no cell can use, or a sky not subtracted, fails every cell with its reason (each counted, the
 // cells sharing the PSF included), and a cell with almost no interior is refused.
 TEST(MetadetectRun, PlausibleBadInputIsRefusedOrEveryCellCounted) {
   testing::ScratchDir scratch("stampede_mdet_plausible_");
@@ -439,6 +440,12 @@ TEST(MetadetectRun, PlausibleBadInputIsRefusedOrEveryCellCounted) {
     for (const std::string& p : r.problems) EXPECT_NE(p.find("weight_fwhm = "), std::string::npos) << p;
   }
   o.metadetect.weight_fwhm = 0;
+  // A sky not subtracted: the cell fails saying so.
+  o.inputs = {write_planes(scratch.path("sky.fits"), 25, 25, 0, 0, 1, -3.5)};
+  const MetadetectRunSummary sky = run_metadetect(o);
+  EXPECT_EQ(sky.cells_failed, 1);
+  ASSERT_EQ(sky.problems.size(), 1u);
+  EXPECT_NE(sky.problems[0].find("sky at -3.50 sigma"), std::string::npos) << sky.problems[0];
   o.metadetect.cell_size = 69;  // the default buffer of 34 leaves 1 pixel
   const std::string thin = error_of(cells);
   EXPECT_NE(thin.find("cell_buffer = 34: must be >= 0 and leave an interior of at least 16 pixels"), std::string::npos) << thin;
