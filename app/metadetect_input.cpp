@@ -1,6 +1,7 @@
 // The metadetect run's inputs; see metadetect_input.hpp.
 #include "app/metadetect_input.hpp"
 
+#include <algorithm>
 #include <string_view>
 
 #include "io/config_error.hpp"
@@ -99,6 +100,26 @@ std::vector<std::string> metadetect_bands(const MetadetectRunOptions& options) {
         throw io::ConfigError("--meds " + options.inputs[b] + " is given twice (bands " + names[a] + " and " + names[b] + ")");
   refuse_bands_for_one_band_measurements(options.metadetect, n, "give one --meds tile");
   return names;
+}
+
+std::uint32_t band_role_mask(const std::vector<std::string>& role, const std::vector<std::string>& bands,
+                             const std::string& flag) {
+  if (role.empty()) return 0;
+  if (bands.size() < 2)
+    throw io::ConfigError(flag + " gives bands a role: it needs several bands (--bands, or a --meds tile per band)");
+  std::uint32_t mask = 0;
+  for (const std::string& name : role) {
+    const auto at = std::find(bands.begin(), bands.end(), name);
+    if (at == bands.end()) {
+      std::string known;
+      for (const std::string& b : bands) known += (known.empty() ? "" : ",") + b;
+      throw io::ConfigError(flag + ": '" + name + "' is not one of the run's bands (" + known + ")");
+    }
+    const std::uint32_t bit = 1u << (at - bands.begin());
+    if (mask & bit) throw io::ConfigError(flag + ": band '" + name + "' is given twice");
+    mask |= bit;
+  }
+  return mask;
 }
 
 MetadetectFiles metadetect_files(const MetadetectRunOptions& options, const std::vector<std::string>& bands) {

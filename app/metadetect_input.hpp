@@ -2,6 +2,7 @@
 // (image paths expanded per band, PSFEx models), as the cell source and the output checks take them.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,12 @@ namespace stampede::app {
 // --psfex) that are templates exactly when several bands are named, no file a band of itself;
 // throws io::ConfigError naming the option.
 std::vector<std::string> metadetect_bands(const MetadetectRunOptions& options);
+
+// The band mask (bit b: bands[b]) of the names `role` gives for `flag` (--detect-bands,
+// --shear-bands); 0 for none (every band). Throws io::ConfigError naming the flag and a name that
+// is not one of `bands`, a name given twice, or roles without several bands.
+std::uint32_t band_role_mask(const std::vector<std::string>& role, const std::vector<std::string>& bands,
+                             const std::string& flag);
 
 // `path` with each `{band}` replaced by `band`.
 std::string expand_band(const std::string& path, const std::string& band);

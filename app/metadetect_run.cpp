@@ -138,11 +138,14 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   shard_range(0, options.shard, options.shards);  // checks the shard before anything is read
   const TableRun table = table_run(options, "METADETECT", "cell");
   const std::vector<std::string> bands = metadetect_bands(options);
+  MetadetectOptions measure = options.metadetect;
+  measure.detect_bands = band_role_mask(options.detect_bands, bands, "--detect-bands");
+  measure.shear_bands = band_role_mask(options.shear_bands, bands, "--shear-bands");
   const MetadetectFiles read = metadetect_files(options, bands);
   const std::vector<io::OutputLock> locks = protect_outputs(table, outputs_of(options, {}), inputs_of(read));
 
-  io::CellSource source = options.tile ? io::CellSource(io::CellSource::Tile{options.inputs}, options.metadetect)
-                                       : io::CellSource(read.images, options.metadetect);
+  io::CellSource source = options.tile ? io::CellSource(io::CellSource::Tile{options.inputs}, measure)
+                                       : io::CellSource(read.images, measure);
   io::MetadetectWriterOptions writer_options;
   writer_options.path = options.output;
   writer_options.bands = bands;
@@ -160,7 +163,12 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
     for (const std::string& b : bands) names += (names.empty() ? "" : ",") + b;
     record("BANDS", names, "bands " + names);
   }
-  for (const auto& [key, value] : metadetect_header_keys(options.metadetect)) record(key, value, key + "=" + value);
+  for (const auto& [key, role] : {std::pair{"DETBANDS", &options.detect_bands}, std::pair{"SHRBANDS", &options.shear_bands}}) {
+    std::string names;
+    for (const std::string& b : *role) names += (names.empty() ? "" : ",") + b;
+    if (!names.empty()) record(key, names, std::string(key) + " " + names);
+  }
+  for (const auto& [key, value] : metadetect_header_keys(measure)) record(key, value, key + "=" + value);
   const auto record_files = [&](const std::vector<std::string>& files, const char* path_key, const char* digest_key,
                                 const char* role, bool each_once) {
     std::map<std::string, std::string> seen;  // digest -> the file that has it
@@ -197,7 +205,7 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   pipeline_options.batch_size = options.cells_per_batch;
   const PipelineSummary ran =
       measure_table(table, shard ? *shard : source, summary.cells_resumed, sink, writer.get(),
-                    [&] { return std::make_unique<CellBatchMeasurer>(options.metadetect); }, pipeline_options);
+                    [&] { return std::make_unique<CellBatchMeasurer>(measure); }, pipeline_options);
   summary.threads = ran.threads;
   summary.stopped = ran.stopped;
   summary.seconds = std::chrono::duration<double>(Clock::now() - start).count();

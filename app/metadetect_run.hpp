@@ -31,6 +31,10 @@ struct MetadetectRunOptions {
   // band's columns. Image files: the names the inputs' `{band}` stands for (empty: one band, no
   // `{band}`; one name: its columns, `{band}` optional).
   std::vector<std::string> bands;
+  // Band roles, by the names of `bands` (empty: every band): the bands detection sums, and those
+  // whose moments give the shapes; every band's flux and S/N are measured (DES Y6: detect and
+  // measure shapes on r, i, z). Recorded as header keys DETBANDS, SHRBANDS when given.
+  std::vector<std::string> detect_bands, shear_bands;
   // Image files only: a PSFEx model (a `{band}` template with several bands) of every input image;
   // each cell's PSF is the model at the cell's centre (engine/metadetect/cell_layout's
   // cell_psfex_position), and the files' PSF HDUs are neither needed nor read. Empty: the PSF HDUs.

@@ -77,6 +77,9 @@ void print_help() {
       "Each band's metacal images (one reconvolution PSF for all), detection on their sum weighted by\n"
       "each band's inverse noise variance, the measurement over every band's stamp together (weighted\n"
       "by the same), and columns flux_B snr_B per band (its stamp alone under the same weight).\n"
+      "Band roles (DES Y6: --detect-bands r,i,z --shear-bands r,i,z): detection on the named bands'\n"
+      "sum, the shape from the named bands' stamps (their own reconvolution PSF, the widest they\n"
+      "need; the other bands' the widest every band needs); flux_B snr_B still for every band.\n"
       "\n"
       "output: OUT.fits, table METADETECT, a row per (cell, shear type, detection): cell shear_type id\n"
       "x y (0-based pixels of the input image) u v (arcsec) e1 e2 e1_err e2_err T (arcsec^2) T_ratio\n"
@@ -88,6 +91,9 @@ void print_help() {
       "options:\n"
       "  -o, --output PATH          output table (required)\n"
       "  --input-list LIST          read the image paths from LIST (after any given as arguments)\n"
+      "  --bands B1,B2,...          the bands' names (see above)\n"
+      "  --detect-bands B1,...      detect on these bands only (default: every band)\n"
+      "  --shear-bands B1,...       shapes (e, T, flux, snr) from these bands only (default: every band)\n"
       "  --psfex MODEL.psf          image files: each cell's PSF is this PSFEx model at the cell's centre\n"
       "                             (X_IMAGE, Y_IMAGE of the image's pixels), not the PSF HDU (which may\n"
       "                             be absent); one model for every image; PSF_SAMP 1/integer\n"
@@ -149,12 +155,13 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
     } else if (s == "--meds") {
       meds.push_back(value());
       o.tile = true;
-    } else if (s == "--bands") {
+    } else if (s == "--bands" || s == "--detect-bands" || s == "--shear-bands") {
       const std::string v = value();
-      o.bands.clear();
+      std::vector<std::string>& names = s == "--bands" ? o.bands : s == "--detect-bands" ? o.detect_bands : o.shear_bands;
+      names.clear();
       for (std::size_t begin = 0;;) {
         const std::size_t comma = v.find(',', begin);
-        o.bands.push_back(v.substr(begin, comma == std::string::npos ? std::string::npos : comma - begin));
+        names.push_back(v.substr(begin, comma == std::string::npos ? std::string::npos : comma - begin));
         if (comma == std::string::npos) break;
         begin = comma + 1;
       }

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 
 #include "engine/common/random_stream.hpp"
@@ -99,16 +100,24 @@ bool CellMeasurer::prepare_new_psf(double pixel_scale, std::string* problem) {
     }
     filters_.push_back(std::move(f));
   } else {
-    // One Gamma for every band, so that the bands' images share their PSF and their moments
-    // combine: the widest any band needs (the cell's pixels are every band's frame).
-    std::vector<MetacalEpochPsf> epochs;
-    for (const PsfModel& p : psfs_) epochs.push_back({&p, PixelFrame{}, images_set_->period()});
-    SkyReconvolution gamma;
-    if (!sky_reconvolution(epochs, metacal, &gamma, &why)) {
-      *problem = "no metacal reconvolution PSF serves every band's PSF: " + why;
+    // One Gamma for the shape bands, so that their images share their PSF and their moments
+    // combine: the widest they need (the cell's pixels are every band's frame). The other bands
+    // (detection, fluxes) the widest every band needs: a shape band's Gamma may not serve them.
+    const auto gamma_of = [&](std::uint32_t mask, const char* which, SkyReconvolution* gamma) {
+      std::vector<MetacalEpochPsf> epochs;
+      for (std::size_t b = 0; b < psfs_.size(); ++b)
+        if (mask >> b & 1u) epochs.push_back({&psfs_[b], PixelFrame{}, images_set_->period()});
+      if (sky_reconvolution(epochs, metacal, gamma, &why)) return true;
+      *problem = std::string("no metacal reconvolution PSF serves ") + which + ": " + why;
       return false;
-    }
-    filters_ = std::move(gamma.filters);
+    };
+    const std::uint32_t all = (1u << bands_.size()) - 1;
+    SkyReconvolution shapes, every;
+    if (!gamma_of(shear_mask_, shear_mask_ == all ? "every band's PSF" : "the shape bands' PSFs", &shapes)) return false;
+    if (shear_mask_ != all && !gamma_of(all, "every band's PSF", &every)) return false;
+    filters_.assign(bands_.size(), nullptr);
+    for (std::size_t b = 0, k = 0; b < bands_.size(); ++b)
+      filters_[b] = shear_mask_ >> b & 1u ? shapes.filters[k++] : every.filters[b];
   }
   weight_fwhm_px_ = options_.weight_fwhm_arcsec() / pixel_scale;
   // The weight is drawn on a stamp of 8 FWHM: narrower than half a pixel it samples nothing, wider
@@ -121,7 +130,7 @@ bool CellMeasurer::prepare_new_psf(double pixel_scale, std::string* problem) {
     *problem = b;
     return false;
   }
-  psf_k_.clear();
+  psf_k_[0].clear(), psf_k_[1].clear();
   fit_psfs_.clear();
   // The point source's T under the same weight, as the detections' T is measured. pgauss's T_ratio
   // divides by the same (ngmix measures the PSF with the pre-PSF weight but no PSF to remove: its
@@ -130,7 +139,7 @@ bool CellMeasurer::prepare_new_psf(double pixel_scale, std::string* problem) {
   const int n = 2 * static_cast<int>(std::ceil(4 * weight_fwhm_px_)) + 1;
   // The reconvolution PSF convolved with the pixel: what a point source is in the metacal images.
   std::vector<double> image(static_cast<std::size_t>(n) * n);
-  pixelated_psf(filters_[0]->reconvolution(), n, 5, image);
+  pixelated_psf(filters_[shape_band_]->reconvolution(), n, 5, image);
   std::vector<double> scratch(2 * static_cast<std::size_t>(n));
   const kernels::WeightedMoments m = kernels::weighted_moments(image, n, weight_fwhm_px_, 0.0, scratch);
   if (!m.valid) {
@@ -180,6 +189,17 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
     return fail(std::string("measurement ") + metadetect_measurement_name(options_.measurement) +
                 " fits one band (wmom and pgauss measure several)");
   bands_ = cell.bands;
+  {
+    const std::uint32_t all = (1u << bands_.size()) - 1;
+    for (const auto& [field, mask] : {std::pair{"detect_bands", options_.detect_bands},
+                                      std::pair{"shear_bands", options_.shear_bands}})
+      if (mask & ~all)
+        return fail(std::string(field) + " names band " + std::to_string(std::countr_zero(mask & ~all)) +
+                    " but the cell has " + std::to_string(bands_.size()) + " band" + (bands_.size() == 1 ? "" : "s"));
+    detect_mask_ = options_.detect_bands ? options_.detect_bands : all;
+    shear_mask_ = options_.shear_bands ? options_.shear_bands : all;
+    shape_band_ = static_cast<std::size_t>(std::countr_zero(shear_mask_));
+  }
   for (std::size_t b = 0; b < bands_.size(); ++b)
     if (!bands_[b].image.psf_model) return fail(b == 0 ? std::string("no PSF") : "no PSF for band " + std::to_string(b));
   cell_masked_ = false;
@@ -204,12 +224,16 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
       return fail(bands_.size() == 1 ? std::string("the cell's weights give no positive finite noise variance")
                                      : "band " + std::to_string(b) + "'s weights give no positive finite noise variance");
   }
-  // Several bands are detected on their sum weighted by each band's inverse noise variance,
+  // The detection bands are detected on their sum weighted by each band's inverse noise variance,
   // normalised (sum w_b I_b / sum w_b): its noise variance is 1 / sum w_b for independent noise.
-  double detection_variance = variances_[0];
-  if (bands_.size() > 1) {
+  // One detection band: its image as it is.
+  const bool one_detection_band = std::popcount(detect_mask_) == 1;
+  const std::size_t detection_band = static_cast<std::size_t>(std::countr_zero(detect_mask_));
+  double detection_variance = variances_[detection_band];
+  if (!one_detection_band) {
     double wsum = 0;
-    for (double v : variances_) wsum += 1.0 / v;
+    for (std::size_t b = 0; b < bands_.size(); ++b)
+      if (detect_mask_ >> b & 1u) wsum += 1.0 / variances_[b];
     detection_variance = 1.0 / wsum;
   }
   image_f_.resize(npix);
@@ -218,12 +242,14 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
   const int types = options_.per_object_metacal ? 1 : kNumMetacalTypes;
   for (int t = 0; t < types; ++t) {
     const std::size_t at = static_cast<std::size_t>(t) * npix;
-    if (bands_.size() == 1) {
-      std::transform(images_[0].begin() + at, images_[0].begin() + at + npix, image_f_.begin(),
+    if (one_detection_band) {
+      const std::vector<double>& image = images_[detection_band];
+      std::transform(image.begin() + at, image.begin() + at + npix, image_f_.begin(),
                      [](double v) { return static_cast<float>(v); });
     } else {
       detection_image_.assign(npix, 0.0);
       for (std::size_t b = 0; b < bands_.size(); ++b) {
+        if (!(detect_mask_ >> b & 1u)) continue;
         const double w = detection_variance / variances_[b];
         const double* image = images_[b].data() + at;
         for (std::size_t p = 0; p < npix; ++p) detection_image_[p] += w * image[p];
@@ -373,17 +399,17 @@ void store_prepsf(const MetadetectCell& cell, const kernels::WeightedMoments& c,
 
 }  // namespace
 
-std::span<const double> CellMeasurer::psf_transform(int box) {
-  const std::size_t slot = static_cast<std::size_t>(box) / 2;
-  if (psf_k_.size() <= slot) psf_k_.resize(slot + 1);
-  std::vector<double>& k = psf_k_[slot];
+std::span<const double> CellMeasurer::psf_transform(int box, std::size_t band) {
+  const std::size_t slot = static_cast<std::size_t>(box) / 2, role = shear_mask_ >> band & 1u ? 0 : 1;
+  if (psf_k_[role].size() <= slot) psf_k_[role].resize(slot + 1);
+  std::vector<double>& k = psf_k_[role][slot];
   if (k.empty()) {
     // What a point source is in the metacal images: Gamma x the pixel's top-hat (sinc(k / 2) per
     // axis), so that the moments are of the galaxy before both. Gamma is round (a Gaussian or a Moffat): real.
     // A cell tile's every cell has its own Gamma, and a Moffat's transform costs a Bessel function:
     // Gamma and the pixel are even in kx and ky, so one quadrant is evaluated and mirrored, and
     // only where the weight's transform is not negligible (the kernel reads no other k; 1 there).
-    const PsfModel& gamma = filters_[0]->reconvolution();
+    const PsfModel& gamma = filters_[band]->reconvolution();
     auto pixel = [](double k) { return k == 0 ? 1.0 : std::sin(0.5 * k) / (0.5 * k); };
     const double s = weight_fwhm_px_ / 2.3548200450309493;
     const int h = box / 2 + 1;
@@ -406,9 +432,10 @@ std::span<const double> CellMeasurer::psf_transform(int box) {
 
 kernels::PrepsfMoments CellMeasurer::prepsf(std::span<const double> stamp, int box,
                                             const kernels::WeightedMoments& centre, int x0, int y0, double variance,
-                                            const Detection& d) {
+                                            const Detection& d, std::size_t band) {
   const double xc = centre.valid ? centre.x : d.x - x0, yc = centre.valid ? centre.y : d.y - y0;
-  return kernels::prepsf_moments(stamp, box, xc, yc, weight_fwhm_px_, psf_transform(box), variance, prepsf_scratch_);
+  return kernels::prepsf_moments(stamp, box, xc, yc, weight_fwhm_px_, psf_transform(box, band), variance,
+                                 prepsf_scratch_);
 }
 
 void CellMeasurer::fill_moments(const MetadetectCell& cell, std::span<const double> stamp, int box, int x0, int y0,
@@ -418,7 +445,7 @@ void CellMeasurer::fill_moments(const MetadetectCell& cell, std::span<const doub
   const kernels::WeightedMoments m = kernels::weighted_moments(stamp, box, weight_fwhm_px_, variance, scratch_,
                                                                centroid_iterations(), d.x - x0, d.y - y0);
   if (options_.measurement == MetadetectMeasurement::kPgauss)
-    store_prepsf(cell, m, prepsf(stamp, box, m, x0, y0, variance, d), psf_t_, x0, y0, d, r);
+    store_prepsf(cell, m, prepsf(stamp, box, m, x0, y0, variance, d, 0), psf_t_, x0, y0, d, r);
   else
     store_moments(cell, m, psf_t_, x0, y0, d, r);
   r->band_flux[0] = r->flux, r->band_snr[0] = r->snr;
@@ -433,7 +460,7 @@ void CellMeasurer::fill_fit(const MetadetectCell& cell, std::span<const double> 
   const std::size_t slot = static_cast<std::size_t>(box) / 2;
   if (fit_psfs_.size() <= slot) fit_psfs_.resize(slot + 1);
   std::string why;
-  if (!fit_psfs_[slot]) fit_psfs_[slot] = fitter_->renderer_for(box).prepare_psf(filters_[0]->reconvolution(), &why);
+  if (!fit_psfs_[slot]) fit_psfs_[slot] = fitter_->renderer_for(box).prepare_psf(filters_[shape_band_]->reconvolution(), &why);
   if (!fit_psfs_[slot]) {
     r->flags |= kMetadetectMomentsFailed;
     return;
@@ -494,11 +521,12 @@ void CellMeasurer::fill_fit(const MetadetectCell& cell, std::span<const double> 
 
 void CellMeasurer::fill_band_moments(const MetadetectCell& cell, int box, int x0, int y0, const Detection& d,
                                      MetadetectRow* r) {
-  // As `stampede fit`'s multi-band wmom: one weight, the bands' sums averaged with weights of
-  // their inverse noise variance; each band's flux and S/N under the same weight about its own
+  // As `stampede fit`'s multi-band wmom: one weight, the shape bands' sums averaged with weights
+  // of their inverse noise variance; each band's flux and S/N under the same weight about its own
   // centroid.
   stamps_.clear();
   for (std::size_t b = 0; b < bands_.size(); ++b) {
+    if (!(shear_mask_ >> b & 1u)) continue;
     kernels::MomentsStamp st;
     st.image = band_stamps_[b];
     st.size = box;
@@ -514,14 +542,16 @@ void CellMeasurer::fill_band_moments(const MetadetectCell& cell, int box, int x0
     const std::size_t npix = static_cast<std::size_t>(box) * box;
     combined_.assign(npix, 0.0);
     double wsum = 0;
-    for (double v : variances_) wsum += 1 / v;
+    for (std::size_t b = 0; b < bands_.size(); ++b)
+      if (shear_mask_ >> b & 1u) wsum += 1 / variances_[b];
     for (std::size_t b = 0; b < bands_.size(); ++b) {
+      if (!(shear_mask_ >> b & 1u)) continue;
       const double w = 1 / variances_[b] / wsum;
       for (std::size_t p = 0; p < npix; ++p) combined_[p] += w * band_stamps_[b][p];
     }
-    store_prepsf(cell, m, prepsf(combined_, box, m, x0, y0, 1 / wsum, d), psf_t_, x0, y0, d, r);
+    store_prepsf(cell, m, prepsf(combined_, box, m, x0, y0, 1 / wsum, d, shape_band_), psf_t_, x0, y0, d, r);
     for (std::size_t b = 0; b < bands_.size(); ++b) {
-      const kernels::PrepsfMoments mb = prepsf(band_stamps_[b], box, m, x0, y0, variances_[b], d);
+      const kernels::PrepsfMoments mb = prepsf(band_stamps_[b], box, m, x0, y0, variances_[b], d, b);
       if (mb.valid) r->band_flux[b] = mb.flux, r->band_snr[b] = mb.snr;
     }
     return;

@@ -11,6 +11,7 @@
 #pragma once
 #include <array>
 #include <complex>
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <string>
@@ -80,18 +81,18 @@ class CellMeasurer {
                     double variance, const Detection& d, MetadetectRow* r);
   // Several bands: the moments of the bands' stamps together (stamps_), each band's flux and S/N.
   void fill_band_moments(const MetadetectCell& cell, int box, int x0, int y0, const Detection& d, MetadetectRow* r);
-  // pgauss: the pre-PSF moments of `stamp` (of noise variance `variance`) about the wmom centroid
-  // `centre` (the detection where that failed).
+  // pgauss: the pre-PSF moments of `stamp` (of noise variance `variance`; made with band `band`'s
+  // Gamma) about the wmom centroid `centre` (the detection where that failed).
   kernels::PrepsfMoments prepsf(std::span<const double> stamp, int box, const kernels::WeightedMoments& centre,
-                                int x0, int y0, double variance, const Detection& d);
+                                int x0, int y0, double variance, const Detection& d, std::size_t band);
   // exp, bd: the model fit of `stamp` with Gamma (weights 1 / variance) into *r.
   void fill_fit(const MetadetectCell& cell, std::span<const double> stamp, int box, int x0, int y0, double variance,
                 const Detection& d, MetadetectRow* r);
   // The weight's Newton steps toward the centroid: 0 where it stays at the detection.
   int centroid_iterations() const { return options_.recentre ? 6 : 0; }
-  // The reconvolution PSF x pixel's transform on a box x box stamp's DFT grid, made once per box
-  // side and PSF.
-  std::span<const double> psf_transform(int box);
+  // Band `band`'s reconvolution PSF x pixel's transform on a box x box stamp's DFT grid, made once
+  // per box side and PSF (the shape bands' Gamma or the other bands').
+  std::span<const double> psf_transform(int box, std::size_t band);
   // options.per_object_metacal: each noshear detection's metacal stamps, five rows each.
   void per_object_rows(const MetadetectCell& cell, std::vector<MetadetectRow>* rows);
 
@@ -99,8 +100,13 @@ class CellMeasurer {
   FftPlanning planning_;
   std::unique_ptr<MetacalImageSet> images_set_;
   bool cell_masked_ = false;  // some band's weight is not positive somewhere in the cell
-  // The bands of the cell being measured, their PSFs' filters (one Gamma) and images.
+  // The bands of the cell being measured, their PSFs' filters (one Gamma for the shape bands, one
+  // for the others) and images.
   std::span<const MetadetectBand> bands_;
+  // The cell's band roles (options' detect_bands, shear_bands; 0 there: every band) and the first
+  // shape band, whose Gamma is the shapes'.
+  std::uint32_t detect_mask_ = 0, shear_mask_ = 0;
+  std::size_t shape_band_ = 0;
   std::vector<std::shared_ptr<const MetacalFilters>> filters_;
   std::vector<PsfModel> psfs_;
   bool have_psf_ = false;
@@ -117,9 +123,9 @@ class CellMeasurer {
   std::shared_ptr<const MetacalFilters> stamp_filters_;
   std::vector<double> stamp_images_, stamp_pixels_, stamp_weight_, stamp_noise_;
   std::vector<Detection> detections_;
-  // pgauss: psf_k_[box / 2] the transform for that box side (empty until needed), the kernel's
-  // scratch, the bands' stamps combined.
-  std::vector<std::vector<double>> psf_k_;
+  // pgauss: psf_k_[role][box / 2] the transform for that box side (empty until needed; role 0 the
+  // shape bands' Gamma, 1 the other bands'), the kernel's scratch, the bands' stamps combined.
+  std::array<std::vector<std::vector<double>>, 2> psf_k_;
   std::vector<std::complex<double>> prepsf_scratch_;
   std::vector<double> combined_;
   // exp, bd: the fitter (its renderers per box side), Gamma prepared per box side (fit_psfs_[box / 2],

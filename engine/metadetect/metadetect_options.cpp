@@ -5,6 +5,10 @@
 #include <cmath>
 #include <initializer_list>
 #include <sstream>
+#include <string>
+#include <utility>
+
+#include "engine/metadetect/metadetect_row.hpp"
 
 namespace stampede {
 
@@ -91,6 +95,10 @@ bool MetadetectOptions::IsValid(std::string* why) const {
   if (weight_fwhm != 0 && is_model_fit(measurement))
     return refuse(why, "weight_fwhm", weight_fwhm,
                   "weighs wmom and pgauss; a model fit (exp or bd) has no weight");
+  for (const auto& [field, mask] : {std::pair{"detect_bands", detect_bands}, std::pair{"shear_bands", shear_bands}})
+    if (mask >= (1u << kMaxMetadetectBands))
+      return refuse(why, field, static_cast<long long>(mask),
+                    ("must name bands 0 to " + std::to_string(kMaxMetadetectBands - 1) + " (bit b: band b; 0 every band)").c_str());
   if (detection.detector != DetectorKind::kTree && detection.detector != DetectorKind::kSep)
     return refuse(why, "detector", static_cast<int>(detection.detector), "must be tree or sep");
   if (!(detection.threshold > 0 && std::isfinite(detection.threshold)))

@@ -88,6 +88,13 @@ struct MetadetectOptions {
   // field drawn from the weight, keyed by the cell's number (and band).
   bool noise_plane = true;
   std::uint64_t seed = 20170101;  // keys each cell's fixnoise field with the cell's index
+  // Band roles, bit b for band b in the run's order (0: every band): the bands whose metacal images
+  // are summed for detection, and the bands whose moments give the row's shape (e, T, flux, S/N).
+  // Every band's flux and S/N are measured whatever its role (DES Y6 detects and measures shapes
+  // on r, i, z). The shape bands share one reconvolution PSF, the widest they need; other bands
+  // have the widest every band needs.
+  std::uint32_t detect_bands = 0;
+  std::uint32_t shear_bands = 0;
   MetadetectMeasurement measurement = MetadetectMeasurement::kWmom;
   // arcsec: the measurement's round Gaussian weight; 0: its default (weight_fwhm_arcsec()).
   double weight_fwhm = 0;

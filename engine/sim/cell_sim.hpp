@@ -79,7 +79,7 @@ struct CellSimOptions {
   // shear test's variance, blends and objects at the cells' edges included, as ring pairs do.
   bool rotate = false;
   bool noise_free = false;    // noise sigma 1e-6 of the S/N's: a noiseless cell with consistent weights
-  int bands = 1;              // band b of B: flux x (0.8 + 0.4 b / (B - 1)), PSF FWHM x (1 - 0.1 b / (B - 1)),
+  int bands = 1;              // band b of B: flux x (1 + 0.5 b / (B - 1)), PSF FWHM x (1 - 0.1 b / (B - 1)),
                               // bd bulge fraction x (0.5 + b / (B - 1)) (capped at 1)
   std::uint64_t seed = 42;
   // Message names the option as on the command line (--size, --snr, ...), its value and the rule.
