@@ -120,12 +120,12 @@ void check_kept(const MetadetectShear& s, const io::MetadetectTable& t, const Me
   if (s.kept_noshear > 0 && std::isfinite(s.r11) && std::isfinite(s.r22)) return;
   const std::string measured = t.key("MEASURE").value_or("?");
   char b[256];
-  std::snprintf(b, sizeof b, "%s: %s of its %zu rows pass the cuts (flags 0, snr > %g, T_ratio > %g)", t.path.c_str(),
-                s.kept_noshear > 0 ? "too few (a sheared type keeps none)" : "none", t.cell.size(), cuts.min_snr,
-                cuts.min_t_ratio);
+  std::snprintf(b, sizeof b, "%s: %s of its %zu rows pass the cuts (flags 0, snr > %g, T_ratio > %g, mfrac <= %g)",
+                t.path.c_str(), s.kept_noshear > 0 ? "too few (a sheared type keeps none)" : "none", t.cell.size(),
+                cuts.min_snr, cuts.min_t_ratio, cuts.max_mfrac);
   throw std::invalid_argument(std::string(b) + "; R and g are undefined: " +
                               (t.cell.empty() ? "the table holds no detection" :
-                               "loosen the cuts (--cut-snr, --cut-t-ratio) for this " + measured + " table"));
+                               "loosen the cuts (--cut-snr, --cut-t-ratio, --cut-mfrac) for this " + measured + " table"));
 }
 
 }  // namespace
@@ -146,8 +146,9 @@ MetadetectMetrics metadetect_metrics(const MetadetectMetricsOptions& o) {
   MetadetectCuts cuts = default_metadetect_cuts(plus.key("MEASURE").value_or(""));
   if (o.cut_snr) cuts.min_snr = *o.cut_snr;
   if (o.cut_t_ratio) cuts.min_t_ratio = *o.cut_t_ratio;
+  if (o.cut_mfrac) cuts.max_mfrac = *o.cut_mfrac;
   auto sums = [&](const io::MetadetectTable& t) {
-    return sum_metadetect_cells(t.cell, t.shear_type, t.e1, t.e2, t.flags, t.snr, t.t_ratio, cuts);
+    return sum_metadetect_cells(t.cell, t.shear_type, t.e1, t.e2, t.flags, t.snr, t.t_ratio, t.mfrac, cuts);
   };
   auto read = [&](const std::string& path, const io::MetadetectTable& of, const std::string& role, double sign,
                   bool turned) {
@@ -192,7 +193,8 @@ MetadetectMetrics metadetect_metrics(const MetadetectMetricsOptions& o) {
     if (out.true_shear[static_cast<std::size_t>(k)] != 0 && !std::isfinite(k == 0 ? out.bias.m1 : out.bias.m2))
       throw std::invalid_argument("m" + std::to_string(k + 1) + " of " + o.table + " and " + o.minus +
                                   " is undefined: their cells share no kept row (cuts flags 0, snr > " +
-                                  number_text(cuts.min_snr) + ", T_ratio > " + number_text(cuts.min_t_ratio) + ")");
+                                  number_text(cuts.min_snr) + ", T_ratio > " + number_text(cuts.min_t_ratio) +
+                                  ", mfrac <= " + number_text(cuts.max_mfrac) + ")");
   return out;
 }
 

@@ -20,7 +20,7 @@ struct MetadetectMetricsOptions {
   std::string rotated, rotated_minus;       // the same cells' scenes turned by 90 degrees, "" none
   std::optional<std::array<double, 2>> shear;  // the true shear of `table`
   // The cuts; unset: the measurement's defaults (default_metadetect_cuts).
-  std::optional<double> cut_snr, cut_t_ratio;
+  std::optional<double> cut_snr, cut_t_ratio, cut_mfrac;
   MetadetectEstimator estimator = MetadetectEstimator::kComposed;
   int resamples = 200;
   std::uint64_t seed = 1;

@@ -86,6 +86,17 @@ std::vector<MetadetectOptionKey> make_table() {
              "to 1.5 (%s)"),
       toggle("fixnoise", "--no-fixnoise", false, "FIXNOISE", [](auto& o) -> auto& { return o.fixnoise; },
              "do not add the rotated noise field"),
+      toggle("symmetrise_mask", "--no-mask-symmetry", false, "MASKSYM", [](auto& o) -> auto& { return o.symmetrise_mask; },
+             "keep the mask as given (by default a pixel is also masked when\n"
+             "its quarter turn about the cell's centre is, so that the mask's\n"
+             "shape has no quadrupole for metacal's shear to act on)"),
+      toggle("fill_masked", "--no-mask-fill", false, "MASKFILL", [](auto& o) -> auto& { return o.fill_masked; },
+             "zero the masked pixels (by default they are filled from the\n"
+             "unmasked pixels around them, a plane fitted under a Gaussian\n"
+             "weight, before the metacal images are made)"),
+      real("mfrac_fwhm", "--mfrac-fwhm", "F", "MFRACFW", [](auto& o) -> auto& { return o.mfrac_fwhm; },
+           "mfrac: the masked share of a Gaussian of this FWHM (arcsec) about\n"
+           "each detection (%s)"),
       {"double_images", "--double-images", "", "IMGPREC", Kind::kSwitch, true,
        [](const O& o) { return std::string(o.double_images ? "double" : "single"); },
        [](O& o, std::string_view text) { return io::parse_bool(text, &o.double_images); },

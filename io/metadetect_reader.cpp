@@ -42,6 +42,7 @@ MetadetectTable read_metadetect_table(const std::string& path) {
   t.e2 = doubles("e2");
   t.snr = doubles("snr");
   t.t_ratio = doubles("T_ratio");
+  t.mfrac = doubles("mfrac");
   t.shear_type.resize(static_cast<std::size_t>(n));
   std::vector<std::string> names(static_cast<std::size_t>(n));
   f.read_string_rows("shear_type", 0, names);

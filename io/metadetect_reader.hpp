@@ -14,7 +14,7 @@ namespace stampede::io {
 struct MetadetectTable {
   std::vector<long long> cell, flags;
   std::vector<int> shear_type;  // MetacalType
-  std::vector<double> e1, e2, snr, t_ratio;
+  std::vector<double> e1, e2, snr, t_ratio, mfrac;
   double step = 0;
   std::string path;
   // Every keyword card of the table's HDU but its structure (TTYPEn, NAXIS2, ...), in order.

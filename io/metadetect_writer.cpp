@@ -37,11 +37,11 @@ constexpr Column kColumns[] = {
     {"psf_T", "1D", "arcsec2", "the reconvolved PSF's T under the weight"},
     {"flux", "1D", "", "sum of weight x pixel values (exp, bd: the model's flux)"},
     {"snr", "1D", "", "flux over its error"},
-    {"mfrac", "1D", "", "masked fraction of the stamp"},
+    {"mfrac", "1D", "", "masked share of a Gaussian (FWHM MFRACFW) about it"},
     {"box_size", "1J", "pixel", "the stamp's side"},
     {"isophotal_area", "1J", "pixel", "pixels above the detection threshold"},
     {"sep_flags", "1J", "", "Source Extractor: 1 deblended, 2 on the edge, 8 singular"},
-    {"flags", "1J", "", "1 measurement failed, 2 edge, 4 masked pixels, 8 cell failed"},
+    {"flags", "1J", "", "1 measurement failed, 2 edge, 4 masked at the detection, 8 cell failed"},
 };
 constexpr int kNumColumns = static_cast<int>(std::size(kColumns));
 

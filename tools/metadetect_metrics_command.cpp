@@ -39,6 +39,7 @@ void print_help() {
       "                        cells` writes it)\n"
       "  --cut-snr X           keep rows with snr > X (%g)\n"
       "  --cut-t-ratio Q       keep rows with T_ratio > Q (%g; a pgauss table's: %g)\n"
+      "  --cut-mfrac F         keep rows with mfrac <= F, the masked share about them (%g)\n"
       "  --estimator E         composed: g = <e> (1 - |g|^2) / R (default); package: <e> / R, the\n"
       "                        reference metadetect package's\n"
       "  --bootstrap N         bootstrap resamples (200)\n"
@@ -48,7 +49,7 @@ void print_help() {
       "The tables of a pair must be measured alike on other files; where their inputs record their\n"
       "scene (sim cells' do), opposite shears of one scene, turned exactly where given as --rotated.\n"
       "Cuts that keep no row are an error.\n",
-      d.min_snr, d.min_t_ratio, pgauss.min_t_ratio);
+      d.min_snr, d.min_t_ratio, pgauss.min_t_ratio, d.max_mfrac);
 }
 
 std::string number(double v) {
@@ -63,7 +64,7 @@ std::string number(double v) {
 int run_metadetect_metrics_command(int argc, char** argv) {
   std::string plus_path, minus_path, rotated_path, rotated_minus_path, json;
   std::optional<std::array<double, 2>> shear;
-  std::optional<double> cut_snr, cut_t_ratio;
+  std::optional<double> cut_snr, cut_t_ratio, cut_mfrac;
   MetadetectEstimator estimator = MetadetectEstimator::kComposed;
   int resamples = 200;
   std::uint64_t seed = 1;
@@ -90,6 +91,8 @@ int run_metadetect_metrics_command(int argc, char** argv) {
       cut_snr = tools::number_value(argc, argv, &i);
     } else if (a == "--cut-t-ratio") {
       cut_t_ratio = tools::number_value(argc, argv, &i);
+    } else if (a == "--cut-mfrac") {
+      cut_mfrac = tools::number_value(argc, argv, &i);
     } else if (a == "--estimator") {
       const std::string v = value();
       if (!parse_metadetect_estimator(v, &estimator))
@@ -109,17 +112,18 @@ int run_metadetect_metrics_command(int argc, char** argv) {
                                     {"--rotated-minus", rotated_minus_path}});
   app::MetadetectMetricsOptions mo;
   mo.table = plus_path, mo.minus = minus_path, mo.rotated = rotated_path, mo.rotated_minus = rotated_minus_path;
-  mo.shear = shear, mo.cut_snr = cut_snr, mo.cut_t_ratio = cut_t_ratio, mo.resamples = resamples, mo.seed = seed, mo.estimator = estimator;
+  mo.shear = shear, mo.cut_snr = cut_snr, mo.cut_t_ratio = cut_t_ratio, mo.cut_mfrac = cut_mfrac, mo.resamples = resamples, mo.seed = seed, mo.estimator = estimator;
   const app::MetadetectMetrics r = app::metadetect_metrics(mo);
   const MetadetectShear& s = r.shear;
   const MetadetectCuts& cuts = r.cuts;
-  std::printf("%s: %lld cells, %.0f noshear rows kept (snr > %g, T_ratio > %g, flags 0)\n", plus_path.c_str(), s.cells,
-              s.kept_noshear, cuts.min_snr, cuts.min_t_ratio);
+  std::printf("%s: %lld cells, %.0f noshear rows kept (snr > %g, T_ratio > %g, mfrac <= %g, flags 0)\n",
+              plus_path.c_str(), s.cells, s.kept_noshear, cuts.min_snr, cuts.min_t_ratio, cuts.max_mfrac);
   std::printf("  R11 = %.5f +- %.5f   R22 = %.5f +- %.5f\n", s.r11, s.r11_err, s.r22, s.r22_err);
   std::printf("  g1  = %+.3e +- %.1e   g2 = %+.3e +- %.1e\n", s.g1, s.g1_err, s.g2, s.g2_err);
   if (s.cells < 2) std::printf("  (one cell: no errors; they are a bootstrap over cells, which needs two)\n");
   std::string out = "{\"table\": " + tools::json_string(plus_path) + ", \"cells\": " + std::to_string(s.cells) +
                     ", \"cut_snr\": " + number(cuts.min_snr) + ", \"cut_t_ratio\": " + number(cuts.min_t_ratio) +
+                    ", \"cut_mfrac\": " + number(cuts.max_mfrac) +
                     ", \"R11\": " + number(s.r11) +
                     ", \"R11_err\": " + number(s.r11_err) + ", \"R22\": " + number(s.r22) + ", \"R22_err\": " +
                     number(s.r22_err) + ", \"g1\": " + number(s.g1) + ", \"g1_err\": " + number(s.g1_err) +

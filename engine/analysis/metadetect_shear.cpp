@@ -64,14 +64,15 @@ bool parse_metadetect_estimator(const std::string& name, MetadetectEstimator* ou
 MetadetectCellSums sum_metadetect_cells(const std::vector<long long>& cell, const std::vector<int>& shear_type,
                                         const std::vector<double>& e1, const std::vector<double>& e2,
                                         const std::vector<long long>& flags, const std::vector<double>& snr,
-                                        const std::vector<double>& t_ratio, const MetadetectCuts& cuts) {
+                                        const std::vector<double>& t_ratio, const std::vector<double>& mfrac,
+                                        const MetadetectCuts& cuts) {
   std::map<long long, std::array<Sums, 5>> by_cell;
   for (std::size_t i = 0; i < cell.size(); ++i) {
     std::array<Sums, 5>& c = by_cell[cell[i]];
     const int t = shear_type[i];
     if (t < 0 || t >= 5) continue;
     if ((static_cast<std::uint64_t>(flags[i]) & cuts.excluded_flags) != 0) continue;
-    if (!(snr[i] > cuts.min_snr) || !(t_ratio[i] > cuts.min_t_ratio)) continue;
+    if (!(snr[i] > cuts.min_snr) || !(t_ratio[i] > cuts.min_t_ratio) || !(mfrac[i] <= cuts.max_mfrac)) continue;
     if (!std::isfinite(e1[i]) || !std::isfinite(e2[i])) continue;
     c[t].n += 1, c[t].e1 += e1[i], c[t].e2 += e2[i];
   }

@@ -25,6 +25,9 @@ namespace stampede {
 struct MetadetectCuts {
   double min_snr = 10;
   double min_t_ratio = 1.2;
+  // Rows whose masked share (mfrac) is above this are cut, each catalogue by its own mfrac: the
+  // selection's response is then inside R. DES Y6's.
+  double max_mfrac = 0.1;
   std::uint32_t excluded_flags = 0xffffffffu;  // any flag excludes a row
 };
 
@@ -41,7 +44,8 @@ struct MetadetectCellSums {
 MetadetectCellSums sum_metadetect_cells(const std::vector<long long>& cell, const std::vector<int>& shear_type,
                                         const std::vector<double>& e1, const std::vector<double>& e2,
                                         const std::vector<long long>& flags, const std::vector<double>& snr,
-                                        const std::vector<double>& t_ratio, const MetadetectCuts& cuts);
+                                        const std::vector<double>& t_ratio, const std::vector<double>& mfrac,
+                                        const MetadetectCuts& cuts);
 
 // Adds `more`'s sums to `into`'s cells of the same numbers (the rotated scene of each cell joins its
 // cell: one bootstrap unit). Throws std::invalid_argument when the cells differ.

@@ -11,6 +11,7 @@
 #include "engine/metacal/metacal_options.hpp"
 #include "engine/metacal/metacal_type.hpp"
 #include "engine/metacal/reconvolution_psf.hpp"
+#include "kernels/mask_fill.hpp"
 #include "engine/model/pixelated_psf.hpp"
 #include "kernels/fourier_profiles.hpp"
 #include "kernels/weighted_moments.hpp"
@@ -208,6 +209,14 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
         cell_masked_ || std::any_of(b.image.weight.begin(), b.image.weight.end(), [](double w) { return !(w > 0); });
   if (!prepare_psf(cell.pixel_scale, problem)) return fail(*problem);
   const std::size_t npix = static_cast<std::size_t>(cell.size()) * cell.size();
+  if (cell_masked_) {
+    // One mask for the cell: a pixel any band masks, and (symmetrise_mask) its quarter turn.
+    mask_.assign(npix, 0);
+    for (const MetadetectBand& b : bands_)
+      for (std::size_t p = 0; p < b.image.weight.size(); ++p)
+        if (!(b.image.weight[p] > 0)) mask_[p] = 1;
+    if (options_.symmetrise_mask) kernels::symmetrise_mask(mask_, cell.size(), &mask_turned_);
+  }
   MetacalOptions metacal;
   metacal.enabled = true;
   metacal.step = options_.step;
@@ -217,9 +226,10 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
   for (std::size_t b = 0; b < bands_.size(); ++b) {
     images_[b].resize(kNumMetacalTypes * npix);
     const Observation& image = bands_[b].image;
-    images_set_->make(image.pixels, image.weight, WeightKind::kInverseVariance, 0.0, *filters_[b], metacal,
-                      fixnoise_stream(options_.seed, cell.index, b), images_[b], &variances_[b], 1.0, nullptr,
-                      bands_[b].noise);
+    std::span<const double> pixels = image.pixels, weight = image.weight, noise = bands_[b].noise;
+    if (cell_masked_) prepare_masked(cell.size(), &pixels, &weight, &noise);
+    images_set_->make(pixels, weight, WeightKind::kInverseVariance, 0.0, *filters_[b], metacal,
+                      fixnoise_stream(options_.seed, cell.index, b), images_[b], &variances_[b], 1.0, nullptr, noise);
     if (!(variances_[b] > 0) || !std::isfinite(variances_[b]))
       return fail(bands_.size() == 1 ? std::string("the cell's weights give no positive finite noise variance")
                                      : "band " + std::to_string(b) + "'s weights give no positive finite noise variance");
@@ -268,6 +278,34 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
   return true;
 }
 
+void CellMeasurer::prepare_masked(int side, std::span<const double>* pixels, std::span<const double>* weight,
+                                  std::span<const double>* noise) {
+  const std::size_t npix = pixels->size();
+  double sum = 0;
+  long long unmasked = 0;
+  for (std::size_t p = 0; p < npix; ++p)
+    if (!mask_[p]) sum += weight->empty() ? 1.0 : (*weight)[p], ++unmasked;
+  if (unmasked == 0) return;  // nothing to fill from: make() finds no noise and the cell fails
+  masked_pixels_.assign(pixels->begin(), pixels->end());
+  masked_weight_.assign(weight->begin(), weight->end());
+  masked_noise_.assign(noise->begin(), noise->end());
+  if (options_.fill_masked) {
+    // The filled pixels carry the unmasked pixels' mean weight: data to deconvolve, not holes.
+    const double mean_weight = sum / static_cast<double>(unmasked);
+    fill_planes_.clear();
+    fill_planes_.emplace_back(masked_pixels_);
+    if (!masked_noise_.empty()) fill_planes_.emplace_back(masked_noise_);
+    kernels::fill_masked_pixels(mask_, side, fill_planes_, &fill_scratch_);
+    for (std::size_t p = 0; p < npix; ++p)
+      if (mask_[p]) masked_weight_[p] = mean_weight;
+  } else {
+    for (std::size_t p = 0; p < npix; ++p)
+      if (mask_[p]) masked_weight_[p] = 0;  // zeroed by make(), the symmetric mask's pixels too
+  }
+  *pixels = masked_pixels_, *weight = masked_weight_;
+  if (!masked_noise_.empty()) *noise = masked_noise_;
+}
+
 void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::vector<MetadetectRow>* rows) {
   const DetectionStampOptions& so = options_.stamp;
   const int s = cell.size();
@@ -293,27 +331,20 @@ void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::vect
     r.box_size = box;
     const int x0 = static_cast<int>(std::lround(d.x)) - half, y0 = static_cast<int>(std::lround(d.y)) - half;
     stamp_.assign(static_cast<std::size_t>(box) * box, 0.0);
-    long long masked = 0;
-    // Row by row: the part inside the cell copied, the rest (beyond its edge) zero and masked.
+    // Row by row: the part inside the cell copied, the rest (beyond its edge) zero.
     const int i0 = std::clamp(-x0, 0, box), i1 = std::clamp(s - x0, i0, box);
     for (int j = 0; j < box; ++j) {
       const int y = y0 + j;
       const int inside = y < 0 || y >= s ? 0 : i1 - i0;
       if (inside < box) r.flags |= kMetadetectEdge;
-      masked += box - inside;
       if (inside == 0) continue;
       const std::size_t p0 = static_cast<std::size_t>(y) * s + (x0 + i0);
       std::copy_n(image.data() + p0, inside, stamp_.data() + static_cast<std::size_t>(j) * box + i0);
-      if (!cell_masked_) continue;
-      for (int i = 0; i < inside; ++i) {
-        bool masked_here = false;
-        for (const MetadetectBand& b : bands_)
-          masked_here = masked_here || (!b.image.weight.empty() && !(b.image.weight[p0 + i] > 0));
-        masked += masked_here;
-      }
     }
-    r.mfrac = static_cast<double>(masked) / (static_cast<double>(box) * box);
-    if (masked > 0 && !(r.flags & kMetadetectEdge)) r.flags |= kMetadetectMasked;
+    r.mfrac = masked_share(s, d.x, d.y);
+    const long px = std::lround(d.x), py = std::lround(d.y);
+    if (cell_masked_ && px >= 0 && py >= 0 && px < s && py < s && mask_[static_cast<std::size_t>(py) * s + px])
+      r.flags |= kMetadetectMasked;
     if (nb == 1) {
       fill_moments(cell, stamp_, box, x0, y0, variances_[0], d, &r);
     } else {
@@ -334,6 +365,21 @@ void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::vect
     }
     rows->push_back(r);
   }
+}
+
+double CellMeasurer::masked_share(int side, double x, double y) const {
+  const double sigma = options_.mfrac_fwhm / psf_scale_ / 2.3548200450309493;
+  const int reach = static_cast<int>(std::ceil(3 * sigma));
+  const long cx = std::lround(x), cy = std::lround(y);
+  double all = 0, masked = 0;
+  for (long v = cy - reach; v <= cy + reach; ++v)
+    for (long u = cx - reach; u <= cx + reach; ++u) {
+      const double w = std::exp(-0.5 * ((u - x) * (u - x) + (v - y) * (v - y)) / (sigma * sigma));
+      all += w;
+      const bool outside = u < 0 || v < 0 || u >= side || v >= side;
+      if (outside || (cell_masked_ && mask_[static_cast<std::size_t>(v) * side + static_cast<std::size_t>(u)])) masked += w;
+    }
+  return masked / all;
 }
 
 bool CellMeasurer::owns(const MetadetectCell& cell, int type, const Detection& d) const {

@@ -26,6 +26,7 @@
 #include "engine/metadetect/metadetect_row.hpp"
 #include "engine/metadetect/object_detector.hpp"
 #include "engine/model/psf_model.hpp"
+#include "kernels/mask_fill.hpp"
 #include "kernels/prepsf_moments.hpp"
 #include "kernels/weighted_moments.hpp"
 
@@ -72,8 +73,16 @@ class CellMeasurer {
   // too, with its reason); prepare_new_psf makes them.
   bool prepare_psf(double pixel_scale, std::string* problem);
   bool prepare_new_psf(double pixel_scale, std::string* problem);
+  // A band of a cell with masked pixels: the cell's mask's pixels (and noise plane) filled from
+  // the unmasked ones, with the unmasked mean weight (fill_masked; without, they are zeroed). The
+  // spans then point at the copies made here.
+  void prepare_masked(int side, std::span<const double>* pixels, std::span<const double>* weight,
+                      std::span<const double>* noise);
   // Detections of image `type` (every band's) measured into rows; `variances` per band.
   void measure_image(const MetadetectCell& cell, int type, std::vector<MetadetectRow>* rows);
+  // The masked share (the cell's mask, and beyond its edge) of a round Gaussian of
+  // options.mfrac_fwhm about (x, y), cell pixels.
+  double masked_share(int side, double x, double y) const;
   // Whether the cell keeps detection d of image `type` (its unsheared position in the keep region).
   bool owns(const MetadetectCell& cell, int type, const Detection& d) const;
   // The weighted moments of a box x box stamp whose pixel (0, 0) is the cell's (x0, y0) into *r.
@@ -100,6 +109,9 @@ class CellMeasurer {
   FftPlanning planning_;
   std::unique_ptr<MetacalImageSet> images_set_;
   bool cell_masked_ = false;  // some band's weight is not positive somewhere in the cell
+  // Where it is: the cell's mask (every band's masked pixels and, with symmetrise_mask, their
+  // quarter turns), which the fill and the rows' masked flags and fractions follow.
+  std::vector<std::uint8_t> mask_, mask_turned_;
   // The bands of the cell being measured, their PSFs' filters (one Gamma for the shape bands, one
   // for the others) and images.
   std::span<const MetadetectBand> bands_;
@@ -123,6 +135,10 @@ class CellMeasurer {
   std::shared_ptr<const MetacalFilters> stamp_filters_;
   std::vector<double> stamp_images_, stamp_pixels_, stamp_weight_, stamp_noise_;
   std::vector<Detection> detections_;
+  // prepare_masked's copies.
+  std::vector<double> masked_pixels_, masked_weight_, masked_noise_;
+  std::vector<std::span<double>> fill_planes_;
+  kernels::MaskFillScratch fill_scratch_;
   // pgauss: psf_k_[role][box / 2] the transform for that box side (empty until needed; role 0 the
   // shape bands' Gamma, 1 the other bands'), the kernel's scratch, the bands' stamps combined.
   std::array<std::vector<std::vector<double>>, 2> psf_k_;

@@ -95,6 +95,7 @@ bool MetadetectOptions::IsValid(std::string* why) const {
   if (weight_fwhm != 0 && is_model_fit(measurement))
     return refuse(why, "weight_fwhm", weight_fwhm,
                   "weighs wmom and pgauss; a model fit (exp or bd) has no weight");
+  if (!(mfrac_fwhm > 0 && mfrac_fwhm <= 60)) return refuse(why, "mfrac_fwhm", mfrac_fwhm, "must be in (0, 60] arcsec");
   for (const auto& [field, mask] : {std::pair{"detect_bands", detect_bands}, std::pair{"shear_bands", shear_bands}})
     if (mask >= (1u << kMaxMetadetectBands))
       return refuse(why, field, static_cast<long long>(mask),

@@ -79,6 +79,16 @@ struct MetadetectOptions {
   // boundaries (docs/metadetect.md, "The random test's m").
   bool keep_unlensed = false;
   bool fixnoise = true;
+  // Masked pixels (weight 0): the mask made symmetric under a quarter turn about the cell's centre
+  // (its shape then has no quadrupole for the shear to act on), and the masked pixels filled from
+  // the unmasked ones around them before the metacal images are made (no hole to deconvolve), as
+  // the reference package does (docs/survey_metadetect.md). Off: the masked pixels are zeroed.
+  bool symmetrise_mask = true;
+  bool fill_masked = true;
+  // arcsec: each detection's mfrac is the masked share (the cell's mask; beyond the cell's edge
+  // too) of a round Gaussian of this FWHM about it, as the reference package measures it (DES Y6
+  // cuts mfrac < 0.1).
+  double mfrac_fwhm = 2.0;
   // The cells' metacal images made in double precision; false: in single precision (half the time;
   // the images within ~2e-7 of their peak of the double ones: docs/metadetect.md, "Single-precision
   // images").

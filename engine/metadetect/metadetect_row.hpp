@@ -14,7 +14,7 @@ enum MetadetectFlag : std::uint32_t {
   // The measurement failed: moments not valid (no positive flux or T, |e| >= 1), a fit not converged.
   kMetadetectMomentsFailed = 1u << 0,
   kMetadetectEdge = 1u << 1,           // the detection's stamp reaches beyond the cell
-  kMetadetectMasked = 1u << 2,         // the stamp holds masked pixels (mfrac > 0)
+  kMetadetectMasked = 1u << 2,         // the detection's pixel is masked (the cell's mask)
   kMetadetectCellFailed = 1u << 3,     // nothing could be detected in the cell: a row with id -1 says why
 };
 
@@ -33,7 +33,7 @@ struct MetadetectRow {
   // own centroid under the same weight.
   std::array<double, kMaxMetadetectBands> band_flux{NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
   std::array<double, kMaxMetadetectBands> band_snr{NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
-  double mfrac = 0;             // masked fraction of the stamp
+  double mfrac = 0;             // masked share of a Gaussian about the detection (MetadetectOptions::mfrac_fwhm)
   std::int32_t box_size = 0;
   std::int32_t isophotal_area = 0;
   std::int32_t sep_flags = 0;

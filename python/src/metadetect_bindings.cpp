@@ -162,7 +162,7 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
 py::dict metadetect_metrics(py::args args, py::kwargs kwargs) {
   const Arguments a("metadetect_metrics", args, kwargs,
                     {{"table", true}, {"minus"}, {"rotated"}, {"rotated_minus"}, {"shear"}, {"cut_snr"},
-                     {"cut_t_ratio"}, {"bootstrap"}, {"seed"}, {"estimator"}});
+                     {"cut_t_ratio"}, {"cut_mfrac"}, {"bootstrap"}, {"seed"}, {"estimator"}});
   app::MetadetectMetricsOptions o;
   o.table = a.text("table");
   o.minus = a.text("minus");
@@ -175,6 +175,7 @@ py::dict metadetect_metrics(py::args args, py::kwargs kwargs) {
   }
   if (a.given("cut_snr")) o.cut_snr = a.real("cut_snr", 0);
   if (a.given("cut_t_ratio")) o.cut_t_ratio = a.real("cut_t_ratio", 0);
+  if (a.given("cut_mfrac")) o.cut_mfrac = a.real("cut_mfrac", 0);
   o.resamples = static_cast<int>(a.integer_in("bootstrap", 200, 2, 100000));
   o.seed = static_cast<std::uint64_t>(a.integer_in("seed", 1, 0, 1LL << 62));
   if (const std::string v = a.text("estimator", "composed"); !parse_metadetect_estimator(v, &o.estimator))
@@ -187,7 +188,7 @@ py::dict metadetect_metrics(py::args args, py::kwargs kwargs) {
   py::dict d;
   const MetadetectShear& s = r.shear;
   d["cells"] = s.cells, d["kept_noshear"] = s.kept_noshear;
-  d["cut_snr"] = r.cuts.min_snr, d["cut_t_ratio"] = r.cuts.min_t_ratio;
+  d["cut_snr"] = r.cuts.min_snr, d["cut_t_ratio"] = r.cuts.min_t_ratio, d["cut_mfrac"] = r.cuts.max_mfrac;
   d["R11"] = s.r11, d["R11_err"] = s.r11_err, d["R22"] = s.r22, d["R22_err"] = s.r22_err;
   d["g1"] = s.g1, d["g1_err"] = s.g1_err, d["g2"] = s.g2, d["g2_err"] = s.g2_err;
   if (r.has_bias) {
@@ -259,7 +260,7 @@ barycentre, a deblended child's of its core), flux and isophotal_area (unfiltere
 xmin, xmax, ymin, ymax, sep_flags (1 deblended, 2 on the edge, 8 degenerate moments).
 )doc");
   m.def("metadetect_metrics", &metadetect_metrics, R"doc(metadetect_metrics(table, minus=None, rotated=None,
-           rotated_minus=None, shear=None, cut_snr=10, cut_t_ratio=1.2, bootstrap=200, seed=1,
+           rotated_minus=None, shear=None, cut_snr=10, cut_t_ratio=1.2, cut_mfrac=0.1, bootstrap=200, seed=1,
            estimator="composed")
 
 `stampede metrics --metadetect` as a dict: R11, R22, g1, g2 (with _err, bootstrap over cells) of

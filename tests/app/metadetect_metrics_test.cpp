@@ -146,7 +146,7 @@ TEST_F(MetadetectMetricsTest, CutsThatKeepNoRowAreAnErrorAndPgaussHasItsOwnDefau
   o.table = table("sims", "plus.fits");
   o.cut_snr = 1e12;
   EXPECT_NE(error_of(o).find("none of its"), std::string::npos) << error_of(o);
-  EXPECT_NE(error_of(o).find("pass the cuts (flags 0, snr > 1e+12, T_ratio > 1.2)"), std::string::npos) << error_of(o);
+  EXPECT_NE(error_of(o).find("pass the cuts (flags 0, snr > 1e+12, T_ratio > 1.2, mfrac <= 0.1)"), std::string::npos) << error_of(o);
   MetadetectMetricsOptions p;
   p.table = table("sims", "plus_pgauss.fits", [](MetadetectOptions& m) { m.measurement = MetadetectMeasurement::kPgauss; });
   const MetadetectMetrics r = metadetect_metrics(p);

@@ -26,6 +26,7 @@ TEST(MetadetectOptionKeys, EachNameOnceAndTheHeaderKeysInTheirOrder) {
     order.push_back(k.header);
   }
   const std::vector<std::string> recorded = {"CELLSIZE", "CELLBUF", "MCSTEP",  "MCPSFDIL", "MCRECONV", "FIXNOISE",
+                                             "MASKSYM",  "MASKFILL", "MFRACFW",
                                              "IMGPREC",  "PEROBJMC", "NOISEPLN", "MCSEED",  "MEASURE",  "WFWHM",
                                              "RECENTRE", "KEEPUNL", "DETECTOR", "DETTHR",  "DETMINA",  "DBLCONT",
                                              "DBLNTHR",  "FILTFWHM", "FILTSIZE", "CLEAN",   "CLEANPAR", "STAMPSZ",

@@ -18,16 +18,17 @@ from .page import Page, note, pre, table
 from .statistics import Histogram
 
 # `stampede metrics --metadetect`'s cuts (MetadetectCuts, engine/analysis/metadetect_shear.hpp): flags
-# 0, snr > CUT_SNR, T_ratio > CUT_T_RATIO, e finite; given to metadetect_metrics explicitly, so the
-# page's counts and its metrics are of one selection.
+# 0, snr > CUT_SNR, T_ratio > CUT_T_RATIO, mfrac <= CUT_MFRAC, e finite; given to metadetect_metrics
+# explicitly, so the page's counts and its metrics are of one selection.
 CUT_SNR = 10.0
 CUT_T_RATIO = 1.2
+CUT_MFRAC = 0.1
 BOOTSTRAP = 200  # its defaults: --bootstrap 200, --seed 1
 SEED = 1
 SHEAR_TYPES = ("noshear", "1p", "1m", "2p", "2m")  # MetacalType order
-REQUIRED_COLUMNS = ("cell", "shear_type", "id", "e1", "e2", "T_ratio", "snr", "flags")
+REQUIRED_COLUMNS = ("cell", "shear_type", "id", "e1", "e2", "T_ratio", "snr", "mfrac", "flags")
 STREAMED = REQUIRED_COLUMNS
-FLAG_MEANINGS = {0: "moments failed", 1: "edge", 2: "masked pixels", 3: "cell failed"}  # io/metadetect_writer
+FLAG_MEANINGS = {0: "moments failed", 1: "edge", 2: "masked at the detection", 3: "cell failed"}  # io/metadetect_writer
 # Header keys of the run's options (app/metadetect_run option_keys), shown folded.
 OPTION_KEYS = ("CELLSIZE", "CELLBUF", "MCSTEP", "MCPSFDIL", "FIXNOISE", "PEROBJMC", "NOISEPLN", "MCSEED", "WFWHM",
                "DETECTOR", "DETTHR", "DETMINA", "DBLCONT", "DBLNTHR", "FILTFWHM", "FILTSIZE", "CLEAN", "CLEANPAR", "BOXRFAC",
@@ -104,8 +105,8 @@ class MetadetectTable:
 def kept_by_cuts(c):
     """The rows `stampede metrics --metadetect` keeps (engine/analysis/metadetect_shear.cpp)."""
     with np.errstate(invalid="ignore"):
-        return (c["flags"] == 0) & (c["snr"] > CUT_SNR) & (c["T_ratio"] > CUT_T_RATIO) & np.isfinite(c["e1"]) & \
-            np.isfinite(c["e2"])
+        return (c["flags"] == 0) & (c["snr"] > CUT_SNR) & (c["T_ratio"] > CUT_T_RATIO) & \
+            (c["mfrac"] <= CUT_MFRAC) & np.isfinite(c["e1"]) & np.isfinite(c["e2"])
 
 
 class MetadetectCounts:
@@ -167,10 +168,10 @@ def metrics(path, minus=None, shear=None, cuts=True):
     kw = {"minus": minus} if minus else {}
     if shear is not None and minus:
         kw["shear"] = list(shear)
-    limits = (CUT_SNR, CUT_T_RATIO) if cuts else (-math.inf, -math.inf)
+    limits = (CUT_SNR, CUT_T_RATIO, CUT_MFRAC) if cuts else (-math.inf, -math.inf, math.inf)
     try:
-        return stampede.metadetect_metrics(path, cut_snr=limits[0], cut_t_ratio=limits[1], bootstrap=BOOTSTRAP,
-                                           seed=SEED, **kw)
+        return stampede.metadetect_metrics(path, cut_snr=limits[0], cut_t_ratio=limits[1], cut_mfrac=limits[2],
+                                           bootstrap=BOOTSTRAP, seed=SEED, **kw)
     except (stampede.Error, ValueError) as e:
         what = f"{path} and {minus}" if minus else path
         raise ReportError(f"metrics of {what}: {e}") from None
@@ -187,7 +188,7 @@ def printed_lines(path, r, minus=None):
     """The lines `stampede metrics --metadetect PATH [--minus MINUS]` prints for its result `r`
     (tools/metadetect_metrics_command.cpp), so the page and the command compare as text."""
     lines = [f"{path}: {r['cells']} cells, {r['kept_noshear']:.0f} noshear rows kept (snr > {CUT_SNR:g}, "
-             f"T_ratio > {CUT_T_RATIO:g}, flags 0)",
+             f"T_ratio > {CUT_T_RATIO:g}, mfrac <= {CUT_MFRAC:g}, flags 0)",
              f"  R11 = {number_text(r['R11'], '.5f')} +- {number_text(r['R11_err'], '.5f')}   "
              f"R22 = {number_text(r['R22'], '.5f')} +- {number_text(r['R22_err'], '.5f')}",
              f"  g1  = {number_text(r['g1'], '+.3e')} +- {number_text(r['g1_err'], '.1e')}   "
@@ -269,7 +270,7 @@ def cuts_section(page, inputs, n, names, out):
                   table([(k, str(v)) for k, v in options], ["option", "value"], text_columns=(0, 1)) + "</details>",
                   note(f"Detections: rows with id ≥ 0 (a cell that could not be measured is one row with id −1 and "
                        f"flag 8). Cuts as `stampede metrics --metadetect`: flags 0, snr > {CUT_SNR:g}, T_ratio > "
-                       f"{CUT_T_RATIO:g}, e finite; each shear type's catalogue is cut on its own quantities. "
+                       f"{CUT_T_RATIO:g}, mfrac ≤ {CUT_MFRAC:g}, e finite; each shear type's catalogue is cut on its own quantities. "
                        "Histograms: noshear detections of every table; detections per cell: noshear, per cell and "
                        "table.")])
 

@@ -17,13 +17,13 @@ namespace {
 struct Catalogue {
   std::vector<long long> cell, flags;
   std::vector<int> type;
-  std::vector<double> e1, e2, snr, t_ratio;
-  void add(long long c, int t, std::complex<double> e, long long f = 0, double s = 100, double tr = 2) {
+  std::vector<double> e1, e2, snr, t_ratio, mfrac;
+  void add(long long c, int t, std::complex<double> e, long long f = 0, double s = 100, double tr = 2, double mf = 0) {
     cell.push_back(c), type.push_back(t), e1.push_back(e.real()), e2.push_back(e.imag());
-    flags.push_back(f), snr.push_back(s), t_ratio.push_back(tr);
+    flags.push_back(f), snr.push_back(s), t_ratio.push_back(tr), mfrac.push_back(mf);
   }
   MetadetectCellSums sums(const MetadetectCuts& cuts = {}) const {
-    return sum_metadetect_cells(cell, type, e1, e2, flags, snr, t_ratio, cuts);
+    return sum_metadetect_cells(cell, type, e1, e2, flags, snr, t_ratio, mfrac, cuts);
   }
 };
 
