@@ -25,6 +25,7 @@
 #include "io/metadetect_writer.hpp"
 #include "io/output_check.hpp"
 #include "io/output_lock.hpp"
+#include "io/star_catalogue.hpp"
 
 namespace stampede::app {
 namespace {
@@ -74,10 +75,11 @@ std::vector<io::RunOutput> outputs_of(const MetadetectRunOptions& options, const
   for (const std::string& part : parts) outputs.push_back(table_output("-o (a rank's part)", part));
   return outputs;
 }
-std::vector<io::RunInput> inputs_of(const MetadetectFiles& read) {
+std::vector<io::RunInput> inputs_of(const MetadetectRunOptions& options, const MetadetectFiles& read) {
   std::vector<io::RunInput> inputs;
   for (const std::string& in : read.files) inputs.push_back({"input", io::fits_root_name(in)});
   for (const std::string& p : read.images.psfex) inputs.push_back({"--psfex", p});
+  if (!options.star_mask.empty()) inputs.push_back({"--star-mask", io::fits_root_name(options.star_mask)});
   return inputs;
 }
 
@@ -108,7 +110,7 @@ void record_scene(const std::vector<std::string>& files, io::MetadetectWriterOpt
 }  // namespace
 
 void check_metadetect_outputs(const MetadetectRunOptions& options, const std::vector<std::string>& parts) {
-  io::check_outputs(outputs_of(options, parts), inputs_of(metadetect_files(options, metadetect_bands(options))),
+  io::check_outputs(outputs_of(options, parts), inputs_of(options, metadetect_files(options, metadetect_bands(options))),
                     options.overwrite || options.resume);
 }
 
@@ -142,10 +144,13 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   measure.detect_bands = band_role_mask(options.detect_bands, bands, "--detect-bands");
   measure.shear_bands = band_role_mask(options.shear_bands, bands, "--shear-bands");
   const MetadetectFiles read = metadetect_files(options, bands);
-  const std::vector<io::OutputLock> locks = protect_outputs(table, outputs_of(options, {}), inputs_of(read));
+  const std::vector<io::OutputLock> locks = protect_outputs(table, outputs_of(options, {}), inputs_of(options, read));
 
   io::CellSource source = options.tile ? io::CellSource(io::CellSource::Tile{options.inputs}, measure)
                                        : io::CellSource(read.images, measure);
+  if (!(options.star_margin >= 0 && options.star_margin <= 1000))
+    throw io::ConfigError("--star-margin " + io::format_double(options.star_margin) + ": must be in [0, 1000] pixels");
+  if (!options.star_mask.empty()) source.set_stars(io::read_star_catalogue(options.star_mask, options.star_margin));
   io::MetadetectWriterOptions writer_options;
   writer_options.path = options.output;
   writer_options.bands = bands;
@@ -185,6 +190,13 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   };
   record_files(read.files, "INPUT", "DIGEST", "input", true);
   record_files(read.images.psfex, "PSFEX", "PSFEXD", "psfex", false);  // bands may share a model
+  if (!options.star_mask.empty()) {
+    const std::string d = io::digest_file(options.star_mask).text();
+    writer_options.header.emplace_back("STARCAT", options.star_mask);
+    record("STARCATD", d, "star mask " + options.star_mask + " " + d);
+    record("STARMARG", io::format_double(options.star_margin), "star margin " + io::format_double(options.star_margin));
+    writer_options.header_types["STARMARG"] = io::HeaderValueType::kReal;
+  }
   if (!options.tile) record_scene(read.files, &writer_options);
   writer_options.header.emplace_back("NCELLS", std::to_string(source.total_objects()));
   seal_identity(table, source.total_objects(), &writer_options);

@@ -35,6 +35,11 @@ struct MetadetectRunOptions {
   // whose moments give the shapes; every band's flux and S/N are measured (DES Y6: detect and
   // measure shapes on r, i, z). Recorded as header keys DETBANDS, SHRBANDS when given.
   std::vector<std::string> detect_bands, shear_bands;
+  // Bright stars to mask (io/star_catalogue: x, y FITS pixels of every input, radius px), each
+  // disc widened by star_margin px: its pixels masked and filled, no detection kept inside.
+  // Recorded as STARCAT, its digest STARCATD, and STARMARG.
+  std::string star_mask;
+  double star_margin = 0;
   // Image files only: a PSFEx model (a `{band}` template with several bands) of every input image;
   // each cell's PSF is the model at the cell's centre (engine/metadetect/cell_layout's
   // cell_psfex_position), and the files' PSF HDUs are neither needed nor read. Empty: the PSF HDUs.

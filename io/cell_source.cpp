@@ -120,6 +120,7 @@ void CellSource::skip_to(long long index) {
 bool CellSource::fill(StampBatch& batch) {
   CellBatch& data = batch.payload<CellBatch>();
   data.cells.clear();
+  data.stars.clear();
   data.noise_used = 0;
   batch.observations.clear();
   batch.first_object = next_;
@@ -202,6 +203,7 @@ void CellSource::fill_tile_cell(StampBatch& batch, CellBatch& data) {
       std::copy(cell_.noise.begin(), cell_.noise.end(),
                 data.noise.begin() + cell.noise_offset + static_cast<long long>(b * npix));
   }
+  add_stars(cell.place.x0, cell.place.y0, size, data, &cell);
   data.cells.push_back(std::move(cell));
   batch.records[batch.count].id = next_;
   ++batch.count, ++in_file_, ++next_;
@@ -265,6 +267,7 @@ void CellSource::fill_image_cell(StampBatch& batch, CellBatch& data) {
                      im.masked_text() + ")";
     check_sky(pixels, weights, b, bands, &cell);
   }
+  add_stars(cell.place.x0, cell.place.y0, s, data, &cell);
   data.cells.push_back(std::move(cell));
   batch.records[batch.count].id = next_;
   ++batch.count, ++in_file_, ++next_;
@@ -275,6 +278,16 @@ void CellSource::check_sky(std::span<const double> pixels, std::span<const doubl
   const double sky = cell_sky_level(pixels, weights, &sky_scratch_);
   if (const std::string why = cell_sky_problem(sky); cell->problem.empty() && !why.empty())
     cell->problem = std::string(bands > 1 ? "band " + std::to_string(band) + ": " : "") + why;
+}
+
+void CellSource::add_stars(double x0, double y0, int side, CellBatch& data, CellBatch::Cell* cell) const {
+  cell->first_star = data.stars.size();
+  for (const StarDisc& s : stars_) {
+    const StarDisc in{s.x - x0, s.y - y0, s.radius};
+    if (in.x + in.radius < 0 || in.y + in.radius < 0 || in.x - in.radius > side - 1 || in.y - in.radius > side - 1) continue;
+    data.stars.push_back(in);
+  }
+  cell->stars = data.stars.size() - cell->first_star;
 }
 
 void CellSource::add_layout(long width, long height, const std::string& where) {

@@ -50,6 +50,10 @@ class CellSource : public StampSource {
   };
   CellSource(const Tile& t, const MetadetectOptions& options);
 
+  // Bright stars' discs in every input's pixels (0-based; the image's, or a cell tile's): each cell
+  // carries those that reach it, in its own pixels (engine/metadetect/star_disc).
+  void set_stars(std::vector<StarDisc> stars) { stars_ = std::move(stars); }
+
   long long total_objects() const override { return total_; }
   // The largest cell's pixels (SEP's pixel stack must hold a whole cell above the threshold).
   long long max_cell_pixels() const;
@@ -63,6 +67,8 @@ class CellSource : public StampSource {
   void fill_tile_cell(StampBatch& batch, CellBatch& data);
   void fill_image_cell(StampBatch& batch, CellBatch& data);
   void add_layout(long width, long height, const std::string& where);
+  // The stars reaching the side x side cell whose pixel (0, 0) is the input's (x0, y0), into the batch.
+  void add_stars(double x0, double y0, int side, CellBatch& data, CellBatch::Cell* cell) const;
   // Sets the cell's problem (where it has none) when band's sky is not background-subtracted.
   void check_sky(std::span<const double> pixels, std::span<const double> weights, int band, int bands,
                  CellBatch::Cell* cell);
@@ -80,6 +86,7 @@ class CellSource : public StampSource {
   CellImage cell_;  // a tile's cell as read
   std::vector<double> mask_;
   std::vector<double> sky_scratch_;
+  std::vector<StarDisc> stars_;
   std::vector<std::vector<CellPlacement>> layouts_;
   long long total_ = 0, next_ = 0, in_file_ = 0, end_ = std::numeric_limits<long long>::max();
   int file_ = 0, loaded_ = -1;

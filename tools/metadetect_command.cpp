@@ -94,6 +94,10 @@ void print_help() {
       "  --bands B1,B2,...          the bands' names (see above)\n"
       "  --detect-bands B1,...      detect on these bands only (default: every band)\n"
       "  --shear-bands B1,...       shapes (e, T, flux, snr) from these bands only (default: every band)\n"
+      "  --star-mask STARS.fits     bright stars to mask: a table with x, y (FITS 1-based pixels of the\n"
+      "                             inputs) and radius (pixels); their pixels are filled as masked ones,\n"
+      "                             and no detection inside is kept (recorded: STARCAT, STARCATD)\n"
+      "  --star-margin PX           widen every star's radius by PX pixels (0)\n"
       "  --psfex MODEL.psf          image files: each cell's PSF is this PSFEx model at the cell's centre\n"
       "                             (X_IMAGE, Y_IMAGE of the image's pixels), not the PSF HDU (which may\n"
       "                             be absent); one model for every image; PSF_SAMP 1/integer\n"
@@ -167,6 +171,10 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
       }
     } else if (s == "--psfex") {
       o.psfex = value();
+    } else if (s == "--star-mask") {
+      o.star_mask = value();
+    } else if (s == "--star-margin") {
+      o.star_margin = tools::number_value(argc, argv, &i);
     } else if (s == "--input-list") {
       for (std::string& p : read_list(value())) o.inputs.push_back(std::move(p));
     } else if (const app::MetadetectOptionKey* k = option_key(s)) {

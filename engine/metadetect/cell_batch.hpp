@@ -9,6 +9,7 @@
 
 #include "engine/metadetect/cell_layout.hpp"
 #include "engine/metadetect/metadetect_row.hpp"
+#include "engine/metadetect/star_disc.hpp"
 
 namespace stampede {
 
@@ -21,10 +22,13 @@ struct CellBatch {
     int first_observation = 0, bands = 1;  // its bands' observations in the arena, in band order
     // Its bands' NOISE planes, consecutive in `noise` from here (none: -1).
     long long noise_offset = -1;
+    // The star discs that reach it, consecutive in `stars` from here, in its pixels.
+    std::size_t first_star = 0, stars = 0;
     std::string problem;  // why it cannot be measured (its PSFEx model fails there); "" none
   };
   std::vector<Cell> cells;
   std::vector<double> noise;  // the batch's noise planes (kept between batches)
+  std::vector<StarDisc> stars;  // the batch's cells' star discs
   std::size_t noise_used = 0;
   std::vector<MetadetectRow> rows;
   std::vector<std::string> problems;  // per cell, "" none

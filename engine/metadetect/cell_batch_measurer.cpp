@@ -42,6 +42,7 @@ void CellBatchMeasurer::fit(StampBatch& batch) {
     cell.keep_x0 = c.place.keep_x0, cell.keep_x1 = c.place.keep_x1;
     cell.keep_y0 = c.place.keep_y0, cell.keep_y1 = c.place.keep_y1;
     cell.lens_g1 = c.lens_g1, cell.lens_g2 = c.lens_g2;
+    cell.stars = std::span<const StarDisc>(data.stars).subspan(c.first_star, c.stars);
     measurer_.measure(cell, &data.rows, &data.problems[static_cast<std::size_t>(k)]);
   }
 }

@@ -203,7 +203,7 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
   }
   for (std::size_t b = 0; b < bands_.size(); ++b)
     if (!bands_[b].image.psf_model) return fail(b == 0 ? std::string("no PSF") : "no PSF for band " + std::to_string(b));
-  cell_masked_ = false;
+  cell_masked_ = !cell.stars.empty();
   for (const MetadetectBand& b : bands_)
     cell_masked_ =
         cell_masked_ || std::any_of(b.image.weight.begin(), b.image.weight.end(), [](double w) { return !(w > 0); });
@@ -215,6 +215,16 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
     for (const MetadetectBand& b : bands_)
       for (std::size_t p = 0; p < b.image.weight.size(); ++p)
         if (!(b.image.weight[p] > 0)) mask_[p] = 1;
+    const int s = cell.size();
+    for (const StarDisc& star : cell.stars) {
+      const int ylo = std::max(0, static_cast<int>(std::floor(star.y - star.radius))),
+                yhi = std::min(s - 1, static_cast<int>(std::ceil(star.y + star.radius)));
+      const int xlo = std::max(0, static_cast<int>(std::floor(star.x - star.radius))),
+                xhi = std::min(s - 1, static_cast<int>(std::ceil(star.x + star.radius)));
+      for (int y = ylo; y <= yhi; ++y)
+        for (int x = xlo; x <= xhi; ++x)
+          if (star.holds(x, y)) mask_[static_cast<std::size_t>(y) * s + x] = 1;
+    }
     if (options_.symmetrise_mask) kernels::symmetrise_mask(mask_, cell.size(), &mask_turned_);
   }
   MetacalOptions metacal;
@@ -315,6 +325,9 @@ void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::vect
   int id = 0;
   for (const Detection& d : detections_) {
     if (!owns(cell, type, d)) continue;
+    // Nothing is detected in a star's mask ("nodet"): what is found there is the star's.
+    if (std::any_of(cell.stars.begin(), cell.stars.end(), [&](const StarDisc& star) { return star.holds(d.x, d.y); }))
+      continue;
     MetadetectRow r;
     r.cell = cell.index;
     r.shear_type = type;

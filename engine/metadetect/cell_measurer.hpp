@@ -25,6 +25,7 @@
 #include "engine/metadetect/metadetect_options.hpp"
 #include "engine/metadetect/metadetect_row.hpp"
 #include "engine/metadetect/object_detector.hpp"
+#include "engine/metadetect/star_disc.hpp"
 #include "engine/model/psf_model.hpp"
 #include "kernels/mask_fill.hpp"
 #include "kernels/prepsf_moments.hpp"
@@ -53,6 +54,8 @@ struct MetadetectCell {
   double keep_x0 = 0, keep_x1 = 0, keep_y0 = 0, keep_y1 = 0;
   // The scene's shear to undo as well when deciding that (MetadetectOptions::keep_unlensed): 0 none.
   double lens_g1 = 0, lens_g2 = 0;
+  // Bright stars' discs reaching the cell (its pixels): masked, and no detection kept inside.
+  std::span<const StarDisc> stars{};
 
   // The cell's side, pixels: its first band's box (0 without bands).
   int size() const { return bands.empty() ? 0 : bands.front().image.box_size; }

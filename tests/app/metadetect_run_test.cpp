@@ -33,6 +33,7 @@
 #include "io/fits_error.hpp"
 #include "io/meds_writer.hpp"
 #include "io/psfex_file.hpp"
+#include "io/star_catalogue.hpp"
 #include "io/fits_file.hpp"
 #include "io/metadetect_reader.hpp"
 #include "support/metadetect_shards.hpp"
@@ -574,6 +575,52 @@ TEST(MetadetectRun, BandRolesTakeShapesFromTheShearBandsAndFluxFromEvery) {
   EXPECT_NE(error_of({"g", "r"}, {}, {"r", "r"}).find("--shear-bands: band 'r' is given twice"), std::string::npos);
   o.inputs = {scratch.path("sims/g/cell_0000.fits")};
   EXPECT_NE(error_of({}, {}, {"g"}).find("--shear-bands gives bands a role: it needs several bands"), std::string::npos);
+}
+
+// A bright-star catalogue (--star-mask): the galaxy at each cell's centre under a star's disc is
+// detected in no image; the catalogue's digest and margin are recorded; it may not be the output;
+// a bad catalogue is refused naming it.
+TEST(MetadetectRun, StarMaskDropsWhatLiesUnderItsDiscsAndIsRecorded) {
+  testing::ScratchDir scratch("stampede_mdet_stars_");
+  MetadetectRunOptions o;
+  o.inputs = sim_cells(scratch.path("sims"), 2);
+  o.threads = 2;
+  o.output = scratch.path("plain.fits");
+  run_metadetect(o);
+  const std::string stars = scratch.path("stars.fits");
+  {
+    io::FitsFile f = io::FitsFile::create(stars, true);
+    f.write_empty_image();
+    f.write_table("STARS", {{"x", false, {126}}, {"y", false, {126}}, {"radius", false, {4}}});
+    f.close();
+  }
+  o.star_mask = stars;
+  o.star_margin = 2;
+  o.output = scratch.path("stars_out.fits");
+  const MetadetectRunSummary r = run_metadetect(o);
+  EXPECT_EQ(r.cells_failed, 0);
+  EXPECT_EQ(galaxy_rows(o.output), galaxy_rows(scratch.path("plain.fits")) - 2 * 5);
+  for (const MetadetectRow& row : io::read_metadetect_rows(o.output))
+    EXPECT_GE(std::hypot(row.x - 125, row.y - 125), 6.0) << row.x << ", " << row.y;
+  io::FitsFile f = io::FitsFile::open_read(o.output);
+  f.move_to("METADETECT");
+  EXPECT_EQ(f.read_key_string("STARCAT").value_or(""), stars);
+  EXPECT_FALSE(f.read_key_string("STARCATD").value_or("").empty());
+  EXPECT_EQ(f.read_key_double("STARMARG").value_or(-1), 2.0);
+  // The catalogue as the output: refused before anything is written, the catalogue kept.
+  o.output = stars;
+  o.overwrite = true;
+  EXPECT_THROW(run_metadetect(o), io::FileError);
+  EXPECT_NO_THROW(io::read_star_catalogue(stars, 0));
+  o.overwrite = false;
+  o.output = scratch.path("bad.fits");
+  o.star_mask = o.inputs[0];  // an image, no table
+  try {
+    run_metadetect(o);
+    ADD_FAILURE() << "an image as the star catalogue was accepted";
+  } catch (const io::FitsError& e) {
+    EXPECT_NE(std::string(e.what()).find(o.inputs[0] + ": no binary table"), std::string::npos) << e.what();
+  }
 }
 
 TEST(MetadetectRun, PgaussTableIsTheSameForOneAndTwoThreadsAndNamesItsMeasurement) {

@@ -494,6 +494,53 @@ TEST(CellMeasurer, MaskedPixelsFilledAndSymmetrisedKeepTheShear) {
   EXPECT_GT(std::abs(m[4][1] - m[0][1]), 3 * std::abs(m[1][1] - m[0][1]));
 }
 
+// A star's disc over a grid galaxy: no detection inside it in any image (nodet), every other
+// galaxy still detected once per image, its pixels masked (whatever they hold: here 1e6) and
+// filled, so the neighbours' shapes are the star-free cell's but for the fill's reach.
+TEST(CellMeasurer, NoDetectionIsKeptInAStarsDiscAndItsPixelsAreMasked) {
+  CellSimOptions so;
+  so.snr = 1e4;
+  so.shape_noise = 0;
+  const SimulatedCell clean(so, 0, 0.02);
+  CellRun plain;
+  plain.ok = CellMeasurer(MetadetectOptions{}).measure(clean.in, &plain.rows, &plain.problem);
+  ASSERT_TRUE(plain.ok) << plain.problem;
+  // The noshear detection nearest the cell's centre: the star sits on it.
+  const MetadetectRow* target = nullptr;
+  for (const MetadetectRow& r : plain.rows)
+    if (r.shear_type == 0 && (!target || std::hypot(r.x - 125, r.y - 125) < std::hypot(target->x - 125, target->y - 125)))
+      target = &r;
+  ASSERT_NE(target, nullptr);
+  const StarDisc star{target->x, target->y, 6.0};
+  SimulatedCell c(so, 0, 0.02);
+  for (int y = 0; y < so.size; ++y)
+    for (int x = 0; x < so.size; ++x)
+      if (star.holds(x, y)) c.cell.bands[0].image[static_cast<std::size_t>(y) * so.size + x] = 1e6;
+  c.band.image.pixels = c.cell.bands[0].image;
+  c.in.stars = std::span<const StarDisc>(&star, 1);
+  CellRun run;
+  run.ok = CellMeasurer(MetadetectOptions{}).measure(c.in, &run.rows, &run.problem);
+  ASSERT_TRUE(run.ok) << run.problem;
+  for (MetacalType t : kMetacalTypes) {
+    int n = 0, n_plain = 0;
+    mean_e(run.rows, t, 1, &n), mean_e(plain.rows, t, 1, &n_plain);
+    EXPECT_EQ(n, n_plain - 1) << metacal_type_name(t);
+  }
+  int far = 0;
+  for (const MetadetectRow& r : run.rows) {
+    EXPECT_FALSE(star.holds(r.x, r.y)) << r.x << ", " << r.y;
+    // Galaxies beyond the fill's reach (the 6 px disc filled from within ~12 px) keep their shape.
+    if (r.shear_type != 0 || std::hypot(r.x - star.x, r.y - star.y) < 40) continue;
+    for (const MetadetectRow& p : plain.rows)
+      if (p.shear_type == 0 && std::hypot(p.x - r.x, p.y - r.y) < 0.01) {
+        ++far;
+        EXPECT_NEAR(r.e1, p.e1, 1e-4) << r.x << ", " << r.y;
+        EXPECT_NEAR(r.e2, p.e2, 1e-4) << r.x << ", " << r.y;
+      }
+  }
+  EXPECT_GT(far, 30);
+}
+
 TEST(CellMeasurer, ACellWithoutNoiseIsOneFlaggedRow) {
   CellSimOptions so;
   CellSimulator sim(so);
