@@ -119,7 +119,7 @@ void check_fits_headers(const std::string& root) {
   long long hdu_start = 0;
   for (int hdu = 0; hdu < 1000 && in.good(); ++hdu) {
     long long bitpix = 0, naxis = 0, pcount = 0, gcount = 1, pixels = 1;
-    bool end = false;
+    bool end = false, absurd = false;
     long long cards = 0;
     if (!in.seek(hdu_start)) return;
     while (!end && in.read(card_bytes, kCard)) {
@@ -147,8 +147,10 @@ void check_fits_headers(const std::string& root) {
       } else if (key == "NAXIS   " && value) {
         naxis = *value;
       } else if (key.starts_with("NAXIS") && value && *value >= 0) {
-        if (*value != 0 && pixels > (1LL << 50) / *value) return;  // absurd sizes: CFITSIO's to report
-        pixels *= *value;
+        // Absurd sizes are CFITSIO's to report, once every card of the header has been checked
+        // (fuzz finding F15: NAXIS2 = 2^63 - 1 ended the scan before an unquoted TTYPE10).
+        if (*value != 0 && pixels > (1LL << 50) / *value) absurd = true;
+        if (!absurd) pixels *= *value;
       } else if (key == "PCOUNT  " && value) {
         pcount = *value;
       } else if (key == "TFIELDS " && value && (*value < 0 || *value > 999)) {
@@ -160,7 +162,7 @@ void check_fits_headers(const std::string& root) {
         gcount = *value;
       }
     }
-    if (!end) return;
+    if (!end || absurd) return;
     const long long header = (cards + kBlock / kCard - 1) / (kBlock / kCard) * kBlock;
     // Only the standard's BITPIX values: any other (fuzz finding F8: 2^60 - 1) overflowed the size
     // below. Such a header, and absurd counts, are CFITSIO's to report.

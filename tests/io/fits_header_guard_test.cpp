@@ -76,6 +76,28 @@ TEST(FitsHeaderGuard, AnUnquotedColumnNameWithoutTheValueBlankIsAnErrorNotACrash
   EXPECT_TRUE(ok.has_column("x"));
 }
 
+// Found by the fuzz campaign (F15, fuzz_metadetect_table): an absurd NAXIS2 (2^63 - 1) ended the
+// scan of its header, so an unquoted TTYPE after it reached CFITSIO, which overflowed its column
+// name and aborted the process. Every card of a header is checked whatever its sizes.
+TEST(FitsHeaderGuard, AnUnquotedColumnNameAfterAnAbsurdSizeIsAnErrorNotACrash) {
+  const stampede::testing::ScratchDir dir("stampede_header_guard_");
+  const std::string path = table_with_card(dir, "TTYPE2  = " + std::string(70, '\x90'));
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::size_t at = bytes.find("NAXIS2  = ");
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at, 80, ("NAXIS2  =    9223372036854775807 number of rows" + std::string(80, ' ')).substr(0, 80));
+  std::ofstream(path, std::ios::binary) << bytes;
+  const std::string message = error_of<FitsError>([&] {
+    FitsFile f = FitsFile::open_read(path);
+    f.move_to(1);
+  });
+  EXPECT_TRUE(Contains(message, "cat.fits[HDU 1]: header card 'TTYPE2' is not a quoted string")) << message;
+}
+
 // Found by the fuzz campaign (F6, fuzz_calibration_table): CFITSIO allocates a column descriptor
 // per TFIELDS before reading any, so TFIELDS = 135674990 asked for 22 GB (an out-of-memory kill
 // where memory is overcommitted). The standard allows 0..999.
