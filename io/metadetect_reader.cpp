@@ -118,6 +118,13 @@ std::vector<MetadetectRow> read_metadetect_rows(const std::string& path) {
   integers("isophotal_area", &MetadetectRow::isophotal_area);
   integers("sep_flags", &MetadetectRow::sep_flags);
   integers("flags", &MetadetectRow::flags);
+  if (f.has_column("psf_orig_e1")) {  // tables written before these columns lack them
+    doubles("psf_orig_e1", &MetadetectRow::psf_orig_e1);
+    doubles("psf_orig_e2", &MetadetectRow::psf_orig_e2);
+    doubles("psf_orig_T", &MetadetectRow::psf_orig_t);
+    doubles("psf_rec_e1", &MetadetectRow::psf_rec_e1);
+    doubles("psf_rec_e2", &MetadetectRow::psf_rec_e2);
+  }
   const std::vector<std::string> bands = bands_of(f);
   for (std::size_t b = 0; b < bands.size(); ++b) {
     const std::vector<double> flux = f.read_column("flux_" + bands[b]), snr = f.read_column("snr_" + bands[b]);

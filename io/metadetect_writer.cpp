@@ -42,6 +42,11 @@ constexpr Column kColumns[] = {
     {"isophotal_area", "1J", "pixel", "pixels above the detection threshold"},
     {"sep_flags", "1J", "", "Source Extractor: 1 deblended, 2 on the edge, 8 singular"},
     {"flags", "1J", "", "1 measurement failed, 2 edge, 4 masked at the detection, 8 cell failed"},
+    {"psf_orig_e1", "1D", "", "the cell's PSF's e1 under the weight (its shape bands')"},
+    {"psf_orig_e2", "1D", "", "the cell's PSF's e2 under the weight"},
+    {"psf_orig_T", "1D", "arcsec2", "the cell's PSF's T under the weight"},
+    {"psf_rec_e1", "1D", "", "the reconvolved PSF's e1 under the weight"},
+    {"psf_rec_e2", "1D", "", "the reconvolved PSF's e2 under the weight"},
 };
 constexpr int kNumColumns = static_cast<int>(std::size(kColumns));
 
@@ -117,6 +122,11 @@ struct MetadetectWriter::State {
     ints(19, [](const MetadetectRow& x) { return x.isophotal_area; });
     ints(20, [](const MetadetectRow& x) { return x.sep_flags; });
     ints(21, [](const MetadetectRow& x) { return x.flags; });
+    doubles(22, [](const MetadetectRow& x) { return x.psf_orig_e1; });
+    doubles(23, [](const MetadetectRow& x) { return x.psf_orig_e2; });
+    doubles(24, [](const MetadetectRow& x) { return x.psf_orig_t; });
+    doubles(25, [](const MetadetectRow& x) { return x.psf_rec_e1; });
+    doubles(26, [](const MetadetectRow& x) { return x.psf_rec_e2; });
     const int nb = static_cast<int>(options.bands.size());
     for (int b = 0; b < nb; ++b) {
       doubles(kNumColumns + 1 + b, [b](const MetadetectRow& x) { return x.band_flux[static_cast<std::size_t>(b)]; });

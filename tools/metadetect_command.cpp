@@ -7,9 +7,11 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "app/fit_run.hpp"
@@ -94,6 +96,10 @@ void print_help() {
       "  --bands B1,B2,...          the bands' names (see above)\n"
       "  --detect-bands B1,...      detect on these bands only (default: every band)\n"
       "  --shear-bands B1,...       shapes (e, T, flux, snr) from these bands only (default: every band)\n"
+      "  --geometry G               survey cells: des-y6 (DES Y6's pizza slices, 200 px with 50 px\n"
+      "                             buffers, at 0.263\"/px) or rubin (Rubin's cell coadds: 150 px\n"
+      "                             inner cells with 50 px borders, 250 px, at 0.2\"/px); sets\n"
+      "                             --cell-size and --cell-buffer\n"
       "  --star-mask STARS.fits     bright stars to mask: a table with x, y (FITS 1-based pixels of the\n"
       "                             inputs) and radius (pixels); their pixels are filled as masked ones,\n"
       "                             and no detection inside is kept (recorded: STARCAT, STARCATD)\n"
@@ -145,6 +151,7 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
   bool& quiet = command->quiet;
   std::set<std::string> seen;  // one-value options given twice are refused
   std::vector<std::string> meds;  // --meds tiles, a band each
+  std::optional<std::pair<int, int>> geometry;  // --geometry: cell side and buffer
   for (int i = 1; i < argc; ++i) {
     const std::string s = argv[i];
     auto value = [&] { return tools::option_value(argc, argv, &i); };
@@ -188,6 +195,11 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
       const auto shard = app::parse_shard(v);
       if (!shard) throw std::invalid_argument("--shard " + tools::quoted_value(v) + ": must be I/N with 0 <= I < N <= 1000000");
       o.shard = shard->first, o.shards = shard->second;
+    } else if (s == "--geometry") {
+      const std::string v = value();
+      if (v == "des-y6") geometry = {200, 50};
+      else if (v == "rubin") geometry = {250, 50};
+      else throw std::invalid_argument("option --geometry " + tools::quoted_value(v) + ": must be des-y6 or rubin");
     } else if (s == "--resume") {
       o.resume = true;
     } else if (s == "--overwrite") {
@@ -206,6 +218,13 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
     throw std::invalid_argument("--meds takes cell tiles and no image files (see stampede metadetect --help)");
   if (o.tile) o.inputs = meds;
   if (o.resume && o.overwrite) throw std::invalid_argument("--resume and --overwrite exclude each other");
+  if (geometry) {
+    if ((seen.count("--cell-size") && m.cell_size != geometry->first) ||
+        (seen.count("--cell-buffer") && m.cell_buffer != geometry->second))
+      throw std::invalid_argument("--geometry sets --cell-size " + std::to_string(geometry->first) + " --cell-buffer " +
+                                  std::to_string(geometry->second) + ": give one or the other");
+    m.cell_size = geometry->first, m.cell_buffer = geometry->second;
+  }
   // The options' rules, in the command line's words (the core names the fields).
   if (std::string why; !m.IsValid(&why)) throw std::invalid_argument(app::with_metadetect_flags(why));
   return -1;

@@ -149,6 +149,30 @@ bool CellMeasurer::prepare_new_psf(double pixel_scale, std::string* problem) {
     return false;
   }
   psf_t_ = m.t;
+  psf_rec_e1_ = m.e1, psf_rec_e2_ = m.e2;
+  // The original PSFs (the shape bands', their moments averaged) under the same weight, for
+  // PSF-leakage tests: each band's PSF image as given (a pixel-integrated sampling), else drawn.
+  psf_orig_e1_ = psf_orig_e2_ = psf_orig_t_ = 0;
+  int shape_bands = 0;
+  for (std::size_t b = 0; b < psfs_.size(); ++b) {
+    if (!(shear_mask_ >> b & 1u)) continue;
+    const PsfModel& p = psfs_[b];
+    kernels::WeightedMoments pm;
+    if (p.image) {
+      std::vector<double> s(2 * static_cast<std::size_t>(std::max(p.image->nx, p.image->ny)));
+      if (p.image->nx == p.image->ny)
+        pm = kernels::weighted_moments(p.image->pixels, p.image->nx, weight_fwhm_px_, 0.0, s);
+    } else {
+      pixelated_psf(p, n, 5, image);
+      pm = kernels::weighted_moments(image, n, weight_fwhm_px_, 0.0, scratch);
+    }
+    if (!pm.valid) {
+      psf_orig_e1_ = psf_orig_e2_ = psf_orig_t_ = NAN;
+      break;
+    }
+    psf_orig_e1_ += pm.e1, psf_orig_e2_ += pm.e2, psf_orig_t_ += pm.t, ++shape_bands;
+  }
+  if (shape_bands > 0) psf_orig_e1_ /= shape_bands, psf_orig_e2_ /= shape_bands, psf_orig_t_ /= shape_bands;
   if (options_.per_object_metacal) {
     if (!stamp_set_) stamp_set_ = std::make_unique<MetacalImageSet>(kPerObjectStamp, planning_);
     stamp_filters_ = reconvolution_filters(psfs_[0], metacal, stamp_set_->period(), &why);
@@ -355,6 +379,9 @@ void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::vect
       std::copy_n(image.data() + p0, inside, stamp_.data() + static_cast<std::size_t>(j) * box + i0);
     }
     r.mfrac = masked_share(s, d.x, d.y);
+    const double scale2 = cell.pixel_scale * cell.pixel_scale;
+    r.psf_orig_e1 = psf_orig_e1_, r.psf_orig_e2 = psf_orig_e2_, r.psf_orig_t = psf_orig_t_ * scale2;
+    r.psf_rec_e1 = psf_rec_e1_, r.psf_rec_e2 = psf_rec_e2_;
     const long px = std::lround(d.x), py = std::lround(d.y);
     if (cell_masked_ && px >= 0 && py >= 0 && px < s && py < s && mask_[static_cast<std::size_t>(py) * s + px])
       r.flags |= kMetadetectMasked;

@@ -127,6 +127,8 @@ class CellMeasurer {
   bool have_psf_ = false;
   std::string psf_problem_;  // why the PSFs prepared last serve no reconvolution ("" when they do)
   double psf_scale_ = 0, psf_t_ = 0, weight_fwhm_px_ = 0;
+  // The reconvolved PSF's e and the original PSFs' e and T (pixels^2) under the weight.
+  double psf_rec_e1_ = NAN, psf_rec_e2_ = NAN, psf_orig_e1_ = NAN, psf_orig_e2_ = NAN, psf_orig_t_ = NAN;
   std::vector<float> image_f_;
   ObjectDetector detector_;
   std::vector<std::vector<double>> images_;  // per band: kNumMetacalTypes x size^2

@@ -41,6 +41,7 @@ py::object rows_array(const std::vector<MetadetectRow>& rows) {
   for (const char* n : {"x", "y", "u", "v", "e1", "e2", "e1_err", "e2_err", "T", "T_ratio", "psf_T", "flux", "snr", "mfrac"})
     add(n, "f8");
   add("box_size", "i4"), add("isophotal_area", "i4"), add("sep_flags", "i4"), add("flags", "u4");
+  for (const char* n : {"psf_orig_e1", "psf_orig_e2", "psf_orig_T", "psf_rec_e1", "psf_rec_e2"}) add(n, "f8");
   py::object out = np.attr("zeros")(rows.size(), np.attr("dtype")(fields));
   out[py::str("cell")] = column<long long>(rows, [](const MetadetectRow& r) { return r.cell; });
   py::list types;
@@ -65,6 +66,11 @@ py::object rows_array(const std::vector<MetadetectRow>& rows) {
   out[py::str("isophotal_area")] = column<int>(rows, [](const MetadetectRow& r) { return r.isophotal_area; });
   out[py::str("sep_flags")] = column<int>(rows, [](const MetadetectRow& r) { return r.sep_flags; });
   out[py::str("flags")] = column<unsigned>(rows, [](const MetadetectRow& r) { return r.flags; });
+  out[py::str("psf_orig_e1")] = column<double>(rows, [](const MetadetectRow& r) { return r.psf_orig_e1; });
+  out[py::str("psf_orig_e2")] = column<double>(rows, [](const MetadetectRow& r) { return r.psf_orig_e2; });
+  out[py::str("psf_orig_T")] = column<double>(rows, [](const MetadetectRow& r) { return r.psf_orig_t; });
+  out[py::str("psf_rec_e1")] = column<double>(rows, [](const MetadetectRow& r) { return r.psf_rec_e1; });
+  out[py::str("psf_rec_e2")] = column<double>(rows, [](const MetadetectRow& r) { return r.psf_rec_e2; });
   return out;
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "io/fits_file.hpp"
 #include "support/command_runner.hpp"
 #include "support/scratch_dir.hpp"
 
@@ -91,7 +92,29 @@ TEST(MetadetectCommand, BadOptionsAreRefusedInTheCommandLinesWords) {
   EXPECT_NE(m.err.find("option --measurement 'gauss': must be wmom, pgauss, exp or bd"), std::string::npos) << m.err;
   const testing::RunResult n = run({"in.fits", "-o", dir.path("o.fits"), "--step", "1e"}, dir.path("d.txt"), "metadetect");
   EXPECT_NE(n.err.find("option --step '1e': "), std::string::npos) << n.err;
+  const testing::RunResult g = run({"in.fits", "-o", dir.path("o.fits"), "--geometry", "hsc"}, dir.path("e.txt"), "metadetect");
+  EXPECT_NE(g.err.find("option --geometry 'hsc': must be des-y6 or rubin"), std::string::npos) << g.err;
+  const testing::RunResult both =
+      run({"in.fits", "-o", dir.path("o.fits"), "--geometry", "rubin", "--cell-buffer", "34"}, dir.path("f.txt"), "metadetect");
+  EXPECT_NE(both.err.find("--geometry sets --cell-size 250 --cell-buffer 50: give one or the other"), std::string::npos)
+      << both.err;
   EXPECT_FALSE(fs::exists(dir.path("o.fits")));
+}
+
+// --geometry lays the survey's cells out: Rubin's 250 px cells with 50 px borders, as if given as
+// --cell-size and --cell-buffer (the header records them so).
+TEST(MetadetectCommand, GeometryPresetsSetTheCellSizeAndBuffer) {
+  testing::ScratchDir dir("stampede_mdet_geometry_");
+  const testing::RunResult sim =
+      run({"cells", "--out", dir.path("sims"), "--size", "300", "--snr", "1e4"}, dir.path("s.txt"), "sim");
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  const testing::RunResult r = run({dir.path("sims/cell_0000.fits"), "-o", dir.path("o.fits"), "--geometry", "rubin",
+                                    "--quiet"}, dir.path("r.txt"), "metadetect");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  io::FitsFile f = io::FitsFile::open_read(dir.path("o.fits"));
+  f.move_to("METADETECT");
+  EXPECT_EQ(f.read_key_long("CELLSIZE").value_or(0), 250);
+  EXPECT_EQ(f.read_key_long("CELLBUF").value_or(0), 50);
 }
 
 }  // namespace

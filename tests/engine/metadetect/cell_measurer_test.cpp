@@ -541,6 +541,37 @@ TEST(CellMeasurer, NoDetectionIsKeptInAStarsDiscAndItsPixelsAreMasked) {
   EXPECT_GT(far, 30);
 }
 
+// PSF-leakage columns: the cell's PSF (here an elliptical Gaussian sampled at pixel centres, sigma
+// 2.2 x 1.8 px) measured under the round weight: the moments of its product with the weight, a
+// Gaussian of covariance (C^-1 + 1/s_w^2)^-1; the reconvolved PSF round.
+TEST(CellMeasurer, PsfColumnsAreTheOriginalPsfsMomentsUnderTheWeightAndTheRoundReconvolvedOnes) {
+  CellSimOptions so;
+  so.snr = 1e4;
+  SimulatedCell c(so, 0, 0.0);
+  auto img = std::make_shared<PsfImage>();
+  img->nx = img->ny = 41;
+  const double sx = 2.2, sy = 1.8;
+  for (int y = 0; y < 41; ++y)
+    for (int x = 0; x < 41; ++x)
+      img->pixels.push_back(std::exp(-0.5 * (std::pow((x - 20) / sx, 2) + std::pow((y - 20) / sy, 2))));
+  c.psf = PsfModel::Image(img);
+  c.band.image.psf_model = &c.psf;
+  CellRun run;
+  const MetadetectOptions mo;
+  run.ok = CellMeasurer(mo).measure(c.in, &run.rows, &run.problem);
+  ASSERT_TRUE(run.ok) << run.problem;
+  const double sw = mo.weight_fwhm_arcsec() / so.pixel_scale / 2.3548200450309493;
+  const double cxx = 1 / (1 / (sx * sx) + 1 / (sw * sw)), cyy = 1 / (1 / (sy * sy) + 1 / (sw * sw));
+  ASSERT_FALSE(run.rows.empty());
+  for (const MetadetectRow& r : run.rows) {
+    EXPECT_NEAR(r.psf_orig_e1, (cxx - cyy) / (cxx + cyy), 2e-4);
+    EXPECT_NEAR(r.psf_orig_e2, 0.0, 1e-9);
+    EXPECT_NEAR(r.psf_orig_t, (cxx + cyy) * so.pixel_scale * so.pixel_scale, 1e-3 * (cxx + cyy) * 0.0625);
+    EXPECT_NEAR(r.psf_rec_e1, 0.0, 1e-6);
+    EXPECT_NEAR(r.psf_rec_e2, 0.0, 1e-6);
+  }
+}
+
 TEST(CellMeasurer, ACellWithoutNoiseIsOneFlaggedRow) {
   CellSimOptions so;
   CellSimulator sim(so);
