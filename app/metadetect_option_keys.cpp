@@ -111,12 +111,13 @@ std::vector<MetadetectOptionKey> make_table() {
       integer("seed", "--seed", "N", "MCSEED", [](auto& o) -> auto& { return o.seed; },
               "keys each cell's fixnoise field with the cell's number (%s)"),
       choice("measurement", "--measurement", "M", "MEASURE", [](auto& o) -> auto& { return o.measurement; },
-             metadetect_measurement_name, parse_metadetect_measurement, "wmom, pgauss, exp or bd",
+             metadetect_measurement_name, parse_metadetect_measurement, "wmom, pgauss, gauss, exp or bd",
              "wmom: moments of the metacal image under a round Gaussian weight;\n"
              "pgauss: the moments of the galaxy before the reconvolution PSF\n"
              "(and pixel) under the weight, in Fourier space; T_ratio is then\n"
              "the pre-PSF T over the reconvolved PSF's weighted T (wmom);\n"
-             "exp, bd: a fit of that model convolved with the reconvolution\n"
+             "gauss, exp, bd: a fit of that model (gauss: a Gaussian, the\n"
+             "reference package's) convolved with the reconvolution\n"
              "PSF (one band), T the model's, T_ratio over the same psf_T (%s)"),
       {"weight_fwhm", "--weight-fwhm", "F", "WFWHM", Kind::kReal, true,
        [](const O& o) { return real_text(o.weight_fwhm_arcsec()); },  // the weight used, its default resolved

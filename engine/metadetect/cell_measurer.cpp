@@ -34,11 +34,11 @@ constexpr int kPerObjectStamp = 49;
 CellMeasurer::CellMeasurer(const MetadetectOptions& options, FftPlanning planning)
     : options_(options), planning_(planning), detector_(options.detection) {
   if (is_model_fit(options.measurement))
-    // `stampede fit --metacal`'s fit of metacal_model exp or bd (default fit options otherwise).
+    // `stampede fit --metacal`'s fit of metacal_model gauss, exp or bd (default fit options otherwise).
     fitter_ = std::make_unique<ObjectFitter>(
-        metacal_fit_options(FitterOptions{}, options.measurement == MetadetectMeasurement::kExp
-                                                 ? MetacalModel::kExponential
-                                                 : MetacalModel::kBulgeDisc),
+        metacal_fit_options(FitterOptions{}, options.measurement == MetadetectMeasurement::kExp     ? MetacalModel::kExponential
+                                             : options.measurement == MetadetectMeasurement::kGauss ? MetacalModel::kGaussian
+                                                                                                     : MetacalModel::kBulgeDisc),
         planning);
 }
 

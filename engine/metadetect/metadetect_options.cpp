@@ -17,6 +17,7 @@ const char* metadetect_measurement_name(MetadetectMeasurement m) {
     case MetadetectMeasurement::kPgauss: return "pgauss";
     case MetadetectMeasurement::kExp: return "exp";
     case MetadetectMeasurement::kBd: return "bd";
+    case MetadetectMeasurement::kGauss: return "gauss";
     case MetadetectMeasurement::kWmom: break;
   }
   return "wmom";
@@ -45,7 +46,7 @@ bool parse_name(std::string_view name, std::initializer_list<T> values, Name val
 bool parse_metadetect_measurement(std::string_view name, MetadetectMeasurement* out) {
   return parse_name(name,
                     {MetadetectMeasurement::kWmom, MetadetectMeasurement::kPgauss, MetadetectMeasurement::kExp,
-                     MetadetectMeasurement::kBd},
+                     MetadetectMeasurement::kBd, MetadetectMeasurement::kGauss},
                     metadetect_measurement_name, out);
 }
 
@@ -85,8 +86,9 @@ bool MetadetectOptions::IsValid(std::string* why) const {
   if (!(psf_dilation == 0 || (psf_dilation >= 1 && psf_dilation <= 3)))
     return refuse(why, "psf_dilation", psf_dilation, "must be 0 (automatic) or in [1, 3]");
   if (measurement != MetadetectMeasurement::kWmom && measurement != MetadetectMeasurement::kPgauss &&
-      measurement != MetadetectMeasurement::kExp && measurement != MetadetectMeasurement::kBd)
-    return refuse(why, "measurement", static_cast<int>(measurement), "must be wmom, pgauss, exp or bd");
+      measurement != MetadetectMeasurement::kExp && measurement != MetadetectMeasurement::kBd &&
+      measurement != MetadetectMeasurement::kGauss)
+    return refuse(why, "measurement", static_cast<int>(measurement), "must be wmom, pgauss, gauss, exp or bd");
   if (!(weight_fwhm >= 0 && std::isfinite(weight_fwhm)))
     return refuse(why, "weight_fwhm", weight_fwhm, "must be > 0 arcsec, or 0 for the measurement's default");
   if (per_object_metacal && measurement != MetadetectMeasurement::kWmom)
@@ -94,7 +96,7 @@ bool MetadetectOptions::IsValid(std::string* why) const {
                   "per_object_metacal measures with wmom only");
   if (weight_fwhm != 0 && is_model_fit(measurement))
     return refuse(why, "weight_fwhm", weight_fwhm,
-                  "weighs wmom and pgauss; a model fit (exp or bd) has no weight");
+                  "weighs wmom and pgauss; a model fit (gauss, exp or bd) has no weight");
   if (!(mfrac_fwhm > 0 && mfrac_fwhm <= 60)) return refuse(why, "mfrac_fwhm", mfrac_fwhm, "must be in (0, 60] arcsec");
   for (const auto& [field, mask] : {std::pair{"detect_bands", detect_bands}, std::pair{"shear_bands", shear_bands}})
     if (mask >= (1u << kMaxMetadetectBands))

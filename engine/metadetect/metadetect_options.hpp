@@ -15,14 +15,15 @@ enum class MetadetectMeasurement {
   kPgauss,  // pre-PSF Gaussian moments: the same weight applied before the reconvolution PSF
   kExp,     // a fit of an exponential disc convolved with the reconvolution PSF (engine/fit)
   kBd,      // a fit of a bulge + disc, as `stampede fit --metacal` with metacal_model = bd
+  kGauss,   // a fit of a Gaussian (a Sersic n = 0.5), the reference package's maximum-likelihood "gauss"
 };
-// "wmom", "pgauss", "exp", "bd"; the table's MEASURE key.
+// "wmom", "pgauss", "exp", "bd", "gauss"; the table's MEASURE key.
 const char* metadetect_measurement_name(MetadetectMeasurement m);
 // Case-insensitive inverse of metadetect_measurement_name; false for anything else.
 bool parse_metadetect_measurement(std::string_view name, MetadetectMeasurement* out);
-// exp or bd: a model fitted to one band's stamp, with no weight function.
+// gauss, exp or bd: a model fitted to one band's stamp, with no weight function.
 inline bool is_model_fit(MetadetectMeasurement m) {
-  return m == MetadetectMeasurement::kExp || m == MetadetectMeasurement::kBd;
+  return m == MetadetectMeasurement::kExp || m == MetadetectMeasurement::kBd || m == MetadetectMeasurement::kGauss;
 }
 
 // Which implementation detects (docs/metadetect.md, "Detection"): ours, from a component tree,

@@ -25,13 +25,13 @@ struct MetadetectRow {
   double x = NAN, y = NAN;      // 0-based pixels of the input image (the weighted centroid; exp, bd: the fit's)
   double u = NAN, v = NAN;      // arcsec from the input image's pixel (0, 0) along x and y
   double e1 = NAN, e2 = NAN, e1_err = NAN, e2_err = NAN;
-  double t = NAN;               // T = Mxx + Myy, arcsec^2: weighted (pgauss: pre-PSF), or the model's (exp, bd)
+  double t = NAN;               // T = Mxx + Myy, arcsec^2: weighted (pgauss: pre-PSF), or the model's (gauss, exp, bd)
   double t_ratio = NAN;         // T over psf_t
-  double psf_t = NAN;
+  double psf_t = NAN;           // Gamma x pixel's T under the weight (wmom's for the fits), arcsec^2
   // For PSF-leakage tests: the cell's original PSF's e and T under the same weight (the shape
   // bands' averaged; T in arcsec^2), and the reconvolved PSF's e (round: 0 to rounding).
   double psf_orig_e1 = NAN, psf_orig_e2 = NAN, psf_orig_t = NAN;
-  double psf_rec_e1 = NAN, psf_rec_e2 = NAN;           // Gamma x pixel's T under the weight (wmom's for exp, bd), arcsec^2
+  double psf_rec_e1 = NAN, psf_rec_e2 = NAN;
   double flux = NAN, snr = NAN;  // several bands: the bands' stamps measured together
   // Per band (several bands; the first band's for one): its stamp's weighted flux and S/N about its
   // own centroid under the same weight.

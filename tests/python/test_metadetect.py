@@ -87,7 +87,7 @@ def test_bad_arguments_name_themselves(cell):
     with pytest.raises(ValueError, match="noise"):
         stampede.metadetect(image, weight, psf, 0.25, noise=weight[:10])
     with pytest.raises(ValueError, match="measurement"):
-        stampede.metadetect(image, weight, psf, 0.25, measurement="gauss")
+        stampede.metadetect(image, weight, psf, 0.25, measurement="ksigma")
     with pytest.raises(TypeError, match="unknown_option"):
         stampede.metadetect(image, weight, psf, 0.25, unknown_option=1)
 

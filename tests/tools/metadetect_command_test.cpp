@@ -88,8 +88,8 @@ TEST(MetadetectCommand, BadOptionsAreRefusedInTheCommandLinesWords) {
   EXPECT_NE(size.err.find("--cell-size = 3: must be in [16, 4096] pixels"), std::string::npos) << size.err;
   const testing::RunResult box = run({"in.fits", "-o", dir.path("o.fits"), "--box-max", "31"}, dir.path("b.txt"), "metadetect");
   EXPECT_NE(box.err.find("--box-max = 31: must be odd, >= --box-min (33) and <= 4095"), std::string::npos) << box.err;
-  const testing::RunResult m = run({"in.fits", "-o", dir.path("o.fits"), "--measurement", "gauss"}, dir.path("c.txt"), "metadetect");
-  EXPECT_NE(m.err.find("option --measurement 'gauss': must be wmom, pgauss, exp or bd"), std::string::npos) << m.err;
+  const testing::RunResult m = run({"in.fits", "-o", dir.path("o.fits"), "--measurement", "ksigma"}, dir.path("c.txt"), "metadetect");
+  EXPECT_NE(m.err.find("option --measurement 'ksigma': must be wmom, pgauss, gauss, exp or bd"), std::string::npos) << m.err;
   const testing::RunResult n = run({"in.fits", "-o", dir.path("o.fits"), "--step", "1e"}, dir.path("d.txt"), "metadetect");
   EXPECT_NE(n.err.find("option --step '1e': "), std::string::npos) << n.err;
   const testing::RunResult g = run({"in.fits", "-o", dir.path("o.fits"), "--geometry", "hsc"}, dir.path("e.txt"), "metadetect");
