@@ -88,7 +88,7 @@ std::vector<MetadetectOptionKey> make_table() {
              "do not add the rotated noise field"),
       toggle("symmetrise_mask", "--no-mask-symmetry", false, "MASKSYM", [](auto& o) -> auto& { return o.symmetrise_mask; },
              "keep the mask as given (by default a pixel is also masked when\n"
-             "its quarter turn about the cell's centre is, so that the mask's\n"
+             "a quarter, half or three-quarter turn from it is, so the mask's\n"
              "shape has no quadrupole for metacal's shear to act on)"),
       toggle("fill_masked", "--no-mask-fill", false, "MASKFILL", [](auto& o) -> auto& { return o.fill_masked; },
              "zero the masked pixels (by default they are filled from the\n"

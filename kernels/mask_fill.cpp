@@ -10,10 +10,14 @@ namespace stampede::kernels {
 void symmetrise_mask(std::span<std::uint8_t> mask, int side, std::vector<std::uint8_t>* turned) {
   turned->assign(mask.begin(), mask.end());
   const auto n = static_cast<std::size_t>(side);
-  // A quarter turn about the centre: (x, y) -> (side - 1 - y, x).
+  // Each masked pixel's three quarter turns about the centre: (x, y) -> (side - 1 - y, x) -> ...
   for (std::size_t y = 0; y < n; ++y)
     for (std::size_t x = 0; x < n; ++x)
-      if ((*turned)[y * n + x]) mask[x * n + (n - 1 - y)] = 1;
+      if ((*turned)[y * n + x]) {
+        mask[x * n + (n - 1 - y)] = 1;
+        mask[(n - 1 - y) * n + (n - 1 - x)] = 1;
+        mask[(n - 1 - x) * n + y] = 1;
+      }
 }
 
 namespace {

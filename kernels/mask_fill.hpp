@@ -1,5 +1,5 @@
 // Masked pixels of a square cell made harmless to metacal's shear (issue 56; the reference
-// package's rules, docs/survey_metadetect.md): the mask made symmetric under a quarter turn about
+// package's rules, docs/survey_metadetect.md): the mask made symmetric under quarter turns about
 // the cell's centre, so its shape has no quadrupole to shear the image by, and the masked pixels
 // filled from the unmasked ones around them, so that deconvolution and shear see no hole.
 #pragma once
@@ -9,8 +9,9 @@
 
 namespace stampede::kernels {
 
-// mask |= mask turned by 90 degrees about the centre of the side x side cell ((side - 1) / 2 on
-// each axis): a pixel is masked when it or the pixel a quarter turn away is. `turned` is scratch.
+// mask |= mask turned by 90, 180 and 270 degrees about the centre of the side x side cell
+// ((side - 1) / 2 on each axis; four-fold, as the reference package's): a pixel is masked when it
+// or a pixel a quarter turn, a half turn or three quarters away is. `turned` is scratch.
 void symmetrise_mask(std::span<std::uint8_t> mask, int side, std::vector<std::uint8_t>* turned);
 
 // Scratch kept between calls (steady state allocates nothing).

@@ -234,7 +234,7 @@ bool CellMeasurer::measure(const MetadetectCell& cell, std::vector<MetadetectRow
   if (!prepare_psf(cell.pixel_scale, problem)) return fail(*problem);
   const std::size_t npix = static_cast<std::size_t>(cell.size()) * cell.size();
   if (cell_masked_) {
-    // One mask for the cell: a pixel any band masks, and (symmetrise_mask) its quarter turn.
+    // One mask for the cell: a pixel any band masks, and (symmetrise_mask) its quarter turns.
     mask_.assign(npix, 0);
     for (const MetadetectBand& b : bands_)
       for (std::size_t p = 0; p < b.image.weight.size(); ++p)

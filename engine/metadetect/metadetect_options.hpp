@@ -80,7 +80,7 @@ struct MetadetectOptions {
   // boundaries (docs/metadetect.md, "The random test's m").
   bool keep_unlensed = false;
   bool fixnoise = true;
-  // Masked pixels (weight 0): the mask made symmetric under a quarter turn about the cell's centre
+  // Masked pixels (weight 0): the mask made symmetric under quarter turns about the cell's centre
   // (its shape then has no quadrupole for the shear to act on), and the masked pixels filled from
   // the unmasked ones around them before the metacal images are made (no hole to deconvolve), as
   // the reference package does (docs/survey_metadetect.md). Off: the masked pixels are zeroed.

@@ -1,5 +1,5 @@
 // Masked pixels of a cell (kernels/mask_fill): the symmetrised mask holds each masked pixel and
-// its quarter turn, so a mask's quadrupole vanishes; the fill leaves unmasked pixels alone, gives
+// its three quarter turns, so a mask's quadrupole vanishes; the fill leaves unmasked pixels alone, gives
 // a constant its value and a linear ramp its value across a masked column, follows a smooth
 // profile into a masked disc, fills several planes as one, and a cell masked whole with zeros.
 #include "kernels/mask_fill.hpp"
@@ -16,15 +16,21 @@
 namespace stampede::kernels {
 namespace {
 
-TEST(MaskFill, SymmetrisedMaskAddsEachPixelsQuarterTurnAndCancelsTheQuadrupole) {
+TEST(MaskFill, SymmetrisedMaskAddsEachPixelsQuarterTurnsAndCancelsTheQuadrupole) {
   const int side = 9;
   std::vector<std::uint8_t> mask(side * side, 0), turned;
-  mask[0 * side + 1] = 1;  // (x 1, y 0) -> (side - 1 - 0, 1) = (8, 1)
+  mask[0 * side + 1] = 1;  // (x 1, y 0) -> (8, 1) -> (7, 8) -> (0, 7)
   symmetrise_mask(mask, side, &turned);
   int count = 0;
   for (std::uint8_t m : mask) count += m;
-  EXPECT_EQ(count, 2);
+  EXPECT_EQ(count, 4);
   EXPECT_EQ(mask[1 * side + 8], 1);
+  EXPECT_EQ(mask[8 * side + 7], 1);
+  EXPECT_EQ(mask[7 * side + 0], 1);
+  // A symmetric mask is its own symmetrisation.
+  const std::vector<std::uint8_t> once = mask;
+  symmetrise_mask(mask, side, &turned);
+  EXPECT_EQ(mask, once);
   // An asymmetric mask (a bad column segment and a blob off-centre, not meeting their turns).
   const int big = 31;
   std::vector<std::uint8_t> m(big * big, 0);

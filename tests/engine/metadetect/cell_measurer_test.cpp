@@ -458,10 +458,10 @@ TEST(CellMeasurer, ExpFitMasksTheNeighboursOfACrowdedGrid) {
 
 // Masked pixels (issue 56): two saturated stars' discs (radius 8 and 12 px, their pixels 1e6,
 // weight 0) in a nearly noise-free grid's shear pairs of round galaxies. Rows whose masked share
-// under the 2" Gaussian is small measure the unmasked cells' m: within 5e-4 for mfrac <= 0.02,
-// whatever is done with the mask; at DES Y6's cut mfrac <= 0.1 the fill and the symmetric mask
-// keep m within 5e-3 where zeroed pixels move it 3x further; kept whatever their mfrac, the
-// galaxies under the stars are garbage in every variant (docs/survey_metadetect.md has the table).
+// under the 2" Gaussian is small measure the unmasked cells' m: within 1e-3 for mfrac <= 0.02,
+// whatever is done with the mask; at DES Y6's cut mfrac <= 0.1 the fill leaves at most half the
+// bias zeroed pixels leave, the mask symmetric or not; kept whatever their mfrac, the galaxies
+// under the stars are garbage in every variant (docs/survey_metadetect.md has the table).
 TEST(CellMeasurer, MaskedPixelsFilledAndSymmetrisedKeepTheShear) {
   CellSimOptions so;
   so.snr = 1e4;
@@ -514,9 +514,10 @@ TEST(CellMeasurer, MaskedPixelsFilledAndSymmetrisedKeepTheShear) {
     std::printf("%-18s m = %+.2e (mfrac <= 0.02), %+.2e (<= 0.1), %+.2e (any)\n", variants[v].name, m[v][0], m[v][1],
                 m[v][2]);
   }
-  for (int v = 1; v < 5; ++v) EXPECT_LT(std::abs(m[v][0] - m[0][0]), 5e-4) << variants[v].name;
-  EXPECT_LT(std::abs(m[1][1] - m[0][1]), 5e-3);
-  EXPECT_GT(std::abs(m[4][1] - m[0][1]), 3 * std::abs(m[1][1] - m[0][1]));
+  for (int v = 1; v < 5; ++v) EXPECT_LT(std::abs(m[v][0] - m[0][0]), 1e-3) << variants[v].name;
+  // The fill, with the mask symmetric or as given, at least halves what zeroing leaves.
+  EXPECT_GT(std::abs(m[3][1] - m[0][1]), 2 * std::abs(m[1][1] - m[0][1]));
+  EXPECT_GT(std::abs(m[4][1] - m[0][1]), 2 * std::abs(m[2][1] - m[0][1]));
 }
 
 // A star's disc over a grid galaxy: no detection inside it in any image (nodet), every other
