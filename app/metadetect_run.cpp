@@ -150,7 +150,13 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
                                        : io::CellSource(read.images, measure);
   if (!(options.star_margin >= 0 && options.star_margin <= 1000))
     throw io::ConfigError("--star-margin " + io::format_double(options.star_margin) + ": must be in [0, 1000] pixels");
+  if (!options.star_mask.empty() && !options.star_hdu.empty())
+    throw io::ConfigError("--star-mask and --star-mask-hdu exclude each other: one catalogue for every input, or each "
+                          "image's own");
+  if (!options.star_hdu.empty() && options.tile)
+    throw io::ConfigError("--star-mask-hdu reads each image file's own star table: a --meds cell tile has none");
   if (!options.star_mask.empty()) source.set_stars(io::read_star_catalogue(options.star_mask, options.star_margin));
+  if (!options.star_hdu.empty()) source.set_star_hdu(options.star_hdu, options.star_margin);
   io::MetadetectWriterOptions writer_options;
   writer_options.path = options.output;
   writer_options.bands = bands;
@@ -190,6 +196,11 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   };
   record_files(read.files, "INPUT", "DIGEST", "input", true);
   record_files(read.images.psfex, "PSFEX", "PSFEXD", "psfex", false);  // bands may share a model
+  if (!options.star_hdu.empty()) {
+    record("STARHDU", options.star_hdu, "star tables " + options.star_hdu);
+    record("STARMARG", io::format_double(options.star_margin), "star margin " + io::format_double(options.star_margin));
+    writer_options.header_types["STARMARG"] = io::HeaderValueType::kReal;
+  }
   if (!options.star_mask.empty()) {
     const std::string d = io::digest_file(options.star_mask).text();
     writer_options.header.emplace_back("STARCAT", options.star_mask);

@@ -40,6 +40,9 @@ struct MetadetectRunOptions {
   // Recorded as STARCAT, its digest STARCATD, and STARMARG.
   std::string star_mask;
   double star_margin = 0;
+  // Or each image file's own star table, its HDU of this name (`sim cells --stars` writes STARS);
+  // recorded as STARHDU.
+  std::string star_hdu;
   // Image files only: a PSFEx model (a `{band}` template with several bands) of every input image;
   // each cell's PSF is the model at the cell's centre (engine/metadetect/cell_layout's
   // cell_psfex_position), and the files' PSF HDUs are neither needed nor read. Empty: the PSF HDUs.

@@ -83,6 +83,13 @@ void write_cell_image(const std::string& path, const CellSimulator& simulator, c
     f.write_key("SCALE", o.pixel_scale, "pixel scale, arcsec per pixel");
     f.write_key("PSFCEN", static_cast<double>(p / 2), "PSF centre, 0-based, pixel centres at integers");
     f.write_key("PIXINT", std::string("T"), "pixel-integrated");
+    // Its stars, for `metadetect --star-mask-hdu STARS` (x, y FITS 1-based, as a star catalogue's).
+    if (o.stars > 0) {
+      std::vector<double> x, y, radius, flux;
+      for (const CellStar& s : cell.stars) x.push_back(s.x + 1), y.push_back(s.y + 1), radius.push_back(s.radius),
+                                            flux.push_back(s.flux * b.flux_scale);
+      f.write_table("STARS", {{"x", false, x}, {"y", false, y}, {"radius", false, radius}, {"flux", false, flux}});
+    }
   });
 }
 

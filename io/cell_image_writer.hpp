@@ -4,7 +4,8 @@
 //                 MODEL HLR, BAND; extensions WEIGHT (1 / NOISESIG^2, float32), BMASK (zeros, int32),
 //                 NOISE (an independent noise field of sigma NOISESIG, float32) and PSF (the band's
 //                 pixel-integrated PSF at the image's pixel scale, odd side, centred on its middle
-//                 pixel PSFCEN, float32);
+//                 pixel PSFCEN, float32), and with stars a table STARS (x, y FITS 1-based pixels,
+//                 radius px, flux of the band);
 //   a truth table HDU 0 header-only with SHEAR1 SHEAR2 and the run's settings; HDU TRUTH a row per
 //                 object: cell id x y (0-based pixels of the cell image) flux hlr (arcsec) bulge_frac
 //                 e1_int e2_int e1_obs e2_obs g1 g2 snr, and flux_<band> per band when there are several.

@@ -8,6 +8,7 @@
 
 #include "io/config_error.hpp"
 #include "io/fits_error.hpp"
+#include "io/star_catalogue.hpp"
 
 namespace stampede::io {
 namespace {
@@ -220,6 +221,7 @@ void CellSource::fill_image_cell(StampBatch& batch, CellBatch& data) {
       if (!memory_) images_[static_cast<std::size_t>(b)] = read_cell_image(files_[file_][b], models_.empty());
       if (models_.empty()) psfs_.push_back(PsfModel::Image(image(b).psf));
     }
+    if (!star_hdu_.empty() && !memory_) stars_ = read_star_catalogue(files_[file_][0], star_margin_, star_hdu_);
     loaded_ = file_;
   }
   const CellPlacement& place = layouts_[file_][in_file_];

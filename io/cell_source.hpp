@@ -53,6 +53,9 @@ class CellSource : public StampSource {
   // Bright stars' discs in every input's pixels (0-based; the image's, or a cell tile's): each cell
   // carries those that reach it, in its own pixels (engine/metadetect/star_disc).
   void set_stars(std::vector<StarDisc> stars) { stars_ = std::move(stars); }
+  // Or each image file's own stars: its (first band's) HDU `extname`, read with the scene, radii
+  // widened by `margin` (io/star_catalogue).
+  void set_star_hdu(std::string extname, double margin) { star_hdu_ = std::move(extname), star_margin_ = margin; }
 
   long long total_objects() const override { return total_; }
   // The largest cell's pixels (SEP's pixel stack must hold a whole cell above the threshold).
@@ -87,6 +90,8 @@ class CellSource : public StampSource {
   std::vector<double> mask_;
   std::vector<double> sky_scratch_;
   std::vector<StarDisc> stars_;
+  std::string star_hdu_;
+  double star_margin_ = 0;
   std::vector<std::vector<CellPlacement>> layouts_;
   long long total_ = 0, next_ = 0, in_file_ = 0, end_ = std::numeric_limits<long long>::max();
   int file_ = 0, loaded_ = -1;

@@ -9,9 +9,14 @@
 
 namespace stampede::io {
 
-std::vector<StarDisc> read_star_catalogue(const std::string& path, double margin) {
+std::vector<StarDisc> read_star_catalogue(const std::string& path, double margin, const std::string& extname) {
   FitsFile f = FitsFile::open_read(path);
   bool table = false;
+  if (!extname.empty()) {
+    if (!f.move_to_if_present(extname)) throw FitsError(path + ": no HDU '" + extname + "' (its star mask table)");
+    table = f.hdu_kind() == FitsFile::HduKind::kTable;
+    if (!table) throw FitsError(f.describe() + ": not a table (a star mask table has columns x, y, radius)");
+  }
   for (int h = 0; h < f.hdu_count() && !table; ++h) {
     f.move_to(h);
     table = f.hdu_kind() == FitsFile::HduKind::kTable;

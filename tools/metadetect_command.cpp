@@ -103,6 +103,8 @@ void print_help() {
       "  --star-mask STARS.fits     bright stars to mask: a table with x, y (FITS 1-based pixels of the\n"
       "                             inputs) and radius (pixels); their pixels are filled as masked ones,\n"
       "                             and no detection inside is kept (recorded: STARCAT, STARCATD)\n"
+      "  --star-mask-hdu NAME       image files: each file's own star table, its HDU NAME (`sim cells\n"
+      "                             --stars` writes STARS)\n"
       "  --star-margin PX           widen every star's radius by PX pixels (0)\n"
       "  --psfex MODEL.psf          image files: each cell's PSF is this PSFEx model at the cell's centre\n"
       "                             (X_IMAGE, Y_IMAGE of the image's pixels), not the PSF HDU (which may\n"
@@ -180,6 +182,8 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
       o.psfex = value();
     } else if (s == "--star-mask") {
       o.star_mask = value();
+    } else if (s == "--star-mask-hdu") {
+      o.star_hdu = value();
     } else if (s == "--star-margin") {
       o.star_margin = tools::number_value(argc, argv, &i);
     } else if (s == "--input-list") {

@@ -82,6 +82,11 @@ void print_help() {
       "  --bands B1,B2,...      one image per band of the same galaxies (up to 8), in DIR/<band>: band\n"
       "                         b of B has flux x (1 + 0.5 b/(B-1)), PSF FWHM x (1 - 0.1 b/(B-1)), bd\n"
       "                         bulge fraction x (0.5 + b/(B-1)) (capped at 1)\n"
+      "  --stars N              bright stars per cell: unlensed point sources at whole pixels, the\n"
+      "                         same under either shear, flux log-uniform in [10, --star-flux] x\n"
+      "                         --flux; each image gets a table STARS (x, y, mask radius) for\n"
+      "                         metadetect --star-mask-hdu STARS (0)\n"
+      "  --star-flux F          the brightest star's flux over a galaxy's (1000)\n"
       "  --tile                 also write the cells as a cell tile (cells_meds.fits)\n"
       "  --seed N               random seed (%llu)\n"
       "  --threads N            worker threads (default: all cores)\n"
@@ -192,6 +197,10 @@ int run_sim_cells_command(int argc, char** argv) {
       out.band_names = split(v);
       if (out.band_names.size() > 8) throw std::invalid_argument("option --bands " + tools::quoted_value(v) + ": at most 8 bands");
       o.bands = static_cast<int>(out.band_names.size());
+    } else if (s == "--stars") {
+      o.stars = integer(0, 1000);
+    } else if (s == "--star-flux") {
+      o.star_flux = number();
     } else if (s == "--tile") {
       out.tile = true;
     } else if (s == "--seed") {
@@ -215,7 +224,8 @@ int run_sim_cells_command(int argc, char** argv) {
       {"hlr", "--hlr"},               {"flux", "--flux"},                {"bulge_fraction_max", "--bulge-fraction-max"},
       {"shape_noise", "--shape-noise"}, {"keep_clear", "--keep-clear"},  {"e_max", "--e-max"},
       {"psf_fwhm", "--psf-fwhm"},     {"psf_beta", "--psf-beta"},        {"psf_size", "--psf-size"},
-      {"g1, g2", "--shear"},          {"snr", "--snr"}};
+      {"g1, g2", "--shear"},          {"snr", "--snr"},                  {"stars", "--stars"},
+      {"star_flux", "--star-flux"}};
   try {
     app::write_cell_simulation(o, out, dir, [](int done, int total) {
       std::fprintf(stderr, "\rstampede sim cells: %d/%d cells", done, total);

@@ -19,7 +19,7 @@ namespace stampede {
 namespace {
 
 // Stream purposes (the second key).
-enum Purpose : std::uint64_t { kLayoutPurpose = 1, kGalaxyPurpose, kNoisePurpose, kNoisePlanePurpose };
+enum Purpose : std::uint64_t { kLayoutPurpose = 1, kGalaxyPurpose, kNoisePurpose, kNoisePlanePurpose, kStarPurpose };
 
 constexpr double kLightEpsilon = 1e-5;  // light of a component left outside its stamp (at most)
 constexpr int kMaxStamp = 255;          // stamp side cap: a large bulge's far wings are cut (cell_sim.hpp)
@@ -87,6 +87,8 @@ bool CellSimOptions::IsValid(std::string* why) const {
   if (!(std::hypot(g1, g2) < 0.3)) return fail("g1, g2 " + text(g1) + "," + text(g2) + ": |g| must be < 0.3");
   if (!(snr > 0 && std::isfinite(snr))) return fail("snr " + text(snr) + ": must be > 0");
   if (bands < 1 || bands > 8) return fail("bands " + std::to_string(bands) + ": must be in [1, 8]");
+  if (stars < 0 || stars > 1000) return fail("stars " + std::to_string(stars) + ": must be in [0, 1000] per cell");
+  if (!(star_flux >= 10 && star_flux <= 1e8)) return fail("star_flux " + text(star_flux) + ": must be in [10, 1e8]");
   return true;
 }
 
@@ -252,6 +254,34 @@ std::vector<CellObject> CellSimulator::objects(int cell, double g1, double g2) c
   return out;
 }
 
+std::vector<CellStar> CellSimulator::stars(int cell) const {
+  const CellSimOptions& o = options_;
+  RandomStream draw({o.seed, kStarPurpose, static_cast<std::uint64_t>(cell)});
+  std::vector<CellStar> out;
+  const double c = 0.5 * (o.size - 1);
+  for (int k = 0; k < o.stars; ++k) {
+    CellStar s;
+    s.x = std::floor(draw.uniform(0, o.size)), s.y = std::floor(draw.uniform(0, o.size));
+    s.x = std::min(s.x, o.size - 1.0), s.y = std::min(s.y, o.size - 1.0);
+    if (o.rotate) {  // turned with the scene (about the centre, as the galaxies)
+      const double dx = s.x - c, dy = s.y - c;
+      s.x = c - dy, s.y = c + dx;
+    }
+    s.flux = o.flux * 10 * std::pow(o.star_flux / 10, draw.uniform());
+    // The mask radius: beyond it every band's PSF image times the star's flux is below sigma.
+    const int half = o.psf_size / 2;
+    double reach = 0;
+    for (const CellBand& band : bands_)
+      for (int y = 0; y < o.psf_size; ++y)
+        for (int x = 0; x < o.psf_size; ++x)
+          if (s.flux * band.flux_scale * band.psf[static_cast<std::size_t>(y) * o.psf_size + x] > band.noise_sigma)
+            reach = std::max(reach, std::hypot(x - half, y - half));
+    s.radius = reach + 1;
+    out.push_back(s);
+  }
+  return out;
+}
+
 SimCell CellSimulator::simulate(int cell, double g1, double g2, Workspace& ws) const {
   const CellSimOptions& o = options_;
   SimCell out;
@@ -303,6 +333,23 @@ SimCell CellSimulator::simulate(int cell, double g1, double g2, Workspace& ws) c
     }
     obj.snr = std::sqrt(signal2) / bands_[0].noise_sigma;
   }
+  // Stars: each band's PSF image times the star's flux, centred on its pixel.
+  out.stars = stars(cell);
+  const int half = o.psf_size / 2;
+  for (const CellStar& s : out.stars)
+    for (std::size_t b = 0; b < bands_.size(); ++b) {
+      std::vector<double>& image = out.bands[b].image;
+      const double flux = s.flux * bands_[b].flux_scale;
+      for (int y = 0; y < o.psf_size; ++y) {
+        const int yy = static_cast<int>(s.y) - half + y;
+        if (yy < 0 || yy >= size) continue;
+        for (int x = 0; x < o.psf_size; ++x) {
+          const int xx = static_cast<int>(s.x) - half + x;
+          if (xx >= 0 && xx < size)
+            image[static_cast<std::size_t>(yy) * size + xx] += flux * bands_[b].psf[static_cast<std::size_t>(y) * o.psf_size + x];
+        }
+      }
+    }
   for (std::size_t b = 0; b < bands_.size(); ++b) {
     const double sigma = bands_[b].noise_sigma;
     const std::uint64_t key = static_cast<std::uint64_t>(cell), band = static_cast<std::uint64_t>(b);

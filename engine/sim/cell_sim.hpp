@@ -79,6 +79,11 @@ struct CellSimOptions {
   // shear test's variance, blends and objects at the cells' edges included, as ring pairs do.
   bool rotate = false;
   bool noise_free = false;    // noise sigma 1e-6 of the S/N's: a noiseless cell with consistent weights
+  // Bright stars per cell (issue 56's masked shear tests): unlensed point sources at whole pixels
+  // anywhere in the cell, the same under any shear (turned with the scene), each flux
+  // log-uniform in [10, star_flux] x the galaxies' flux.
+  int stars = 0;
+  double star_flux = 1000;
   int bands = 1;              // band b of B: flux x (1 + 0.5 b / (B - 1)), PSF FWHM x (1 - 0.1 b / (B - 1)),
                               // bd bulge fraction x (0.5 + b / (B - 1)) (capped at 1)
   std::uint64_t seed = 42;
@@ -97,6 +102,14 @@ struct CellObject {
   double snr = 0;            // sqrt(sum_bands sum I^2) / noise sigma of the galaxy drawn alone
 };
 
+// One star (the truth; the cell image's STARS table): its mask radius the distance at which its
+// light in the brightest band falls below the noise's sigma, plus a pixel.
+struct CellStar {
+  double x = 0, y = 0;  // 0-based pixels of the cell (whole pixels)
+  double flux = 0;      // in the first band
+  double radius = 0;    // pixels
+};
+
 struct CellBandImage {
   std::vector<double> image;  // size^2 row-major (x fastest): galaxies + noise
   std::vector<double> noise;  // size^2: an independent noise field of the same sigma
@@ -106,6 +119,7 @@ struct SimCell {
   int index = 0;
   double g1 = 0, g2 = 0;            // the shear this cell was drawn with
   std::vector<CellObject> objects;
+  std::vector<CellStar> stars;
   std::vector<CellBandImage> bands;
 };
 
@@ -132,6 +146,8 @@ class CellSimulator {
   std::unique_ptr<Workspace> make_workspace() const;
   // The galaxies of cell `cell` (positions, shapes, fluxes; snr left 0): what simulate draws.
   std::vector<CellObject> objects(int cell, double g1, double g2) const;
+  // Its stars (positions, fluxes, mask radii): the same under any shear.
+  std::vector<CellStar> stars(int cell) const;
   // Cell `cell` under the shear (g1, g2) (the options' or its negative for a shear pair).
   // Thread-safe given a workspace per thread.
   SimCell simulate(int cell, double g1, double g2, Workspace& ws) const;

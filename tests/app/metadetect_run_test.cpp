@@ -623,6 +623,57 @@ TEST(MetadetectRun, StarMaskDropsWhatLiesUnderItsDiscsAndIsRecorded) {
   }
 }
 
+// `sim cells --stars`: unlensed stars, the same under +g and -g, each image with its STARS table;
+// `--star-mask-hdu STARS` masks each image by its own table: no detection inside a star's disc,
+// where without it the stars are detected.
+TEST(MetadetectRun, SimulatedStarsAreMaskedByEachImagesOwnTable) {
+  testing::ScratchDir scratch("stampede_mdet_sim_stars_");
+  CellSimOptions so;
+  so.snr = 1e4;
+  so.stars = 3;
+  CellOutputOptions out;
+  out.cells = 2;
+  out.pair = true;
+  {
+    const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);  // as sim_cells'
+    write_cell_simulation(so, out, scratch.path("sims"));
+  }
+  std::vector<std::string> inputs;
+  for (int k = 0; k < 2; ++k) {
+    const std::string plus = scratch.path("sims/cell_000" + std::to_string(k) + ".fits");
+    const std::string minus = scratch.path("sims/minus/cell_000" + std::to_string(k) + ".fits");
+    const std::vector<StarDisc> a = io::read_star_catalogue(plus, 0, "STARS"), b = io::read_star_catalogue(minus, 0, "STARS");
+    ASSERT_EQ(a.size(), 3u);
+    ASSERT_EQ(b.size(), 3u);
+    for (std::size_t i = 0; i < 3; ++i) EXPECT_TRUE(a[i].x == b[i].x && a[i].y == b[i].y && a[i].radius == b[i].radius);
+    inputs.push_back(plus);
+  }
+  MetadetectRunOptions o;
+  o.inputs = inputs;
+  o.threads = 2;
+  const auto inside = [&](const std::string& table) {
+    int n = 0;
+    for (const MetadetectRow& r : io::read_metadetect_rows(table)) {
+      const std::vector<StarDisc> stars = io::read_star_catalogue(inputs[static_cast<std::size_t>(r.cell)], 0, "STARS");
+      for (const StarDisc& star : stars) n += r.id >= 0 && star.holds(r.x, r.y);
+    }
+    return n;
+  };
+  o.output = scratch.path("plain.fits");
+  run_metadetect(o);
+  EXPECT_GT(inside(o.output), 0);  // the stars themselves, at least
+  o.output = scratch.path("masked.fits");
+  o.star_hdu = "STARS";
+  EXPECT_EQ(run_metadetect(o).cells_failed, 0);
+  EXPECT_EQ(inside(o.output), 0);
+  io::FitsFile f = io::FitsFile::open_read(o.output);
+  f.move_to("METADETECT");
+  EXPECT_EQ(f.read_key_string("STARHDU").value_or(""), "STARS");
+  o.star_mask = scratch.path("stars.fits");
+  o.output = scratch.path("both.fits");
+  EXPECT_THROW(run_metadetect(o), io::ConfigError);  // one or the other
+}
+
 TEST(MetadetectRun, PgaussTableIsTheSameForOneAndTwoThreadsAndNamesItsMeasurement) {
   testing::ScratchDir scratch("stampede_mdet_pgauss_");
   MetadetectRunOptions o;
