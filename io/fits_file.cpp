@@ -31,7 +31,10 @@ fitsfile* as_fits(void* p) { return static_cast<fitsfile*>(p); }
 // ./NAME; the shell expands an unquoted ~). stampede identifies a run by
 // its files' bytes, so it reads and writes files on disk only; CFITSIO would try the network (and
 // hang), or leak in its parse of an unknown scheme.
-bool is_url(const std::string& path) {
+bool is_url(const std::string& name) {
+  // CFITSIO skips leading blanks before it parses a name (fuzz finding F16: " ~user/x.fits").
+  const std::size_t first = name.find_first_not_of(" \t");
+  const std::string path = first == std::string::npos ? std::string() : name.substr(first);
   if (path.starts_with("file://")) return false;
   if (path == "stdin" || path == "stdout" || path == "-") return true;
   if (path.starts_with('~')) return true;  // CFITSIO's own home-directory expansion crashes on an unknown user
