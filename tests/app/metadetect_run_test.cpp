@@ -47,6 +47,14 @@ std::string bytes(const std::string& path) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
+// The simulation drawn on one thread: the files are the same for any count, and the simulator's
+// parallel_for hand-offs inside the uninstrumented libtbb would fill a TSan run's report; the run
+// under test is the metadetection.
+void simulate_on_one_thread(const CellSimOptions& so, const CellOutputOptions& out, const std::string& dir) {
+  const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+  write_cell_simulation(so, out, dir);
+}
+
 // n cells of the shear test (nearly noise-free) in dir; their paths.
 std::vector<std::string> sim_cells(const std::string& dir, int n, CellSimOptions o = {}) {
   o.snr = 1e4;
@@ -498,10 +506,7 @@ TEST(MetadetectRun, BandRolesTakeShapesFromTheShearBandsAndFluxFromEvery) {
   CellOutputOptions out;
   out.cells = 2;
   out.band_names = {"g", "r", "i", "z"};
-  {
-    const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);  // as sim_cells'
-    write_cell_simulation(so, out, scratch.path("sims"));
-  }
+  simulate_on_one_thread(so, out, scratch.path("sims"));
   MetadetectRunOptions o;
   o.inputs = {scratch.path("sims/{band}/cell_0000.fits"), scratch.path("sims/{band}/cell_0001.fits")};
   o.threads = 2;
@@ -634,10 +639,7 @@ TEST(MetadetectRun, SimulatedStarsAreMaskedByEachImagesOwnTable) {
   CellOutputOptions out;
   out.cells = 2;
   out.pair = true;
-  {
-    const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);  // as sim_cells'
-    write_cell_simulation(so, out, scratch.path("sims"));
-  }
+  simulate_on_one_thread(so, out, scratch.path("sims"));
   std::vector<std::string> inputs;
   for (int k = 0; k < 2; ++k) {
     const std::string plus = scratch.path("sims/cell_000" + std::to_string(k) + ".fits");
