@@ -40,6 +40,19 @@ std::string table_with_card(const stampede::testing::ScratchDir& dir, const std:
   return path;
 }
 
+// The card of `path` starting `key` replaced by `card` (padded to 80 bytes).
+void replace_card(const std::string& path, const std::string& key, const std::string& card) {
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::size_t at = bytes.find(key);
+  ASSERT_NE(at, std::string::npos) << key;
+  bytes.replace(at, 80, (card + std::string(80, ' ')).substr(0, 80));
+  std::ofstream(path, std::ios::binary) << bytes;
+}
+
 TEST(FitsHeaderGuard, QuotedColumnNamesOpen) {
   const stampede::testing::ScratchDir dir("stampede_header_guard_");
   FitsFile f = FitsFile::open_read(table_with_card(dir, "TTYPE2  = '" + std::string(68, 'x') + "'"));
@@ -82,15 +95,7 @@ TEST(FitsHeaderGuard, AnUnquotedColumnNameWithoutTheValueBlankIsAnErrorNotACrash
 TEST(FitsHeaderGuard, AnUnquotedColumnNameAfterAnAbsurdSizeIsAnErrorNotACrash) {
   const stampede::testing::ScratchDir dir("stampede_header_guard_");
   const std::string path = table_with_card(dir, "TTYPE2  = " + std::string(70, '\x90'));
-  std::string bytes;
-  {
-    std::ifstream in(path, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
-  const std::size_t at = bytes.find("NAXIS2  = ");
-  ASSERT_NE(at, std::string::npos);
-  bytes.replace(at, 80, ("NAXIS2  =    9223372036854775807 number of rows" + std::string(80, ' ')).substr(0, 80));
-  std::ofstream(path, std::ios::binary) << bytes;
+  replace_card(path, "NAXIS2  = ", "NAXIS2  =    9223372036854775807 number of rows");
   const std::string message = error_of<FitsError>([&] {
     FitsFile f = FitsFile::open_read(path);
     f.move_to(1);
@@ -109,15 +114,7 @@ TEST(FitsHeaderGuard, TFieldsBeyondTheStandardsLimitIsAnErrorNotAnAllocation) {
     f.write_empty_image();
     f.write_table("CATALOG", {{"id", true, {1, 2}}, {"x", false, {3.0, 4.0}}});
   }
-  std::string bytes;
-  {
-    std::ifstream in(path, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
-  const std::size_t at = bytes.find("TFIELDS = ");
-  ASSERT_NE(at, std::string::npos);
-  bytes.replace(at, 80, ("TFIELDS =            135674990" + std::string(80, ' ')).substr(0, 80));
-  std::ofstream(path, std::ios::binary) << bytes;
+  replace_card(path, "TFIELDS = ", "TFIELDS =            135674990");
   const std::string message = error_of<FitsError>([&] {
     FitsFile f = FitsFile::open_read(path);
     f.move_to(1);
