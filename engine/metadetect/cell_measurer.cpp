@@ -407,19 +407,31 @@ void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::vect
   }
 }
 
-double CellMeasurer::masked_share(int side, double x, double y) const {
+double CellMeasurer::masked_share(int side, double x, double y) {
   const double sigma = options_.mfrac_fwhm / psf_scale_ / 2.3548200450309493;
   const int reach = static_cast<int>(std::ceil(3 * sigma));
   const long cx = std::lround(x), cy = std::lround(y);
-  double all = 0, masked = 0;
-  for (long v = cy - reach; v <= cy + reach; ++v)
-    for (long u = cx - reach; u <= cx + reach; ++u) {
-      const double w = std::exp(-0.5 * ((u - x) * (u - x) + (v - y) * (v - y)) / (sigma * sigma));
-      all += w;
+  // The Gaussian is separable: its weights per column and per row, 2 (2 reach + 1) exponentials.
+  share_x_.resize(static_cast<std::size_t>(2 * reach + 1)), share_y_.resize(share_x_.size());
+  double sum_x = 0, sum_y = 0;
+  for (int k = -reach; k <= reach; ++k) {
+    const double dx = static_cast<double>(cx + k) - x, dy = static_cast<double>(cy + k) - y;
+    sum_x += share_x_[static_cast<std::size_t>(k + reach)] = std::exp(-0.5 * dx * dx / (sigma * sigma));
+    sum_y += share_y_[static_cast<std::size_t>(k + reach)] = std::exp(-0.5 * dy * dy / (sigma * sigma));
+  }
+  double masked = 0;
+  for (int j = -reach; j <= reach; ++j) {
+    const long v = cy + j;
+    double row = 0;
+    for (int i = -reach; i <= reach; ++i) {
+      const long u = cx + i;
       const bool outside = u < 0 || v < 0 || u >= side || v >= side;
-      if (outside || (cell_masked_ && mask_[static_cast<std::size_t>(v) * side + static_cast<std::size_t>(u)])) masked += w;
+      if (outside || (cell_masked_ && mask_[static_cast<std::size_t>(v) * side + static_cast<std::size_t>(u)]))
+        row += share_x_[static_cast<std::size_t>(i + reach)];
     }
-  return masked / all;
+    masked += share_y_[static_cast<std::size_t>(j + reach)] * row;
+  }
+  return masked / (sum_x * sum_y);
 }
 
 bool CellMeasurer::owns(const MetadetectCell& cell, int type, const Detection& d) const {

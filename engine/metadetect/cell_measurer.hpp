@@ -85,7 +85,7 @@ class CellMeasurer {
   void measure_image(const MetadetectCell& cell, int type, std::vector<MetadetectRow>* rows);
   // The masked share (the cell's mask, and beyond its edge) of a round Gaussian of
   // options.mfrac_fwhm about (x, y), cell pixels.
-  double masked_share(int side, double x, double y) const;
+  double masked_share(int side, double x, double y);
   // Whether the cell keeps detection d of image `type` (its unsheared position in the keep region).
   bool owns(const MetadetectCell& cell, int type, const Detection& d) const;
   // The weighted moments of a box x box stamp whose pixel (0, 0) is the cell's (x0, y0) into *r.
@@ -140,6 +140,7 @@ class CellMeasurer {
   std::shared_ptr<const MetacalFilters> stamp_filters_;
   std::vector<double> stamp_images_, stamp_pixels_, stamp_weight_, stamp_noise_;
   std::vector<Detection> detections_;
+  std::vector<double> share_x_, share_y_;  // masked_share's Gaussian, per column and per row
   // prepare_masked's copies.
   std::vector<double> masked_pixels_, masked_weight_, masked_noise_;
   std::vector<std::span<double>> fill_planes_;

@@ -598,6 +598,35 @@ TEST(CellMeasurer, PsfColumnsAreTheOriginalPsfsMomentsUnderTheWeightAndTheRoundR
   }
 }
 
+// mfrac: the masked share of a 2" Gaussian about each detection. The columns x < 100 masked (not
+// symmetrised): a detection at x sees 0.5 erfc((x - 99.5) / (sigma sqrt 2)) of it (to 0.01: the
+// pixel grid's sampling); a detection in the mask is flagged.
+TEST(CellMeasurer, MfracIsTheMaskedShareOfAGaussianAboutEachDetection) {
+  CellSimOptions so;
+  so.snr = 1e4;
+  so.shape_noise = 0;
+  SimulatedCell c(so, 0, 0.0);
+  for (int y = 0; y < so.size; ++y)
+    for (int x = 0; x < 100; ++x) c.weight[static_cast<std::size_t>(y) * so.size + x] = 0;
+  c.band.image.weight = c.weight;
+  MetadetectOptions mo;
+  mo.symmetrise_mask = false;
+  CellRun run;
+  run.ok = CellMeasurer(mo).measure(c.in, &run.rows, &run.problem);
+  ASSERT_TRUE(run.ok) << run.problem;
+  const double sigma = mo.mfrac_fwhm / so.pixel_scale / 2.3548200450309493;
+  int near_edge = 0;
+  for (const MetadetectRow& r : run.rows) {
+    if (r.shear_type != 0) continue;
+    const long px = std::lround(r.x), py = std::lround(r.y);
+    EXPECT_EQ((r.flags & kMetadetectMasked) != 0, px < 100) << r.x << ", " << r.y;
+    if (py < 20 || py > so.size - 21) continue;  // the cell's own edges add their share
+    EXPECT_NEAR(r.mfrac, 0.5 * std::erfc((r.x - 99.5) / (sigma * std::sqrt(2.0))), 0.01) << r.x << ", " << r.y;
+    near_edge += std::abs(r.x - 99.5) < 2 * sigma;
+  }
+  EXPECT_GT(near_edge, 0);
+}
+
 TEST(CellMeasurer, ACellWithoutNoiseIsOneFlaggedRow) {
   CellSimOptions so;
   CellSimulator sim(so);
