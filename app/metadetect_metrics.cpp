@@ -60,7 +60,7 @@ std::vector<std::string> input_digests(const io::MetadetectTable& t) {
 void check_pair(const io::MetadetectTable& a, const io::MetadetectTable& b, const std::string& role, double shear_sign,
                 bool turned) {
   const std::string pair = b.path + " (" + role + ") and " + a.path;
-  std::vector<std::string> keys = {"INPUTS", "BANDS", "DETBANDS", "SHRBANDS", "MCSTEP"};
+  std::vector<std::string> keys = {"INPUTS", "BANDS", "DETBANDS", "SHRBANDS", "STARHDU", "STARMARG", "MCSTEP"};
   for (const auto& [key, value] : metadetect_header_keys(MetadetectOptions{})) keys.push_back(key);
   for (const std::string& key : keys) {
     const std::optional<std::string> x = a.key(key), y = b.key(key);

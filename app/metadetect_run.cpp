@@ -196,15 +196,13 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   };
   record_files(read.files, "INPUT", "DIGEST", "input", true);
   record_files(read.images.psfex, "PSFEX", "PSFEXD", "psfex", false);  // bands may share a model
-  if (!options.star_hdu.empty()) {
-    record("STARHDU", options.star_hdu, "star tables " + options.star_hdu);
-    record("STARMARG", io::format_double(options.star_margin), "star margin " + io::format_double(options.star_margin));
-    writer_options.header_types["STARMARG"] = io::HeaderValueType::kReal;
-  }
+  if (!options.star_hdu.empty()) record("STARHDU", options.star_hdu, "star tables " + options.star_hdu);
   if (!options.star_mask.empty()) {
     const std::string d = io::digest_file(options.star_mask).text();
     writer_options.header.emplace_back("STARCAT", options.star_mask);
     record("STARCATD", d, "star mask " + options.star_mask + " " + d);
+  }
+  if (!options.star_hdu.empty() || !options.star_mask.empty()) {
     record("STARMARG", io::format_double(options.star_margin), "star margin " + io::format_double(options.star_margin));
     writer_options.header_types["STARMARG"] = io::HeaderValueType::kReal;
   }

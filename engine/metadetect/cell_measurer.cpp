@@ -321,7 +321,7 @@ void CellMeasurer::prepare_masked(int side, std::span<const double>* pixels, std
     if (!mask_[p]) sum += weight->empty() ? 1.0 : (*weight)[p], ++unmasked;
   if (unmasked == 0) return;  // nothing to fill from: make() finds no noise and the cell fails
   masked_pixels_.assign(pixels->begin(), pixels->end());
-  masked_weight_.assign(weight->begin(), weight->end());
+  masked_weight_.assign(weight->begin(), weight->end());  // empty stays empty: no weight map
   masked_noise_.assign(noise->begin(), noise->end());
   if (options_.fill_masked) {
     // The filled pixels carry the unmasked pixels' mean weight: data to deconvolve, not holes.
@@ -330,10 +330,10 @@ void CellMeasurer::prepare_masked(int side, std::span<const double>* pixels, std
     fill_planes_.emplace_back(masked_pixels_);
     if (!masked_noise_.empty()) fill_planes_.emplace_back(masked_noise_);
     kernels::fill_masked_pixels(mask_, side, fill_planes_, &fill_scratch_);
-    for (std::size_t p = 0; p < npix; ++p)
+    for (std::size_t p = 0; p < masked_weight_.size(); ++p)
       if (mask_[p]) masked_weight_[p] = mean_weight;
   } else {
-    for (std::size_t p = 0; p < npix; ++p)
+    for (std::size_t p = 0; p < masked_weight_.size(); ++p)
       if (mask_[p]) masked_weight_[p] = 0;  // zeroed by make(), the symmetric mask's pixels too
   }
   *pixels = masked_pixels_, *weight = masked_weight_;
