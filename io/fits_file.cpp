@@ -35,7 +35,12 @@ bool is_url(const std::string& name) {
   // CFITSIO skips leading blanks before it parses a name (fuzz finding F16: " ~user/x.fits").
   const std::size_t first = name.find_first_not_of(" \t");
   const std::string path = first == std::string::npos ? std::string() : name.substr(first);
-  if (path.starts_with("file://")) return false;
+  // A file:// name is a file, but CFITSIO expands a '~' after the prefix too (fuzz finding F17:
+  // "file://~E").
+  if (path.starts_with("file://")) {
+    const std::size_t rest = path.find_first_not_of(" \t", 7);
+    return rest != std::string::npos && path[rest] == '~';
+  }
   if (path == "stdin" || path == "stdout" || path == "-") return true;
   if (path.starts_with('~')) return true;  // CFITSIO's own home-directory expansion crashes on an unknown user
   if (path.find("://") != std::string::npos) return true;  // CFITSIO splits a URL there, wherever it is

@@ -58,7 +58,7 @@ class FitsFileTmp : public ::testing::Test {
 TEST(FitsFileRead, AUrlIsRefusedByName) {
   for (const std::string url : {"http://example.invalid/a.fits", "ftp://example.invalid/a.fits", "met://rics/minus.fits",
                                 "mem://x", "ftp:20", "stdin", "/tmp/a/sta://de/b.fits", "~no_such_user_x/a.fits",
-                                " ~no_such_user_x/a.fits", "  ftp:21"}) {
+                                " ~no_such_user_x/a.fits", "  ftp:21", "file://~no_such_user_x/a.fits"}) {
     try {
       FitsFile::open_read(url);
       ADD_FAILURE() << url << " was opened";
