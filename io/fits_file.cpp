@@ -51,6 +51,14 @@ bool is_url(const std::string& name) {
   return k > 0 && k < path.size() && path[k] == ':' && std::isalpha(static_cast<unsigned char>(path[0]));
 }
 
+// CFITSIO reads "in.fits(out.fits)" as "copy in.fits to out.fits and open the copy": a read that
+// writes a file (and "(~user)" reaches its home-directory expansion). A '(' before any '[' is that
+// syntax to CFITSIO; such a name is refused.
+bool has_copy_syntax(const std::string& path) {
+  const std::size_t bracket = path.find('[');
+  return path.find('(') < bracket;
+}
+
 std::string root_name(const std::string& path) {
   if (path.empty() || path.size() >= FLEN_FILENAME || is_url(path)) return path;  // ffrtnm's buffers are fixed
   std::string url = path;  // ffrtnm takes a non-const char*
@@ -113,6 +121,9 @@ FitsFile::FitsFile(void* fptr, std::string path, bool auto_image)
 
 FitsFile FitsFile::open_read(const std::string& path) {
   if (is_url(path)) throw FitsError("cannot open FITS file '" + path + "': a URL or device, not a file on disk (a local file of this name: ./NAME)");
+  if (has_copy_syntax(path))
+    throw FitsError("cannot open FITS file '" + path + "': '(' in a name is CFITSIO's input(output) copy, which would "
+                    "write a file; rename the file");
   check_fits_headers(fits_root_name(path));  // before CFITSIO parses what would crash it
   fitsfile* f = nullptr;
   int status = 0;
@@ -130,6 +141,8 @@ FitsFile FitsFile::create(const std::string& path, bool overwrite) {
   const std::string name = (overwrite && !path.starts_with('!')) ? "!" + path : path;
   if (is_url(path))
     throw FitsError("cannot create FITS file '" + path + "': a URL or device, not a file on disk (a local file of this name: ./NAME)");
+  if (has_copy_syntax(path))
+    throw FitsError("cannot create FITS file '" + path + "': '(' in a name is CFITSIO's input(output) syntax; rename the file");
   fitsfile* f = nullptr;
   int status = 0;
   fits_create_file(&f, name.c_str(), &status);

@@ -69,6 +69,23 @@ TEST(FitsFileRead, AUrlIsRefusedByName) {
   }
 }
 
+// CFITSIO reads "in.fits(out.fits)" as a copy to out.fits: a read would write a file. Refused,
+// nothing written (found by probing after fuzz finding F17).
+TEST(FitsFileRead, CfitsiosCopySyntaxIsRefusedAndWritesNothing) {
+  const stampede::testing::ScratchDir dir("stampede_fits_copy_");
+  const std::string copy = dir.path("copy.fits");
+  const std::string name = kSet0 + "(" + copy + ")";
+  try {
+    FitsFile::open_read(name);
+    ADD_FAILURE() << name << " was opened";
+  } catch (const FitsError& e) {
+    EXPECT_NE(std::string(e.what()).find("'(' in a name is CFITSIO's input(output) copy"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(copy));
+  EXPECT_THROW(FitsFile::open_read(kSet0 + "(~no_such_user_x)"), FitsError);
+  EXPECT_THROW(FitsFile::create(dir.path("a.fits(b.fits)"), true), FitsError);
+}
+
 TEST(FitsFileRead, Great08SetShapeAndHeader) {
   FitsFile f = FitsFile::open_read(kSet0);
   EXPECT_EQ(f.path(), kSet0);
