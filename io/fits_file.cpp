@@ -59,6 +59,26 @@ bool has_copy_syntax(const std::string& path) {
   return path.find('(') < bracket;
 }
 
+// CFITSIO's filters after a name ("[bin x=1:1e9]" allocates the histogram it describes, "[e1>0]"
+// keeps some rows, "[col ...]" computes columns): a read of other bytes than the file's. Only an
+// HDU is selected by brackets here: "[2]", "[EXTNAME]" or "[EXTNAME,VERSION]", once, at the end.
+bool has_filter_syntax(const std::string& path) {
+  const std::size_t open = path.find('[');
+  if (open == std::string::npos) return false;
+  if (path.back() != ']' || path.find('[', open + 1) != std::string::npos) return true;
+  const std::string spec = path.substr(open + 1, path.size() - open - 2);
+  if (spec.empty()) return true;
+  int commas = 0;
+  for (const char c : spec) {
+    if (c == ',') {
+      ++commas;
+      continue;
+    }
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-' && c != '.' && c != '+') return true;
+  }
+  return commas > 1;
+}
+
 std::string root_name(const std::string& path) {
   if (path.empty() || path.size() >= FLEN_FILENAME || is_url(path)) return path;  // ffrtnm's buffers are fixed
   std::string url = path;  // ffrtnm takes a non-const char*
@@ -124,6 +144,10 @@ FitsFile FitsFile::open_read(const std::string& path) {
   if (has_copy_syntax(path))
     throw FitsError("cannot open FITS file '" + path + "': '(' in a name is CFITSIO's input(output) copy, which would "
                     "write a file; rename the file");
+  if (has_filter_syntax(path))
+    throw FitsError("cannot open FITS file '" + path + "': brackets select an HDU only ([2], [EXTNAME] or "
+                    "[EXTNAME,VERSION], at the end); CFITSIO's row filters, binning and column expressions are not "
+                    "read");
   check_fits_headers(fits_root_name(path));  // before CFITSIO parses what would crash it
   fitsfile* f = nullptr;
   int status = 0;

@@ -86,6 +86,20 @@ TEST(FitsFileRead, CfitsiosCopySyntaxIsRefusedAndWritesNothing) {
   EXPECT_THROW(FitsFile::create(dir.path("a.fits(b.fits)"), true), FitsError);
 }
 
+// Brackets select an HDU and nothing else: CFITSIO's binning ("[bin x=0:1:1e-9]" asked for 8 GB),
+// row filters and column expressions would read other bytes than the file's.
+TEST(FitsFileRead, BracketsSelectAnHduAndNoFilter) {
+  EXPECT_NO_THROW(FitsFile::open_read(kSet0 + "[0]"));
+  for (const std::string spec : {"[0][bin x=0:1:1e-9]", "[1][e1>0]", "[1][col e1=1]", "[bin x]", "[]", "[0", "[A,1,2]"}) {
+    try {
+      FitsFile::open_read(kSet0 + spec);
+      ADD_FAILURE() << spec << " was opened";
+    } catch (const FitsError& e) {
+      EXPECT_NE(std::string(e.what()).find("brackets select an HDU only"), std::string::npos) << spec << ": " << e.what();
+    }
+  }
+}
+
 TEST(FitsFileRead, Great08SetShapeAndHeader) {
   FitsFile f = FitsFile::open_read(kSet0);
   EXPECT_EQ(f.path(), kSet0);
