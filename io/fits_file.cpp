@@ -66,17 +66,20 @@ bool has_filter_syntax(const std::string& path) {
   const std::size_t open = path.find('[');
   if (open == std::string::npos) return false;
   if (path.back() != ']' || path.find('[', open + 1) != std::string::npos) return true;
+  // An HDU number, or an EXTNAME (a letter, then letters, digits and '_') with an optional
+  // ",VERSION": anything else CFITSIO parses as an expression (fuzz finding F18: "[-f-.te.]"
+  // leaked in its parser).
   const std::string spec = path.substr(open + 1, path.size() - open - 2);
-  if (spec.empty()) return true;
-  int commas = 0;
-  for (const char c : spec) {
-    if (c == ',') {
-      ++commas;
-      continue;
-    }
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-' && c != '.' && c != '+') return true;
-  }
-  return commas > 1;
+  const auto is_digit = [](char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; };
+  if (!spec.empty() && std::all_of(spec.begin(), spec.end(), is_digit)) return false;
+  const std::size_t comma = spec.find(',');
+  const std::string name = spec.substr(0, comma), version = comma == std::string::npos ? "" : spec.substr(comma + 1);
+  if (name.empty() || !std::isalpha(static_cast<unsigned char>(name[0]))) return true;
+  for (const char c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_') return true;
+  if (comma != std::string::npos && (version.empty() || !std::all_of(version.begin(), version.end(), is_digit)))
+    return true;
+  return false;
 }
 
 std::string root_name(const std::string& path) {
