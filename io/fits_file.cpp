@@ -677,6 +677,21 @@ FitsFile::ImageShape FitsFile::image_shape() {
          " is out of range");
   }
   require_data_in_file();
+  // Pixels the file cannot hold (fuzz finding F19: NAXIS1 = 2^63 - 1 overflowed CFITSIO's end of
+  // data, so require_data_in_file passed, and the reader's buffer was asked for 2^63 doubles): a
+  // pixel takes a byte at least, or 1/2048 of one in a tile-compressed image (beyond any codec's
+  // ratio); the header guard leaves absurd sizes to this check.
+  int mode = READWRITE;
+  fits_file_mode(f, &mode, &status);
+  const bool reading = status == 0 && mode == READONLY;  // a file being written grows as it is written
+  status = 0;
+  const int compressed = fits_is_compressed_image(f, &status);
+  status = 0;
+  const long double pixels = static_cast<long double>(dims[0]) * static_cast<long double>(dims[1]);
+  const long double bytes = static_cast<long double>(f->Fptr->logfilesize) + 2880;
+  if (reading && pixels > (compressed ? 2048 * bytes : bytes))
+    fail("image size " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " cannot be in a file of " +
+         std::to_string(f->Fptr->logfilesize) + " bytes: the header's sizes are wrong");
   return {static_cast<long>(dims[0]), static_cast<long>(dims[1])};
 }
 

@@ -102,6 +102,34 @@ TEST(FitsFileRead, BracketsSelectAnHduAndNoFilter) {
   }
 }
 
+// Found by the fuzz campaign (F19, fuzz_cell_image): NAXIS1 = 2^63 - 1 overflowed CFITSIO's end
+// of data, and the reader asked for 2^63 doubles (std::length_error, an abort). Pixels a file cannot
+// hold are a FitsError naming the sizes.
+TEST(FitsFileRead, AnImageLargerThanItsFileIsAnErrorNotAnAllocation) {
+  const stampede::testing::ScratchDir dir("stampede_fits_huge_");
+  const std::string path = dir.path("huge.fits");
+  {
+    FitsFile f = FitsFile::create(path, true);
+    f.write_image(4, 4, std::vector<double>(16, 1.0));
+  }
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::size_t at = bytes.find("NAXIS1  = ");
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at, 80, ("NAXIS1  =  9223372036854775807 / length of data axis 1" + std::string(80, ' ')).substr(0, 80));
+  std::ofstream(path, std::ios::binary) << bytes;
+  try {
+    FitsFile f = FitsFile::open_read(path);
+    f.read_image();
+    ADD_FAILURE() << "a 2^63 - 1 pixel image was read";
+  } catch (const FitsError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot be in a file of"), std::string::npos) << e.what();
+  }
+}
+
 TEST(FitsFileRead, Great08SetShapeAndHeader) {
   FitsFile f = FitsFile::open_read(kSet0);
   EXPECT_EQ(f.path(), kSet0);
