@@ -32,14 +32,17 @@ fitsfile* as_fits(void* p) { return static_cast<fitsfile*>(p); }
 // its files' bytes, so it reads and writes files on disk only; CFITSIO would try the network (and
 // hang), or leak in its parse of an unknown scheme.
 bool is_url(const std::string& name) {
+  // Control characters (a tab, a newline) are in no file's name here, and CFITSIO parses names
+  // with them in its own way (fuzz finding F20: tabs, then "file://", leaked in its URL parse).
+  if (std::any_of(name.begin(), name.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20; })) return true;
   // CFITSIO skips leading blanks before it parses a name (fuzz finding F16: " ~user/x.fits").
-  const std::size_t first = name.find_first_not_of(" \t");
+  const std::size_t first = name.find_first_not_of(' ');
   const std::string path = first == std::string::npos ? std::string() : name.substr(first);
   // A file:// name is a file, but CFITSIO expands a '~' after the prefix too (fuzz finding F17:
-  // "file://~E").
+  // "file://~E"), and splits at a second "://".
   if (path.starts_with("file://")) {
-    const std::size_t rest = path.find_first_not_of(" \t", 7);
-    return rest != std::string::npos && path[rest] == '~';
+    const std::size_t rest = path.find_first_not_of(' ', 7);
+    return rest == std::string::npos || path[rest] == '~' || path.find("://", 7) != std::string::npos;
   }
   if (path == "stdin" || path == "stdout" || path == "-") return true;
   if (path.starts_with('~')) return true;  // CFITSIO's own home-directory expansion crashes on an unknown user
@@ -143,7 +146,7 @@ FitsFile::FitsFile(void* fptr, std::string path, bool auto_image)
     : fptr_(fptr), path_(std::move(path)), root_(root_name(path_)), auto_image_(auto_image) {}
 
 FitsFile FitsFile::open_read(const std::string& path) {
-  if (is_url(path)) throw FitsError("cannot open FITS file '" + path + "': a URL or device, not a file on disk (a local file of this name: ./NAME)");
+  if (is_url(path)) throw FitsError("cannot open FITS file '" + path + "': a URL, a device or a name with control characters, not a file on disk (a local file of this name: ./NAME)");
   if (has_copy_syntax(path))
     throw FitsError("cannot open FITS file '" + path + "': '(' in a name is CFITSIO's input(output) copy, which would "
                     "write a file; rename the file");
@@ -167,7 +170,7 @@ FitsFile FitsFile::create(const std::string& path, bool overwrite) {
   // CFITSIO's "!" prefix means "replace an existing file".
   const std::string name = (overwrite && !path.starts_with('!')) ? "!" + path : path;
   if (is_url(path))
-    throw FitsError("cannot create FITS file '" + path + "': a URL or device, not a file on disk (a local file of this name: ./NAME)");
+    throw FitsError("cannot create FITS file '" + path + "': a URL, a device or a name with control characters, not a file on disk (a local file of this name: ./NAME)");
   if (has_copy_syntax(path))
     throw FitsError("cannot create FITS file '" + path + "': '(' in a name is CFITSIO's input(output) syntax; rename the file");
   fitsfile* f = nullptr;

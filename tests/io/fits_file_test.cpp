@@ -58,12 +58,14 @@ class FitsFileTmp : public ::testing::Test {
 TEST(FitsFileRead, AUrlIsRefusedByName) {
   for (const std::string url : {"http://example.invalid/a.fits", "ftp://example.invalid/a.fits", "met://rics/minus.fits",
                                 "mem://x", "ftp:20", "stdin", "/tmp/a/sta://de/b.fits", "~no_such_user_x/a.fits",
-                                " ~no_such_user_x/a.fits", "  ftp:21", "file://~no_such_user_x/a.fits"}) {
+                                " ~no_such_user_x/a.fits", "  ftp:21", "file://~no_such_user_x/a.fits",
+                                "\t\tfile://\t/tmp/a.fits", "a\nb.fits", "file://a://b.fits"}) {
     try {
       FitsFile::open_read(url);
       ADD_FAILURE() << url << " was opened";
     } catch (const FitsError& e) {
-      EXPECT_NE(std::string(e.what()).find("'" + url + "': a URL or device, not a file on disk"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("'" + url + "': a URL, a device or a name with control characters"),
+                std::string::npos) << e.what();
     }
     EXPECT_THROW(FitsFile::create(url, true), FitsError) << url;
   }
