@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "support/error_assertions.hpp"
+#include "support/header_card_edit.hpp"
 #include "support/scratch_dir.hpp"
 
 #include <algorithm>
@@ -114,15 +115,7 @@ TEST(FitsFileRead, AnImageLargerThanItsFileIsAnErrorNotAnAllocation) {
     FitsFile f = FitsFile::create(path, true);
     f.write_image(4, 4, std::vector<double>(16, 1.0));
   }
-  std::string bytes;
-  {
-    std::ifstream in(path, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
-  const std::size_t at = bytes.find("NAXIS1  = ");
-  ASSERT_NE(at, std::string::npos);
-  bytes.replace(at, 80, ("NAXIS1  =  9223372036854775807 / length of data axis 1" + std::string(80, ' ')).substr(0, 80));
-  std::ofstream(path, std::ios::binary) << bytes;
+  stampede::testing::replace_card(path, "NAXIS1  = ", "NAXIS1  =  9223372036854775807 / length of data axis 1");
   try {
     FitsFile f = FitsFile::open_read(path);
     f.read_image();

@@ -11,6 +11,7 @@
 
 #include "io/fits_file.hpp"
 #include "support/error_assertions.hpp"
+#include "support/header_card_edit.hpp"
 #include "support/scratch_dir.hpp"
 
 namespace stampede::io {
@@ -40,18 +41,7 @@ std::string table_with_card(const stampede::testing::ScratchDir& dir, const std:
   return path;
 }
 
-// The card of `path` starting `key` replaced by `card` (padded to 80 bytes).
-void replace_card(const std::string& path, const std::string& key, const std::string& card) {
-  std::string bytes;
-  {
-    std::ifstream in(path, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
-  const std::size_t at = bytes.find(key);
-  ASSERT_NE(at, std::string::npos) << key;
-  bytes.replace(at, 80, (card + std::string(80, ' ')).substr(0, 80));
-  std::ofstream(path, std::ios::binary) << bytes;
-}
+using stampede::testing::replace_card;
 
 TEST(FitsHeaderGuard, QuotedColumnNamesOpen) {
   const stampede::testing::ScratchDir dir("stampede_header_guard_");
