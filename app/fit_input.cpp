@@ -19,6 +19,7 @@
 #include "io/fits_file.hpp"
 #include "io/grid_source.hpp"
 #include "io/meds_object_source.hpp"
+#include "io/option_text.hpp"
 #include "io/psf_keys.hpp"
 #include "io/simulation_identity.hpp"
 #include "io/system_memory.hpp"
@@ -301,11 +302,7 @@ FitInput open_survey_input(const FitRunOptions& run, const TableRun& table) {
     };
   // The bands name the table's columns: a resume under other names is another run, not a partial
   // found corrupt at its first band column.
-  if (!in.bands.empty()) {
-    std::string names;
-    for (const std::string& b : in.bands) names += (names.empty() ? "" : ",") + b;
-    in.fingerprint_extra += "bands=" + names + "\n";
-  }
+  if (!in.bands.empty()) in.fingerprint_extra += "bands=" + io::comma_list(in.bands) + "\n";
   return in;
 }
 

@@ -5,6 +5,7 @@
 #include <string_view>
 
 #include "io/config_error.hpp"
+#include "io/option_text.hpp"
 #include "io/output_check.hpp"
 #include "io/result_columns.hpp"
 
@@ -111,9 +112,7 @@ std::uint32_t band_role_mask(const std::vector<std::string>& role, const std::ve
   for (const std::string& name : role) {
     const auto at = std::find(bands.begin(), bands.end(), name);
     if (at == bands.end()) {
-      std::string known;
-      for (const std::string& b : bands) known += (known.empty() ? "" : ",") + b;
-      throw io::ConfigError(flag + ": '" + name + "' is not one of the run's bands (" + known + ")");
+      throw io::ConfigError(flag + ": '" + name + "' is not one of the run's bands (" + io::comma_list(bands) + ")");
     }
     const std::uint32_t bit = 1u << (at - bands.begin());
     if (mask & bit) throw io::ConfigError(flag + ": band '" + name + "' is given twice");

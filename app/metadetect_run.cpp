@@ -169,16 +169,9 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
     fingerprint += line + "\n";
   };
   record("INPUTS", options.tile ? "cell tile" : "images", options.tile ? "cell tile" : "images");
-  if (!bands.empty()) {
-    std::string names;
-    for (const std::string& b : bands) names += (names.empty() ? "" : ",") + b;
-    record("BANDS", names, "bands " + names);
-  }
-  for (const auto& [key, role] : {std::pair{"DETBANDS", &options.detect_bands}, std::pair{"SHRBANDS", &options.shear_bands}}) {
-    std::string names;
-    for (const std::string& b : *role) names += (names.empty() ? "" : ",") + b;
-    if (!names.empty()) record(key, names, std::string(key) + " " + names);
-  }
+  if (!bands.empty()) record("BANDS", io::comma_list(bands), "bands " + io::comma_list(bands));
+  for (const auto& [key, role] : {std::pair{"DETBANDS", &options.detect_bands}, std::pair{"SHRBANDS", &options.shear_bands}})
+    if (!role->empty()) record(key, io::comma_list(*role), std::string(key) + " " + io::comma_list(*role));
   for (const auto& [key, value] : metadetect_header_keys(measure)) record(key, value, key + "=" + value);
   const auto record_files = [&](const std::vector<std::string>& files, const char* path_key, const char* digest_key,
                                 const char* role, bool each_once) {

@@ -14,6 +14,8 @@ namespace stampede::io {
 
 std::string trim(std::string_view s);
 std::string lower(std::string_view s);
+// "a,b,c": the names joined by commas (a header's BANDS), "" for none.
+std::string comma_list(const std::vector<std::string>& names);
 
 // from_chars rejects a leading '+', a legitimate way to write a positive number.
 std::string_view strip_plus(std::string_view s);
