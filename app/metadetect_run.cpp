@@ -7,6 +7,7 @@
 #include <chrono>
 #include <map>
 #include <memory>
+#include <optional>
 
 #include "app/metadetect_input.hpp"
 #include "app/metadetect_option_keys.hpp"
@@ -22,6 +23,9 @@
 #include "io/config_error.hpp"
 #include "io/file_digest.hpp"
 #include "io/option_text.hpp"
+#include "io/fits_file.hpp"
+#include "io/metadetect_package_layout.hpp"
+#include "io/metadetect_reader.hpp"
 #include "io/metadetect_writer.hpp"
 #include "io/output_check.hpp"
 #include "io/output_lock.hpp"
@@ -72,6 +76,7 @@ class CollectingSink : public BatchSink {
 // The run's outputs (the table, and a job's parts: stampede-mpi's ranks') and every file it reads.
 std::vector<io::RunOutput> outputs_of(const MetadetectRunOptions& options, const std::vector<std::string>& parts) {
   std::vector<io::RunOutput> outputs = {table_output("-o", options.output)};
+  if (!options.package_output.empty()) outputs.push_back(table_output("--package-output", options.package_output));
   for (const std::string& part : parts) outputs.push_back(table_output("-o (a rank's part)", part));
   return outputs;
 }
@@ -107,6 +112,26 @@ void record_scene(const std::vector<std::string>& files, io::MetadetectWriterOpt
     }
 }
 
+// The complete table's rows rewritten in the reference package's layout, its primary header
+// naming the table and its run.
+void write_package_output(const MetadetectRunOptions& options, const MetadetectOptions& measure,
+                          const std::vector<std::string>& bands) {
+  io::MetadetectRowReader reader(options.output);
+  io::PackageLayoutOptions layout;
+  layout.measurement = metadetect_measurement_name(measure.measurement);
+  layout.bands = std::max<int>(1, static_cast<int>(bands.size()));
+  layout.shear_bands = io::package_band_indices(measure.shear_bands, layout.bands);
+  layout.det_bands = io::package_band_indices(measure.detect_bands, layout.bands);
+  std::vector<std::pair<std::string, std::string>> keys = {{"TABLE", options.output}};
+  {
+    io::FitsFile f = io::FitsFile::open_read(options.output);
+    f.move_to("METADETECT");
+    for (const char* key : {"RUNFP", "MEASURE", "BANDS", "DETBANDS", "SHRBANDS", "NCELLS"})
+      if (const std::optional<std::string> v = f.read_key_string(key)) keys.emplace_back(key, *v);
+  }
+  io::write_package_layout(options.package_output, reader, layout, keys);
+}
+
 }  // namespace
 
 void check_metadetect_outputs(const MetadetectRunOptions& options, const std::vector<std::string>& parts) {
@@ -114,11 +139,12 @@ void check_metadetect_outputs(const MetadetectRunOptions& options, const std::ve
                     options.overwrite || options.resume);
 }
 
-std::vector<MetadetectRow> metadetect_image(const io::CellImage& image, const MetadetectOptions& options, int threads,
+std::vector<MetadetectRow> metadetect_image(std::span<const io::CellImage> bands, const MetadetectOptions& options,
+                                            int threads,
                                             long long* cells_failed) {
   std::string why;
   if (!options.IsValid(&why)) throw io::ConfigError(why);
-  io::CellSource source(image, options);
+  io::CellSource source(bands, options);
   CollectingSink sink;
   set_detection_pixel_stack(static_cast<long long>(options.cell_size) * options.cell_size);
   PipelineOptions pipeline_options;
@@ -138,6 +164,9 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   if (options.output.empty()) throw io::ConfigError("no output: give -o OUT.fits");
   if (options.cells_per_batch < 1) throw io::ConfigError("cells per batch must be >= 1");
   shard_range(0, options.shard, options.shards);  // checks the shard before anything is read
+  if (!options.package_output.empty() && options.shards > 1)
+    throw io::ConfigError("--package-output with --shard: a shard's table is a part of the run; write the package's "
+                          "layout from the whole table");
   const TableRun table = table_run(options, "METADETECT", "cell");
   const std::vector<std::string> bands = metadetect_bands(options);
   MetadetectOptions measure = options.metadetect;
@@ -209,6 +238,7 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   std::unique_ptr<io::MetadetectWriter> writer = open_table<io::MetadetectWriter>(table, writer_options);
   if (!writer) {
     summary.skipped = true;
+    if (!options.package_output.empty()) write_package_output(options, measure, bands);
     return summary;
   }
   summary.cells_resumed = writer->units();
@@ -222,6 +252,8 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
                     [&] { return std::make_unique<CellBatchMeasurer>(measure); }, pipeline_options);
   summary.threads = ran.threads;
   summary.stopped = ran.stopped;
+  writer.reset();
+  if (!ran.stopped && !options.package_output.empty()) write_package_output(options, measure, bands);
   summary.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return summary;
 }

@@ -7,6 +7,7 @@
 #pragma once
 #include <atomic>
 #include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,10 @@ struct MetadetectRunOptions {
   // cell_psfex_position), and the files' PSF HDUs are neither needed nor read. Empty: the PSF HDUs.
   std::string psfex;
   std::string output;
+  // Also, once the table is complete, its rows in the reference metadetect package's layout
+  // (io/metadetect_package_layout: an HDU per shear type, the package's column names). Not with
+  // a shard (write it from the merged table's run).
+  std::string package_output;
   MetadetectOptions metadetect;
   int threads = 0;     // 0: all cores
   int cells_per_batch = 2;
@@ -73,10 +78,12 @@ struct MetadetectRunSummary {
   std::vector<std::string> problems;  // "FILE cell K: why" for each failed cell (first 100)
 };
 
-// An image in memory (Python's numpy arrays) cut into cells and measured on `threads` threads (0:
-// all cores) through the same pipeline; the rows in cell order, as a file run writes them (cells
-// numbered from 0). Throws io::ConfigError for bad options or an image smaller than a cell.
-std::vector<MetadetectRow> metadetect_image(const io::CellImage& image, const MetadetectOptions& options, int threads,
+// An image in memory per band (Python's numpy arrays; options' detect_bands and shear_bands bits
+// name them) cut into cells and measured on `threads` threads (0: all cores) through the same
+// pipeline; the rows in cell order, as a file run writes them (cells numbered from 0). Throws
+// io::ConfigError for bad options, bands of different sizes or an image smaller than a cell.
+std::vector<MetadetectRow> metadetect_image(std::span<const io::CellImage> bands, const MetadetectOptions& options,
+                                            int threads,
                                             long long* cells_failed = nullptr);
 
 // The checks run_metadetect makes of its output before any work, for any front end; `parts`: the

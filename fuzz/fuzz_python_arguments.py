@@ -178,7 +178,9 @@ def one_case(case, seed, files):
              "table": lambda: rng.choice([files["md"], pathlib.Path(files["md"])]),
              "minus": lambda: rng.choice([None, files["md_minus"]]),
              "shear": lambda: rng.choice([None, (0.02, 0.0), [0.02, 0], np.array([0.02, 0.0])]),
-             "estimator": lambda: rng.choice(["composed", "package"])}
+             "estimator": lambda: rng.choice(["composed", "package"]),
+             "bands": lambda: rng.choice([[0], (0,), np.array([0])]),
+             "layout": lambda: rng.choice(["table", "package"])}
     hostile = {"int": lambda: rng.choice([-1, 2**31, 2**40, 2**63, 10**6, 4097, np.uint64(2**64 - 1), True, 2.0]),
                "real": lambda: rng.choice([math.nan, math.inf, -1.0, 1e308, 0.0, "1", np.longdouble(2), 1j]),
                "flag": lambda: rng.choice([1, 0, "True", None, np.array([True])]),
@@ -218,7 +220,9 @@ def one_case(case, seed, files):
                "table": lambda: rng.choice([files["fit"], files["grid"], path(rng, files), files["md"] + ".partial"]),
                "minus": lambda: rng.choice([files["md"], files["fit"], path(rng, files)]),
                "shear": lambda: rng.choice([(math.nan, 0), "0.02,0", (1,), (2.0, 0), (0.02, 0, 0), {}]),
-               "estimator": lambda: rng.choice(["", "Composed", "x\0"])}
+               "estimator": lambda: rng.choice(["", "Composed", "x\0"]),
+               "bands": lambda: rng.choice([[], [1], [-1], [0.5], ["0"], [2 ** 40], np.array([[0]]), None]),
+               "layout": lambda: rng.choice(["", "Package", "x\0", 0])}
 
     # Parameters whose valid values are narrower than their type's: (valid values, hostile kind).
     narrow = {"min_area": ([1, 4, 6], "int"), "levels": ([8, 32], "int"), "filter_size": ([3, 5, 7], "int"),
@@ -277,7 +281,8 @@ def one_case(case, seed, files):
                        ("deblend_contrast", "contrast"), ("deblend_thresholds", "levels"), ("filter_fwhm", "fwhm"),
                        ("filter_size", "filter_size"), ("clean", "flag"), ("stamp_size", "size"),
                        ("box_min", "box_min"), ("box_max", "box_max"), ("per_object_metacal", "flag"),
-                       ("noise", "cell_plane")],
+                       ("noise", "cell_plane"), ("ormask", "cell_plane"), ("detect_bands", "bands"),
+                       ("shear_bands", "bands"), ("layout", "layout")],
         "metadetect_metrics": [("table", "table"), ("minus", "minus"), ("rotated", "minus"),
                                ("rotated_minus", "minus"), ("shear", "shear"), ("cut_snr", "cut"),
                                ("cut_t_ratio", "cut"), ("bootstrap", "resamples"), ("seed", "int"),

@@ -24,7 +24,7 @@ void refuse_repeated_planes(FitsFile& f) {
     f.move_to(k);
     std::string name = f.read_key_string("EXTNAME").value_or("");
     for (char& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    for (const char* plane : {"WEIGHT", "BMASK", "NOISE", "PSF"})
+    for (const char* plane : {"WEIGHT", "BMASK", "ORMASK", "NOISE", "PSF"})
       if (name == plane && !seen.insert(name).second) fail(f, std::string("a second ") + plane + " HDU: give each plane once");
   }
   f.move_to(here);
@@ -94,6 +94,21 @@ CellImageShape read_cell_image_shape(const std::string& path) {
   CellImageShape shape = primary_shape(f);
   shape.pixel_scale = pixel_scale(f);
   return shape;
+}
+
+void mask_bits(std::span<const double> plane, std::span<std::int32_t> out) {
+  for (std::size_t i = 0; i < plane.size(); ++i) {
+    const double v = plane[i];
+    out[i] = v >= -2147483648.0 && v < 4294967296.0 && v == std::floor(v)
+                 ? static_cast<std::int32_t>(static_cast<std::uint32_t>(static_cast<std::int64_t>(v)))
+                 : 0;
+  }
+}
+
+std::vector<std::int32_t> mask_bits(std::span<const double> plane) {
+  std::vector<std::int32_t> bits(plane.size());
+  mask_bits(plane, bits);
+  return bits;
 }
 
 std::string CellImage::masked_text() const {
@@ -212,7 +227,8 @@ CellImage read_cell_image(const std::string& path, bool with_psf) {
     fail(f, "no WEIGHT HDU (inverse variance): detection needs the noise level");
   out.weight = plane(f, shape);
   std::vector<double> mask;
-  if (f.move_to_if_present("BMASK")) mask = plane(f, shape);
+  if (f.move_to_if_present("BMASK")) mask = plane(f, shape), out.bmask = mask_bits(mask);
+  if (f.move_to_if_present("ORMASK")) out.ormask = mask_bits(plane(f, shape));
   if (f.move_to_if_present("NOISE")) out.noise = plane(f, shape);
   f.move_to("WEIGHT");
   try {

@@ -1,7 +1,8 @@
 // Reads an image for metadetection (`stampede metadetect IMAGE.fits`): HDU 0 the image, with the
 // pixel scale in header keyword SCALE (arcsec per pixel) or a WCS (CD matrix or CDELT, degrees);
 // extensions found by EXTNAME: WEIGHT (inverse variance, required: detection thresholds on the
-// noise), BMASK (non-zero masks a pixel), NOISE (a realisation of the image's noise: metacal's
+// noise), BMASK (non-zero masks a pixel; its bits are reported per detection), ORMASK (bits reported
+// per detection, masking nothing), NOISE (a realisation of the image's noise: metacal's
 // fixnoise field, else one is drawn from the weight), PSF (a centred PSF image at the image's pixel
 // scale, required; a SCALE keyword there must equal the image's), each at most once. NaN or infinite pixels, weights
 // and noise values are masked (weight 0). What `stampede sim cells` writes (io/cell_image_writer) reads back.
@@ -9,6 +10,7 @@
 // Every failure throws FitsError naming the file, the HDU and the keyword or the rule.
 #pragma once
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <string>
@@ -28,6 +30,9 @@ struct CellImage {
   double pixel_scale = 0;  // arcsec per pixel
   std::vector<double> pixels, weight;  // width x height, row-major; weight 0 masks
   std::vector<double> noise;           // the NOISE plane (0 where masked); empty: none
+  // The BMASK plane's bits (which mask) and the ORMASK plane's (which do not: reported only), as
+  // 32-bit patterns; empty: no such plane.
+  std::vector<std::int32_t> bmask, ormask;
   std::shared_ptr<const PsfImage> psf;  // null when read without it
   long long masked = 0;  // pixels masked (weight 0, BMASK, non-finite)
   // Why, each pixel counted once in this order: a BMASK bit, a NaN or infinite value (pixel,
@@ -44,6 +49,10 @@ struct CellImage {
 // (bmask empty: none), a non-finite pixel, weight or noise value, or a zero weight masks the pixel:
 // its weight, value and noise become 0, and `masked` counts it. Throws std::invalid_argument for a negative weight.
 void apply_cell_masks(std::span<const double> bmask, CellImage* image);
+// A mask plane's values as 32-bit patterns (an integer in [-2^31, 2^32) keeps its bits; anything
+// else reads as 0).
+std::vector<std::int32_t> mask_bits(std::span<const double> plane);
+void mask_bits(std::span<const double> plane, std::span<std::int32_t> out);  // out: plane's size
 
 // Why `psf` cannot be a cell's PSF image: its sum is not positive and finite, a side is even (no
 // centre pixel), or its centroid is more than half a pixel from the centre pixel (every position

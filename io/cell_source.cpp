@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "io/config_error.hpp"
+#include "io/option_text.hpp"
 #include "io/fits_error.hpp"
 #include "io/star_catalogue.hpp"
 
@@ -54,9 +55,21 @@ CellSource::CellSource(const Images& in, const MetadetectOptions& options)
   }
 }
 
-CellSource::CellSource(const CellImage& image, const MetadetectOptions& options)
-    : inputs_{"image"}, options_(options), files_{{"image"}}, memory_(&image) {
-  add_layout(image.width, image.height, "");
+CellSource::CellSource(std::span<const CellImage> bands, const MetadetectOptions& options)
+    : inputs_{"image"}, options_(options), files_(1), memory_(bands.data()) {
+  if (bands.empty() || bands.size() > static_cast<std::size_t>(kMaxMetadetectBands))
+    throw ConfigError("from 1 to " + std::to_string(kMaxMetadetectBands) + " bands' images, not " +
+                      std::to_string(bands.size()));
+  for (std::size_t b = 0; b < bands.size(); ++b) {
+    files_[0].push_back("band " + std::to_string(b));
+    if (bands[b].width != bands[0].width || bands[b].height != bands[0].height ||
+        std::abs(bands[b].pixel_scale / bands[0].pixel_scale - 1) > 1e-6)
+      throw ConfigError("band " + std::to_string(b) + "'s image is " + std::to_string(bands[b].width) + " x " +
+                        std::to_string(bands[b].height) + " px at " + format_double(bands[b].pixel_scale) +
+                        "\"/px, band 0's " + std::to_string(bands[0].width) + " x " + std::to_string(bands[0].height) +
+                        " px at " + format_double(bands[0].pixel_scale) + "\"/px: the bands must share the cell's pixels");
+  }
+  add_layout(bands[0].width, bands[0].height, "");
 }
 
 CellSource::CellSource(const Tile& t, const MetadetectOptions& options) : inputs_(t.paths), options_(options) {
@@ -122,7 +135,7 @@ bool CellSource::fill(StampBatch& batch) {
   CellBatch& data = batch.payload<CellBatch>();
   data.cells.clear();
   data.stars.clear();
-  data.noise_used = 0;
+  data.noise_used = 0, data.bits_used = 0;
   batch.observations.clear();
   batch.first_object = next_;
   batch.count = 0;
@@ -181,6 +194,17 @@ void CellSource::fill_tile_cell(StampBatch& batch, CellBatch& data) {
     if (noise) {
       cell_.noise.resize(npix);
       tile.read_cutout(o, 0, MedsCutoutType::kNoise, cell_.noise);
+    }
+    bits_plane_bits_.resize(npix);
+    if (tile.has(MedsCutoutType::kBmask)) {
+      mask_bits(mask_, bits_plane_bits_);
+      or_bits(bits_plane_bits_, npix, 0, data, &cell);
+    }
+    if (tile.has(MedsCutoutType::kOrmask)) {
+      bits_plane_.resize(npix);
+      tile.read_cutout(o, 0, MedsCutoutType::kOrmask, bits_plane_);
+      mask_bits(bits_plane_, bits_plane_bits_);
+      or_bits(bits_plane_bits_, npix, 1, data, &cell);
     }
     try {
       apply_cell_masks(mask_, &cell_);
@@ -268,6 +292,15 @@ void CellSource::fill_image_cell(StampBatch& batch, CellBatch& data) {
                      "every pixel of the cell is masked (the image's " + std::to_string(im.masked) + " masked pixels: " +
                      im.masked_text() + ")";
     check_sky(pixels, weights, b, bands, &cell);
+    for (int k = 0; k < 2; ++k) {
+      const std::vector<std::int32_t>& plane = k == 0 ? im.bmask : im.ormask;
+      if (plane.empty()) continue;
+      bits_plane_bits_.resize(npix);
+      for (int y = 0; y < s; ++y)
+        std::copy_n(plane.begin() + static_cast<long>(static_cast<std::size_t>(place.y0 + y) * im.width + place.x0), s,
+                    bits_plane_bits_.begin() + static_cast<long>(y) * s);
+      or_bits(bits_plane_bits_, npix, k, data, &cell);
+    }
   }
   add_stars(cell.place.x0, cell.place.y0, s, data, &cell);
   data.cells.push_back(std::move(cell));
@@ -280,6 +313,13 @@ void CellSource::check_sky(std::span<const double> pixels, std::span<const doubl
   const double sky = cell_sky_level(pixels, weights, &sky_scratch_);
   if (const std::string why = cell_sky_problem(sky); cell->problem.empty() && !why.empty())
     cell->problem = std::string(bands > 1 ? "band " + std::to_string(band) + ": " : "") + why;
+}
+
+void CellSource::or_bits(std::span<const std::int32_t> bits, std::size_t npix, int plane, CellBatch& data,
+                         CellBatch::Cell* cell) {
+  if (cell->bits_offset < 0) cell->bits_offset = static_cast<long long>(data.add_bits(npix));
+  std::int32_t* to = data.bits.data() + cell->bits_offset + static_cast<long long>(static_cast<std::size_t>(plane) * npix);
+  for (std::size_t p = 0; p < npix; ++p) to[p] |= bits[p];
 }
 
 void CellSource::add_stars(double x0, double y0, int side, CellBatch& data, CellBatch::Cell* cell) const {

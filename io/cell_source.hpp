@@ -38,8 +38,9 @@ class CellSource : public StampSource {
     std::vector<std::string> psfex;
   };
   CellSource(const Images& in, const MetadetectOptions& options);
-  // One image in memory (not copied: it must outlive the source).
-  CellSource(const CellImage& image, const MetadetectOptions& options);
+  // An image in memory per band (not copied: they must outlive the source), each the same size
+  // and pixel scale.
+  CellSource(std::span<const CellImage> bands, const MetadetectOptions& options);
   // A cell tile (DES Y6's "pizza slices"): each object_data row a cell, cutout 0 its coadd with a
   // weight (and bmask, noise) cutout and its PSF in the psf HDU; the cell's place in the tile from
   // orig_start_row/col, its pixel scale from the WCS Jacobian (which must be the scale times the
@@ -72,10 +73,15 @@ class CellSource : public StampSource {
   void add_layout(long width, long height, const std::string& where);
   // The stars reaching the side x side cell whose pixel (0, 0) is the input's (x0, y0), into the batch.
   void add_stars(double x0, double y0, int side, CellBatch& data, CellBatch::Cell* cell) const;
+  // A band's mask bits (plane 0 BMASK, 1 ORMASK; npix of the cell) OR'ed into the cell's.
+  static void or_bits(std::span<const std::int32_t> bits, std::size_t npix, int plane, CellBatch& data,
+                      CellBatch::Cell* cell);
   // Sets the cell's problem (where it has none) when band's sky is not background-subtracted.
   void check_sky(std::span<const double> pixels, std::span<const double> weights, int band, int bands,
                  CellBatch::Cell* cell);
-  const CellImage& image(int band) const { return memory_ ? *memory_ : images_[static_cast<std::size_t>(band)]; }
+  const CellImage& image(int band) const {
+    return memory_ ? memory_[band] : images_[static_cast<std::size_t>(band)];
+  }
 
   std::vector<std::string> inputs_;
   MetadetectOptions options_;
@@ -87,7 +93,8 @@ class CellSource : public StampSource {
   std::vector<long long> boxes_;  // the tiles' cell sides
   long long max_tile_box_ = 0;    // the largest, found while laying out the cells
   CellImage cell_;  // a tile's cell as read
-  std::vector<double> mask_;
+  std::vector<double> mask_, bits_plane_;
+  std::vector<std::int32_t> bits_plane_bits_;
   std::vector<double> sky_scratch_;
   std::vector<StarDisc> stars_;
   std::string star_hdu_;

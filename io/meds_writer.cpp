@@ -17,7 +17,9 @@ void check(int status, const std::string& path, const char* what) {
   if (status) throw FitsError(std::string("cannot ") + what + " '" + path + "': " + cfitsio_status_text(status));
 }
 
-bool integer_type(MedsCutoutType t) { return t == MedsCutoutType::kSeg || t == MedsCutoutType::kBmask; }
+bool integer_type(MedsCutoutType t) {
+  return t == MedsCutoutType::kSeg || t == MedsCutoutType::kBmask || t == MedsCutoutType::kOrmask;
+}
 
 }  // namespace
 

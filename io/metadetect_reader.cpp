@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <memory>
 #include <type_traits>
 
 #include "engine/metacal/metacal_type.hpp"
@@ -83,53 +84,105 @@ std::vector<std::string> metadetect_table_bands(const std::string& path) {
   return bands_of(f);
 }
 
-std::vector<MetadetectRow> read_metadetect_rows(const std::string& path) {
-  const MetadetectTable t = read_metadetect_table(path);
+struct MetadetectRowReader::State {
+  State(FitsFile f, long long n) : file(std::move(f)), rows(n) {}
+  FitsFile file;
+  std::vector<std::string> bands;
+  long long rows = 0;
+  bool psf_columns = false, noshear_columns = false;
+  std::vector<double> doubles;
+  std::vector<long long> integers;
+  std::vector<std::string> names;
+};
+
+MetadetectRowReader::MetadetectRowReader(const std::string& path) {
   FitsFile f = FitsFile::open_read(path);
-  f.move_to("METADETECT");
-  const std::size_t n = t.cell.size();
-  std::vector<MetadetectRow> rows(n);
-  auto doubles = [&](const char* name, double MetadetectRow::*field) {
-    const std::vector<double> v = f.read_column(name);
-    for (std::size_t i = 0; i < n; ++i) rows[i].*field = v[i];
+  if (!f.move_to_if_present("METADETECT"))
+    throw FitsError(path + ": no METADETECT table (is it a `stampede metadetect` catalogue?)");
+  const long long n = f.table_rows();
+  if (n < 0 || static_cast<unsigned long long>(n) > std::filesystem::file_size(fits_root_name(path)))
+    throw FitsError(f.describe() + ": NAXIS2 = " + std::to_string(n) + " rows do not fit in the file");
+  s_ = std::unique_ptr<State>(new State(std::move(f), n));
+  s_->bands = bands_of(s_->file);
+  s_->psf_columns = s_->file.has_column("psf_orig_e1");  // tables written before these columns lack them
+  s_->noshear_columns = s_->file.has_column("x_noshear");  // nor these
+}
+MetadetectRowReader::~MetadetectRowReader() = default;
+
+long long MetadetectRowReader::rows() const { return s_->rows; }
+const std::vector<std::string>& MetadetectRowReader::bands() const { return s_->bands; }
+
+void MetadetectRowReader::read(long long first, std::size_t n, std::vector<MetadetectRow>* out) {
+  State& s = *s_;
+  FitsFile& f = s.file;
+  out->assign(n, MetadetectRow{});
+  std::vector<MetadetectRow>& rows = *out;
+  if (n == 0) return;
+  s.doubles.resize(n), s.integers.resize(n), s.names.resize(n);
+  auto doubles = [&](const std::string& name, auto set) {
+    f.read_column_rows(name, first, std::span<double>(s.doubles));
+    for (std::size_t i = 0; i < n; ++i) set(rows[i], s.doubles[i]);
   };
-  auto integers = [&](const char* name, auto MetadetectRow::*field) {
-    std::vector<long long> v(n);
-    if (n > 0) f.read_column_rows(name, 0, std::span<long long>(v));
-    for (std::size_t i = 0; i < n; ++i) rows[i].*field = static_cast<std::remove_reference_t<decltype(rows[i].*field)>>(v[i]);
+  auto field = [&](const char* name, double MetadetectRow::*to) {
+    doubles(name, [to](MetadetectRow& r, double v) { r.*to = v; });
   };
-  for (std::size_t i = 0; i < n; ++i) rows[i].cell = t.cell[i], rows[i].shear_type = t.shear_type[i];
+  auto integers = [&](const char* name, auto MetadetectRow::*to) {
+    f.read_column_rows(name, first, std::span<long long>(s.integers));
+    for (std::size_t i = 0; i < n; ++i)
+      rows[i].*to = static_cast<std::remove_reference_t<decltype(rows[i].*to)>>(s.integers[i]);
+  };
+  integers("cell", &MetadetectRow::cell);
+  f.read_string_rows("shear_type", first, s.names);
+  for (std::size_t i = 0; i < n; ++i) {
+    rows[i].shear_type = -1;
+    for (MetacalType m : kMetacalTypes)
+      if (s.names[i] == metacal_type_name(m)) rows[i].shear_type = static_cast<int>(m);
+    if (rows[i].shear_type < 0)
+      throw FitsError(f.describe() + ": row " + std::to_string(first + static_cast<long long>(i) + 1) +
+                      " has shear_type '" + s.names[i] + "'");
+  }
   integers("id", &MetadetectRow::id);
-  doubles("x", &MetadetectRow::x);
-  doubles("y", &MetadetectRow::y);
-  doubles("u", &MetadetectRow::u);
-  doubles("v", &MetadetectRow::v);
-  doubles("e1", &MetadetectRow::e1);
-  doubles("e2", &MetadetectRow::e2);
-  doubles("e1_err", &MetadetectRow::e1_err);
-  doubles("e2_err", &MetadetectRow::e2_err);
-  doubles("T", &MetadetectRow::t);
-  doubles("T_ratio", &MetadetectRow::t_ratio);
-  doubles("psf_T", &MetadetectRow::psf_t);
-  doubles("flux", &MetadetectRow::flux);
-  doubles("snr", &MetadetectRow::snr);
-  doubles("mfrac", &MetadetectRow::mfrac);
+  field("x", &MetadetectRow::x);
+  field("y", &MetadetectRow::y);
+  field("u", &MetadetectRow::u);
+  field("v", &MetadetectRow::v);
+  field("e1", &MetadetectRow::e1);
+  field("e2", &MetadetectRow::e2);
+  field("e1_err", &MetadetectRow::e1_err);
+  field("e2_err", &MetadetectRow::e2_err);
+  field("T", &MetadetectRow::t);
+  field("T_ratio", &MetadetectRow::t_ratio);
+  field("psf_T", &MetadetectRow::psf_t);
+  field("flux", &MetadetectRow::flux);
+  field("snr", &MetadetectRow::snr);
+  field("mfrac", &MetadetectRow::mfrac);
   integers("box_size", &MetadetectRow::box_size);
   integers("isophotal_area", &MetadetectRow::isophotal_area);
   integers("sep_flags", &MetadetectRow::sep_flags);
   integers("flags", &MetadetectRow::flags);
-  if (f.has_column("psf_orig_e1")) {  // tables written before these columns lack them
-    doubles("psf_orig_e1", &MetadetectRow::psf_orig_e1);
-    doubles("psf_orig_e2", &MetadetectRow::psf_orig_e2);
-    doubles("psf_orig_T", &MetadetectRow::psf_orig_t);
-    doubles("psf_rec_e1", &MetadetectRow::psf_rec_e1);
-    doubles("psf_rec_e2", &MetadetectRow::psf_rec_e2);
+  if (s.psf_columns) {
+    field("psf_orig_e1", &MetadetectRow::psf_orig_e1);
+    field("psf_orig_e2", &MetadetectRow::psf_orig_e2);
+    field("psf_orig_T", &MetadetectRow::psf_orig_t);
+    field("psf_rec_e1", &MetadetectRow::psf_rec_e1);
+    field("psf_rec_e2", &MetadetectRow::psf_rec_e2);
   }
-  const std::vector<std::string> bands = bands_of(f);
-  for (std::size_t b = 0; b < bands.size(); ++b) {
-    const std::vector<double> flux = f.read_column("flux_" + bands[b]), snr = f.read_column("snr_" + bands[b]);
-    for (std::size_t i = 0; i < n; ++i) rows[i].band_flux[b] = flux[i], rows[i].band_snr[b] = snr[i];
+  if (s.noshear_columns) {
+    field("x_noshear", &MetadetectRow::x_noshear);
+    field("y_noshear", &MetadetectRow::y_noshear);
+    integers("bmask", &MetadetectRow::bmask);
+    integers("ormask", &MetadetectRow::ormask);
   }
+  for (std::size_t b = 0; b < s.bands.size(); ++b) {
+    doubles("flux_" + s.bands[b], [b](MetadetectRow& r, double v) { r.band_flux[b] = v; });
+    doubles("snr_" + s.bands[b], [b](MetadetectRow& r, double v) { r.band_snr[b] = v; });
+  }
+}
+
+std::vector<MetadetectRow> read_metadetect_rows(const std::string& path) {
+  MetadetectRowReader reader(path);
+  std::vector<MetadetectRow> rows;
+  reader.read(0, static_cast<std::size_t>(reader.rows()), &rows);
   return rows;
 }
 

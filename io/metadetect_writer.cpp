@@ -47,6 +47,10 @@ constexpr Column kColumns[] = {
     {"psf_orig_T", "1D", "arcsec2", "the cell's PSF's T under the weight"},
     {"psf_rec_e1", "1D", "", "the reconvolved PSF's e1 under the weight"},
     {"psf_rec_e2", "1D", "", "the reconvolved PSF's e2 under the weight"},
+    {"x_noshear", "1D", "pixel", "x carried back through the image's metacal shear to the unsheared image"},
+    {"y_noshear", "1D", "pixel", "y carried back through the image's metacal shear to the unsheared image"},
+    {"bmask", "1J", "", "the input's BMASK bits at the unsheared pixel (bands OR'ed)"},
+    {"ormask", "1J", "", "the input's ORMASK bits at the unsheared pixel (bands OR'ed)"},
 };
 constexpr int kNumColumns = static_cast<int>(std::size(kColumns));
 
@@ -127,6 +131,10 @@ struct MetadetectWriter::State {
     doubles(24, [](const MetadetectRow& x) { return x.psf_orig_t; });
     doubles(25, [](const MetadetectRow& x) { return x.psf_rec_e1; });
     doubles(26, [](const MetadetectRow& x) { return x.psf_rec_e2; });
+    doubles(27, [](const MetadetectRow& x) { return x.x_noshear; });
+    doubles(28, [](const MetadetectRow& x) { return x.y_noshear; });
+    ints(29, [](const MetadetectRow& x) { return x.bmask; });
+    ints(30, [](const MetadetectRow& x) { return x.ormask; });
     const int nb = static_cast<int>(options.bands.size());
     for (int b = 0; b < nb; ++b) {
       doubles(kNumColumns + 1 + b, [b](const MetadetectRow& x) { return x.band_flux[static_cast<std::size_t>(b)]; });

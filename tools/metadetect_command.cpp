@@ -62,7 +62,8 @@ void print_help() {
       "--metadetect` turns the table into a response and a shear.\n"
       "\n"
       "input: IMAGE.fits holds the image in HDU 0 with its pixel scale (keyword SCALE, arcsec/px, or\n"
-      "a WCS), and extensions WEIGHT (inverse variance, required), BMASK (optional, non-zero masks) and\n"
+      "a WCS), and extensions WEIGHT (inverse variance, required), BMASK (optional, non-zero masks),\n"
+      "ORMASK (optional, bits reported per detection) and\n"
       "PSF (a centred PSF image at the image's pixel scale, required unless --psfex). `stampede sim\n"
       "cells` writes such files. LIST: one image path per line (# comments). --meds: a cell tile (DES\n"
       "Y6's \"pizza slices\": a MEDS file whose object_data rows are cells, cutout 0 each cell's coadd\n"
@@ -85,13 +86,18 @@ void print_help() {
       "\n"
       "output: OUT.fits, table METADETECT, a row per (cell, shear type, detection): cell shear_type id\n"
       "x y (0-based pixels of the input image) u v (arcsec) e1 e2 e1_err e2_err T (arcsec^2) T_ratio\n"
-      "psf_T flux snr mfrac box_size isophotal_area sep_flags flags; a cell that cannot be measured is\n"
+      "psf_T flux snr mfrac box_size isophotal_area sep_flags flags psf_orig_e1 psf_orig_e2 psf_orig_T\n"
+      "psf_rec_e1 psf_rec_e2 x_noshear y_noshear bmask ormask; a cell that cannot be measured is\n"
       "one row with id -1 and flags 8. The options and the inputs' digests are in the header; each\n"
       "image once (the same bytes twice are refused). Written through OUT.fits.partial and a\n"
       "checkpoint: a killed run continues with --resume. Exit status 3: no cell could be measured.\n"
       "\n"
       "options:\n"
       "  -o, --output PATH          output table (required)\n"
+      "  --package-output PATH      also, once the table is complete, its rows in the reference metadetect\n"
+      "                             package's layout: an HDU per shear type (noshear 1p 1m 2p 2m), its\n"
+      "                             column names ({m}_g, {m}_g_cov, {m}_s2n, {m}_T_ratio, sx_row, mfrac,\n"
+      "                             bmask, psfrec_g, ...; docs/survey_metadetect.md)\n"
       "  --input-list LIST          read the image paths from LIST (after any given as arguments)\n"
       "  --bands B1,B2,...          the bands' names (see above)\n"
       "  --detect-bands B1,...      detect on these bands only (default: every band)\n"
@@ -182,6 +188,8 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
       o.psfex = value();
     } else if (s == "--star-mask") {
       o.star_mask = value();
+    } else if (s == "--package-output") {
+      o.package_output = value();
     } else if (s == "--star-mask-hdu") {
       o.star_hdu = value();
     } else if (s == "--star-margin") {

@@ -3,7 +3,9 @@
 // problem, which the batch's measurer writes and the run's sink reads in cell order.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -24,12 +26,16 @@ struct CellBatch {
     long long noise_offset = -1;
     // The star discs that reach it, consecutive in `stars` from here, in its pixels.
     std::size_t first_star = 0, stars = 0;
+    // Its BMASK and ORMASK bits (its bands' OR'ed), consecutive in `bits` from here: bmask, then
+    // ormask (none: -1).
+    long long bits_offset = -1;
     std::string problem;  // why it cannot be measured (its PSFEx model fails there); "" none
   };
   std::vector<Cell> cells;
   std::vector<double> noise;  // the batch's noise planes (kept between batches)
   std::vector<StarDisc> stars;  // the batch's cells' star discs
-  std::size_t noise_used = 0;
+  std::vector<std::int32_t> bits;  // the batch's cells' mask bits (kept between batches)
+  std::size_t noise_used = 0, bits_used = 0;
   std::vector<MetadetectRow> rows;
   std::vector<std::string> problems;  // per cell, "" none
 
@@ -38,6 +44,14 @@ struct CellBatch {
     const std::size_t at = noise_used;
     noise_used += npix * static_cast<std::size_t>(bands);
     if (noise.size() < noise_used) noise.resize(noise_used);
+    return at;
+  }
+  // Space for the next cell's bmask and ormask planes of npix pixels, zeroed: the first's offset.
+  std::size_t add_bits(std::size_t npix) {
+    const std::size_t at = bits_used;
+    bits_used += 2 * npix;
+    if (bits.size() < bits_used) bits.resize(bits_used);
+    std::fill(bits.begin() + static_cast<long>(at), bits.begin() + static_cast<long>(bits_used), 0);
     return at;
   }
 };

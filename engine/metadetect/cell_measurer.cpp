@@ -379,6 +379,8 @@ void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::vect
       std::copy_n(image.data() + p0, inside, stamp_.data() + static_cast<std::size_t>(j) * box + i0);
     }
     r.mfrac = masked_share(s, d.x, d.y);
+    const auto [ux, uy] = unsheared(cell, type, d, false);
+    set_unsheared_position(cell, ux, uy, &r);
     const double scale2 = cell.pixel_scale * cell.pixel_scale;
     r.psf_orig_e1 = psf_orig_e1_, r.psf_orig_e2 = psf_orig_e2_, r.psf_orig_t = psf_orig_t_ * scale2;
     r.psf_rec_e1 = psf_rec_e1_, r.psf_rec_e2 = psf_rec_e2_;
@@ -434,22 +436,38 @@ double CellMeasurer::masked_share(int side, double x, double y) {
   return masked / (sum_x * sum_y);
 }
 
+std::array<double, 2> CellMeasurer::unsheared(const MetadetectCell& cell, int type, const Detection& d,
+                                              bool with_lens) const {
+  const std::array<double, 4>& a = filters_[0]->inverse_shear(kMetacalTypes[type]);
+  const double c = 0.5 * (cell.size() - 1), dx = d.x - c, dy = d.y - c;
+  double ux = a[0] * dx + a[1] * dy, uy = a[2] * dx + a[3] * dy;
+  if (with_lens && (cell.lens_g1 != 0 || cell.lens_g2 != 0)) {
+    // The scene was sheared by the lens before metacal's step: undone after it.
+    const std::array<double, 4> l = inverse_shear_matrix(cell.lens_g1, cell.lens_g2);
+    const double lx = l[0] * ux + l[1] * uy, ly = l[2] * ux + l[3] * uy;
+    ux = lx, uy = ly;
+  }
+  return {c + ux, c + uy};
+}
+
+void CellMeasurer::set_unsheared_position(const MetadetectCell& cell, double x, double y, MetadetectRow* r) {
+  r->x_noshear = cell.origin_x + x, r->y_noshear = cell.origin_y + y;
+  if (cell.bmask.empty() && cell.ormask.empty()) return;
+  // The pixel nearest the unsheared position, within the cell (as the reference package clips).
+  const long s = cell.size();
+  const std::size_t p = static_cast<std::size_t>(std::clamp(std::lround(y), 0L, s - 1) * s +
+                                                 std::clamp(std::lround(x), 0L, s - 1));
+  if (!cell.bmask.empty()) r->bmask = cell.bmask[p];
+  if (!cell.ormask.empty()) r->ormask = cell.ormask[p];
+}
+
 bool CellMeasurer::owns(const MetadetectCell& cell, int type, const Detection& d) const {
   // Whether the cell keeps a detection is decided where it lies in the unsheared cell: a sheared
   // image shows the scene's point c + A^-1 (x - c) at pixel x, each cell sheared about its own
   // centre c. Tested in the sheared image, an object near the edge of the inner region would leave
   // or enter it with the metacal shear: a term in R from cell boundaries alone, which the next
   // cell's image (sheared about another centre) does not cancel.
-  const std::array<double, 4>& a = filters_[0]->inverse_shear(kMetacalTypes[type]);
-  const double c = 0.5 * (cell.size() - 1), dx = d.x - c, dy = d.y - c;
-  double ux = a[0] * dx + a[1] * dy, uy = a[2] * dx + a[3] * dy;
-  if (cell.lens_g1 != 0 || cell.lens_g2 != 0) {
-    // The scene was sheared by the lens before metacal's step: undone after it.
-    const std::array<double, 4> l = inverse_shear_matrix(cell.lens_g1, cell.lens_g2);
-    const double lx = l[0] * ux + l[1] * uy, ly = l[2] * ux + l[3] * uy;
-    ux = lx, uy = ly;
-  }
-  const double x = c + ux, y = c + uy;
+  const auto [x, y] = unsheared(cell, type, d, true);
   return x >= cell.keep_x0 && x < cell.keep_x1 && y >= cell.keep_y0 && y < cell.keep_y1;
 }
 
@@ -712,6 +730,7 @@ void CellMeasurer::per_object_rows(const MetadetectCell& cell, std::vector<Metad
       r.box_size = box;
       r.flags = flags;
       r.mfrac = static_cast<double>(masked) / static_cast<double>(npix);
+      set_unsheared_position(cell, d.x, d.y, &r);
       fill_moments(cell, std::span<const double>(stamp_images_).subspan(t * npix, npix), box, x0, y0, variance, d, &r);
       rows->push_back(r);
     }

@@ -56,6 +56,9 @@ struct MetadetectCell {
   double lens_g1 = 0, lens_g2 = 0;
   // Bright stars' discs reaching the cell (its pixels): masked, and no detection kept inside.
   std::span<const StarDisc> stars{};
+  // The input's BMASK and ORMASK bits in the cell's pixels (its bands' OR'ed; empty: none), which
+  // rows report at their detection's unsheared pixel.
+  std::span<const std::int32_t> bmask{}, ormask{};
 
   // The cell's side, pixels: its first band's box (0 without bands).
   int size() const { return bands.empty() ? 0 : bands.front().image.box_size; }
@@ -86,6 +89,11 @@ class CellMeasurer {
   // The masked share (the cell's mask, and beyond its edge) of a round Gaussian of
   // options.mfrac_fwhm about (x, y), cell pixels.
   double masked_share(int side, double x, double y);
+  // Detection d of image `type` carried back through the image's metacal shear (and, with_lens, the
+  // scene's recorded shear) to the unsheared cell, cell pixels.
+  std::array<double, 2> unsheared(const MetadetectCell& cell, int type, const Detection& d, bool with_lens) const;
+  // A row's unsheared position (cell pixels x, y) in the input's pixels, and its mask bits there.
+  static void set_unsheared_position(const MetadetectCell& cell, double x, double y, MetadetectRow* r);
   // Whether the cell keeps detection d of image `type` (its unsheared position in the keep region).
   bool owns(const MetadetectCell& cell, int type, const Detection& d) const;
   // The weighted moments of a box x box stamp whose pixel (0, 0) is the cell's (x0, y0) into *r.

@@ -23,6 +23,9 @@ struct MetadetectRow {
   std::int32_t shear_type = 0;  // MetacalType
   std::int32_t id = -1;         // the detection's number in its cell and image; -1: the cell failed
   double x = NAN, y = NAN;      // 0-based pixels of the input image (the weighted centroid; exp, bd: the fit's)
+  // The detection carried back through its image's metacal shear (about the cell's centre) to the
+  // unsheared image: 0-based pixels of the input image (the reference package's sx_col/row_noshear).
+  double x_noshear = NAN, y_noshear = NAN;
   double u = NAN, v = NAN;      // arcsec from the input image's pixel (0, 0) along x and y
   double e1 = NAN, e2 = NAN, e1_err = NAN, e2_err = NAN;
   double t = NAN;               // T = Mxx + Myy, arcsec^2: weighted (pgauss: pre-PSF), or the model's (gauss, exp, bd)
@@ -38,6 +41,9 @@ struct MetadetectRow {
   std::array<double, kMaxMetadetectBands> band_flux{NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
   std::array<double, kMaxMetadetectBands> band_snr{NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
   double mfrac = 0;             // masked share of a Gaussian about the detection (MetadetectOptions::mfrac_fwhm)
+  // The input's BMASK and ORMASK bits at the detection's unsheared pixel, its bands' OR'ed (0 where
+  // the input has none).
+  std::int32_t bmask = 0, ormask = 0;
   std::int32_t box_size = 0;
   std::int32_t isophotal_area = 0;
   std::int32_t sep_flags = 0;

@@ -6,6 +6,7 @@
 #include <pybind11/pybind11.h>
 
 #include <algorithm>
+#include <cctype>
 #include <climits>
 #include <optional>
 #include <span>
@@ -22,6 +23,40 @@ namespace py = pybind11;
 namespace stampede::python {
 
 namespace {
+
+bool equal_ignoring_case(const std::string& a, const std::string& b) {
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
+           return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
+         });
+}
+
+// A TDIMn value "(a,b,...)" as its axes when it has two or more whose product is the column's
+// repeat; otherwise (absent, one axis, malformed, inconsistent) none: the column reads as
+// (rows, repeat).
+std::vector<long> tdim_axes(const std::string& text, long long repeat) {
+  std::vector<long> axes;
+  const std::size_t open = text.find('('), close = text.find(')');
+  if (open == std::string::npos || close == std::string::npos || close < open) return {};
+  long long product = 1;
+  std::size_t at = open + 1;
+  while (at < close) {
+    std::size_t used = 0;
+    long v = 0;
+    try {
+      v = std::stol(text.substr(at, close - at), &used);
+    } catch (const std::exception&) {
+      return {};
+    }
+    if (v < 1 || v > repeat) return {};
+    axes.push_back(v);
+    product *= v;
+    if (product > repeat) return {};
+    at += used;
+    while (at < close && (text[at] == ' ' || text[at] == ',')) ++at;
+  }
+  if (axes.size() < 2 || product != repeat) return {};
+  return axes;
+}
 
 // An HDU as the caller names it: an index (0 = primary) or an EXTNAME.
 struct HduChoice {
@@ -222,14 +257,25 @@ void bind_io(py::module_& m) {
         io::FitsFile f = open_at(path, hdu);
         long long rows = 0;
         std::vector<char> integer(names.size()), string(names.size());
+        // Values per row (vector columns: > 1) and their TDIM shape where it has two axes or more.
+        std::vector<long long> repeat(names.size(), 1);
+        std::vector<std::vector<long>> tdim(names.size());
         std::string where;
         {
           py::gil_scoped_release release;
           rows = f.table_rows();
+          const std::vector<std::string> all = f.column_names();
           // Every column checked before any is read: an absent one is an error naming it at once.
           for (std::size_t i = 0; i < names.size(); ++i) {
             string[i] = f.is_string_column(names[i]);
-            if (!string[i]) integer[i] = f.is_integer_column(names[i]);
+            if (string[i]) continue;
+            integer[i] = f.is_integer_column(names[i]);
+            repeat[i] = f.column_repeat(names[i]);
+            for (std::size_t c = 0; c < all.size() && repeat[i] > 1; ++c) {
+              if (!equal_ignoring_case(all[c], names[i])) continue;
+              tdim[i] = tdim_axes(f.read_key_string("TDIM" + std::to_string(c + 1)).value_or(""), repeat[i]);
+              break;
+            }
           }
           where = f.describe();
         }
@@ -241,18 +287,21 @@ void bind_io(py::module_& m) {
         // Allocated here, with the GIL, and filled without it: no copy of a chunk's columns.
         std::vector<py::array> arrays;
         for (std::size_t i = 0; i < names.size(); ++i) {
+          std::vector<py::ssize_t> shape = {static_cast<py::ssize_t>(n)};
+          if (repeat[i] > 1 && tdim[i].empty()) shape.push_back(static_cast<py::ssize_t>(repeat[i]));
+          for (auto d = tdim[i].rbegin(); d != tdim[i].rend(); ++d) shape.push_back(*d);  // FITS's first axis fastest
           if (string[i]) {
             arrays.emplace_back();  // made below, from the strings read
           } else if (integer[i]) {
-            arrays.push_back(py::array_t<long long>(n));
+            arrays.push_back(py::array_t<long long>(shape));
           } else {
-            arrays.push_back(py::array_t<double>(n));
+            arrays.push_back(py::array_t<double>(shape));
           }
         }
         std::vector<io::FitsFile::ColumnOutput> outputs;
         const auto size = static_cast<std::size_t>(n);
         for (std::size_t i = 0; i < names.size(); ++i) {
-          if (string[i]) continue;
+          if (string[i] || repeat[i] > 1) continue;
           void* data = arrays[i].mutable_data();
           if (integer[i]) {
             outputs.push_back({names[i], std::span<long long>(static_cast<long long*>(data), size)});
@@ -264,6 +313,16 @@ void bind_io(py::module_& m) {
         {
           py::gil_scoped_release release;
           if (!outputs.empty()) f.read_columns_rows(first, outputs);  // all columns in one pass over the rows
+          for (std::size_t i = 0; i < names.size(); ++i) {
+            if (string[i] || repeat[i] <= 1 || n == 0) continue;
+            const std::size_t values = size * static_cast<std::size_t>(repeat[i]);
+            void* data = arrays[i].mutable_data();
+            if (integer[i]) {
+              f.read_vector_rows(names[i], first, std::span<long long>(static_cast<long long*>(data), values));
+            } else {
+              f.read_vector_rows(names[i], first, std::span<double>(static_cast<double*>(data), values));
+            }
+          }
           for (std::size_t i = 0; i < names.size(); ++i)
             if (string[i]) {
               strings[i].resize(size);
@@ -282,11 +341,12 @@ void bind_io(py::module_& m) {
         return out;
       },
       "read_table(path, hdu, columns, first_row=0, count=None)\n\nRows [first_row, first_row + count) (to the end "
-      "without count) of the named scalar numeric or character columns of a table HDU (an index or an EXTNAME), as a dict "
-      "{name: 1-D array}: int64 for integer columns (after TZERO: uint32 and int64 ids exact), float64 for real "
-      "ones, str (numpy 'U', trailing blanks removed) for character columns ('7A'). Names match "
+      "without count) of the named numeric or character columns of a table HDU (an index or an EXTNAME), as a dict "
+      "{name: array}: int64 for integer columns (after TZERO: uint32 and int64 ids exact), float64 for real "
+      "ones, str (numpy 'U', trailing blanks removed) for character columns ('7A'); a vector column ('2D') is "
+      "(rows, values), or (rows, *axes) by its TDIM ('(2,2)' gives (rows, 2, 2)). Names match "
       "case-insensitively. An absent HDU or column, "
-      "or one of another kind (logicals, vectors), is a stampede.FitsError naming the file, "
+      "or one of another kind (logicals, bits, complex), is a stampede.FitsError naming the file, "
       "HDU and column; rows beyond the table a ValueError. Read a large table in chunks of rows: only those rows "
       "are read.");
 }

@@ -41,9 +41,10 @@ from ._stampede import (  # noqa: F401
     shear_metrics,
     simulate_great08,
 )
+from .package_layout import read_package_layout  # noqa: F401
 
 __all__ = [
     "CatalogError", "ConfigError", "Error", "FileError", "FitsError", "Fitter", "Options", "detect",
-    "fit_stamp", "fit_stamps", "fit_status_names", "fits_hdus", "fits_header", "merge_shards", "metacal_set_shear", "metadetect", "metadetect_metrics", "option_help", "read_image", "read_results", "read_table", "run_fit", "set_shear", "shear_excluding_flags", "shear_metrics",
+    "fit_stamp", "fit_stamps", "fit_status_names", "fits_hdus", "fits_header", "merge_shards", "metacal_set_shear", "metadetect", "metadetect_metrics", "option_help", "read_image", "read_package_layout", "read_results", "read_table", "run_fit", "set_shear", "shear_excluding_flags", "shear_metrics",
     "simulate_great08",
 ]

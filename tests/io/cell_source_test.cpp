@@ -65,7 +65,7 @@ TEST(CellSource, CutsAnImageIntoTheLayoutsCellsAndReadsARangeAsTheWholeRunDoes) 
   std::string why;
   const std::vector<CellPlacement> layout = cell_layout(100, 70, 40, 8, &why);
   ASSERT_GT(layout.size(), 3u) << why;
-  CellSource whole(image, options);
+  CellSource whole({&image, 1}, options);
   EXPECT_EQ(whole.total_objects(), static_cast<long long>(layout.size()));
   EXPECT_EQ(whole.max_cell_pixels(), 40 * 40);
   const std::vector<ReadCell> cells = read_all(whole);
@@ -83,7 +83,7 @@ TEST(CellSource, CutsAnImageIntoTheLayoutsCellsAndReadsARangeAsTheWholeRunDoes) 
         EXPECT_EQ(c.weights[static_cast<std::size_t>(y * 40 + x)], image.weight[static_cast<std::size_t>(i)]);
       }
   }
-  CellSource part(image, options);  // cells [1, 3): a resume at 1 of a shard ending at 3
+  CellSource part({&image, 1}, options);  // cells [1, 3): a resume at 1 of a shard ending at 3
   part.skip_to(1);
   part.set_end(3);
   const std::vector<ReadCell> range = read_all(part);
