@@ -22,29 +22,59 @@ void symmetrise_mask(std::span<std::uint8_t> mask, int side, std::vector<std::ui
 
 namespace {
 
-// out = in convolved with kx along x and ky along y (odd, centred: entry k + half weighs the pixel
-// k away), zero outside the cell.
-void convolve(std::span<const double> in, int side, std::span<const double> kx, std::span<const double> ky,
-              std::vector<double>* rows, std::vector<double>* out) {
-  const int half = static_cast<int>(kx.size()) / 2;
-  const auto n = static_cast<std::size_t>(side);
-  rows->assign(n * n, 0.0);
-  out->assign(n * n, 0.0);
-  for (int y = 0; y < side; ++y)
-    for (int x = 0; x < side; ++x) {
-      double s = 0;
-      for (int k = std::max(-half, -x); k <= std::min(half, side - 1 - x); ++k)
-        s += kx[static_cast<std::size_t>(k + half)] * in[static_cast<std::size_t>(y) * n + static_cast<std::size_t>(x + k)];
-      (*rows)[static_cast<std::size_t>(y) * n + static_cast<std::size_t>(x)] = s;
+// The separable Gaussian sums at a set of pixels only (those still to fill), each exactly as a
+// convolution of the whole cell would give it (the same terms in the same order): a row pass
+// (along x) over the rows within reach of a point in each column, then a column pass (along y) at
+// the points. Outside the cell counts as zero.
+class SparseConvolution {
+ public:
+  // The points: pixel indices y * side + x, and each column's lowest and highest point row.
+  void set_points(std::span<const std::size_t> points, int side) {
+    points_ = points, side_ = side;
+    ylo_.assign(static_cast<std::size_t>(side), side), yhi_.assign(static_cast<std::size_t>(side), -1);
+    for (const std::size_t p : points) {
+      const int x = static_cast<int>(p % static_cast<std::size_t>(side)), y = static_cast<int>(p / static_cast<std::size_t>(side));
+      ylo_[static_cast<std::size_t>(x)] = std::min(ylo_[static_cast<std::size_t>(x)], y);
+      yhi_[static_cast<std::size_t>(x)] = std::max(yhi_[static_cast<std::size_t>(x)], y);
     }
-  for (int y = 0; y < side; ++y)
+  }
+  // rows = `in` convolved along x with kx, where a column pass of half-width `half` will read it.
+  void row_pass(std::span<const double> in, std::span<const double> kx, int half, std::vector<double>* rows) const {
+    const int hx = static_cast<int>(kx.size()) / 2, side = side_;
+    const auto n = static_cast<std::size_t>(side);
+    rows->resize(n * n);
     for (int x = 0; x < side; ++x) {
+      if (yhi_[static_cast<std::size_t>(x)] < 0) continue;
+      const int y0 = std::max(0, ylo_[static_cast<std::size_t>(x)] - half);
+      const int y1 = std::min(side - 1, yhi_[static_cast<std::size_t>(x)] + half);
+      const int k0 = std::max(-hx, -x), k1 = std::min(hx, side - 1 - x);
+      for (int y = y0; y <= y1; ++y) {
+        double s = 0;
+        for (int k = k0; k <= k1; ++k)
+          s += kx[static_cast<std::size_t>(k + hx)] * in[static_cast<std::size_t>(y) * n + static_cast<std::size_t>(x + k)];
+        (*rows)[static_cast<std::size_t>(y) * n + static_cast<std::size_t>(x)] = s;
+      }
+    }
+  }
+  // out[p] = rows convolved along y with ky, at the points only.
+  void column_pass(const std::vector<double>& rows, std::span<const double> ky, std::vector<double>* out) const {
+    const int half = static_cast<int>(ky.size()) / 2, side = side_;
+    const auto n = static_cast<std::size_t>(side);
+    out->resize(n * n);
+    for (const std::size_t p : points_) {
+      const int x = static_cast<int>(p % n), y = static_cast<int>(p / n);
       double s = 0;
       for (int k = std::max(-half, -y); k <= std::min(half, side - 1 - y); ++k)
-        s += ky[static_cast<std::size_t>(k + half)] * (*rows)[static_cast<std::size_t>(y + k) * n + static_cast<std::size_t>(x)];
-      (*out)[static_cast<std::size_t>(y) * n + static_cast<std::size_t>(x)] = s;
+        s += ky[static_cast<std::size_t>(k + half)] * rows[static_cast<std::size_t>(y + k) * n + static_cast<std::size_t>(x)];
+      (*out)[p] = s;
     }
-}
+  }
+
+ private:
+  std::span<const std::size_t> points_;
+  int side_ = 0;
+  std::vector<int> ylo_, yhi_;
+};
 
 }  // namespace
 
@@ -52,15 +82,18 @@ long long fill_masked_pixels(std::span<const std::uint8_t> mask, int side, std::
                              MaskFillScratch* scratch) {
   const auto npix = static_cast<std::size_t>(side) * static_cast<std::size_t>(side);
   MaskFillScratch& s = *scratch;
-  s.pending.assign(mask.begin(), mask.end());
-  long long left = 0;
-  for (std::uint8_t m : mask) left += m != 0;
-  const long long masked = left, unmasked = static_cast<long long>(npix) - masked;
+  s.pending.clear();
+  for (std::size_t p = 0; p < npix; ++p)
+    if (mask[p]) s.pending.push_back(p);
+  const auto masked = static_cast<long long>(s.pending.size()), unmasked = static_cast<long long>(npix) - masked;
   if (masked == 0) return 0;
   std::vector<double>(&k)[3] = s.kernel;  // G, G x, G x^2 (G normalised)
   std::vector<double>(&m)[6] = s.share;   // the unmasked pixels' sums of G, G dx, G dy, G dx^2, G dx dy, G dy^2
   std::vector<double>(&t)[3] = s.fit;     // a plane's sums of G v, G v dx, G v dy over them
-  for (double sigma = 1; left > 0 && unmasked > 0 && sigma <= 64; sigma *= 2) {
+  std::vector<double>(&rows)[3] = s.rows;  // row passes with G, G x, G x^2
+  SparseConvolution at;
+  s.values.resize(npix);
+  for (double sigma = 1; !s.pending.empty() && unmasked > 0 && sigma <= 64; sigma *= 2) {
     const int half = static_cast<int>(std::ceil(3 * sigma));
     for (auto& v : k) v.resize(static_cast<std::size_t>(2 * half + 1));
     double total = 0;
@@ -70,26 +103,31 @@ long long fill_masked_pixels(std::span<const std::uint8_t> mask, int side, std::
       const auto i = static_cast<std::size_t>(d + half);
       k[0][i] = g, k[1][i] = g * d, k[2][i] = g * d * d;
     }
-    s.values.resize(npix);
     for (std::size_t p = 0; p < npix; ++p) s.values[p] = mask[p] ? 0.0 : 1.0;
-    convolve(s.values, side, k[0], k[0], &s.rows, &m[0]);
-    s.now.assign(npix, 0);
-    long long now = 0;
-    for (std::size_t p = 0; p < npix; ++p)
-      if (s.pending[p] && m[0][p] >= 0.25) s.now[p] = 1, ++now;
-    if (now == 0) continue;
-    convolve(s.values, side, k[1], k[0], &s.rows, &m[1]);
-    convolve(s.values, side, k[0], k[1], &s.rows, &m[2]);
-    convolve(s.values, side, k[2], k[0], &s.rows, &m[3]);
-    convolve(s.values, side, k[1], k[1], &s.rows, &m[4]);
-    convolve(s.values, side, k[0], k[2], &s.rows, &m[5]);
+    // The unmasked share of the Gaussian at every pixel still to fill: those with a quarter fill now.
+    at.set_points(s.pending, side);
+    at.row_pass(s.values, k[0], half, &rows[0]);
+    at.column_pass(rows[0], k[0], &m[0]);
+    s.now.clear(), s.later.clear();
+    for (const std::size_t p : s.pending) (m[0][p] >= 0.25 ? s.now : s.later).push_back(p);
+    s.pending.swap(s.later);
+    if (s.now.empty()) continue;
+    at.set_points(s.now, side);  // rows[0] holds the pending pixels' rows, a superset of these
+    at.row_pass(s.values, k[1], half, &rows[1]);
+    at.row_pass(s.values, k[2], half, &rows[2]);
+    at.column_pass(rows[1], k[0], &m[1]);
+    at.column_pass(rows[0], k[1], &m[2]);
+    at.column_pass(rows[2], k[0], &m[3]);
+    at.column_pass(rows[1], k[1], &m[4]);
+    at.column_pass(rows[0], k[2], &m[5]);
     for (const std::span<double> plane : planes) {
       for (std::size_t p = 0; p < npix; ++p) s.values[p] = mask[p] ? 0.0 : plane[p];
-      convolve(s.values, side, k[0], k[0], &s.rows, &t[0]);
-      convolve(s.values, side, k[1], k[0], &s.rows, &t[1]);
-      convolve(s.values, side, k[0], k[1], &s.rows, &t[2]);
-      for (std::size_t p = 0; p < npix; ++p) {
-        if (!s.now[p]) continue;
+      at.row_pass(s.values, k[0], half, &rows[0]);
+      at.row_pass(s.values, k[1], half, &rows[1]);
+      at.column_pass(rows[0], k[0], &t[0]);
+      at.column_pass(rows[1], k[0], &t[1]);
+      at.column_pass(rows[0], k[1], &t[2]);
+      for (const std::size_t p : s.now) {
         // [m0 mx my; mx mxx mxy; my mxy myy] (a b c) = (t0 tx ty): a by Cramer's rule.
         const double m0 = m[0][p], mx = m[1][p], my = m[2][p], mxx = m[3][p], mxy = m[4][p], myy = m[5][p];
         const double c00 = mxx * myy - mxy * mxy, c01 = mx * myy - mxy * my, c02 = mx * mxy - mxx * my;
@@ -102,18 +140,14 @@ long long fill_masked_pixels(std::span<const std::uint8_t> mask, int side, std::
         plane[p] = (t[0][p] * c00 - t[1][p] * (mx * myy - my * mxy) + t[2][p] * (mx * mxy - my * mxx)) / det;
       }
     }
-    for (std::size_t p = 0; p < npix; ++p)
-      if (s.now[p]) s.pending[p] = 0;
-    left -= now;
   }
-  if (left > 0)
+  if (!s.pending.empty())
     for (const std::span<double> plane : planes) {
       double mean = 0;
       for (std::size_t p = 0; p < npix; ++p)
         if (!mask[p]) mean += plane[p];
       mean = unmasked > 0 ? mean / static_cast<double>(unmasked) : 0.0;
-      for (std::size_t p = 0; p < npix; ++p)
-        if (s.pending[p]) plane[p] = mean;
+      for (const std::size_t p : s.pending) plane[p] = mean;
     }
   return masked;
 }

@@ -3,6 +3,7 @@
 // the cell's centre, so its shape has no quadrupole to shear the image by, and the masked pixels
 // filled from the unmasked ones around them, so that deconvolution and shear see no hole.
 #pragma once
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -16,9 +17,9 @@ void symmetrise_mask(std::span<std::uint8_t> mask, int side, std::vector<std::ui
 
 // Scratch kept between calls (steady state allocates nothing).
 struct MaskFillScratch {
-  std::vector<double> values, rows, kernel[3];
+  std::vector<double> values, rows[3], kernel[3];
   std::vector<double> share[6], fit[3];  // the unmasked pixels' Gaussian moments; a plane's
-  std::vector<std::uint8_t> pending, now;
+  std::vector<std::size_t> pending, now, later;  // pixels still to fill; those a scale fills
 };
 
 // Each masked pixel (mask != 0) of the side x side `planes` (each filled the same way: an image

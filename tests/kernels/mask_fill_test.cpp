@@ -117,5 +117,70 @@ TEST(MaskFill, FillsConstantsRampsAndSmoothProfilesAndLeavesUnmaskedPixels) {
   for (double x : v) EXPECT_EQ(x, 0.0);
 }
 
+
+// The fill computes its Gaussian sums at the pixels still to fill only: each must be what a direct
+// sum over the whole cell gives (the plane fitted by least squares at the scale the quarter-weight
+// rule picks), here on random discs and columns over a random image.
+TEST(MaskFill, EachFilledPixelIsTheDirectWeightedPlaneFitAtItsScale) {
+  constexpr int kSide = 61;
+  const auto n = static_cast<std::size_t>(kSide);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<std::uint8_t> mask(n * n, 0);
+  for (int d = 0; d < 3; ++d) {
+    const double cx = 60 * u(rng), cy = 60 * u(rng), r = 2 + 8 * u(rng);
+    for (std::size_t p = 0; p < n * n; ++p)
+      if (std::hypot(static_cast<double>(p % n) - cx, static_cast<double>(p / n) - cy) <= r) mask[p] = 1;
+  }
+  for (std::size_t y = 0; y < n; ++y) mask[y * n + 40] = 1;
+  std::vector<double> image(n * n);
+  for (double& v : image) v = u(rng);
+  const std::vector<double> original = image;
+  MaskFillScratch scratch;
+  const std::span<double> planes[1] = {image};
+  fill_masked_pixels(mask, kSide, planes, &scratch);
+  int checked = 0;
+  for (std::size_t p = 0; p < n * n; ++p) {
+    if (!mask[p]) {
+      ASSERT_EQ(image[p], original[p]);
+      continue;
+    }
+    const double px = static_cast<double>(p % n), py = static_cast<double>(p / n);
+    for (double sigma = 1; sigma <= 64; sigma *= 2) {
+      // The normalised 1-D Gaussian over the kernel's reach, as the fill's.
+      const int half = static_cast<int>(std::ceil(3 * sigma));
+      double total = 0;
+      for (int d = -half; d <= half; ++d) total += std::exp(-0.5 * d * d / (sigma * sigma));
+      double a[3][3] = {}, b[3] = {};
+      for (std::size_t q = 0; q < n * n; ++q) {
+        const double dx = static_cast<double>(q % n) - px, dy = static_cast<double>(q / n) - py;
+        if (mask[q] || std::abs(dx) > half || std::abs(dy) > half) continue;
+        const double w = std::exp(-0.5 * (dx * dx + dy * dy) / (sigma * sigma)) / (total * total);
+        const double f[3] = {1, dx, dy};
+        for (int i = 0; i < 3; ++i) {
+          b[i] += w * f[i] * original[q];
+          for (int j = 0; j < 3; ++j) a[i][j] += w * f[i] * f[j];
+        }
+      }
+      if (a[0][0] < 0.25) continue;
+      // The plane's value at the pixel, a, by Cramer's rule.
+      auto det3 = [](const double m[3][3]) {
+        return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+               m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+      };
+      const double det = det3(a);
+      double expected = b[0] / a[0][0];
+      if (det > 1e-6 * std::pow(a[0][0], 3) * std::pow(sigma, 4)) {
+        double a0[3][3] = {{b[0], a[0][1], a[0][2]}, {b[1], a[1][1], a[1][2]}, {b[2], a[2][1], a[2][2]}};
+        expected = det3(a0) / det;
+      }
+      EXPECT_NEAR(image[p], expected, 1e-9) << "pixel " << p % n << ", " << p / n << " at sigma " << sigma;
+      ++checked;
+      break;
+    }
+  }
+  EXPECT_GT(checked, 200);
+}
+
 }  // namespace
 }  // namespace stampede::kernels
