@@ -281,7 +281,7 @@ def one_case(case, seed, files):
                        ("deblend_contrast", "contrast"), ("deblend_thresholds", "levels"), ("filter_fwhm", "fwhm"),
                        ("filter_size", "filter_size"), ("clean", "flag"), ("stamp_size", "size"),
                        ("box_min", "box_min"), ("box_max", "box_max"), ("per_object_metacal", "flag"),
-                       ("noise", "cell_plane"), ("ormask", "cell_plane"), ("detect_bands", "bands"),
+                       ("noise", "cell_plane"), ("ormask", "cell_plane"), ("mfrac", "cell_plane"), ("detect_bands", "bands"),
                        ("shear_bands", "bands"), ("layout", "layout")],
         "metadetect_metrics": [("table", "table"), ("minus", "minus"), ("rotated", "minus"),
                                ("rotated_minus", "minus"), ("shear", "shear"), ("cut_snr", "cut"),

@@ -24,7 +24,7 @@ void refuse_repeated_planes(FitsFile& f) {
     f.move_to(k);
     std::string name = f.read_key_string("EXTNAME").value_or("");
     for (char& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    for (const char* plane : {"WEIGHT", "BMASK", "ORMASK", "NOISE", "PSF"})
+    for (const char* plane : {"WEIGHT", "BMASK", "ORMASK", "MFRAC", "NOISE", "PSF"})
       if (name == plane && !seen.insert(name).second) fail(f, std::string("a second ") + plane + " HDU: give each plane once");
   }
   f.move_to(here);
@@ -103,6 +103,17 @@ void mask_bits(std::span<const double> plane, std::span<std::int32_t> out) {
                  ? static_cast<std::int32_t>(static_cast<std::uint32_t>(static_cast<std::int64_t>(v)))
                  : 0;
   }
+}
+
+std::string mfrac_problem(std::span<const double> plane, long width) {
+  for (std::size_t i = 0; i < plane.size(); ++i)
+    if (!(plane[i] >= 0 && plane[i] <= 1)) {
+      std::ostringstream m;
+      m << "masked fraction " << plane[i] << " at pixel (" << static_cast<long>(i) % width << ", "
+        << static_cast<long>(i) / width << ") (0-based x, y): an MFRAC plane holds fractions in [0, 1]";
+      return m.str();
+    }
+  return "";
 }
 
 std::vector<std::int32_t> mask_bits(std::span<const double> plane) {
@@ -229,6 +240,10 @@ CellImage read_cell_image(const std::string& path, bool with_psf) {
   std::vector<double> mask;
   if (f.move_to_if_present("BMASK")) mask = plane(f, shape), out.bmask = mask_bits(mask);
   if (f.move_to_if_present("ORMASK")) out.ormask = mask_bits(plane(f, shape));
+  if (f.move_to_if_present("MFRAC")) {
+    out.mfrac = plane(f, shape);
+    if (const std::string why = mfrac_problem(out.mfrac, out.width); !why.empty()) fail(f, why);
+  }
   if (f.move_to_if_present("NOISE")) out.noise = plane(f, shape);
   f.move_to("WEIGHT");
   try {

@@ -2,7 +2,8 @@
 // pixel scale in header keyword SCALE (arcsec per pixel) or a WCS (CD matrix or CDELT, degrees);
 // extensions found by EXTNAME: WEIGHT (inverse variance, required: detection thresholds on the
 // noise), BMASK (non-zero masks a pixel; its bits are reported per detection), ORMASK (bits reported
-// per detection, masking nothing), NOISE (a realisation of the image's noise: metacal's
+// per detection, masking nothing), MFRAC (each pixel's masked fraction in [0, 1], which mfrac
+// averages), NOISE (a realisation of the image's noise: metacal's
 // fixnoise field, else one is drawn from the weight), PSF (a centred PSF image at the image's pixel
 // scale, required; a SCALE keyword there must equal the image's), each at most once. NaN or infinite pixels, weights
 // and noise values are masked (weight 0). What `stampede sim cells` writes (io/cell_image_writer) reads back.
@@ -33,6 +34,9 @@ struct CellImage {
   // The BMASK plane's bits (which mask) and the ORMASK plane's (which do not: reported only), as
   // 32-bit patterns; empty: no such plane.
   std::vector<std::int32_t> bmask, ormask;
+  // The MFRAC plane: each pixel's masked fraction in [0, 1] (e.g. of the epochs a coadd pixel
+  // combines); empty: none.
+  std::vector<double> mfrac;
   std::shared_ptr<const PsfImage> psf;  // null when read without it
   long long masked = 0;  // pixels masked (weight 0, BMASK, non-finite)
   // Why, each pixel counted once in this order: a BMASK bit, a NaN or infinite value (pixel,
@@ -52,6 +56,9 @@ void apply_cell_masks(std::span<const double> bmask, CellImage* image);
 // A mask plane's values as 32-bit patterns (an integer in [-2^31, 2^32) keeps its bits; anything
 // else reads as 0).
 std::vector<std::int32_t> mask_bits(std::span<const double> plane);
+// Why an MFRAC plane is not one: a value outside [0, 1] or not finite (its first, with its pixel);
+// "" when it is.
+std::string mfrac_problem(std::span<const double> plane, long width);
 void mask_bits(std::span<const double> plane, std::span<std::int32_t> out);  // out: plane's size
 
 // Why `psf` cannot be a cell's PSF image: its sum is not positive and finite, a side is even (no

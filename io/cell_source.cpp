@@ -135,7 +135,7 @@ bool CellSource::fill(StampBatch& batch) {
   CellBatch& data = batch.payload<CellBatch>();
   data.cells.clear();
   data.stars.clear();
-  data.noise_used = 0, data.bits_used = 0;
+  data.noise_used = 0, data.bits_used = 0, data.mfrac_used = 0;
   batch.observations.clear();
   batch.first_object = next_;
   batch.count = 0;
@@ -199,6 +199,13 @@ void CellSource::fill_tile_cell(StampBatch& batch, CellBatch& data) {
     if (tile.has(MedsCutoutType::kBmask)) {
       mask_bits(mask_, bits_plane_bits_);
       or_bits(bits_plane_bits_, npix, 0, data, &cell);
+    }
+    if (tile.has(MedsCutoutType::kMfrac)) {
+      bits_plane_.resize(npix);
+      tile.read_cutout(o, 0, MedsCutoutType::kMfrac, bits_plane_);
+      if (const std::string why = mfrac_problem(bits_plane_, size); !why.empty())
+        throw ConfigError(where + ": mfrac_cutouts: " + why);
+      add_mfrac(bits_plane_, npix, bands, data, &cell);
     }
     if (tile.has(MedsCutoutType::kOrmask)) {
       bits_plane_.resize(npix);
@@ -292,6 +299,13 @@ void CellSource::fill_image_cell(StampBatch& batch, CellBatch& data) {
                      "every pixel of the cell is masked (the image's " + std::to_string(im.masked) + " masked pixels: " +
                      im.masked_text() + ")";
     check_sky(pixels, weights, b, bands, &cell);
+    if (!im.mfrac.empty()) {
+      bits_plane_.resize(npix);
+      for (int y = 0; y < s; ++y)
+        std::copy_n(im.mfrac.begin() + static_cast<long>(static_cast<std::size_t>(place.y0 + y) * im.width + place.x0), s,
+                    bits_plane_.begin() + static_cast<long>(y) * s);
+      add_mfrac(bits_plane_, npix, bands, data, &cell);
+    }
     for (int k = 0; k < 2; ++k) {
       const std::vector<std::int32_t>& plane = k == 0 ? im.bmask : im.ormask;
       if (plane.empty()) continue;
@@ -313,6 +327,13 @@ void CellSource::check_sky(std::span<const double> pixels, std::span<const doubl
   const double sky = cell_sky_level(pixels, weights, &sky_scratch_);
   if (const std::string why = cell_sky_problem(sky); cell->problem.empty() && !why.empty())
     cell->problem = std::string(bands > 1 ? "band " + std::to_string(band) + ": " : "") + why;
+}
+
+void CellSource::add_mfrac(std::span<const double> plane, std::size_t npix, int bands, CellBatch& data,
+                           CellBatch::Cell* cell) {
+  if (cell->mfrac_offset < 0) cell->mfrac_offset = static_cast<long long>(data.add_mfrac(npix));
+  double* to = data.mfrac.data() + cell->mfrac_offset;
+  for (std::size_t p = 0; p < npix; ++p) to[p] += plane[p] / bands;
 }
 
 void CellSource::or_bits(std::span<const std::int32_t> bits, std::size_t npix, int plane, CellBatch& data,

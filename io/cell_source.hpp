@@ -73,6 +73,10 @@ class CellSource : public StampSource {
   void add_layout(long width, long height, const std::string& where);
   // The stars reaching the side x side cell whose pixel (0, 0) is the input's (x0, y0), into the batch.
   void add_stars(double x0, double y0, int side, CellBatch& data, CellBatch::Cell* cell) const;
+  // A band's masked fractions (npix of the cell) added into the cell's mean over `bands` (a band
+  // without a plane adds none).
+  static void add_mfrac(std::span<const double> plane, std::size_t npix, int bands, CellBatch& data,
+                        CellBatch::Cell* cell);
   // A band's mask bits (plane 0 BMASK, 1 ORMASK; npix of the cell) OR'ed into the cell's.
   static void or_bits(std::span<const std::int32_t> bits, std::size_t npix, int plane, CellBatch& data,
                       CellBatch::Cell* cell);

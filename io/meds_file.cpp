@@ -11,7 +11,8 @@ namespace stampede::io {
 namespace {
 
 constexpr const char* kHduNames[kNumMedsCutoutTypes] = {"image_cutouts", "weight_cutouts", "seg_cutouts",
-                                                        "bmask_cutouts", "noise_cutouts", "ormask_cutouts"};
+                                                        "bmask_cutouts", "noise_cutouts", "ormask_cutouts",
+                                                        "mfrac_cutouts"};
 // Per-cutout columns, [NMAX] each: integers first, then doubles (the order of the scratch rows).
 constexpr const char* kCutoutInts[] = {"file_id", "start_row", "orig_start_row", "orig_start_col"};
 constexpr const char* kCutoutDoubles[] = {"orig_row", "orig_col", "cutout_row", "cutout_col",

@@ -22,8 +22,8 @@
 
 namespace stampede::io {
 
-enum class MedsCutoutType { kImage, kWeight, kSeg, kBmask, kNoise, kOrmask };
-inline constexpr int kNumMedsCutoutTypes = 6;
+enum class MedsCutoutType { kImage, kWeight, kSeg, kBmask, kNoise, kOrmask, kMfrac };
+inline constexpr int kNumMedsCutoutTypes = 7;
 const char* meds_hdu_name(MedsCutoutType type);  // "image_cutouts", ...
 
 // Off-chip pixels in bmask cutouts (the meds package's BMASK_EDGE).

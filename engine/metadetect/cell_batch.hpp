@@ -29,13 +29,16 @@ struct CellBatch {
     // Its BMASK and ORMASK bits (its bands' OR'ed), consecutive in `bits` from here: bmask, then
     // ormask (none: -1).
     long long bits_offset = -1;
+    // Its masked-fraction plane (the bands' mean), in `mfrac` from here (none: -1).
+    long long mfrac_offset = -1;
     std::string problem;  // why it cannot be measured (its PSFEx model fails there); "" none
   };
   std::vector<Cell> cells;
   std::vector<double> noise;  // the batch's noise planes (kept between batches)
   std::vector<StarDisc> stars;  // the batch's cells' star discs
   std::vector<std::int32_t> bits;  // the batch's cells' mask bits (kept between batches)
-  std::size_t noise_used = 0, bits_used = 0;
+  std::vector<double> mfrac;       // the batch's cells' masked-fraction planes (kept between batches)
+  std::size_t noise_used = 0, bits_used = 0, mfrac_used = 0;
   std::vector<MetadetectRow> rows;
   std::vector<std::string> problems;  // per cell, "" none
 
@@ -44,6 +47,14 @@ struct CellBatch {
     const std::size_t at = noise_used;
     noise_used += npix * static_cast<std::size_t>(bands);
     if (noise.size() < noise_used) noise.resize(noise_used);
+    return at;
+  }
+  // Space for the next cell's masked-fraction plane of npix pixels, zeroed: its offset.
+  std::size_t add_mfrac(std::size_t npix) {
+    const std::size_t at = mfrac_used;
+    mfrac_used += npix;
+    if (mfrac.size() < mfrac_used) mfrac.resize(mfrac_used);
+    std::fill(mfrac.begin() + static_cast<long>(at), mfrac.begin() + static_cast<long>(mfrac_used), 0.0);
     return at;
   }
   // Space for the next cell's bmask and ormask planes of npix pixels, zeroed: the first's offset.

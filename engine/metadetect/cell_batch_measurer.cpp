@@ -43,6 +43,8 @@ void CellBatchMeasurer::fit(StampBatch& batch) {
     cell.keep_y0 = c.place.keep_y0, cell.keep_y1 = c.place.keep_y1;
     cell.lens_g1 = c.lens_g1, cell.lens_g2 = c.lens_g2;
     cell.stars = std::span<const StarDisc>(data.stars).subspan(c.first_star, c.stars);
+    if (c.mfrac_offset >= 0)
+      cell.mfrac = std::span<const double>(data.mfrac).subspan(static_cast<std::size_t>(c.mfrac_offset), npix);
     if (c.bits_offset >= 0) {
       cell.bmask = std::span<const std::int32_t>(data.bits).subspan(static_cast<std::size_t>(c.bits_offset), npix);
       cell.ormask = std::span<const std::int32_t>(data.bits).subspan(static_cast<std::size_t>(c.bits_offset) + npix, npix);

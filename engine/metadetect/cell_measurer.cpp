@@ -378,7 +378,7 @@ void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::vect
       const std::size_t p0 = static_cast<std::size_t>(y) * s + (x0 + i0);
       std::copy_n(image.data() + p0, inside, stamp_.data() + static_cast<std::size_t>(j) * box + i0);
     }
-    r.mfrac = masked_share(s, d.x, d.y);
+    r.mfrac = masked_share(cell, d.x, d.y);
     const auto [ux, uy] = unsheared(cell, type, d, false);
     set_unsheared_position(cell, ux, uy, &r);
     const double scale2 = cell.pixel_scale * cell.pixel_scale;
@@ -409,7 +409,8 @@ void CellMeasurer::measure_image(const MetadetectCell& cell, int type, std::vect
   }
 }
 
-double CellMeasurer::masked_share(int side, double x, double y) {
+double CellMeasurer::masked_share(const MetadetectCell& cell, double x, double y) {
+  const int side = cell.size();
   const double sigma = options_.mfrac_fwhm / psf_scale_ / 2.3548200450309493;
   const int reach = static_cast<int>(std::ceil(3 * sigma));
   const long cx = std::lround(x), cy = std::lround(y);
@@ -428,8 +429,12 @@ double CellMeasurer::masked_share(int side, double x, double y) {
     for (int i = -reach; i <= reach; ++i) {
       const long u = cx + i;
       const bool outside = u < 0 || v < 0 || u >= side || v >= side;
-      if (outside || (cell_masked_ && mask_[static_cast<std::size_t>(v) * side + static_cast<std::size_t>(u)]))
+      const std::size_t p = outside ? 0 : static_cast<std::size_t>(v) * side + static_cast<std::size_t>(u);
+      if (outside || (cell_masked_ && mask_[p])) {
         row += share_x_[static_cast<std::size_t>(i + reach)];
+      } else if (!cell.mfrac.empty()) {
+        row += share_x_[static_cast<std::size_t>(i + reach)] * cell.mfrac[p];
+      }
     }
     masked += share_y_[static_cast<std::size_t>(j + reach)] * row;
   }

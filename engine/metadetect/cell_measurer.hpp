@@ -59,6 +59,9 @@ struct MetadetectCell {
   // The input's BMASK and ORMASK bits in the cell's pixels (its bands' OR'ed; empty: none), which
   // rows report at their detection's unsheared pixel.
   std::span<const std::int32_t> bmask{}, ormask{};
+  // The input's masked fraction per pixel (an MFRAC plane or mfrac cutouts, its bands' mean; empty:
+  // none): mfrac is then its Gaussian-weighted mean, a pixel of the cell's mask counting 1.
+  std::span<const double> mfrac{};
 
   // The cell's side, pixels: its first band's box (0 without bands).
   int size() const { return bands.empty() ? 0 : bands.front().image.box_size; }
@@ -88,7 +91,7 @@ class CellMeasurer {
   void measure_image(const MetadetectCell& cell, int type, std::vector<MetadetectRow>* rows);
   // The masked share (the cell's mask, and beyond its edge) of a round Gaussian of
   // options.mfrac_fwhm about (x, y), cell pixels.
-  double masked_share(int side, double x, double y);
+  double masked_share(const MetadetectCell& cell, double x, double y);
   // Detection d of image `type` carried back through the image's metacal shear (and, with_lens, the
   // scene's recorded shear) to the unsheared cell, cell pixels.
   std::array<double, 2> unsheared(const MetadetectCell& cell, int type, const Detection& d, bool with_lens) const;

@@ -107,7 +107,7 @@ void read_detection_options(const Arguments& a, DetectionOptions* d) {
 std::vector<Parameter> metadetect_parameters() {
   std::vector<Parameter> p = {{"image", true},          {"weight", true},         {"psf", true},
                               {"pixel_scale", true},    {"bmask"},                {"threads"},
-                              {"noise", false, true},   {"ormask", false, true},  {"detect_bands", false, true},
+                              {"noise", false, true},   {"ormask", false, true},  {"mfrac", false, true},  {"detect_bands", false, true},
                               {"shear_bands", false, true}, {"layout", false, true}};
   for (const app::MetadetectOptionKey& k : app::metadetect_option_keys())
     if (k.python()) p.push_back({k.field.c_str(), false, true});
@@ -228,13 +228,14 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
   if (nb > static_cast<std::size_t>(kMaxMetadetectBands))
     throw py::value_error(a.where("image") + ": " + std::to_string(nb) + " bands; at most " +
                           std::to_string(kMaxMetadetectBands));
-  std::vector<DoubleArray> bmasks, ormasks, noises;
+  std::vector<DoubleArray> bmasks, ormasks, mfracs, noises;
   if (a.given("bmask")) bmasks = band_arrays(a, "bmask", true);
   if (a.given("ormask")) ormasks = band_arrays(a, "ormask", true);
   if (a.given("noise")) noises = band_arrays(a, "noise");
+  if (a.given("mfrac")) mfracs = band_arrays(a, "mfrac");
   using Bands = const std::vector<DoubleArray>*;
   for (const auto& [name, list] : {std::pair<const char*, Bands>{"weight", &weights}, {"psf", &psfs}, {"bmask", &bmasks},
-                                   {"ormask", &ormasks}, {"noise", &noises}})
+                                   {"ormask", &ormasks}, {"mfrac", &mfracs}, {"noise", &noises}})
     if (!list->empty() && list->size() != nb)
       throw py::value_error(a.where(name) + ": " + std::to_string(list->size()) + " bands, the image " +
                             std::to_string(nb));
@@ -275,6 +276,12 @@ py::object metadetect(py::args args, py::kwargs kwargs) {
     if (!ormasks.empty()) {
       same_shape(ormasks[b], "ormask");
       im.ormask = io::mask_bits(values(ormasks[b]));
+    }
+    if (!mfracs.empty()) {
+      same_shape(mfracs[b], "mfrac");
+      im.mfrac.assign(mfracs[b].data(), mfracs[b].data() + mfracs[b].size());
+      if (const std::string why = io::mfrac_problem(im.mfrac, im.width); !why.empty())
+        throw py::value_error(a.where("mfrac") + band + ": " + why);
     }
     if (!noises.empty()) {
       same_shape(noises[b], "noise");
@@ -413,7 +420,7 @@ xmin, xmax, ymin, ymax, sep_flags (1 deblended, 2 on the edge, 8 degenerate mome
 `estimator`: "composed" (the response to the sky's shear, R / (1 - |g|^2)) or "package" (<e> / R).
 )doc");
   m.def("metadetect", &metadetect, R"doc(metadetect(image, weight, psf, pixel_scale, bmask=None, threads=0, *,
-           noise=None, ormask=None, detect_bands=None, shear_bands=None, layout="table",
+           noise=None, ormask=None, mfrac=None, detect_bands=None, shear_bands=None, layout="table",
            cell_size=251, cell_buffer=34, step=0.01, reconvolution_psf="auto", psf_dilation=0, fixnoise=True,
            double_images=False, seed=20170101, measurement="wmom", weight_fwhm=0, recentre=False, detector="tree", detect_threshold=0.8,
            detect_min_area=4, deblend_contrast=1e-5, deblend_thresholds=32, filter_fwhm=3, filter_size=7,
@@ -427,6 +434,8 @@ pre-PSF Gaussian moments under that weight (0: 2.0), or "gauss" / "exp" / "bd", 
 (one band; weight_fwhm then 0). `weight`: inverse variances (0 masks); `psf`: a
 centred PSF image at the image's pixel scale; `pixel_scale`: arcsec per pixel; `bmask`: non-zero
 masks (its bits are reported per detection); `ormask`: bits reported per detection, masking nothing;
+`mfrac`: each pixel's masked fraction in [0, 1] (e.g. of a coadd's epochs), which each detection's
+mfrac averages under its Gaussian (masked pixels counting 1; several bands: their mean);
 `noise`: a realisation of the image's noise (a NOISE plane), fixnoise's field (else one
 is drawn from the weight).
 Several bands: image, weight, psf (and bmask, ormask, noise where given) each a list of 2-D arrays

@@ -22,10 +22,13 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "app/cell_simulation.hpp"
 #include "app/shard_merge.hpp"
+#include "io/cell_image_reader.hpp"
 #include "io/config_error.hpp"
 #include "engine/metadetect/metadetect_row.hpp"
 #include "engine/sim/cell_sim.hpp"
@@ -580,6 +583,86 @@ TEST(MetadetectRun, BandRolesTakeShapesFromTheShearBandsAndFluxFromEvery) {
   EXPECT_NE(error_of({"g", "r"}, {}, {"r", "r"}).find("--shear-bands: band 'r' is given twice"), std::string::npos);
   o.inputs = {scratch.path("sims/g/cell_0000.fits")};
   EXPECT_NE(error_of({}, {}, {"g"}).find("--shear-bands gives bands a role: it needs several bands"), std::string::npos);
+}
+
+// A simulated cell rewritten with MFRAC and ORMASK planes (and BMASK where `bmask` is given).
+std::string with_mask_planes(const std::string& cell, const std::string& path, const std::vector<double>& mfrac,
+                             const std::vector<double>& ormask, const std::vector<double>& bmask = {}) {
+  const io::CellImage im = io::read_cell_image(cell, true);
+  io::FitsFile f = io::FitsFile::create(path, true);
+  f.write_image(im.width, im.height, im.pixels);
+  f.write_key("SCALE", im.pixel_scale, "arcsec per pixel");
+  f.write_image(im.width, im.height, im.weight, "WEIGHT");
+  if (!bmask.empty()) f.write_image(im.width, im.height, bmask, "BMASK", io::FitsFile::PixelType::kInt32);
+  f.write_image(im.width, im.height, ormask, "ORMASK", io::FitsFile::PixelType::kInt32);
+  f.write_image(im.width, im.height, mfrac, "MFRAC");
+  f.write_image(im.psf->nx, im.psf->ny, im.psf->pixels, "PSF");
+  f.close();
+  return path;
+}
+
+// An image's MFRAC plane is what mfrac averages (masked pixels counting 1), its ORMASK and BMASK
+// bits come back at each detection's unsheared pixel, and an MFRAC value outside [0, 1] is refused
+// naming the HDU and the pixel.
+TEST(MetadetectRun, MfracOrmaskAndBmaskPlanesAreReportedPerDetection) {
+  testing::ScratchDir scratch("stampede_mdet_planes_");
+  const std::string cell = sim_cells(scratch.path("sims"), 1)[0];
+  const int n = 251;
+  std::vector<double> mfrac(static_cast<std::size_t>(n) * n, 0.0), ormask(mfrac.size(), 0.0), bmask(mfrac.size(), 0.0);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const auto p = static_cast<std::size_t>(y) * n + x;
+      if (x >= 125) mfrac[p] = 0.3, ormask[p] = 16;
+      if (x >= 60 && x < 90 && y >= 60 && y < 90) bmask[p] = 2;
+    }
+  MetadetectRunOptions o;
+  o.inputs = {with_mask_planes(cell, scratch.path("planes.fits"), mfrac, ormask, bmask)};
+  o.output = scratch.path("out.fits");
+  o.threads = 2;
+  run_metadetect(o);
+  const std::vector<MetadetectRow> rows = io::read_metadetect_rows(o.output);
+  ASSERT_GT(rows.size(), 100u);
+  int left = 0, right = 0, masked = 0;
+  for (const MetadetectRow& r : rows) {
+    const long px = std::lround(r.x_noshear), py = std::lround(r.y_noshear);
+    ASSERT_EQ(r.ormask, ormask[static_cast<std::size_t>(py) * n + px]) << r.x_noshear;
+    ASSERT_EQ(r.bmask, bmask[static_cast<std::size_t>(py) * n + px]) << r.x_noshear << ", " << r.y_noshear;
+    if (r.bmask != 0) {
+      ++masked;
+      EXPECT_TRUE(r.flags & kMetadetectMasked);
+      continue;
+    }
+    // The 2" Gaussian (sigma 3.4 px) reaches 11 px about the detection: rows farther than that
+    // from the step and from the bad region's four-fold turns see 0 or 0.3 everywhere.
+    bool clear = std::abs(r.x_noshear - 125) > 13;
+    for (long y = py - 13; clear && y <= py + 13; ++y)
+      for (long x = px - 13; clear && x <= px + 13; ++x)
+        for (int turn = 0; turn < 4; ++turn) {
+          long u = x, v = y;
+          for (int k = 0; k < turn; ++k) std::tie(u, v) = std::pair{n - 1 - v, u};
+          if (u >= 0 && v >= 0 && u < n && v < n && bmask[static_cast<std::size_t>(v) * n + u] != 0) clear = false;
+        }
+    if (!clear) continue;
+    const double expected = r.x_noshear < 125 ? 0.0 : 0.3;
+    EXPECT_NEAR(r.mfrac, expected, 1e-12) << r.x_noshear << ", " << r.y_noshear;
+    ++(expected == 0 ? left : right);
+  }
+  EXPECT_GT(left, 5);
+  EXPECT_GT(right, 5);
+  EXPECT_GT(masked, 0);
+  // A fraction beyond 1 is no masked fraction.
+  mfrac[static_cast<std::size_t>(7) * n + 5] = 1.5;
+  o.inputs = {with_mask_planes(cell, scratch.path("bad.fits"), mfrac, ormask)};
+  o.output = scratch.path("bad_out.fits");
+  try {
+    run_metadetect(o);
+    ADD_FAILURE() << "an MFRAC value of 1.5 was accepted";
+  } catch (const io::FitsError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("'MFRAC'"), std::string::npos) << what;
+    EXPECT_NE(what.find("masked fraction 1.5 at pixel (5, 7)"), std::string::npos) << what;
+  }
+  EXPECT_FALSE(std::filesystem::exists(o.output));
 }
 
 // A bright-star catalogue (--star-mask): the galaxy at each cell's centre under a star's disc is

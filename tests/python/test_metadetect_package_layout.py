@@ -161,6 +161,10 @@ def test_mask_bits_are_reported_at_each_detection_and_flagged(bands):
     assert inside.any() and (~inside).any()
     assert np.all(rows["flags"][ok][inside] & 4)  # the detection's own pixel is masked
     assert np.any(rows["ormask"][ok] == 32) and np.any(rows["ormask"][ok] == 0)
+    # An mfrac plane is what mfrac averages: a uniform 0.25 gives 0.25 to every row (each >= 34 px
+    # inside the cell, beyond the Gaussian's reach of its edge).
+    uniform = stampede.metadetect(image, weight, psf, 0.25, mfrac=np.full(image.shape, 0.25), threads=2)
+    assert np.allclose(uniform["mfrac"][uniform["id"] >= 0], 0.25, rtol=0, atol=1e-12)
     package = stampede.metadetect(image, weight, psf, 0.25, bmask=bmask, ormask=ormask, threads=2, layout="package")
     assert np.array_equal(package["noshear"]["bmask"], rows["bmask"][rows["shear_type"] == "noshear"])
 
@@ -172,6 +176,10 @@ def test_bad_masks_and_star_catalogues_are_errors_naming_them(bands, tmp_path):
         stampede.metadetect(image, weight, psf, 0.25, bmask=np.zeros((10, 10)))
     with pytest.raises(ValueError, match="ormask.*2 bands, the image 3"):
         stampede.metadetect(a[0], a["WEIGHT"], a["PSF"], 0.25, ormask=[np.zeros(image.shape)] * 2)
+    bad = np.zeros(image.shape)
+    bad[3, 4] = np.nan
+    with pytest.raises(ValueError, match=r"mfrac.*masked fraction nan at pixel \(4, 3\)"):
+        stampede.metadetect(image, weight, psf, 0.25, mfrac=bad)
     with pytest.raises(ValueError, match="shear_bands"):
         stampede.metadetect(a[0], a["WEIGHT"], a["PSF"], 0.25, shear_bands=[3])
     with pytest.raises(ValueError, match="layout.*table or package"):
