@@ -184,7 +184,7 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
                           "image's own");
   if (!options.star_hdu.empty() && options.tile)
     throw io::ConfigError("--star-mask-hdu reads each image file's own star table: a --meds cell tile has none");
-  if (!options.star_mask.empty()) source.set_stars(io::read_star_catalogue(options.star_mask, options.star_margin));
+  if (!options.star_mask.empty()) source.set_stars(io::read_star_table(options.star_mask, options.star_margin));
   if (!options.star_hdu.empty()) source.set_star_hdu(options.star_hdu, options.star_margin);
   io::MetadetectWriterOptions writer_options;
   writer_options.path = options.output;

@@ -231,6 +231,7 @@ CellImage read_cell_image(const std::string& path, bool with_psf) {
   const CellImageShape shape = primary_shape(f);
   out.width = shape.width, out.height = shape.height;
   out.pixel_scale = pixel_scale(f);
+  out.wcs = read_celestial_wcs(f);
   out.g1 = f.read_key_double("G1").value_or(NAN), out.g2 = f.read_key_double("G2").value_or(NAN);
   out.pixels = f.read_image();
   refuse_repeated_planes(f);

@@ -13,11 +13,13 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "engine/model/psf_model.hpp"
+#include "io/celestial_wcs.hpp"
 
 namespace stampede::io {
 
@@ -47,6 +49,9 @@ struct CellImage {
   // The shear a simulation drew the scene with (HDU 0's G1, G2, as `sim cells` writes them); NaN
   // when absent.
   double g1 = NAN, g2 = NAN;
+  // HDU 0's celestial WCS (RA---TAN, DEC--TAN), which places a star catalogue's ra, dec; nullopt
+  // without CTYPE1.
+  std::optional<CelestialWcs> wcs;
 };
 
 // The masking rules a read applies, for an image built in memory (Python): a non-zero bmask value

@@ -252,7 +252,11 @@ void CellSource::fill_image_cell(StampBatch& batch, CellBatch& data) {
       if (!memory_) images_[static_cast<std::size_t>(b)] = read_cell_image(files_[file_][b], models_.empty());
       if (models_.empty()) psfs_.push_back(PsfModel::Image(image(b).psf));
     }
-    if (!star_hdu_.empty() && !memory_) stars_ = read_star_catalogue(files_[file_][0], star_margin_, star_hdu_);
+    const CellImage& first = image(0);
+    const CelestialWcs* wcs = first.wcs ? &*first.wcs : nullptr;
+    if (!star_hdu_.empty() && !memory_)
+      stars_ = read_star_table(files_[file_][0], star_margin_, star_hdu_).discs(wcs, first.pixel_scale, files_[file_][0]);
+    if (catalogue_) stars_ = catalogue_->discs(wcs, first.pixel_scale, files_[file_][0]);
     loaded_ = file_;
   }
   const CellPlacement& place = layouts_[file_][in_file_];
@@ -341,6 +345,14 @@ void CellSource::or_bits(std::span<const std::int32_t> bits, std::size_t npix, i
   if (cell->bits_offset < 0) cell->bits_offset = static_cast<long long>(data.add_bits(npix));
   std::int32_t* to = data.bits.data() + cell->bits_offset + static_cast<long long>(static_cast<std::size_t>(plane) * npix);
   for (std::size_t p = 0; p < npix; ++p) to[p] |= bits[p];
+}
+
+void CellSource::set_stars(StarCatalogue stars) {
+  if (stars.sky && !tiles_.empty())
+    throw ConfigError(stars.where + " places its stars by ra, dec: a cell tile's WCS is not read (give x, y in the "
+                      "tile's pixels)");
+  if (!stars.sky) stars_ = stars.stars;  // the same discs in every input
+  catalogue_ = std::move(stars);
 }
 
 void CellSource::add_stars(double x0, double y0, int side, CellBatch& data, CellBatch::Cell* cell) const {

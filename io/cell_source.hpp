@@ -12,6 +12,7 @@
 
 #include <limits>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -24,6 +25,7 @@
 #include "io/cell_image_reader.hpp"
 #include "io/meds_file.hpp"
 #include "io/psfex_file.hpp"
+#include "io/star_catalogue.hpp"
 
 namespace stampede::io {
 
@@ -53,7 +55,8 @@ class CellSource : public StampSource {
 
   // Bright stars' discs in every input's pixels (0-based; the image's, or a cell tile's): each cell
   // carries those that reach it, in its own pixels (engine/metadetect/star_disc).
-  void set_stars(std::vector<StarDisc> stars) { stars_ = std::move(stars); }
+  // A catalogue of ra, dec is placed on each image by its WCS (a cell tile's cells: refused).
+  void set_stars(StarCatalogue stars);
   // Or each image file's own stars: its (first band's) HDU `extname`, read with the scene, radii
   // widened by `margin` (io/star_catalogue).
   void set_star_hdu(std::string extname, double margin) { star_hdu_ = std::move(extname), star_margin_ = margin; }
@@ -100,7 +103,8 @@ class CellSource : public StampSource {
   std::vector<double> mask_, bits_plane_;
   std::vector<std::int32_t> bits_plane_bits_;
   std::vector<double> sky_scratch_;
-  std::vector<StarDisc> stars_;
+  std::vector<StarDisc> stars_;  // the current file's discs
+  std::optional<StarCatalogue> catalogue_;
   std::string star_hdu_;
   double star_margin_ = 0;
   std::vector<std::vector<CellPlacement>> layouts_;

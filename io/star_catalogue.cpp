@@ -4,12 +4,13 @@
 #include <cmath>
 #include <sstream>
 
+#include "io/config_error.hpp"
 #include "io/fits_error.hpp"
 #include "io/fits_file.hpp"
 
 namespace stampede::io {
 
-std::vector<StarDisc> read_star_catalogue(const std::string& path, double margin, const std::string& extname) {
+StarCatalogue read_star_table(const std::string& path, double margin, const std::string& extname) {
   FitsFile f = FitsFile::open_read(path);
   bool table = false;
   if (!extname.empty()) {
@@ -22,23 +23,48 @@ std::vector<StarDisc> read_star_catalogue(const std::string& path, double margin
     table = f.hdu_kind() == FitsFile::HduKind::kTable;
   }
   if (!table) throw FitsError(path + ": no binary table (a star mask catalogue has columns x, y, radius)");
-  for (const char* c : {"x", "y", "radius"})
-    if (!f.has_column(c))
-      throw FitsError(f.describe() + ": no column '" + c + "' (a star mask catalogue has columns x, y, radius: "
-                      "FITS 1-based pixels and pixels)");
-  const std::vector<double> x = f.read_column("x"), y = f.read_column("y"), r = f.read_column("radius");
-  std::vector<StarDisc> out;
-  out.reserve(x.size());
+  StarCatalogue out;
+  out.where = f.describe();
+  out.margin = margin;
+  out.sky = !f.has_column("x") && f.has_column("ra");
+  const char* const pixel[] = {"x", "y", "radius"};
+  const char* const sky[] = {"ra", "dec", "radius_arcsec"};
+  const char* const* names = out.sky ? sky : pixel;
+  for (int c = 0; c < 3; ++c)
+    if (!f.has_column(names[c]))
+      throw FitsError(f.describe() + ": no column '" + names[c] + "' (a star mask catalogue has columns x, y, radius: "
+                      "FITS 1-based pixels and pixels; or ra, dec, radius_arcsec: degrees and arcsec)");
+  const std::vector<double> x = f.read_column(names[0]), y = f.read_column(names[1]), r = f.read_column(names[2]);
+  out.stars.reserve(x.size());
   for (std::size_t i = 0; i < x.size(); ++i) {
-    if (!std::isfinite(x[i]) || !std::isfinite(y[i]) || !(r[i] > 0) || !std::isfinite(r[i])) {
+    const bool bad_sky = out.sky && !(std::abs(y[i]) <= 90);
+    if (!std::isfinite(x[i]) || !std::isfinite(y[i]) || !(r[i] > 0) || !std::isfinite(r[i]) || bad_sky) {
       std::ostringstream m;
-      m << f.describe() << ": row " << i + 1 << " has x = " << x[i] << ", y = " << y[i] << ", radius = " << r[i]
-        << ": positions must be finite and the radius positive";
+      m << f.describe() << ": row " << i + 1 << " has " << names[0] << " = " << x[i] << ", " << names[1] << " = " << y[i]
+        << ", " << names[2] << " = " << r[i]
+        << (out.sky ? ": positions must be finite, |dec| <= 90 and the radius positive"
+                    : ": positions must be finite and the radius positive");
       throw FitsError(m.str());
     }
-    out.push_back({x[i] - 1, y[i] - 1, r[i] + margin});
+    out.stars.push_back(out.sky ? StarDisc{x[i], y[i], r[i]} : StarDisc{x[i] - 1, y[i] - 1, r[i] + margin});
   }
   return out;
+}
+
+std::vector<StarDisc> StarCatalogue::discs(const CelestialWcs* wcs, double scale, const std::string& image) const {
+  if (!sky) return stars;
+  if (!wcs)
+    throw ConfigError(where + " places its stars by ra, dec: " + image +
+                      " has no celestial WCS (CTYPE1/2 RA---TAN, DEC--TAN with CRVAL, CRPIX and CD) to place them by");
+  std::vector<StarDisc> out;
+  out.reserve(stars.size());
+  for (const StarDisc& s : stars)
+    if (const auto p = wcs->pixel(s.x, s.y)) out.push_back({(*p)[0], (*p)[1], s.radius / scale + margin});
+  return out;
+}
+
+std::vector<StarDisc> read_star_catalogue(const std::string& path, double margin, const std::string& extname) {
+  return read_star_table(path, margin, extname).discs(nullptr, 0, "");
 }
 
 }  // namespace stampede::io
