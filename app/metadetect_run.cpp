@@ -116,6 +116,7 @@ void record_scene(const std::vector<std::string>& files, io::MetadetectWriterOpt
 // naming the table and its run.
 void write_package_output(const MetadetectRunOptions& options, const MetadetectOptions& measure,
                           const std::vector<std::string>& bands) {
+  if (options.package_output.empty()) return;
   io::MetadetectRowReader reader(options.output);
   io::PackageLayoutOptions layout;
   layout.measurement = metadetect_measurement_name(measure.measurement);
@@ -133,6 +134,14 @@ void write_package_output(const MetadetectRunOptions& options, const MetadetectO
 }
 
 }  // namespace
+
+void write_metadetect_package_output(const MetadetectRunOptions& options) {
+  const std::vector<std::string> bands = metadetect_bands(options);
+  MetadetectOptions measure = options.metadetect;
+  measure.detect_bands = band_role_mask(options.detect_bands, bands, "--detect-bands");
+  measure.shear_bands = band_role_mask(options.shear_bands, bands, "--shear-bands");
+  write_package_output(options, measure, bands);
+}
 
 void check_metadetect_outputs(const MetadetectRunOptions& options, const std::vector<std::string>& parts) {
   io::check_outputs(outputs_of(options, parts), inputs_of(options, metadetect_files(options, metadetect_bands(options))),
@@ -238,7 +247,7 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   std::unique_ptr<io::MetadetectWriter> writer = open_table<io::MetadetectWriter>(table, writer_options);
   if (!writer) {
     summary.skipped = true;
-    if (!options.package_output.empty()) write_package_output(options, measure, bands);
+    write_package_output(options, measure, bands);
     return summary;
   }
   summary.cells_resumed = writer->units();
@@ -253,7 +262,7 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   summary.threads = ran.threads;
   summary.stopped = ran.stopped;
   writer.reset();
-  if (!ran.stopped && !options.package_output.empty()) write_package_output(options, measure, bands);
+  if (!ran.stopped) write_package_output(options, measure, bands);
   summary.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return summary;
 }

@@ -97,4 +97,8 @@ void check_metadetect_outputs(const MetadetectRunOptions& options, const std::ve
 // HDU, key or option.
 MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options);
 
+// options.output's complete table rewritten in the reference package's layout to
+// options.package_output (what run_metadetect does at its end; stampede-mpi after its merge).
+void write_metadetect_package_output(const MetadetectRunOptions& options);
+
 }  // namespace stampede::app

@@ -306,13 +306,22 @@ TEST_F(MpiDriver, MetadetectOverTwoRanksWritesTheSingleProcessTable) {
   }
   args.insert(args.end(), {"--threads", "1", "--quiet"});
   const auto single = stampede::testing::finish(
-      stampede::testing::spawn(std::vector<std::string>{"-o", path("single.fits")} + args, path("single.txt"), "metadetect"),
+      stampede::testing::spawn(std::vector<std::string>{"-o", path("single.fits"), "--package-output", path("single_pkg.fits")} + args,
+                               path("single.txt"), "metadetect"),
       path("single.txt"));
   ASSERT_EQ(single.exit_code, 0) << single.err;
   const auto r = stampede::testing::finish(
-      spawn_mpi(2, std::vector<std::string>{"-o", path("mpi.fits")} + args, path("mpi.txt"), "metadetect"), path("mpi.txt"));
+      spawn_mpi(2, std::vector<std::string>{"-o", path("mpi.fits"), "--package-output", path("mpi_pkg.fits")} + args,
+                path("mpi.txt"), "metadetect"),
+      path("mpi.txt"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(read_bytes(path("single.fits")), read_bytes(path("mpi.fits")));
+  // The package's layout written from the joined table: the same tables (the primary HDU, its
+  // first 2880 bytes, names the table each was written from).
+  const std::string a = read_bytes(path("single_pkg.fits")), b = read_bytes(path("mpi_pkg.fits"));
+  ASSERT_GT(a.size(), 2880u * 6);
+  EXPECT_EQ(a.substr(2880), b.substr(2880));
+  EXPECT_FALSE(fs::exists(path("mpi_pkg.fits.partial")));
   EXPECT_FALSE(fs::exists(path("mpi.fits.part-0-of-2.fits")));
   // One rank (`mpirun -n 1`): its part, a whole table, is the output (merge refused it: no SHARD).
   const auto one = stampede::testing::finish(

@@ -145,6 +145,7 @@ int run_metadetect_over_ranks(int argc, char** argv, int rank, int ranks) {
   try {
     MetadetectCommandLine mine = command;
     mine.run.shard = rank, mine.run.shards = ranks, mine.run.output = part(rank);
+    mine.run.package_output.clear();  // written from the joined table below
     mine.quiet = command.quiet || rank != 0;
     // Parts are this job's own: a fresh run replaces stale ones; --resume continues a part that was
     // started and skips one that is complete.
@@ -180,6 +181,7 @@ int run_metadetect_over_ranks(int argc, char** argv, int rank, int ranks) {
         stampede::app::merge_shards(merge);
         for (const std::string& p : parts) stampede::io::remove_if_present(p);
       }
+      stampede::app::write_metadetect_package_output(o);
       if (!command.quiet) std::fprintf(stderr, "stampede-mpi metadetect: %d ranks joined into %s\n", ranks, output.c_str());
     } catch (const std::exception& e) {
       std::fprintf(stderr, "stampede-mpi metadetect: error: %s\n", e.what());
