@@ -87,6 +87,9 @@ void print_help() {
       "                         --flux; each image gets a table STARS (x, y, mask radius) for\n"
       "                         metadetect --star-mask-hdu STARS (0)\n"
       "  --star-flux F          the brightest star's flux over a galaxy's (1000)\n"
+      "  --bad-columns N        bad columns per cell: vertical runs of hot pixels (1e3 sigma) at least\n"
+      "                         a quarter of the cell long, the same under either shear, flagged in\n"
+      "                         each image's BMASK (bit 1) (0)\n"
       "  --tile                 also write the cells as a cell tile (cells_meds.fits)\n"
       "  --seed N               random seed (%llu)\n"
       "  --threads N            worker threads (default: all cores)\n"
@@ -201,6 +204,8 @@ int run_sim_cells_command(int argc, char** argv) {
       o.stars = integer(0, 1000);
     } else if (s == "--star-flux") {
       o.star_flux = number();
+    } else if (s == "--bad-columns") {
+      o.bad_columns = integer(0, 100);
     } else if (s == "--tile") {
       out.tile = true;
     } else if (s == "--seed") {
@@ -225,7 +230,7 @@ int run_sim_cells_command(int argc, char** argv) {
       {"shape_noise", "--shape-noise"}, {"keep_clear", "--keep-clear"},  {"e_max", "--e-max"},
       {"psf_fwhm", "--psf-fwhm"},     {"psf_beta", "--psf-beta"},        {"psf_size", "--psf-size"},
       {"g1, g2", "--shear"},          {"snr", "--snr"},                  {"stars", "--stars"},
-      {"star_flux", "--star-flux"}};
+      {"star_flux", "--star-flux"},   {"bad_columns", "--bad-columns"}};
   try {
     app::write_cell_simulation(o, out, dir, [](int done, int total) {
       std::fprintf(stderr, "\rstampede sim cells: %d/%d cells", done, total);

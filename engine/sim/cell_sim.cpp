@@ -19,7 +19,7 @@ namespace stampede {
 namespace {
 
 // Stream purposes (the second key).
-enum Purpose : std::uint64_t { kLayoutPurpose = 1, kGalaxyPurpose, kNoisePurpose, kNoisePlanePurpose, kStarPurpose };
+enum Purpose : std::uint64_t { kLayoutPurpose = 1, kGalaxyPurpose, kNoisePurpose, kNoisePlanePurpose, kStarPurpose, kDefectPurpose };
 
 constexpr double kLightEpsilon = 1e-5;  // light of a component left outside its stamp (at most)
 constexpr int kMaxStamp = 255;          // stamp side cap: a large bulge's far wings are cut (cell_sim.hpp)
@@ -89,6 +89,8 @@ bool CellSimOptions::IsValid(std::string* why) const {
   if (bands < 1 || bands > 8) return fail("bands " + std::to_string(bands) + ": must be in [1, 8]");
   if (stars < 0 || stars > 1000) return fail("stars " + std::to_string(stars) + ": must be in [0, 1000] per cell");
   if (!(star_flux >= 10 && star_flux <= 1e8)) return fail("star_flux " + text(star_flux) + ": must be in [10, 1e8]");
+  if (bad_columns < 0 || bad_columns > 100)
+    return fail("bad_columns " + std::to_string(bad_columns) + ": must be in [0, 100] per cell");
   return true;
 }
 
@@ -282,6 +284,23 @@ std::vector<CellStar> CellSimulator::stars(int cell) const {
   return out;
 }
 
+std::vector<CellDefect> CellSimulator::defects(int cell) const {
+  const CellSimOptions& o = options_;
+  RandomStream draw({o.seed, kDefectPurpose, static_cast<std::uint64_t>(cell)});
+  std::vector<CellDefect> out;
+  for (int k = 0; k < o.bad_columns; ++k) {
+    const int x = std::min(o.size - 1, static_cast<int>(draw.uniform(0, o.size)));
+    const int length = std::min(o.size, static_cast<int>(draw.uniform(0.25 * o.size, o.size + 1.0)));
+    const int y0 = std::min(o.size - length, static_cast<int>(draw.uniform(0, o.size - length + 1.0)));
+    CellDefect d{x, y0, x, y0 + length - 1};
+    if (o.rotate) {  // turned with the scene: (x, y) -> (size - 1 - y, x)
+      d = {o.size - 1 - d.y1, d.x0, o.size - 1 - d.y0, d.x1};
+    }
+    out.push_back(d);
+  }
+  return out;
+}
+
 SimCell CellSimulator::simulate(int cell, double g1, double g2, Workspace& ws) const {
   const CellSimOptions& o = options_;
   SimCell out;
@@ -357,6 +376,13 @@ SimCell CellSimulator::simulate(int cell, double g1, double g2, Workspace& ws) c
     for (double& v : out.bands[b].image) v += sigma * noise.normal();
     for (double& v : out.bands[b].noise) v = sigma * plane.normal();
   }
+  // Bad columns: hot pixels over whatever was there (BMASK flags them).
+  out.defects = defects(cell);
+  for (const CellDefect& d : out.defects)
+    for (std::size_t b = 0; b < bands_.size(); ++b)
+      for (int y = d.y0; y <= d.y1; ++y)
+        for (int x = d.x0; x <= d.x1; ++x)
+          out.bands[b].image[static_cast<std::size_t>(y) * size + x] = 1e3 * bands_[b].noise_sigma;
   return out;
 }
 

@@ -84,6 +84,10 @@ struct CellSimOptions {
   // log-uniform in [10, star_flux] x the galaxies' flux.
   int stars = 0;
   double star_flux = 1000;
+  // Bad columns per cell (detector defects): vertical runs of hot pixels (1e3 sigma), at least a
+  // quarter of the cell long, the same under any shear (turned with the scene), each pixel flagged
+  // in BMASK (bit 1).
+  int bad_columns = 0;
   int bands = 1;              // band b of B: flux x (1 + 0.5 b / (B - 1)), PSF FWHM x (1 - 0.1 b / (B - 1)),
                               // bd bulge fraction x (0.5 + b / (B - 1)) (capped at 1)
   std::uint64_t seed = 42;
@@ -110,6 +114,11 @@ struct CellStar {
   double radius = 0;    // pixels
 };
 
+// One bad column: pixels (x, y0) .. (x, y1) of the cell, 0-based (with rotate, a row: (x0, y) .. (x1, y)).
+struct CellDefect {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;  // inclusive corners of a one-pixel-wide run
+};
+
 struct CellBandImage {
   std::vector<double> image;  // size^2 row-major (x fastest): galaxies + noise
   std::vector<double> noise;  // size^2: an independent noise field of the same sigma
@@ -120,6 +129,7 @@ struct SimCell {
   double g1 = 0, g2 = 0;            // the shear this cell was drawn with
   std::vector<CellObject> objects;
   std::vector<CellStar> stars;
+  std::vector<CellDefect> defects;  // its bad columns, flagged in BMASK
   std::vector<CellBandImage> bands;
 };
 
@@ -148,6 +158,8 @@ class CellSimulator {
   std::vector<CellObject> objects(int cell, double g1, double g2) const;
   // Its stars (positions, fluxes, mask radii): the same under any shear.
   std::vector<CellStar> stars(int cell) const;
+  // Its bad columns: the same under any shear.
+  std::vector<CellDefect> defects(int cell) const;
   // Cell `cell` under the shear (g1, g2) (the options' or its negative for a shear pair).
   // Thread-safe given a workspace per thread.
   SimCell simulate(int cell, double g1, double g2, Workspace& ws) const;

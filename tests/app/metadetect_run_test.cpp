@@ -808,6 +808,45 @@ TEST(MetadetectRun, SkyStarCatalogueIsPlacedByEachImagesWcs) {
   }
 }
 
+// `sim cells --bad-columns`: hot columns flagged in BMASK, the same under +g and -g; metadetect
+// masks them (filled), reports the bit at detections on them, and keeps no hot pixel's detection
+// unflagged.
+TEST(MetadetectRun, SimulatedBadColumnsAreFlaggedInBmaskAndMasked) {
+  testing::ScratchDir scratch("stampede_mdet_sim_columns_");
+  CellSimOptions so;
+  so.snr = 1e4;
+  so.bad_columns = 3;
+  CellOutputOptions out;
+  out.cells = 2;
+  out.pair = true;
+  simulate_on_one_thread(so, out, scratch.path("sims"));
+  const io::CellImage plus = io::read_cell_image(scratch.path("sims/cell_0000.fits"), true);
+  const io::CellImage minus = io::read_cell_image(scratch.path("sims/minus/cell_0000.fits"), true);
+  ASSERT_EQ(plus.bmask, minus.bmask);
+  long long flagged = 0;
+  for (std::size_t p = 0; p < plus.bmask.size(); ++p) {
+    flagged += plus.bmask[p] == 1;
+    if (plus.bmask[p]) {
+      EXPECT_EQ(plus.weight[p], 0.0);  // masked on reading
+    }
+  }
+  EXPECT_GE(flagged, 3 * 251 / 4);
+  EXPECT_EQ(plus.masked_by_bmask, flagged);
+  MetadetectRunOptions o;
+  o.inputs = {scratch.path("sims/cell_0000.fits"), scratch.path("sims/cell_0001.fits")};
+  o.threads = 2;
+  o.output = scratch.path("out.fits");
+  EXPECT_EQ(run_metadetect(o).cells_failed, 0);
+  for (const MetadetectRow& r : io::read_metadetect_rows(o.output)) {
+    if (r.id < 0 || r.cell != 0) continue;
+    const std::size_t p = static_cast<std::size_t>(std::lround(r.y_noshear)) * 251 + static_cast<std::size_t>(std::lround(r.x_noshear));
+    EXPECT_EQ(r.bmask, plus.bmask[p]);
+    if (r.bmask) {
+      EXPECT_TRUE(r.flags & kMetadetectMasked);
+    }
+  }
+}
+
 // `sim cells --stars`: unlensed stars, the same under +g and -g, each image with its STARS table;
 // `--star-mask-hdu STARS` masks each image by its own table: no detection inside a star's disc,
 // where without it the stars are detected.
