@@ -6,6 +6,8 @@
 # measured (a chunk of 2,000 pairs is 4,000 cells, ~4 GB), its tables reduced to per-cell sums
 # (pair_statistics.py extract) and deleted. Then every variant over every chunk's pairs
 # (pair_statistics.py combine: per-cell and pooled estimators, bootstrap over pairs).
+# SIM_OPTIONS adds `sim cells` options (e.g. "--stars 0 --bad-columns 2": masks from BMASK alone);
+# VARIANTS picks the variants (default: all four).
 #   usage: docs/survey_metadetect/masked_shear_campaign.sh [CHUNKS (12)] [PAIRS (2000)] [STARS (2)] [BUILD (build)] [WORK (/tmp/stampede-masked-campaign)]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -14,14 +16,17 @@ S="$(realpath "$build/tools/stampede")"
 P="docs/survey_metadetect/pair_statistics.py"
 export PYTHONPATH="$(realpath "$build/python")"
 mkdir -p "$work/sums"
-variants=(default no_symmetry no_fill no_stars_mask)
-declare -A options=([default]="--star-mask-hdu STARS" [no_symmetry]="--star-mask-hdu STARS --no-mask-symmetry"
-                    [no_fill]="--star-mask-hdu STARS --no-mask-fill" [no_stars_mask]="")
+read -r -a variants <<< "${VARIANTS:-default no_symmetry no_fill no_stars_mask}"
+star=""
+if ((stars > 0)); then star="--star-mask-hdu STARS"; fi
+declare -A options=([default]="$star" [no_symmetry]="$star --no-mask-symmetry" [no_fill]="$star --no-mask-fill"
+                    [no_stars_mask]="")
 for ((k = 0; k < chunks; ++k)); do
-  if [[ -f "$work/sums/no_stars_mask.$k.npz" ]]; then continue; fi  # done by an earlier run
+  if [[ -f "$work/sums/${variants[-1]}.$k.npz" ]]; then continue; fi  # done by an earlier run
   sims="$work/sims"
+  # shellcheck disable=SC2086
   "$S" sim cells --out "$sims" --cells "$pairs" --pair --reference --layout random --stars "$stars" \
-    --seed $((1000 + k)) --overwrite 2>/dev/null
+    --seed $((1000 + k)) --overwrite ${SIM_OPTIONS:-} 2>/dev/null
   ls "$sims"/cell_*.fits > "$work/plus.list"
   ls "$sims"/minus/cell_*.fits > "$work/minus.list"
   for v in "${variants[@]}"; do
@@ -30,9 +35,13 @@ for ((k = 0; k < chunks; ++k)); do
       "$S" metadetect --input-list "$work/$sign.list" -o "$work/${v}_$sign.fits" --keep-unlensed --overwrite --quiet ${options[$v]}
     done
     /usr/bin/python3 "$P" extract "$work/${v}_plus.fits" "$work/${v}_minus.fits" "$work/sums/${v}.$k.npz"
-    if [[ $v == default ]]; then
+    if [[ $v == default ]]; then  # must-show 2: the default's m at other mfrac cuts, on the same pairs
       /usr/bin/python3 "$P" extract "$work/${v}_plus.fits" "$work/${v}_minus.fits" "$work/sums/default_no_mfrac_cut.$k.npz" \
         --cut-mfrac 1
+      for cut in 0.02 0.05 0.3; do
+        /usr/bin/python3 "$P" extract "$work/${v}_plus.fits" "$work/${v}_minus.fits" "$work/sums/default_mfrac_$cut.$k.npz" \
+          --cut-mfrac "$cut"
+      done
     fi
     rm -f "$work/${v}_plus.fits" "$work/${v}_minus.fits"
   done

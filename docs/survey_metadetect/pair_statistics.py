@@ -11,6 +11,8 @@
         package's shear test);
       pooled: the same with every kept row of every cell in one mean per side and type (`stampede
         metrics --metadetect --estimator package`: each object counts once, as in a survey's mean).
+      --versus B1.npz ...: the same pairs under other cuts (chunk for chunk): both, and their
+        difference with the same bootstrap draws (the pairs' shared noise cancels in it).
 """
 import argparse
 import sys
@@ -74,6 +76,7 @@ def main():
     ap.add_argument("--bootstrap", type=int, default=500)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--shear", type=float, default=0.02)
+    ap.add_argument("--versus", nargs="+", default=[])
     a = ap.parse_args()
     if a.mode == "extract":
         plus, minus, out = a.files
@@ -82,17 +85,33 @@ def main():
         np.savez(out, count_plus=cp, s1_plus=p1, s2_plus=p2, count_minus=cm, s1_minus=m1, s2_minus=m2)
         return 0
     keys = ["count", "s1", "s2"]
-    sp = [np.concatenate([np.load(f)[k + "_plus"] for f in a.files]) for k in keys]
-    sq = [np.concatenate([np.load(f)[k + "_minus"] for f in a.files]) for k in keys]
-    p, q = per_cell(*sp), per_cell(*sq)
-    ok = np.all(np.isfinite(np.array(p + q)), axis=0)  # a cell with no kept row in some type: not a pair
-    p, q = [x[ok] for x in p], [x[ok] for x in q]
-    sp, sq = [x[ok] for x in sp], [x[ok] for x in sq]
-    n = len(p[0])
+
+    def load(files):
+        sp = [np.concatenate([np.load(f)[k + "_plus"] for f in files]) for k in keys]
+        sq = [np.concatenate([np.load(f)[k + "_minus"] for f in files]) for k in keys]
+        return sp, sq, per_cell(*sp), per_cell(*sq)
+
+    sets = [load(a.files)] + ([load(a.versus)] if a.versus else [])
+    # A pair with no kept row in some shear type (in any set) has no estimate: left out of all.
+    ok = np.all([np.all(np.isfinite(np.array(p + q)), axis=0) for _, _, p, q in sets], axis=0)
+    sets = [([x[ok] for x in sp], [x[ok] for x in sq], [x[ok] for x in p], [x[ok] for x in q]) for sp, sq, p, q in sets]
+    n = int(ok.sum())
     print(f"pairs {n} (of {len(ok)}; {len(ok) - n} without a kept row in some shear type)")
-    report("per cell", lambda i: m_c([x[i] for x in p], [x[i] for x in q], a.shear), n, a.shear, a.bootstrap, a.seed)
-    report("pooled", lambda i: m_c_pooled([x[i] for x in sp], [x[i] for x in sq], a.shear), n, a.shear, a.bootstrap,
-           a.seed)
+    estimators = {
+        "per cell": lambda s, i: m_c([x[i] for x in s[2]], [x[i] for x in s[3]], a.shear),
+        "pooled": lambda s, i: m_c_pooled([x[i] for x in s[0]], [x[i] for x in s[1]], a.shear),
+    }
+    for label, est in estimators.items():
+        if len(sets) == 1:
+            report(label, lambda i: est(sets[0], i), n, a.shear, a.bootstrap, a.seed)
+            continue
+        # m of each set and their difference, with the same draws.
+        rng = np.random.default_rng(a.seed)
+        full = [est(s, np.arange(n)) for s in sets]
+        draws = [rng.integers(0, n, n) for _ in range(a.bootstrap)]
+        boot = np.array([[est(s, i)[0] for s in sets] for i in draws])
+        print(f"  {label:8s} m1 = {full[0][0]:+.3e} +- {boot[:, 0].std():.1e} versus {full[1][0]:+.3e} +- "
+              f"{boot[:, 1].std():.1e}: difference {full[0][0] - full[1][0]:+.3e} +- {(boot[:, 0] - boot[:, 1]).std():.1e}")
     return 0
 
 
