@@ -7,7 +7,7 @@
 # (pair_statistics.py extract) and deleted. Then every variant over every chunk's pairs
 # (pair_statistics.py combine: per-cell and pooled estimators, bootstrap over pairs).
 # SIM_OPTIONS adds `sim cells` options (e.g. "--stars 0 --bad-columns 2": masks from BMASK alone);
-# VARIANTS picks the variants (default: all four).
+# VARIANTS picks the variants (default: the four above; no_fill_no_symmetry also exists).
 #   usage: docs/survey_metadetect/masked_shear_campaign.sh [CHUNKS (12)] [PAIRS (2000)] [STARS (2)] [BUILD (build)] [WORK (/tmp/stampede-masked-campaign)]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -20,7 +20,7 @@ read -r -a variants <<< "${VARIANTS:-default no_symmetry no_fill no_stars_mask}"
 star=""
 if ((stars > 0)); then star="--star-mask-hdu STARS"; fi
 declare -A options=([default]="$star" [no_symmetry]="$star --no-mask-symmetry" [no_fill]="$star --no-mask-fill"
-                    [no_stars_mask]="")
+                    [no_fill_no_symmetry]="$star --no-mask-fill --no-mask-symmetry" [no_stars_mask]="")
 for ((k = 0; k < chunks; ++k)); do
   if [[ -f "$work/sums/${variants[-1]}.$k.npz" ]]; then continue; fi  # done by an earlier run
   sims="$work/sims"
@@ -49,6 +49,7 @@ for ((k = 0; k < chunks; ++k)); do
   echo "chunk $k of $chunks done: $(date -u +%H:%M:%S)"
 done
 for v in "${variants[@]}" default_no_mfrac_cut; do
+  compgen -G "$work/sums/$v.*.npz" > /dev/null || continue
   echo "== $v"
   /usr/bin/python3 "$P" combine "$work"/sums/"${v}".*.npz
 done
