@@ -159,16 +159,8 @@ void write_cell_simulation(const CellSimOptions& options, const CellOutputOption
         tile.write_cutout(cell.index, 0, io::MedsCutoutType::kImage, img.image);
         tile.write_cutout(cell.index, 0, io::MedsCutoutType::kWeight, weight);
         tile.write_cutout(cell.index, 0, io::MedsCutoutType::kSeg, zeros);
-        if (cell.defects.empty()) {
-          tile.write_cutout(cell.index, 0, io::MedsCutoutType::kBmask, zeros);
-        } else {
-          std::vector<double> bmask(zeros.size(), 0.0);
-          const auto n = static_cast<std::size_t>(sim.options().size);
-          for (const CellDefect& d : cell.defects)
-            for (int y = d.y0; y <= d.y1; ++y)
-              for (int x = d.x0; x <= d.x1; ++x) bmask[static_cast<std::size_t>(y) * n + static_cast<std::size_t>(x)] = 1;
-          tile.write_cutout(cell.index, 0, io::MedsCutoutType::kBmask, bmask);
-        }
+        tile.write_cutout(cell.index, 0, io::MedsCutoutType::kBmask,
+                          cell.defects.empty() ? zeros : cell.bmask(sim.options().size));
         tile.write_cutout(cell.index, 0, io::MedsCutoutType::kNoise, img.noise);
         tile.write_psf_cutout(cell.index, 0, band.psf);
       }

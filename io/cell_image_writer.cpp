@@ -74,11 +74,7 @@ void write_cell_image(const std::string& path, const CellSimulator& simulator, c
     const std::vector<double> weight(images.image.size(), 1.0 / (b.noise_sigma * b.noise_sigma));
     f.write_image(n, n, weight, "WEIGHT", FitsFile::PixelType::kFloat32);
     f.write_key("BUNIT", std::string("1/NOISESIG^2"), "inverse variance");
-    std::vector<double> bmask(images.image.size(), 0.0);
-    for (const CellDefect& d : cell.defects)
-      for (int y = d.y0; y <= d.y1; ++y)
-        for (int x = d.x0; x <= d.x1; ++x) bmask[static_cast<std::size_t>(y) * n + x] = 1;
-    f.write_image(n, n, bmask, "BMASK", FitsFile::PixelType::kInt32);
+    f.write_image(n, n, cell.bmask(static_cast<int>(n)), "BMASK", FitsFile::PixelType::kInt32);
     f.write_image(n, n, images.noise, "NOISE", FitsFile::PixelType::kFloat32);
     f.write_key("NOISESIG", b.noise_sigma, "sigma of this noise field");
     const long p = o.psf_size;

@@ -14,6 +14,17 @@
 namespace stampede::io {
 namespace {
 
+// The side x side window of an image plane (`width` wide) at the cell's place, row by row into `to`.
+template <class T>
+void copy_cell(std::span<const T> plane, long width, const CellPlacement& place, int side, T* to) {
+  for (int y = 0; y < side; ++y)
+    std::copy_n(plane.begin() + static_cast<long>(static_cast<std::size_t>(place.y0 + y) * width + place.x0), side,
+                to + static_cast<std::size_t>(y) * side);
+}
+
+}  // namespace
+namespace {
+
 // For messages: enough digits to tell apart what the 1e-6 checks refuse.
 std::string short_number(double v) {
   std::ostringstream s;
@@ -195,23 +206,23 @@ void CellSource::fill_tile_cell(StampBatch& batch, CellBatch& data) {
       cell_.noise.resize(npix);
       tile.read_cutout(o, 0, MedsCutoutType::kNoise, cell_.noise);
     }
-    bits_plane_bits_.resize(npix);
+    bits_scratch_.resize(npix);
     if (tile.has(MedsCutoutType::kBmask)) {
-      mask_bits(mask_, bits_plane_bits_);
-      or_bits(bits_plane_bits_, npix, 0, data, &cell);
+      mask_bits(mask_, bits_scratch_);
+      or_bits(bits_scratch_, npix, 0, data, &cell);
     }
     if (tile.has(MedsCutoutType::kMfrac)) {
-      bits_plane_.resize(npix);
-      tile.read_cutout(o, 0, MedsCutoutType::kMfrac, bits_plane_);
-      if (const std::string why = mfrac_problem(bits_plane_, size); !why.empty())
+      plane_scratch_.resize(npix);
+      tile.read_cutout(o, 0, MedsCutoutType::kMfrac, plane_scratch_);
+      if (const std::string why = mfrac_problem(plane_scratch_, size); !why.empty())
         throw ConfigError(where + ": mfrac_cutouts: " + why);
-      add_mfrac(bits_plane_, npix, bands, data, &cell);
+      add_mfrac(plane_scratch_, npix, bands, data, &cell);
     }
     if (tile.has(MedsCutoutType::kOrmask)) {
-      bits_plane_.resize(npix);
-      tile.read_cutout(o, 0, MedsCutoutType::kOrmask, bits_plane_);
-      mask_bits(bits_plane_, bits_plane_bits_);
-      or_bits(bits_plane_bits_, npix, 1, data, &cell);
+      plane_scratch_.resize(npix);
+      tile.read_cutout(o, 0, MedsCutoutType::kOrmask, plane_scratch_);
+      mask_bits(plane_scratch_, bits_scratch_);
+      or_bits(bits_scratch_, npix, 1, data, &cell);
     }
     try {
       apply_cell_masks(mask_, &cell_);
@@ -291,12 +302,9 @@ void CellSource::fill_image_cell(StampBatch& batch, CellBatch& data) {
         cell.problem = psfex_files_[static_cast<std::size_t>(b)] + ": " + why;
     }
     const long long band_noise = cell.noise_offset + static_cast<long long>(b * npix);
-    for (int y = 0; y < s; ++y) {
-      const std::size_t from = static_cast<std::size_t>(place.y0 + y) * im.width + place.x0;
-      std::copy_n(im.pixels.begin() + from, s, pixels.begin() + static_cast<std::size_t>(y) * s);
-      std::copy_n(im.weight.begin() + from, s, weights.begin() + static_cast<std::size_t>(y) * s);
-      if (noise) std::copy_n(im.noise.begin() + from, s, data.noise.begin() + band_noise + static_cast<long long>(y) * s);
-    }
+    copy_cell(std::span<const double>(im.pixels), im.width, place, s, pixels.data());
+    copy_cell(std::span<const double>(im.weight), im.width, place, s, weights.data());
+    if (noise) copy_cell(std::span<const double>(im.noise), im.width, place, s, data.noise.data() + band_noise);
     // Nothing to measure: said with the image's reasons, so a NaN image is not taken for bad weights.
     if (cell.problem.empty() && im.masked > 0 && std::all_of(weights.begin(), weights.end(), [](double w) { return w == 0; }))
       cell.problem = std::string(bands > 1 ? "band " + std::to_string(b) + ": " : "") +
@@ -304,20 +312,16 @@ void CellSource::fill_image_cell(StampBatch& batch, CellBatch& data) {
                      im.masked_text() + ")";
     check_sky(pixels, weights, b, bands, &cell);
     if (!im.mfrac.empty()) {
-      bits_plane_.resize(npix);
-      for (int y = 0; y < s; ++y)
-        std::copy_n(im.mfrac.begin() + static_cast<long>(static_cast<std::size_t>(place.y0 + y) * im.width + place.x0), s,
-                    bits_plane_.begin() + static_cast<long>(y) * s);
-      add_mfrac(bits_plane_, npix, bands, data, &cell);
+      plane_scratch_.resize(npix);
+      copy_cell(std::span<const double>(im.mfrac), im.width, place, s, plane_scratch_.data());
+      add_mfrac(plane_scratch_, npix, bands, data, &cell);
     }
     for (int k = 0; k < 2; ++k) {
       const std::vector<std::int32_t>& plane = k == 0 ? im.bmask : im.ormask;
       if (plane.empty()) continue;
-      bits_plane_bits_.resize(npix);
-      for (int y = 0; y < s; ++y)
-        std::copy_n(plane.begin() + static_cast<long>(static_cast<std::size_t>(place.y0 + y) * im.width + place.x0), s,
-                    bits_plane_bits_.begin() + static_cast<long>(y) * s);
-      or_bits(bits_plane_bits_, npix, k, data, &cell);
+      bits_scratch_.resize(npix);
+      copy_cell(std::span<const std::int32_t>(plane), im.width, place, s, bits_scratch_.data());
+      or_bits(bits_scratch_, npix, k, data, &cell);
     }
   }
   add_stars(cell.place.x0, cell.place.y0, s, data, &cell);

@@ -100,8 +100,8 @@ class CellSource : public StampSource {
   std::vector<long long> boxes_;  // the tiles' cell sides
   long long max_tile_box_ = 0;    // the largest, found while laying out the cells
   CellImage cell_;  // a tile's cell as read
-  std::vector<double> mask_, bits_plane_;
-  std::vector<std::int32_t> bits_plane_bits_;
+  std::vector<double> mask_, plane_scratch_;  // a tile's bmask cutout; an mfrac or ormask plane
+  std::vector<std::int32_t> bits_scratch_;    // a plane's bits
   std::vector<double> sky_scratch_;
   std::vector<StarDisc> stars_;  // the current file's discs
   std::optional<StarCatalogue> catalogue_;

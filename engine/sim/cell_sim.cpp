@@ -284,6 +284,15 @@ std::vector<CellStar> CellSimulator::stars(int cell) const {
   return out;
 }
 
+std::vector<double> SimCell::bmask(int size) const {
+  const auto n = static_cast<std::size_t>(size);
+  std::vector<double> plane(n * n, 0.0);
+  for (const CellDefect& d : defects)
+    for (int y = d.y0; y <= d.y1; ++y)
+      for (int x = d.x0; x <= d.x1; ++x) plane[static_cast<std::size_t>(y) * n + static_cast<std::size_t>(x)] = 1;
+  return plane;
+}
+
 std::vector<CellDefect> CellSimulator::defects(int cell) const {
   const CellSimOptions& o = options_;
   RandomStream draw({o.seed, kDefectPurpose, static_cast<std::uint64_t>(cell)});

@@ -130,6 +130,9 @@ struct SimCell {
   std::vector<CellObject> objects;
   std::vector<CellStar> stars;
   std::vector<CellDefect> defects;  // its bad columns, flagged in BMASK
+
+  // Its BMASK plane (size x size, row-major): 1 on its defects' pixels, else 0.
+  std::vector<double> bmask(int size) const;
   std::vector<CellBandImage> bands;
 };
 

@@ -61,6 +61,15 @@ void simulate_on_one_thread(const CellSimOptions& so, const CellOutputOptions& o
   write_cell_simulation(so, out, dir);
 }
 
+// n cells of the shear test (nearly noise-free) and their shear pairs in dir (minus/ the -g ones).
+void simulate_pairs(CellSimOptions so, int n, const std::string& dir) {
+  so.snr = 1e4;
+  CellOutputOptions out;
+  out.cells = n;
+  out.pair = true;
+  simulate_on_one_thread(so, out, dir);
+}
+
 // n cells of the shear test (nearly noise-free) in dir; their paths.
 std::vector<std::string> sim_cells(const std::string& dir, int n, CellSimOptions o = {}) {
   o.snr = 1e4;
@@ -814,12 +823,8 @@ TEST(MetadetectRun, SkyStarCatalogueIsPlacedByEachImagesWcs) {
 TEST(MetadetectRun, SimulatedBadColumnsAreFlaggedInBmaskAndMasked) {
   testing::ScratchDir scratch("stampede_mdet_sim_columns_");
   CellSimOptions so;
-  so.snr = 1e4;
   so.bad_columns = 3;
-  CellOutputOptions out;
-  out.cells = 2;
-  out.pair = true;
-  simulate_on_one_thread(so, out, scratch.path("sims"));
+  simulate_pairs(so, 2, scratch.path("sims"));
   const io::CellImage plus = io::read_cell_image(scratch.path("sims/cell_0000.fits"), true);
   const io::CellImage minus = io::read_cell_image(scratch.path("sims/minus/cell_0000.fits"), true);
   ASSERT_EQ(plus.bmask, minus.bmask);
@@ -853,12 +858,8 @@ TEST(MetadetectRun, SimulatedBadColumnsAreFlaggedInBmaskAndMasked) {
 TEST(MetadetectRun, SimulatedStarsAreMaskedByEachImagesOwnTable) {
   testing::ScratchDir scratch("stampede_mdet_sim_stars_");
   CellSimOptions so;
-  so.snr = 1e4;
   so.stars = 3;
-  CellOutputOptions out;
-  out.cells = 2;
-  out.pair = true;
-  simulate_on_one_thread(so, out, scratch.path("sims"));
+  simulate_pairs(so, 2, scratch.path("sims"));
   std::vector<std::string> inputs;
   for (int k = 0; k < 2; ++k) {
     const std::string plus = scratch.path("sims/cell_000" + std::to_string(k) + ".fits");
