@@ -8,6 +8,7 @@
 
 #include "app/fit_input.hpp"
 #include "app/fit_table_sink.hpp"
+#include "app/worker_recipe.hpp"
 #include "io/catalog_writer.hpp"
 #include "io/durable_file.hpp"
 #include "io/file_digest.hpp"
@@ -93,15 +94,9 @@ RunSummary run_input(const FitRunOptions& run, const TableRun& table, FitInput& 
     PipelineOptions pipeline_options;
     pipeline_options.threads = run.threads;
     pipeline_options.batch_size = config.batch_size;
-    std::function<std::unique_ptr<BatchFitter>()> make_fitter = in.make_fitter;
-    if (run.distribute) {
-      FitDistribution d = run.distribute(DistributedRun{config, in.meds, in.bands}, make_fitter);
-      make_fitter = std::move(d.make_fitter);
-      pipeline_options.threads = d.pipeline_threads;
-    }
     summary.setup_seconds = since(start);
-    const PipelineSummary fitted =
-        measure_table(table, source, summary.resumed, sink, writer.get(), make_fitter, pipeline_options);
+    const PipelineSummary fitted = measure_table(table, source, summary.resumed, sink, writer.get(), in.make_fitter,
+                                                 pipeline_options, fit_worker_recipe(config, in.meds, in.bands));
     const Clock::time_point finish_start = Clock::now();
     summary.interrupted = fitted.stopped;
     if (in.recipe && !config.fft_wisdom.empty() && !save_fftw_wisdom(config.fft_wisdom) && !run.quiet)

@@ -28,24 +28,6 @@
 
 namespace stampede::app {
 
-// How a run spreads its fits beyond this process (the MPI driver): given the run's final
-// configuration (and, for survey input, its tiles and bands) and the factory of local per-thread
-// fitters, the factory the pipeline uses instead and the pipeline's thread count (fit stages in
-// flight). Called once, after the input, PSF and outputs are set up and before the first batch.
-// A batch carries everything its fit needs (a grid's stamps, a survey object's cutouts and PSFs),
-// so a worker elsewhere fits it from the configuration alone.
-struct FitDistribution {
-  std::function<std::unique_ptr<BatchFitter>()> make_fitter;
-  int pipeline_threads = 0;
-};
-struct DistributedRun {
-  const app::RunConfig& config;     // effective: stamp size, PSF and renderer as the run resolved them
-  std::vector<std::string> meds;   // survey input: the tiles, in band order (the workers' messages name them)
-  std::vector<std::string> bands;  // survey input: the band names (empty: one tile without band columns)
-};
-using FitDistributor =
-    std::function<FitDistribution(const DistributedRun& run, std::function<std::unique_ptr<BatchFitter>()> local)>;
-
 // The per-thread fitter of a survey run's batches with this configuration (the run's own and an
 // MPI worker's). Throws io::ConfigError for options that cannot work together.
 std::unique_ptr<BatchFitter> make_survey_fitter(const app::RunConfig& config, const std::vector<std::string>& meds,
@@ -89,8 +71,8 @@ struct FitRunOptions {
   // is seen, those in flight are written, and run() returns with RunSummary::interrupted, the
   // outputs left as a killed run leaves them (partials and checkpoint, for resume).
   const std::atomic<bool>* stop = nullptr;
-  // Empty: every fit in this process (threads). Set: the fits go where it says (FitDistribution).
-  FitDistributor distribute;
+  // Empty: every fit in this process (threads). Set: the fits go where it says (app/run_harness).
+  Distributor distribute;
 };
 
 class FitRun {

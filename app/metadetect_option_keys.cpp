@@ -48,8 +48,8 @@ MetadetectOptionKey toggle(const char* field, const char* flag, bool sets, const
   return {field, flag, "", header, Kind::kSwitch, sets,
           [access](const MetadetectOptions& o) { return std::string(access(o) ? "T" : "F"); },
           [access](MetadetectOptions& o, std::string_view text) {
-            bool v = false;
-            std::string why = io::parse_bool(text, &v);
+            bool v = text == "T";  // as recorded
+            std::string why = text == "T" || text == "F" ? std::string() : io::parse_bool(text, &v);
             if (why.empty()) access(o) = v;
             return why;
           },
@@ -99,7 +99,11 @@ std::vector<MetadetectOptionKey> make_table() {
            "each detection (%s)"),
       {"double_images", "--double-images", "", "IMGPREC", Kind::kSwitch, true,
        [](const O& o) { return std::string(o.double_images ? "double" : "single"); },
-       [](O& o, std::string_view text) { return io::parse_bool(text, &o.double_images); },
+       [](O& o, std::string_view text) {
+         if (text != "double" && text != "single") return io::parse_bool(text, &o.double_images);
+         o.double_images = text == "double";  // as recorded
+         return std::string();
+       },
        "make the cells' metacal images in double precision (by default\n"
        "single: about half the time, within ~2e-7 of the images' peak)"},
       toggle("per_object_metacal", "--per-object-metacal", true, "PEROBJMC", [](auto& o) -> auto& { return o.per_object_metacal; },

@@ -156,9 +156,17 @@ std::unique_ptr<StampSource> shard_source(const TableRun& run, StampSource& whol
 }
 
 PipelineSummary measure_table(const TableRun& run, StampSource& source, long long committed, BatchSink& sink,
-                              io::TableWriter* table, const std::function<std::unique_ptr<BatchFitter>()>& make_measurer,
-                              PipelineOptions pipeline) {
+                              io::TableWriter* table, const MeasurerFactory& make_measurer, PipelineOptions pipeline,
+                              const WorkerRecipe& recipe) {
   pipeline.stop = run.stop;
+  Distribution distribution{make_measurer, pipeline.threads, nullptr};
+  if (run.distribute) {
+    distribution = run.distribute(recipe, make_measurer);
+    pipeline.threads = distribution.pipeline_threads;
+  }
+  const auto finish_distribution = [&] {
+    if (distribution.finish) distribution.finish();
+  };
   const long long total = source.total_objects();
   auto progress = [&run, total, committed, last = -1.0](const PipelineProgress& p) mutable {
     if (!run.on_progress || p.seconds - last < run.progress_interval) return;
@@ -173,10 +181,12 @@ PipelineSummary measure_table(const TableRun& run, StampSource& source, long lon
     run.on_progress(r);
   };
   try {
-    const PipelineSummary summary = run_pipeline(source, sink, make_measurer, pipeline, progress);
+    const PipelineSummary summary = run_pipeline(source, sink, distribution.make_measurer, pipeline, progress);
+    finish_distribution();
     if (table && !summary.stopped) table->finish();  // stopped: the partials stay, as a kill leaves them
     return summary;
   } catch (...) {
+    finish_distribution();
     if (table) table->abandon();
     throw;
   }

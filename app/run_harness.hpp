@@ -83,6 +83,26 @@ struct RunProgress {
   std::string Line() const;
 };
 
+// How a run spreads its measurements beyond this process (the MPI driver's ranks). The composition
+// describes its measurer for a worker elsewhere (WorkerRecipe: its kind and key = value lines, from
+// which app/worker_measurers makes the same measurer); the distributor returns the factory the
+// pipeline uses instead of `local` (each measurement here or on a worker), the pipeline's thread
+// count (measurements in flight) and what ends the workers' part of the run. Called once per run,
+// before its first batch. A batch carries everything its measurement needs (a grid's stamps, a
+// survey object's cutouts and PSFs, a cell's bands and planes).
+struct WorkerRecipe {
+  std::string kind;  // "fit", "metadetect"
+  std::vector<std::pair<std::string, std::string>> lines;
+  int batch_size = 1;
+};
+using MeasurerFactory = std::function<std::unique_ptr<BatchFitter>()>;
+struct Distribution {
+  MeasurerFactory make_measurer;
+  int pipeline_threads = 0;
+  std::function<void()> finish;  // after the pipeline, whether it ended, stopped or failed
+};
+using Distributor = std::function<Distribution(const WorkerRecipe& recipe, MeasurerFactory local)>;
+
 // What a table-writing run asks of the harness, in its front end's words.
 struct TableRun {
   std::string output;
@@ -95,6 +115,7 @@ struct TableRun {
   std::function<void(const RunProgress&)> on_progress;  // at most every progress_interval seconds
   double progress_interval = 0.5;
   std::function<void(const std::string&)> on_warning;
+  Distributor distribute;  // empty: every measurement in this process
   void warn(const std::string& text) const {
     if (on_warning) on_warning(text);
   }
@@ -115,6 +136,7 @@ TableRun table_run(const RunOptions& options, std::string extname, const char* u
   table.on_progress = options.on_progress;
   table.progress_interval = options.progress_interval;
   table.on_warning = options.on_warning;
+  table.distribute = options.distribute;
   return table;
 }
 
@@ -148,9 +170,11 @@ std::unique_ptr<Writer> open_table(const TableRun& run, const Options& options) 
 // 4. The shard of `whole` (null for the whole run), moved past its `committed` units.
 std::unique_ptr<StampSource> shard_source(const TableRun& run, StampSource& whole, long long committed);
 // Runs the pipeline over `source` (its units after `committed`), `sink` writing `table` (null:
-// none); finishes the table unless stopped; abandons it on an error, and rethrows.
+// none), each batch measured here by `make_measurer`'s measurers or, with run.distribute, where it
+// sends them (`recipe` tells the workers the measurer); finishes the table unless stopped;
+// abandons it on an error, and rethrows.
 PipelineSummary measure_table(const TableRun& run, StampSource& source, long long committed, BatchSink& sink,
-                              io::TableWriter* table, const std::function<std::unique_ptr<BatchFitter>()>& make_measurer,
-                              PipelineOptions pipeline);
+                              io::TableWriter* table, const MeasurerFactory& make_measurer, PipelineOptions pipeline,
+                              const WorkerRecipe& recipe);
 
 }  // namespace stampede::app

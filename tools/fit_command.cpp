@@ -185,6 +185,9 @@ int parse_fit_arguments(int argc, char** argv, FitCommandLine* command, bool mes
   return -1;
 }
 
+namespace {
+
+// One input, with progress and the summary on stderr (unless --quiet); the exit code.
 int run_fit_with_reports(app::FitRunOptions& r) {
   tools::ProgressPrinter printer(stderr, isatty(fileno(stderr)));
   if (!r.quiet) r.on_progress = [&](const app::RunProgress& p) { printer.update(p.seconds, p.Line()); };
@@ -209,16 +212,7 @@ int run_fit_with_reports(app::FitRunOptions& r) {
   return 0;
 }
 
-int run_fit_command(int argc, char** argv) {
-  FitCommandLine command;
-  if (const int exit_code = parse_fit_arguments(argc, argv, &command); exit_code >= 0) return exit_code;
-  // --resume of an output that is already complete: this run's table is left as it is (exit 0),
-  // another run's is refused (app/run_harness).
-  if (command.input_list.empty()) return run_fit_with_reports(command.run);
-  for (const app::ListedInput& input : listed_inputs(command))
-    if (const int code = run_listed_input(command, input); code != 0) return code;
-  return 0;
-}
+}  // namespace
 
 std::vector<app::ListedInput> listed_inputs(const FitCommandLine& command) {
   if (command.input_list.empty()) return {};
@@ -241,4 +235,19 @@ int run_listed_input(const FitCommandLine& command, const app::ListedInput& inpu
   if (r.resume && !std::filesystem::exists(input.output) && !std::filesystem::exists(input.output + ".checkpoint"))
     r.resume = false;
   return run_fit_with_reports(r);
+}
+
+int run_fit_command_line(FitCommandLine& command) {
+  // --resume of an output that is already complete: this run's table is left as it is (exit 0),
+  // another run's is refused (app/run_harness).
+  if (command.input_list.empty()) return run_fit_with_reports(command.run);
+  for (const app::ListedInput& input : listed_inputs(command))
+    if (const int code = run_listed_input(command, input); code != 0) return code;
+  return 0;
+}
+
+int run_fit_command(int argc, char** argv) {
+  FitCommandLine command;
+  if (const int exit_code = parse_fit_arguments(argc, argv, &command); exit_code >= 0) return exit_code;
+  return run_fit_command_line(command);
 }

@@ -21,10 +21,11 @@ struct FitCommandLine {
 // after --help or --help-config, 2 after a usage message). Throws for bad arguments. `messages`
 // false: the help and usage texts are not printed (the MPI driver's ranks other than 0).
 int parse_fit_arguments(int argc, char** argv, FitCommandLine* command, bool messages = true);
+// Runs the parsed command: its input, or each of its list's inputs in turn (skipped when its output
+// is complete and --resume is given, resumed when it has a checkpoint, else fitted afresh), with
+// progress and the summary on stderr (unless --quiet); returns the exit code.
+int run_fit_command_line(FitCommandLine& command);
 // The list's inputs with their outputs (the output directory created); empty without a list.
 std::vector<stampede::app::ListedInput> listed_inputs(const FitCommandLine& command);
-// Runs one input with progress and the summary on stderr (unless --quiet); returns the exit code.
-int run_fit_with_reports(stampede::app::FitRunOptions& run);
-// Runs the list's input k: skipped when its output is complete and --resume is given, resumed when
-// it has a checkpoint, else fitted afresh.
+// Runs the list's input so (the MPI driver's ranks take whole files).
 int run_listed_input(const FitCommandLine& command, const stampede::app::ListedInput& input);

@@ -243,7 +243,9 @@ int parse_metadetect_arguments(int argc, char** argv, MetadetectCommandLine* com
   return -1;
 }
 
-int run_metadetect_with_reports(const MetadetectCommandLine& command) {
+namespace {
+
+int run_and_report(const MetadetectCommandLine& command) {
   using namespace stampede;
   app::MetadetectRunOptions o = command.run;
   const bool quiet = command.quiet;
@@ -271,12 +273,18 @@ int run_metadetect_with_reports(const MetadetectCommandLine& command) {
   return r.stopped ? 1 : 0;
 }
 
-int run_metadetect_command(int argc, char** argv) {
-  MetadetectCommandLine command;
-  if (const int code = parse_metadetect_arguments(argc, argv, &command, true); code >= 0) return code;
+}  // namespace
+
+int run_metadetect_with_reports(const MetadetectCommandLine& command) {
   try {
-    return run_metadetect_with_reports(command);
+    return run_and_report(command);
   } catch (const stampede::io::ConfigError& e) {  // the core names option fields: the command line's are flags
     throw stampede::io::ConfigError(stampede::app::with_metadetect_flags(e.what()));
   }
+}
+
+int run_metadetect_command(int argc, char** argv) {
+  MetadetectCommandLine command;
+  if (const int code = parse_metadetect_arguments(argc, argv, &command, true); code >= 0) return code;
+  return run_metadetect_with_reports(command);
 }

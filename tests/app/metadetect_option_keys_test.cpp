@@ -1,6 +1,6 @@
 // The metadetection options' one table (app/metadetect_option_keys): fields, flags and header keys
 // each named once; the header records the keys a table has always carried, in order; every
-// option with a flag reads back what it records; the core's refusals, which name fields, read in
+// option reads back what it records; the core's refusals, which name fields, read in
 // the command line's flags once translated.
 #include "app/metadetect_option_keys.hpp"
 
@@ -44,14 +44,20 @@ TEST(MetadetectOptionKeys, EveryOptionReadsBackWhatItRecords) {
   changed.detection.deblend_contrast = 0.002, changed.detection.deblend_thresholds = 16;
   changed.detection.filter_fwhm = 2.5, changed.detection.filter_size = 9, changed.detection.clean = false;
   changed.stamp.size = 0, changed.stamp.box_min = 35, changed.stamp.box_max = 101;
+  changed.detection.clean_param = 1.5, changed.stamp.radius_factor = 2.5, changed.stamp.radius_min = 3.0;
+  changed.stamp.padding = 1.0;  // the options recorded without a flag
   std::string why;
   ASSERT_TRUE(changed.IsValid(&why)) << why;
-  MetadetectOptions read;
+  // The recorded text as it is (what an MPI worker reads), and a switch's words as the command line
+  // and Python give them.
+  MetadetectOptions read, said;
   for (const MetadetectOptionKey& k : metadetect_option_keys()) {
-    if (k.flag.empty()) continue;
-    std::string text = k.recorded(changed);
-    if (k.kind == MetadetectOptionKey::Kind::kSwitch) text = text == "T" || text == "double" ? "true" : "false";
+    const std::string text = k.recorded(changed);
     EXPECT_EQ(k.set(read, text), "") << k.field << " '" << text << "'";
+    if (k.kind != MetadetectOptionKey::Kind::kSwitch) continue;
+    const std::string word = text == "T" || text == "double" ? "true" : "false";
+    EXPECT_EQ(k.set(said, word), "") << k.field << " '" << word << "'";
+    EXPECT_EQ(k.recorded(said), text) << k.field;
   }
   EXPECT_EQ(metadetect_header_keys(read), metadetect_header_keys(changed));
   EXPECT_NE(metadetect_header_keys(read), metadetect_header_keys(MetadetectOptions()));
