@@ -1,5 +1,6 @@
-// The inputs of a metadetect run (app/metadetect_run): its bands, checked, and every file it reads
-// (image paths expanded per band, PSFEx models), as the cell source and the output checks take them.
+// The inputs of a metadetect run (app/metadetect_run): its bands, checked, every file it reads
+// (image paths expanded per band, PSFEx models), as the cell source and the output checks take them,
+// the cell source itself, and the table's identity (what it records of them).
 #pragma once
 
 #include <cstdint>
@@ -8,6 +9,7 @@
 
 #include "app/metadetect_run.hpp"
 #include "io/cell_source.hpp"
+#include "io/metadetect_writer.hpp"
 
 namespace stampede::app {
 
@@ -33,5 +35,20 @@ struct MetadetectFiles {
   std::vector<std::string> files;  // the inputs, band by band within a scene
 };
 MetadetectFiles metadetect_files(const MetadetectRunOptions& options, const std::vector<std::string>& bands);
+
+// The run's cell source over what it reads (image files or cell tiles), with its bright stars (one
+// catalogue for every input, or each image's own table). Throws io::ConfigError naming the star
+// options that do not go together or are out of range.
+io::CellSource open_cell_source(const MetadetectRunOptions& options, const MetadetectOptions& measure,
+                                const MetadetectFiles& read);
+
+// The table's schema and identity: its band columns, and the header keys and fingerprint lines of
+// what the run reads and how — the inputs and their digests (each image once), the options and band
+// roles, the PSFEx models, the star catalogue, what every image records of its scene, the run's
+// `cells`. Throws io::ConfigError for an image given twice (the same bytes).
+io::MetadetectWriterOptions metadetect_table_options(const MetadetectRunOptions& options,
+                                                     const std::vector<std::string>& bands,
+                                                     const MetadetectOptions& measure, const MetadetectFiles& read,
+                                                     long long cells);
 
 }  // namespace stampede::app

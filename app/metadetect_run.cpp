@@ -2,35 +2,26 @@
 #include "app/metadetect_run.hpp"
 
 #include <algorithm>
-#include <cmath>
 #include <stdexcept>
 #include <chrono>
-#include <map>
 #include <memory>
 #include <optional>
 
 #include "app/metadetect_input.hpp"
-#include "app/metadetect_option_keys.hpp"
-#include "app/run_fingerprint.hpp"
 #include "app/run_harness.hpp"
-#include "app/version.hpp"
 #include "app/worker_recipe.hpp"
 #include "engine/metadetect/cell_batch.hpp"
 #include "engine/metadetect/cell_batch_measurer.hpp"
 #include "engine/metadetect/sep_detection.hpp"
 #include "engine/pipeline/pipeline.hpp"
-#include "io/cell_image_reader.hpp"
 #include "io/cell_source.hpp"
 #include "io/config_error.hpp"
-#include "io/file_digest.hpp"
-#include "io/option_text.hpp"
 #include "io/fits_file.hpp"
 #include "io/metadetect_package_layout.hpp"
 #include "io/metadetect_reader.hpp"
 #include "io/metadetect_writer.hpp"
 #include "io/output_check.hpp"
 #include "io/output_lock.hpp"
-#include "io/star_catalogue.hpp"
 
 namespace stampede::app {
 namespace {
@@ -86,30 +77,6 @@ std::vector<io::RunInput> inputs_of(const MetadetectRunOptions& options, const M
   for (const std::string& p : read.images.psfex) inputs.push_back({"--psfex", p});
   if (!options.star_mask.empty()) inputs.push_back({"--star-mask", io::fits_root_name(options.star_mask)});
   return inputs;
-}
-
-// What every image records alike of its scene (SHEAR1, SHEAR2, SCNSEED, SCNROT), by which metrics
-// checks a shear pair (app/metadetect_metrics); a key some image lacks or records otherwise is left
-// out. Derived from the inputs, whose digests the fingerprint holds.
-void record_scene(const std::vector<std::string>& files, io::MetadetectWriterOptions* table) {
-  if (files.empty()) return;
-  io::SceneRecord common = io::read_scene_record(files[0]);
-  for (std::size_t k = 1; k < files.size(); ++k) {
-    const io::SceneRecord r = io::read_scene_record(files[k]);
-    if (!(r.g1 == common.g1 && r.g2 == common.g2)) common.g1 = common.g2 = NAN;
-    if (r.seed != common.seed) common.seed.clear();
-    if (r.rotated != common.rotated) common.rotated.clear();
-  }
-  if (std::isfinite(common.g1) && std::isfinite(common.g2)) {
-    table->header.emplace_back("SHEAR1", io::format_double(common.g1));
-    table->header.emplace_back("SHEAR2", io::format_double(common.g2));
-    table->header_types["SHEAR1"] = table->header_types["SHEAR2"] = io::HeaderValueType::kReal;
-  }
-  for (const auto& [key, value] : {std::pair{"SCNSEED", &common.seed}, std::pair{"SCNROT", &common.rotated}})
-    if (!value->empty()) {
-      table->header.emplace_back(key, *value);
-      table->header_types[key] = io::HeaderValueType::kInteger;
-    }
 }
 
 // The complete table's rows rewritten in the reference package's layout, its primary header
@@ -171,61 +138,9 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   const MetadetectFiles read = metadetect_files(options, bands);
   const std::vector<io::OutputLock> locks = protect_outputs(table, outputs_of(options), inputs_of(options, read));
 
-  io::CellSource source = options.tile ? io::CellSource(io::CellSource::Tile{options.inputs}, measure)
-                                       : io::CellSource(read.images, measure);
-  if (!(options.star_margin >= 0 && options.star_margin <= 1000))
-    throw io::ConfigError("--star-margin " + io::format_double(options.star_margin) + ": must be in [0, 1000] pixels");
-  if (!options.star_mask.empty() && !options.star_hdu.empty())
-    throw io::ConfigError("--star-mask and --star-mask-hdu exclude each other: one catalogue for every input, or each "
-                          "image's own");
-  if (!options.star_hdu.empty() && options.tile)
-    throw io::ConfigError("--star-mask-hdu reads each image file's own star table: a --meds cell tile has none");
-  if (!options.star_mask.empty()) source.set_stars(io::read_star_table(options.star_mask, options.star_margin));
-  if (!options.star_hdu.empty()) source.set_star_hdu(options.star_hdu, options.star_margin);
-  io::MetadetectWriterOptions writer_options;
-  writer_options.path = options.output;
-  writer_options.bands = bands;
-  writer_options.header_types = metadetect_header_types();
-  writer_options.header_types["NCELLS"] = io::HeaderValueType::kInteger;
-  std::string& fingerprint = writer_options.fingerprint;
-  fingerprint = "stampede " + std::string(program_version()) + " metadetect\n";
-  const auto record = [&](const std::string& key, const std::string& value, const std::string& line) {
-    writer_options.header.emplace_back(key, value);
-    fingerprint += line + "\n";
-  };
-  record("INPUTS", options.tile ? "cell tile" : "images", options.tile ? "cell tile" : "images");
-  if (!bands.empty()) record("BANDS", io::comma_list(bands), "bands " + io::comma_list(bands));
-  for (const auto& [key, role] : {std::pair{"DETBANDS", &options.detect_bands}, std::pair{"SHRBANDS", &options.shear_bands}})
-    if (!role->empty()) record(key, io::comma_list(*role), std::string(key) + " " + io::comma_list(*role));
-  for (const auto& [key, value] : metadetect_header_keys(measure)) record(key, value, key + "=" + value);
-  const auto record_files = [&](const std::vector<std::string>& files, const char* path_key, const char* digest_key,
-                                const char* role, bool each_once) {
-    std::map<std::string, std::string> seen;  // digest -> the file that has it
-    for (std::size_t i = 0; i < files.size(); ++i) {
-      const std::string d = io::digest_file(files[i]).text(), n = std::to_string(i + 1);
-      // The same image twice (a repeated list line, a link, another spelling, a copy) would be
-      // measured twice, with other fixnoise, as if its cells were independent.
-      if (const auto [at, added] = seen.emplace(d, files[i]); each_once && !added)
-        throw io::ConfigError(std::string(role) + " '" + files[i] + "' holds the same bytes as '" + at->second + "' (" +
-                              d + "): each image once");
-      writer_options.header.emplace_back(path_key + n, files[i]);
-      record(digest_key + n, d, role + (" " + files[i]) + " " + d);
-    }
-  };
-  record_files(read.files, "INPUT", "DIGEST", "input", true);
-  record_files(read.images.psfex, "PSFEX", "PSFEXD", "psfex", false);  // bands may share a model
-  if (!options.star_hdu.empty()) record("STARHDU", options.star_hdu, "star tables " + options.star_hdu);
-  if (!options.star_mask.empty()) {
-    const std::string d = io::digest_file(options.star_mask).text();
-    writer_options.header.emplace_back("STARCAT", options.star_mask);
-    record("STARCATD", d, "star mask " + options.star_mask + " " + d);
-  }
-  if (!options.star_hdu.empty() || !options.star_mask.empty()) {
-    record("STARMARG", io::format_double(options.star_margin), "star margin " + io::format_double(options.star_margin));
-    writer_options.header_types["STARMARG"] = io::HeaderValueType::kReal;
-  }
-  if (!options.tile) record_scene(read.files, &writer_options);
-  writer_options.header.emplace_back("NCELLS", std::to_string(source.total_objects()));
+  io::CellSource source = open_cell_source(options, measure, read);
+  io::MetadetectWriterOptions writer_options =
+      metadetect_table_options(options, bands, measure, read, source.total_objects());
   seal_identity(table, source.total_objects(), &writer_options);
   // SEP's pixel stack is global: sized for a whole cell above the threshold before threads start.
   set_detection_pixel_stack(source.max_cell_pixels());

@@ -2,12 +2,13 @@
 #include "io/metadetect_reader.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
-#include <type_traits>
 
 #include "engine/metacal/metacal_type.hpp"
 #include "io/fits_file.hpp"
+#include "io/metadetect_writer.hpp"
 #include "io/table_join.hpp"
 
 namespace stampede::io {
@@ -89,7 +90,7 @@ struct MetadetectRowReader::State {
   FitsFile file;
   std::vector<std::string> bands;
   long long rows = 0;
-  bool psf_columns = false, noshear_columns = false;
+  std::vector<const MetadetectColumn*> columns;  // the field columns the table has
   std::vector<double> doubles;
   std::vector<long long> integers;
   std::vector<std::string> names;
@@ -104,8 +105,8 @@ MetadetectRowReader::MetadetectRowReader(const std::string& path) {
     throw FitsError(f.describe() + ": NAXIS2 = " + std::to_string(n) + " rows do not fit in the file");
   s_ = std::unique_ptr<State>(new State(std::move(f), n));
   s_->bands = bands_of(s_->file);
-  s_->psf_columns = s_->file.has_column("psf_orig_e1");  // tables written before these columns lack them
-  s_->noshear_columns = s_->file.has_column("x_noshear");  // nor these
+  for (const MetadetectColumn& c : metadetect_field_columns())
+    if (!c.optional || s_->file.has_column(c.name)) s_->columns.push_back(&c);
 }
 MetadetectRowReader::~MetadetectRowReader() = default;
 
@@ -123,15 +124,8 @@ void MetadetectRowReader::read(long long first, std::size_t n, std::vector<Metad
     f.read_column_rows(name, first, std::span<double>(s.doubles));
     for (std::size_t i = 0; i < n; ++i) set(rows[i], s.doubles[i]);
   };
-  auto field = [&](const char* name, double MetadetectRow::*to) {
-    doubles(name, [to](MetadetectRow& r, double v) { r.*to = v; });
-  };
-  auto integers = [&](const char* name, auto MetadetectRow::*to) {
-    f.read_column_rows(name, first, std::span<long long>(s.integers));
-    for (std::size_t i = 0; i < n; ++i)
-      rows[i].*to = static_cast<std::remove_reference_t<decltype(rows[i].*to)>>(s.integers[i]);
-  };
-  integers("cell", &MetadetectRow::cell);
+  f.read_column_rows("cell", first, std::span<long long>(s.integers));
+  for (std::size_t i = 0; i < n; ++i) rows[i].cell = s.integers[i];
   f.read_string_rows("shear_type", first, s.names);
   for (std::size_t i = 0; i < n; ++i) {
     rows[i].shear_type = -1;
@@ -141,37 +135,18 @@ void MetadetectRowReader::read(long long first, std::size_t n, std::vector<Metad
       throw FitsError(f.describe() + ": row " + std::to_string(first + static_cast<long long>(i) + 1) +
                       " has shear_type '" + s.names[i] + "'");
   }
-  integers("id", &MetadetectRow::id);
-  field("x", &MetadetectRow::x);
-  field("y", &MetadetectRow::y);
-  field("u", &MetadetectRow::u);
-  field("v", &MetadetectRow::v);
-  field("e1", &MetadetectRow::e1);
-  field("e2", &MetadetectRow::e2);
-  field("e1_err", &MetadetectRow::e1_err);
-  field("e2_err", &MetadetectRow::e2_err);
-  field("T", &MetadetectRow::t);
-  field("T_ratio", &MetadetectRow::t_ratio);
-  field("psf_T", &MetadetectRow::psf_t);
-  field("flux", &MetadetectRow::flux);
-  field("snr", &MetadetectRow::snr);
-  field("mfrac", &MetadetectRow::mfrac);
-  integers("box_size", &MetadetectRow::box_size);
-  integers("isophotal_area", &MetadetectRow::isophotal_area);
-  integers("sep_flags", &MetadetectRow::sep_flags);
-  integers("flags", &MetadetectRow::flags);
-  if (s.psf_columns) {
-    field("psf_orig_e1", &MetadetectRow::psf_orig_e1);
-    field("psf_orig_e2", &MetadetectRow::psf_orig_e2);
-    field("psf_orig_T", &MetadetectRow::psf_orig_t);
-    field("psf_rec_e1", &MetadetectRow::psf_rec_e1);
-    field("psf_rec_e2", &MetadetectRow::psf_rec_e2);
-  }
-  if (s.noshear_columns) {
-    field("x_noshear", &MetadetectRow::x_noshear);
-    field("y_noshear", &MetadetectRow::y_noshear);
-    integers("bmask", &MetadetectRow::bmask);
-    integers("ormask", &MetadetectRow::ormask);
+  for (const MetadetectColumn* c : s.columns) {
+    if (c->tform[1] == 'J') {  // read as integers: a value that is not one is refused, not rounded
+      f.read_column_rows(c->name, first, std::span<long long>(s.integers));
+      for (std::size_t i = 0; i < n; ++i) {
+        if (s.integers[i] < INT32_MIN || s.integers[i] > UINT32_MAX)  // scaled by TZERO beyond 32 bits
+          throw FitsError(f.describe() + ": row " + std::to_string(first + static_cast<long long>(i) + 1) + " has " +
+                          c->name + " = " + std::to_string(s.integers[i]) + ", beyond 32 bits");
+        c->set(rows[i], static_cast<double>(s.integers[i]));
+      }
+    } else {
+      doubles(c->name, c->set);
+    }
   }
   for (std::size_t b = 0; b < s.bands.size(); ++b) {
     doubles("flux_" + s.bands[b], [b](MetadetectRow& r, double v) { r.band_flux[b] = v; });

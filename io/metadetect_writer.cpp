@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <iterator>
 #include <string_view>
+#include <type_traits>
 
 #include "engine/metacal/metacal_type.hpp"
 #include "io/durable_table.hpp"
@@ -13,52 +14,71 @@
 namespace stampede::io {
 namespace {
 
-struct Column {
-  const char* name;
-  const char* tform;
-  const char* unit;
-  const char* comment;
-};
+// A row field as a column's value (its integers exact in a double).
+template <auto Field>
+double get(const MetadetectRow& r) {
+  return static_cast<double>(r.*Field);
+}
+template <auto Field>
+void set(MetadetectRow& r, double v) {
+  using T = std::remove_reference_t<decltype(r.*Field)>;
+  if constexpr (std::is_integral_v<T>)
+    r.*Field = static_cast<T>(static_cast<long long>(v));  // a 32-bit column's bits (flags' high bit too)
+  else
+    r.*Field = v;
+}
+template <auto Field>
+constexpr MetadetectColumn real(const char* name, const char* unit, const char* comment, bool optional = false) {
+  return {name, "1D", unit, comment, get<Field>, set<Field>, optional};
+}
+template <auto Field>
+constexpr MetadetectColumn integer(const char* name, const char* unit, const char* comment, bool optional = false) {
+  return {name, "1J", unit, comment, get<Field>, set<Field>, optional};
+}
 
-constexpr Column kColumns[] = {
-    {"cell", "1K", "", "cell number in the run (input order)"},
-    {"shear_type", "7A", "", "metacal image: noshear 1p 1m 2p 2m"},
-    {"id", "1J", "", "detection number in its cell and image; -1: the cell failed"},
-    {"x", "1D", "pixel", "centroid (exp, bd: the fit's), 0-based column of the input image"},
-    {"y", "1D", "pixel", "centroid (exp, bd: the fit's), 0-based row of the input image"},
-    {"u", "1D", "arcsec", "x times the pixel scale"},
-    {"v", "1D", "arcsec", "y times the pixel scale"},
-    {"e1", "1D", "", "(Mxx - Myy) / T under the weight; exp, bd: (a - b) / (a + b)"},
-    {"e2", "1D", "", "2 Mxy / T"},
-    {"e1_err", "1D", "", "for white noise of the image's variance"},
-    {"e2_err", "1D", "", "for white noise of the image's variance"},
-    {"T", "1D", "arcsec2", "Mxx + Myy (weighted; pgauss: pre-PSF; exp, bd: the model's)"},
-    {"T_ratio", "1D", "", "T over the reconvolved PSF's T"},
-    {"psf_T", "1D", "arcsec2", "the reconvolved PSF's T under the weight"},
-    {"flux", "1D", "", "sum of weight x pixel values (exp, bd: the model's flux)"},
-    {"snr", "1D", "", "flux over its error"},
-    {"mfrac", "1D", "", "masked share of a Gaussian (FWHM MFRACFW) about it"},
-    {"box_size", "1J", "pixel", "the stamp's side"},
-    {"isophotal_area", "1J", "pixel", "pixels above the detection threshold"},
-    {"sep_flags", "1J", "", "Source Extractor: 1 deblended, 2 on the edge, 8 singular"},
-    {"flags", "1J", "", "1 measurement failed, 2 edge, 4 masked at the detection, 8 cell failed"},
-    {"psf_orig_e1", "1D", "", "the cell's PSF's e1 under the weight (its shape bands')"},
-    {"psf_orig_e2", "1D", "", "the cell's PSF's e2 under the weight"},
-    {"psf_orig_T", "1D", "arcsec2", "the cell's PSF's T under the weight"},
-    {"psf_rec_e1", "1D", "", "the reconvolved PSF's e1 under the weight"},
-    {"psf_rec_e2", "1D", "", "the reconvolved PSF's e2 under the weight"},
-    {"x_noshear", "1D", "pixel", "x carried back through the image's metacal shear to the unsheared image"},
-    {"y_noshear", "1D", "pixel", "y carried back through the image's metacal shear to the unsheared image"},
-    {"bmask", "1J", "", "the input's BMASK bits at the unsheared pixel (bands OR'ed)"},
-    {"ormask", "1J", "", "the input's ORMASK bits at the unsheared pixel (bands OR'ed)"},
+using R = MetadetectRow;
+constexpr bool kLater = true;  // columns that tables written before them lack
+constexpr MetadetectColumn kFieldColumns[] = {
+    integer<&R::id>("id", "", "detection number in its cell and image; -1: the cell failed"),
+    real<&R::x>("x", "pixel", "centroid (exp, bd: the fit's), 0-based column of the input image"),
+    real<&R::y>("y", "pixel", "centroid (exp, bd: the fit's), 0-based row of the input image"),
+    real<&R::u>("u", "arcsec", "x times the pixel scale"),
+    real<&R::v>("v", "arcsec", "y times the pixel scale"),
+    real<&R::e1>("e1", "", "(Mxx - Myy) / T under the weight; exp, bd: (a - b) / (a + b)"),
+    real<&R::e2>("e2", "", "2 Mxy / T"),
+    real<&R::e1_err>("e1_err", "", "for white noise of the image's variance"),
+    real<&R::e2_err>("e2_err", "", "for white noise of the image's variance"),
+    real<&R::t>("T", "arcsec2", "Mxx + Myy (weighted; pgauss: pre-PSF; exp, bd: the model's)"),
+    real<&R::t_ratio>("T_ratio", "", "T over the reconvolved PSF's T"),
+    real<&R::psf_t>("psf_T", "arcsec2", "the reconvolved PSF's T under the weight"),
+    real<&R::flux>("flux", "", "sum of weight x pixel values (exp, bd: the model's flux)"),
+    real<&R::snr>("snr", "", "flux over its error"),
+    real<&R::mfrac>("mfrac", "", "masked share of a Gaussian (FWHM MFRACFW) about it"),
+    integer<&R::box_size>("box_size", "pixel", "the stamp's side"),
+    integer<&R::isophotal_area>("isophotal_area", "pixel", "pixels above the detection threshold"),
+    integer<&R::sep_flags>("sep_flags", "", "Source Extractor: 1 deblended, 2 on the edge, 8 singular"),
+    integer<&R::flags>("flags", "", "1 measurement failed, 2 edge, 4 masked at the detection, 8 cell failed"),
+    real<&R::psf_orig_e1>("psf_orig_e1", "", "the cell's PSF's e1 under the weight (its shape bands')", kLater),
+    real<&R::psf_orig_e2>("psf_orig_e2", "", "the cell's PSF's e2 under the weight", kLater),
+    real<&R::psf_orig_t>("psf_orig_T", "arcsec2", "the cell's PSF's T under the weight", kLater),
+    real<&R::psf_rec_e1>("psf_rec_e1", "", "the reconvolved PSF's e1 under the weight", kLater),
+    real<&R::psf_rec_e2>("psf_rec_e2", "", "the reconvolved PSF's e2 under the weight", kLater),
+    real<&R::x_noshear>("x_noshear", "pixel", "x carried back through the image's metacal shear to the unsheared image",
+                        kLater),
+    real<&R::y_noshear>("y_noshear", "pixel", "y carried back through the image's metacal shear to the unsheared image",
+                        kLater),
+    integer<&R::bmask>("bmask", "", "the input's BMASK bits at the unsheared pixel (bands OR'ed)", kLater),
+    integer<&R::ormask>("ormask", "", "the input's ORMASK bits at the unsheared pixel (bands OR'ed)", kLater),
 };
-constexpr int kNumColumns = static_cast<int>(std::size(kColumns));
+constexpr int kFirstField = 3;  // FITS column number of the first field column (after cell, shear_type)
 
 DurableTableOptions table_options(const MetadetectWriterOptions& o) {
   DurableTableOptions t;
   static_cast<TableWriterOptions&>(t) = o;
   t.extname = "METADETECT";
-  for (const Column& c : kColumns) t.columns.push_back({c.name, c.tform, c.unit, c.comment});
+  t.columns.push_back({"cell", "1K", "", "cell number in the run (input order)"});
+  t.columns.push_back({"shear_type", "7A", "", "metacal image: noshear 1p 1m 2p 2m"});
+  for (const MetadetectColumn& c : kFieldColumns) t.columns.push_back({c.name, c.tform, c.unit, c.comment});
   for (const std::string& b : o.bands) t.columns.push_back({"flux_" + b, "1D", "", "band " + b + ": its stamp's flux under the weight"});
   for (const std::string& b : o.bands) t.columns.push_back({"snr_" + b, "1D", "", "band " + b + ": its stamp's flux over its error"});
   t.layout = "metadetect table";
@@ -69,9 +89,11 @@ DurableTableOptions table_options(const MetadetectWriterOptions& o) {
 
 }  // namespace
 
+std::span<const MetadetectColumn> metadetect_field_columns() { return kFieldColumns; }
+
 std::vector<std::string> metadetect_columns(const std::vector<std::string>& bands) {
-  std::vector<std::string> out;
-  for (const Column& c : kColumns) out.emplace_back(c.name);
+  std::vector<std::string> out = {"cell", "shear_type"};
+  for (const MetadetectColumn& c : kFieldColumns) out.emplace_back(c.name);
   for (const std::string& b : bands) out.push_back("flux_" + b);
   for (const std::string& b : bands) out.push_back("snr_" + b);
   return out;
@@ -99,7 +121,7 @@ struct MetadetectWriter::State {
       fits_write_col(fits, TDOUBLE, col, first, 1, n, f64.data(), &status);
     };
     auto ints = [&](int col, auto get) {
-      for (std::size_t i = 0; i < r.size(); ++i) i32[i] = static_cast<int>(get(r[i]));
+      for (std::size_t i = 0; i < r.size(); ++i) i32[i] = static_cast<int>(static_cast<long long>(get(r[i])));
       fits_write_col(fits, TINT, col, first, 1, n, i32.data(), &status);
     };
     for (std::size_t i = 0; i < r.size(); ++i) i64[i] = r[i].cell;
@@ -107,38 +129,17 @@ struct MetadetectWriter::State {
     for (std::size_t i = 0; i < r.size(); ++i)
       strings[i] = const_cast<char*>(metacal_type_name(static_cast<MetacalType>(r[i].shear_type)));
     fits_write_col(fits, TSTRING, 2, first, 1, n, strings.data(), &status);
-    ints(3, [](const MetadetectRow& x) { return x.id; });
-    doubles(4, [](const MetadetectRow& x) { return x.x; });
-    doubles(5, [](const MetadetectRow& x) { return x.y; });
-    doubles(6, [](const MetadetectRow& x) { return x.u; });
-    doubles(7, [](const MetadetectRow& x) { return x.v; });
-    doubles(8, [](const MetadetectRow& x) { return x.e1; });
-    doubles(9, [](const MetadetectRow& x) { return x.e2; });
-    doubles(10, [](const MetadetectRow& x) { return x.e1_err; });
-    doubles(11, [](const MetadetectRow& x) { return x.e2_err; });
-    doubles(12, [](const MetadetectRow& x) { return x.t; });
-    doubles(13, [](const MetadetectRow& x) { return x.t_ratio; });
-    doubles(14, [](const MetadetectRow& x) { return x.psf_t; });
-    doubles(15, [](const MetadetectRow& x) { return x.flux; });
-    doubles(16, [](const MetadetectRow& x) { return x.snr; });
-    doubles(17, [](const MetadetectRow& x) { return x.mfrac; });
-    ints(18, [](const MetadetectRow& x) { return x.box_size; });
-    ints(19, [](const MetadetectRow& x) { return x.isophotal_area; });
-    ints(20, [](const MetadetectRow& x) { return x.sep_flags; });
-    ints(21, [](const MetadetectRow& x) { return x.flags; });
-    doubles(22, [](const MetadetectRow& x) { return x.psf_orig_e1; });
-    doubles(23, [](const MetadetectRow& x) { return x.psf_orig_e2; });
-    doubles(24, [](const MetadetectRow& x) { return x.psf_orig_t; });
-    doubles(25, [](const MetadetectRow& x) { return x.psf_rec_e1; });
-    doubles(26, [](const MetadetectRow& x) { return x.psf_rec_e2; });
-    doubles(27, [](const MetadetectRow& x) { return x.x_noshear; });
-    doubles(28, [](const MetadetectRow& x) { return x.y_noshear; });
-    ints(29, [](const MetadetectRow& x) { return x.bmask; });
-    ints(30, [](const MetadetectRow& x) { return x.ormask; });
+    int col = kFirstField;
+    for (const MetadetectColumn& c : kFieldColumns) {
+      if (c.tform[1] == 'J')
+        ints(col++, c.get);
+      else
+        doubles(col++, c.get);
+    }
     const int nb = static_cast<int>(options.bands.size());
     for (int b = 0; b < nb; ++b) {
-      doubles(kNumColumns + 1 + b, [b](const MetadetectRow& x) { return x.band_flux[static_cast<std::size_t>(b)]; });
-      doubles(kNumColumns + 1 + nb + b, [b](const MetadetectRow& x) { return x.band_snr[static_cast<std::size_t>(b)]; });
+      doubles(col + b, [b](const MetadetectRow& x) { return x.band_flux[static_cast<std::size_t>(b)]; });
+      doubles(col + nb + b, [b](const MetadetectRow& x) { return x.band_snr[static_cast<std::size_t>(b)]; });
     }
     table->check(status, "write rows to", errno);
   }

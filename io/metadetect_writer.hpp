@@ -7,9 +7,9 @@
 // the cells in header key NCELLSW (its room reserved at creation) and renames the partial to PATH.
 // resume() refuses a checkpoint of another run (the fingerprint: inputs' digests, options, version).
 //
-// Columns (TUNITn, TCOMMn in the header): cell shear_type id x y u v e1 e2 e1_err e2_err T T_ratio
-// psf_T flux snr mfrac box_size isophotal_area sep_flags flags [flux_<band>... snr_<band>...]. Not thread-safe: the pipeline's
-// serial output stage drives it.
+// Columns (TUNITn, TCOMMn in the header): cell, shear_type, the row's fields
+// (metadetect_field_columns: id x y ... flags, the PSF's, the unsheared position and mask bits),
+// then [flux_<band>... snr_<band>...]. Not thread-safe: the pipeline's serial output stage drives it.
 #pragma once
 #include <memory>
 #include <span>
@@ -26,6 +26,20 @@ struct MetadetectWriterOptions : TableWriterOptions {  // path, header and its t
   // others, from each row's band_flux and band_snr.
   std::vector<std::string> bands;
 };
+
+// A column that holds a row's field (every column but cell, shear_type and the bands'): what the
+// writer writes and io/metadetect_reader reads back, listed once.
+struct MetadetectColumn {
+  const char* name;
+  const char* tform;  // "1D" or "1J"
+  const char* unit;
+  const char* comment;
+  double (*get)(const MetadetectRow&);  // the field's value (an integer's exact)
+  void (*set)(MetadetectRow&, double);
+  bool optional;  // added later: a table written before it lacks it (its rows keep the default)
+};
+// In the table's order, after cell and shear_type.
+std::span<const MetadetectColumn> metadetect_field_columns();
 
 // The column names in order (readers and tests).
 std::vector<std::string> metadetect_columns(const std::vector<std::string>& bands = {});
