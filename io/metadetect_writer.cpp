@@ -91,14 +91,6 @@ DurableTableOptions table_options(const MetadetectWriterOptions& o) {
 
 std::span<const MetadetectColumn> metadetect_field_columns() { return kFieldColumns; }
 
-std::vector<std::string> metadetect_columns(const std::vector<std::string>& bands) {
-  std::vector<std::string> out = {"cell", "shear_type"};
-  for (const MetadetectColumn& c : kFieldColumns) out.emplace_back(c.name);
-  for (const std::string& b : bands) out.push_back("flux_" + b);
-  for (const std::string& b : bands) out.push_back("snr_" + b);
-  return out;
-}
-
 struct MetadetectWriter::State {
   MetadetectWriterOptions options;
   DurableTable* table = nullptr;  // the writer's

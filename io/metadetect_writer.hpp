@@ -41,9 +41,6 @@ struct MetadetectColumn {
 // In the table's order, after cell and shear_type.
 std::span<const MetadetectColumn> metadetect_field_columns();
 
-// The column names in order (readers and tests).
-std::vector<std::string> metadetect_columns(const std::vector<std::string>& bands = {});
-
 class MetadetectWriter final : public TableWriter {
  public:
   // Throws CatalogError naming the path.
