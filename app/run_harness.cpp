@@ -186,7 +186,10 @@ PipelineSummary measure_table(const TableRun& run, StampSource& source, long lon
     if (table && !summary.stopped) table->finish();  // stopped: the partials stay, as a kill leaves them
     return summary;
   } catch (...) {
-    finish_distribution();
+    try {
+      finish_distribution();
+    } catch (...) {  // the run's own error is the one to report
+    }
     if (table) table->abandon();
     throw;
   }

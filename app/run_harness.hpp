@@ -85,11 +85,11 @@ struct RunProgress {
 
 // How a run spreads its measurements beyond this process (the MPI driver's ranks). The composition
 // describes its measurer for a worker elsewhere (WorkerRecipe: its kind and key = value lines, from
-// which app/worker_measurers makes the same measurer); the distributor returns the factory the
-// pipeline uses instead of `local` (each measurement here or on a worker), the pipeline's thread
-// count (measurements in flight) and what ends the workers' part of the run. Called once per run,
-// before its first batch. A batch carries everything its measurement needs (a grid's stamps, a
-// survey object's cutouts and PSFs, a cell's bands and planes).
+// which app/worker_recipe's worker_measurers makes the same measurer); the distributor returns the
+// factory the pipeline uses instead of `local` (each measurement here or on a worker), the
+// pipeline's thread count (measurements in flight) and what ends the workers' part of the run.
+// Called once per run, before its first batch. A batch carries everything its measurement needs (a
+// grid's stamps, a survey object's cutouts and PSFs, a cell's bands and planes).
 struct WorkerRecipe {
   std::string kind;  // "fit", "metadetect"
   std::vector<std::pair<std::string, std::string>> lines;
