@@ -9,7 +9,6 @@
 
 #include "app/metadetect_input.hpp"
 #include "app/run_harness.hpp"
-#include "app/worker_recipe.hpp"
 #include "engine/metadetect/cell_batch.hpp"
 #include "engine/metadetect/cell_batch_measurer.hpp"
 #include "engine/metadetect/sep_detection.hpp"
@@ -65,10 +64,11 @@ class CollectingSink : public BatchSink {
   long long failed = 0;
 };
 
-// The run's outputs and every file it reads.
-std::vector<io::RunOutput> outputs_of(const MetadetectRunOptions& options) {
+// The run's outputs (the table, and a job's parts: stampede-mpi's ranks') and every file it reads.
+std::vector<io::RunOutput> outputs_of(const MetadetectRunOptions& options, const std::vector<std::string>& parts) {
   std::vector<io::RunOutput> outputs = {table_output("-o", options.output)};
   if (!options.package_output.empty()) outputs.push_back(table_output("--package-output", options.package_output));
+  for (const std::string& part : parts) outputs.push_back(table_output("-o (a rank's part)", part));
   return outputs;
 }
 std::vector<io::RunInput> inputs_of(const MetadetectRunOptions& options, const MetadetectFiles& read) {
@@ -101,6 +101,19 @@ void write_package_output(const MetadetectRunOptions& options, const MetadetectO
 }
 
 }  // namespace
+
+void write_metadetect_package_output(const MetadetectRunOptions& options) {
+  const std::vector<std::string> bands = metadetect_bands(options);
+  MetadetectOptions measure = options.metadetect;
+  measure.detect_bands = band_role_mask(options.detect_bands, bands, "--detect-bands");
+  measure.shear_bands = band_role_mask(options.shear_bands, bands, "--shear-bands");
+  write_package_output(options, measure, bands);
+}
+
+void check_metadetect_outputs(const MetadetectRunOptions& options, const std::vector<std::string>& parts) {
+  io::check_outputs(outputs_of(options, parts), inputs_of(options, metadetect_files(options, metadetect_bands(options))),
+                    options.overwrite || options.resume);
+}
 
 std::vector<MetadetectRow> metadetect_image(std::span<const io::CellImage> bands, const MetadetectOptions& options,
                                             int threads,
@@ -136,7 +149,7 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   measure.detect_bands = band_role_mask(options.detect_bands, bands, "--detect-bands");
   measure.shear_bands = band_role_mask(options.shear_bands, bands, "--shear-bands");
   const MetadetectFiles read = metadetect_files(options, bands);
-  const std::vector<io::OutputLock> locks = protect_outputs(table, outputs_of(options), inputs_of(options, read));
+  const std::vector<io::OutputLock> locks = protect_outputs(table, outputs_of(options, {}), inputs_of(options, read));
 
   io::CellSource source = open_cell_source(options, measure, read);
   io::MetadetectWriterOptions writer_options =
@@ -160,8 +173,7 @@ MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options) {
   pipeline_options.batch_size = options.cells_per_batch;
   const PipelineSummary ran =
       measure_table(table, shard ? *shard : source, summary.cells_resumed, sink, writer.get(),
-                    [&] { return std::make_unique<CellBatchMeasurer>(measure); }, pipeline_options,
-                    metadetect_worker_recipe(measure, source.max_cell_pixels(), options.cells_per_batch));
+                    [&] { return std::make_unique<CellBatchMeasurer>(measure); }, pipeline_options);
   summary.threads = ran.threads;
   summary.stopped = ran.stopped;
   writer.reset();

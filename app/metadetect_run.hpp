@@ -66,7 +66,6 @@ struct MetadetectRunOptions {
   std::function<void(const std::string&)> on_warning;  // e.g. a resume that found nothing committed
   std::function<void(const RunProgress&)> on_progress;  // at most every progress_interval seconds
   double progress_interval = 0.5;
-  Distributor distribute;  // empty: every cell measured in this process (app/run_harness)
 };
 
 struct MetadetectRunSummary {
@@ -87,8 +86,19 @@ std::vector<MetadetectRow> metadetect_image(std::span<const io::CellImage> bands
                                             int threads,
                                             long long* cells_failed = nullptr);
 
+// The checks run_metadetect makes of its output before any work, for any front end; `parts`: the
+// tables a job writes before joining them into the output (stampede-mpi's ranks' parts). None of
+// them, nor the files written beside them, is an input or --psfex, and an existing output is
+// replaced only with overwrite (or continued with resume). Throws io::ConfigError or io::FileError
+// naming the files.
+void check_metadetect_outputs(const MetadetectRunOptions& options, const std::vector<std::string>& parts = {});
+
 // Throws stampede::Error subclasses (io::FitsError, io::CatalogError, ConfigError) naming the file,
 // HDU, key or option.
 MetadetectRunSummary run_metadetect(const MetadetectRunOptions& options);
+
+// options.output's complete table rewritten in the reference package's layout to
+// options.package_output (what run_metadetect does at its end; stampede-mpi after its merge).
+void write_metadetect_package_output(const MetadetectRunOptions& options);
 
 }  // namespace stampede::app

@@ -122,7 +122,7 @@ struct TableRun {
 };
 
 // The harness's request from a run's options (FitRunOptions, MetadetectRunOptions: each holds these
-// fields under these names).
+// fields under these names; `distribute` where the run has it).
 template <class RunOptions>
 TableRun table_run(const RunOptions& options, std::string extname, const char* unit) {
   TableRun table;
@@ -136,7 +136,7 @@ TableRun table_run(const RunOptions& options, std::string extname, const char* u
   table.on_progress = options.on_progress;
   table.progress_interval = options.progress_interval;
   table.on_warning = options.on_warning;
-  table.distribute = options.distribute;
+  if constexpr (requires { options.distribute; }) table.distribute = options.distribute;
   return table;
 }
 
@@ -175,6 +175,6 @@ std::unique_ptr<StampSource> shard_source(const TableRun& run, StampSource& whol
 // abandons it on an error, and rethrows.
 PipelineSummary measure_table(const TableRun& run, StampSource& source, long long committed, BatchSink& sink,
                               io::TableWriter* table, const MeasurerFactory& make_measurer, PipelineOptions pipeline,
-                              const WorkerRecipe& recipe);
+                              const WorkerRecipe& recipe = {});
 
 }  // namespace stampede::app

@@ -1,6 +1,6 @@
 """MPI-driver benchmark (results in docs/scaling.md): the whole `stampede-mpi fit` job on 1 and 2
 ranks x 1 thread beside the plain `stampede fit` on 1 thread, over one simulated S/N 20 set (40 x 40
-stamps of 39 px, exact renderer), and the same for `stampede-mpi metadetect` over 24 simulated
+stamps of 39 px, exact renderer), and the same for `stampede-mpi metadetect` over 160 simulated
 random-layout cells (the reference test's cells), repetitions interleaved at random; written as
 Google Benchmark JSON (median aggregates) for bench/summarize.py. The driver's overhead per object
 (cell) is the 1-rank job's time per object beyond the plain command's.
@@ -31,10 +31,11 @@ def main():
                        check=True, capture_output=True)
         grid = os.path.join(tmp, "set_0.fits")
         n = 40 * 40
-        cells = 24
+        cells = 160
         subprocess.run([cli, "sim", "cells", "--out", os.path.join(tmp, "cells"), "--cells", str(cells), "--layout",
                         "random"], check=True, capture_output=True)
-        images = sorted(os.path.join(tmp, "cells", f) for f in os.listdir(os.path.join(tmp, "cells")))
+        images = sorted(os.path.join(tmp, "cells", f) for f in os.listdir(os.path.join(tmp, "cells"))
+                        if f.startswith("cell_"))
         md = images + ["--threads", "1", "--quiet", "--overwrite"]
         variants = {
             "BM_FitCommand/threads:1": [cli, "fit", grid, "-o", os.path.join(tmp, "c.fits")] + OPTIONS,

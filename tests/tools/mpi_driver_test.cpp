@@ -139,8 +139,9 @@ TEST_F(MpiDriver, AKilledWorkerRankThenResumeUnderAnotherRankCountGivesTheSameTa
   ASSERT_NE(killed.exit_code, 0) << "the job finished before its worker could be killed";
   ASSERT_FALSE(fs::exists(out));
   ASSERT_TRUE(fs::exists(out + ".checkpoint"));
-  // Resumed by a job of 3 ranks: the one table is rank 0's, so the rank count is not part of the
-  // run and the job continues where the killed one stopped.
+  // Resumed by a job of 3 ranks: a fit's one table is rank 0's, so the rank count is not part of
+  // the run and the job continues where the killed one stopped (metadetect's per-rank parts refuse
+  // another count: RefusesTheOutputsTheSingleProcessRefuses).
   const auto resumed = stampede::testing::finish(spawn_mpi(3, (std::vector<std::string>{kInput, "-o", out, "--resume"} + kOptions),
                                                            path("resumed.txt")),
                                                  path("resumed.txt"));
@@ -293,8 +294,8 @@ TEST_F(MpiDriver, MedsTilesOverTwoRanksWriteTheSingleProcessTable) {
   }
 }
 
-// `stampede-mpi metadetect`, the fit's mode: the single process's table byte for byte (two ranks,
-// and one); a worker rank killed, then --resume under another rank count gives it too.
+// `stampede-mpi metadetect`: the ranks' shards joined are the single process's table, byte for byte
+// (two ranks, and one); a rank killed then --resume gives it too.
 TEST_F(MpiDriver, MetadetectOverTwoRanksWritesTheSingleProcessTable) {
   const auto sim = stampede::testing::finish(
       stampede::testing::spawn({"cells", "--out", path("cells"), "--cells", "12", "--layout", "random"}, path("sim.txt"), "sim"),
@@ -324,15 +325,16 @@ TEST_F(MpiDriver, MetadetectOverTwoRanksWritesTheSingleProcessTable) {
   ASSERT_GT(a.size(), 2880u * 6);
   EXPECT_EQ(a.substr(2880), b.substr(2880));
   EXPECT_FALSE(fs::exists(path("mpi_pkg.fits.partial")));
-  // One rank (`mpirun -n 1`): rank 0 measures every cell itself.
+  EXPECT_FALSE(fs::exists(path("mpi.fits.part-0-of-2.fits")));
+  // One rank (`mpirun -n 1`): its part, a whole table, is the output (merge refused it: no SHARD).
   const auto one = stampede::testing::finish(
       spawn_mpi(1, std::vector<std::string>{"-o", path("one.fits")} + args, path("one.txt"), "metadetect"), path("one.txt"));
   ASSERT_EQ(one.exit_code, 0) << one.err;
   EXPECT_EQ(read_bytes(path("single.fits")), read_bytes(path("one.fits")));
-  // Rank 1 killed once a cell is committed: --resume by a job of 3 ranks finishes the same table
-  // (the one table is rank 0's: the rank count is not part of the run).
+  EXPECT_FALSE(fs::exists(path("one.fits.part-0-of-1.fits")));
+  // Killed when rank 1 has committed a cell: --resume finishes the job with the same table.
   const pid_t job = spawn_mpi(2, std::vector<std::string>{"-o", path("killed.fits")} + args, path("killed.txt"), "metadetect");
-  const std::string checkpoint = path("killed.fits.checkpoint");
+  const std::string checkpoint = path("killed.fits.part-1-of-2.fits.checkpoint");
   pid_t victim = -1;
   for (int i = 0; i < 3000 && victim < 0; ++i) {
     std::ifstream c(checkpoint);
@@ -346,7 +348,7 @@ TEST_F(MpiDriver, MetadetectOverTwoRanksWritesTheSingleProcessTable) {
   kill(victim, SIGKILL);
   EXPECT_NE(stampede::testing::finish(job, path("killed.txt")).exit_code, 0);
   const auto resumed = stampede::testing::finish(
-      spawn_mpi(3, std::vector<std::string>{"-o", path("killed.fits"), "--resume"} + args, path("resumed.txt"), "metadetect"),
+      spawn_mpi(2, std::vector<std::string>{"-o", path("killed.fits"), "--resume"} + args, path("resumed.txt"), "metadetect"),
       path("resumed.txt"));
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
   EXPECT_EQ(read_bytes(path("single.fits")), read_bytes(path("killed.fits")));
@@ -357,8 +359,9 @@ TEST_F(MpiDriver, MetadetectOverTwoRanksWritesTheSingleProcessTable) {
 // What a single process refuses, `mpirun -n 2 stampede-mpi` refuses too, before any work and
 // leaving the files as they were: an output that is an input (with --overwrite or --resume), an
 // input named like the output's partial, another run's complete table or a file that is not a
-// table under --resume. A resume of this run's complete table is skipped by both. (Before: the MPI
-// metadetect mode, which wrote a part per rank, wrote over each of these files.)
+// table under --resume. A resume of this run's complete table is skipped by both; a resume under
+// another number of ranks than the job's parts were written by is refused, and a new job removes
+// such leftovers. (Before: the MPI metadetect mode wrote over each of these files.)
 TEST_F(MpiDriver, RefusesTheOutputsTheSingleProcessRefuses) {
   const auto sim = stampede::testing::finish(
       stampede::testing::spawn({"cells", "--out", path("cells"), "--cells", "3", "--seed", "3"}, path("sim.txt"), "sim"),
@@ -410,4 +413,19 @@ TEST_F(MpiDriver, RefusesTheOutputsTheSingleProcessRefuses) {
       spawn_mpi(2, run + std::vector<std::string>{"--resume"}, path("skip.txt"), "metadetect"), path("skip.txt"));
   EXPECT_EQ(skipped.exit_code, 0) << skipped.err;
   EXPECT_EQ(read_bytes(path("done.fits")), done);
+  // Parts of a job of 3 ranks: a 2-rank resume is refused naming one; a new 2-rank job removes them.
+  const std::string stale = path("job.fits.part-2-of-3.fits");
+  std::ofstream(stale + ".partial") << "a part";
+  std::ofstream(stale + ".checkpoint") << "a checkpoint";
+  const std::vector<std::string> job = std::vector<std::string>{cell0, cell1, "-o", path("job.fits")} + quiet;
+  const auto refused = stampede::testing::finish(
+      spawn_mpi(2, job + std::vector<std::string>{"--resume"}, path("job1.txt"), "metadetect"), path("job1.txt"));
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.err.find("job.fits.part-2-of-3.fits' is a part of a job of another number of ranks"), std::string::npos)
+      << refused.err;
+  EXPECT_TRUE(fs::exists(stale + ".checkpoint"));
+  const auto fresh = stampede::testing::finish(spawn_mpi(2, job, path("job2.txt"), "metadetect"), path("job2.txt"));
+  EXPECT_EQ(fresh.exit_code, 0) << fresh.err;
+  EXPECT_EQ(read_bytes(path("job.fits")), done);
+  EXPECT_FALSE(fs::exists(stale + ".checkpoint") || fs::exists(stale + ".partial"));
 }

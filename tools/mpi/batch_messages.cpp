@@ -7,8 +7,6 @@
 #include <string>
 #include <type_traits>
 
-#include "engine/metadetect/cell_batch.hpp"
-
 namespace stampede::mpi_driver {
 
 namespace {
@@ -17,9 +15,6 @@ static_assert(std::is_trivially_copyable_v<ObjectRecord>, "rows travel as bytes"
 static_assert(std::is_trivially_copyable_v<kernels::MoffatProfile>, "PSFs travel as bytes");
 static_assert(std::is_trivially_copyable_v<kernels::AiryProfile>, "PSFs travel as bytes");
 static_assert(std::is_trivially_copyable_v<PixelFrame>, "frames travel as bytes");
-static_assert(std::is_trivially_copyable_v<CellPlacement>, "cells travel as bytes");
-static_assert(std::is_trivially_copyable_v<StarDisc>, "star discs travel as bytes");
-static_assert(std::is_trivially_copyable_v<MetadetectRow>, "rows travel as bytes");
 
 struct Header {
   int count, arena_objects, arena_bands, arena_observations, any_weighted;
@@ -44,15 +39,6 @@ struct ObservationWire {
   kernels::AiryProfile airy;
   int image_nx, image_ny, image_oversampling, image_pixel_integrated;
   double image_centre_x, image_centre_y;
-};
-
-// One cell of a metadetection batch less its problem text (which follows it).
-struct CellWire {
-  int file, first_observation, bands;
-  CellPlacement place;
-  double pixel_scale, lens_g1, lens_g2;
-  long long noise_offset, bits_offset, mfrac_offset;
-  std::uint64_t first_star, stars, problem_length;
 };
 
 class Writer {
@@ -87,13 +73,6 @@ class Reader {
     if (n > 0) std::memcpy(p, data_ + at_, n * sizeof(T));
     at_ += n * sizeof(T);
   }
-  // n values, the count checked against what is left (a count read from the message).
-  template <class T>
-  void get_counted(std::vector<T>* v, std::uint64_t n) {
-    if (n > (size_ - at_) / sizeof(T)) throw std::runtime_error("MPI batch message is truncated");
-    if (v->size() < n) v->resize(static_cast<std::size_t>(n));
-    get(v->data(), static_cast<std::size_t>(n));
-  }
   template <class T>
   T get() {
     T v;
@@ -112,54 +91,9 @@ class Reader {
   std::size_t at_ = 0;
 };
 
-// A metadetection batch's cells and their planes.
-void pack_cells(const StampBatch& b, Writer& w) {
-  const CellBatch& data = b.payload<CellBatch>();
-  for (int k = 0; k < b.count; ++k) {
-    const CellBatch::Cell& c = data.cells[static_cast<std::size_t>(k)];
-    w.put(CellWire{c.file, c.first_observation, c.bands, c.place, c.pixel_scale, c.lens_g1, c.lens_g2, c.noise_offset,
-                   c.bits_offset, c.mfrac_offset, c.first_star, c.stars, c.problem.size()});
-    w.put(c.problem.data(), c.problem.size());
-  }
-  for (const auto& [values, used] : {std::pair{&data.noise, data.noise_used}, std::pair{&data.mfrac, data.mfrac_used}}) {
-    w.put(static_cast<std::uint64_t>(used));
-    w.put(values->data(), used);
-  }
-  w.put(static_cast<std::uint64_t>(data.bits_used));
-  w.put(data.bits.data(), data.bits_used);
-  w.put(static_cast<std::uint64_t>(data.stars.size()));
-  w.put(data.stars.data(), data.stars.size());
-}
-
-void unpack_cells(Reader& r, int count, StampBatch* b) {
-  CellBatch& data = b->payload<CellBatch>();
-  data.cells.resize(static_cast<std::size_t>(count));
-  for (CellBatch::Cell& c : data.cells) {
-    const CellWire cw = r.get<CellWire>();
-    c.file = cw.file, c.first_observation = cw.first_observation, c.bands = cw.bands, c.place = cw.place;
-    c.pixel_scale = cw.pixel_scale, c.lens_g1 = cw.lens_g1, c.lens_g2 = cw.lens_g2;
-    c.noise_offset = cw.noise_offset, c.bits_offset = cw.bits_offset, c.mfrac_offset = cw.mfrac_offset;
-    c.first_star = static_cast<std::size_t>(cw.first_star), c.stars = static_cast<std::size_t>(cw.stars);
-    r.get_text(&c.problem, cw.problem_length);
-  }
-  for (auto [values, used] : {std::pair{&data.noise, &data.noise_used}, std::pair{&data.mfrac, &data.mfrac_used}}) {
-    const auto n = r.get<std::uint64_t>();
-    r.get_counted(values, n);
-    *used = static_cast<std::size_t>(n);
-  }
-  const auto bits = r.get<std::uint64_t>();
-  r.get_counted(&data.bits, bits);
-  data.bits_used = static_cast<std::size_t>(bits);
-  const auto stars = r.get<std::uint64_t>();
-  data.stars.clear();
-  r.get_counted(&data.stars, stars);
-  for (const CellBatch::Cell& c : data.cells)
-    if (c.first_star + c.stars > data.stars.size()) throw std::runtime_error("MPI batch message: a cell's stars are missing");
-}
-
 }  // namespace
 
-void pack_batch(const StampBatch& b, BatchKind kind, std::vector<char>* out) {
+void pack_batch(const StampBatch& b, std::vector<char>* out) {
   const ObservationArena& arena = b.observations;
   // A grid without a weight map has no weights to send (its arena's weight slots are unused).
   int any_weighted = 0;
@@ -195,10 +129,9 @@ void pack_batch(const StampBatch& b, BatchKind kind, std::vector<char>* out) {
   }
   w.put(arena.pixel_data(), arena.pixels_used());
   if (any_weighted) w.put(arena.weight_data(), arena.pixels_used());
-  if (kind == BatchKind::kCells) pack_cells(b, w);
 }
 
-void unpack_batch(const char* data, std::size_t size, BatchKind kind, StampBatch* b) {
+void unpack_batch(const char* data, std::size_t size, StampBatch* b) {
   Reader r(data, size);
   const Header h = r.get<Header>();
   if (h.count < 0 || h.count > b->capacity() || h.arena_objects < h.count)
@@ -245,37 +178,18 @@ void unpack_batch(const char* data, std::size_t size, BatchKind kind, StampBatch
     throw std::runtime_error("MPI batch message: the observations' pixels do not add up");
   r.get(arena.pixel_data(), arena.pixels_used());
   if (h.any_weighted) r.get(arena.weight_data(), arena.pixels_used());
-  if (kind == BatchKind::kCells) unpack_cells(r, h.count, b);
 }
 
-void pack_results(const StampBatch& b, BatchKind kind, std::vector<char>* out) {
+void pack_results(const StampBatch& b, std::vector<char>* out) {
   Writer w(out);
-  const std::vector<std::string>* problems = &b.problems;
-  if (kind == BatchKind::kCells) {
-    const CellBatch& data = b.payload<CellBatch>();
-    w.put(static_cast<std::uint64_t>(data.rows.size()));
-    w.put(data.rows.data(), data.rows.size());
-    problems = &data.problems;
-  } else {
-    w.put(b.records.data(), static_cast<std::size_t>(b.count));
-  }
-  for (int k = 0; k < b.count; ++k) w.put_text((*problems)[static_cast<std::size_t>(k)]);
+  w.put(b.records.data(), static_cast<std::size_t>(b.count));
+  for (int k = 0; k < b.count; ++k) w.put_text(b.problems[static_cast<std::size_t>(k)]);
 }
 
-void unpack_results(const char* data, std::size_t size, BatchKind kind, StampBatch* b) {
+void unpack_results(const char* data, std::size_t size, StampBatch* b) {
   Reader r(data, size);
-  std::vector<std::string>* problems = &b->problems;
-  if (kind == BatchKind::kCells) {
-    CellBatch& cells = b->payload<CellBatch>();
-    const auto rows = r.get<std::uint64_t>();
-    cells.rows.clear();
-    r.get_counted(&cells.rows, rows);
-    cells.problems.resize(static_cast<std::size_t>(b->count));
-    problems = &cells.problems;
-  } else {
-    r.get(b->records.data(), static_cast<std::size_t>(b->count));
-  }
-  for (int k = 0; k < b->count; ++k) r.get_text(&(*problems)[static_cast<std::size_t>(k)], r.get<std::uint64_t>());
+  r.get(b->records.data(), static_cast<std::size_t>(b->count));
+  for (int k = 0; k < b->count; ++k) r.get_text(&b->problems[static_cast<std::size_t>(k)], r.get<std::uint64_t>());
 }
 
 void pack_recipe(const app::WorkerRecipe& recipe, std::vector<char>* out) {

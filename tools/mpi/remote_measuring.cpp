@@ -83,8 +83,7 @@ void receive_any_size(int source, int tag, std::vector<char>* buffer) {
 // worker.
 class DispatchingMeasurer final : public BatchFitter {
  public:
-  DispatchingMeasurer(app::MeasurerFactory local, SlotPool* pool, BatchKind kind)
-      : make_local_(std::move(local)), pool_(pool), kind_(kind) {}
+  DispatchingMeasurer(app::MeasurerFactory local, SlotPool* pool) : make_local_(std::move(local)), pool_(pool) {}
   void fit(StampBatch& batch) override {
     const Slot s = pool_->acquire();
     try {
@@ -92,12 +91,12 @@ class DispatchingMeasurer final : public BatchFitter {
         if (!local_) local_ = make_local_();
         local_->fit(batch);
       } else {
-        pack_batch(batch, kind_, &message_);
+        pack_batch(batch, &message_);
         check(MPI_Send(message_.data(), static_cast<int>(message_.size()), MPI_BYTE, s.rank, batch_tag(s.index),
                        MPI_COMM_WORLD),
               "send batch");
         receive_any_size(s.rank, results_tag(s.index), &message_);
-        unpack_results(message_.data(), message_.size(), kind_, &batch);
+        unpack_results(message_.data(), message_.size(), &batch);
       }
     } catch (...) {
       pool_->release(s);
@@ -109,14 +108,9 @@ class DispatchingMeasurer final : public BatchFitter {
  private:
   app::MeasurerFactory make_local_;
   SlotPool* pool_;
-  BatchKind kind_;
   std::unique_ptr<BatchFitter> local_;
   std::vector<char> message_;
 };
-
-BatchKind kind_of(const app::WorkerRecipe& recipe) {
-  return recipe.kind == "metadetect" ? BatchKind::kCells : BatchKind::kObjects;
-}
 
 void broadcast_message(std::vector<char> message) {
   long long n = static_cast<long long>(message.size());
@@ -135,7 +129,6 @@ std::vector<char> receive_broadcast() {
 // A worker's part of one run: S slots, each with the run's measurer, until rank 0 says stop.
 void serve_run(const app::WorkerRecipe& recipe, int slots) {
   const app::MeasurerFactory make_measurer = app::worker_measurers(recipe);
-  const BatchKind kind = kind_of(recipe);
   auto serve_slot = [&](int j) {
     const std::unique_ptr<BatchFitter> measurer = make_measurer();
     StampBatch batch(recipe.batch_size);
@@ -143,9 +136,9 @@ void serve_run(const app::WorkerRecipe& recipe, int slots) {
     for (;;) {
       receive_any_size(0, batch_tag(j), &message);
       if (message.empty()) return;
-      unpack_batch(message.data(), message.size(), kind, &batch);
+      unpack_batch(message.data(), message.size(), &batch);
       measurer->fit(batch);
-      pack_results(batch, kind, &message);
+      pack_results(batch, &message);
       check(MPI_Send(message.data(), static_cast<int>(message.size()), MPI_BYTE, 0, results_tag(j), MPI_COMM_WORLD),
             "send results");
     }
@@ -176,8 +169,8 @@ app::Distributor rank0_distributor(int ranks, int threads) {
     auto pool = std::make_shared<SlotPool>(ranks, threads);
     app::Distribution d;
     d.pipeline_threads = ranks * threads;
-    d.make_measurer = [pool, local, kind = kind_of(recipe)]() -> std::unique_ptr<BatchFitter> {
-      return std::make_unique<DispatchingMeasurer>(local, pool.get(), kind);
+    d.make_measurer = [pool, local]() -> std::unique_ptr<BatchFitter> {
+      return std::make_unique<DispatchingMeasurer>(local, pool.get());
     };
     d.finish = [ranks, threads] {  // every slot's pipeline thread has returned: none is in a send
       for (int r = 1; r < ranks; ++r)
