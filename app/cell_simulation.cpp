@@ -10,6 +10,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "engine/pipeline/tsan_annotations.hpp"
 #include "io/cell_image_writer.hpp"
 #include "io/durable_file.hpp"
 #include "io/meds_writer.hpp"
@@ -144,7 +145,9 @@ void write_cell_simulation(const CellSimOptions& options, const CellOutputOption
       const int sign = k % signs;
       const double s = sign == 0 ? 1.0 : -1.0;
       chunk[static_cast<std::size_t>(k)] = sim.simulate(first + k / signs, s * options.g1, s * options.g2, *workspaces.local());
+      STAMPEDE_TSAN_RELEASE(&chunk);  // libtbb's join orders each cell before the writes below
     });
+    STAMPEDE_TSAN_ACQUIRE(&chunk);
     for (int k = 0; k < count * signs; ++k) {
       const SimCell& cell = chunk[static_cast<std::size_t>(k)];
       const int sign = k % signs;
