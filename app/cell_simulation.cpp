@@ -1,16 +1,14 @@
 // Metadetection test cells on disk; see cell_simulation.hpp.
 #include "app/cell_simulation.hpp"
 
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
-
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <mutex>
 #include <stdexcept>
 
-#include "engine/pipeline/tsan_annotations.hpp"
+#include "engine/common/parallel_indices.hpp"
 #include "io/cell_image_writer.hpp"
 #include "io/durable_file.hpp"
 #include "io/meds_writer.hpp"
@@ -132,7 +130,36 @@ void write_cell_simulation(const CellSimOptions& options, const CellOutputOption
                                             io::MedsCutoutType::kBmask, io::MedsCutoutType::kNoise}));
   }
 
-  tbb::enumerable_thread_specific<std::unique_ptr<CellSimulator::Workspace>> workspaces([&] { return sim.make_workspace(); });
+  // Each parallel step's workers lease a workspace (its FFT plans) and return it, so the plans are
+  // made once per concurrent worker, not per step.
+  std::vector<std::unique_ptr<CellSimulator::Workspace>> idle;
+  std::mutex idle_mutex;
+  struct Lease {
+    Lease(std::vector<std::unique_ptr<CellSimulator::Workspace>>* pool, std::mutex* m,
+          std::unique_ptr<CellSimulator::Workspace> w)
+        : idle(pool), mutex(m), workspace(std::move(w)) {}
+    Lease(Lease&&) = default;
+    ~Lease() {
+      if (!workspace) return;
+      std::lock_guard<std::mutex> lock(*mutex);
+      idle->push_back(std::move(workspace));
+    }
+    std::vector<std::unique_ptr<CellSimulator::Workspace>>* idle;
+    std::mutex* mutex;
+    std::unique_ptr<CellSimulator::Workspace> workspace;
+  };
+  const auto lease = [&] {
+    std::unique_ptr<CellSimulator::Workspace> w;
+    {
+      std::lock_guard<std::mutex> lock(idle_mutex);
+      if (!idle.empty()) {
+        w = std::move(idle.back());
+        idle.pop_back();
+      }
+    }
+    if (!w) w = sim.make_workspace();
+    return Lease(&idle, &idle_mutex, std::move(w));
+  };
   const std::size_t npix = static_cast<std::size_t>(options.size) * options.size;
   const std::vector<double> zeros(npix, 0.0);
   std::vector<double> weight(npix);
@@ -141,13 +168,12 @@ void write_cell_simulation(const CellSimOptions& options, const CellOutputOption
   for (int first = 0; first < out.cells; first += kChunk) {
     const int count = std::min(kChunk, out.cells - first);
     chunk.assign(static_cast<std::size_t>(count * signs), SimCell{});
-    tbb::parallel_for(0, count * signs, [&](int k) {
-      const int sign = k % signs;
+    parallel_indices(count * signs, 1, lease, [&](Lease& l, long long k) {
+      const int sign = static_cast<int>(k % signs);
       const double s = sign == 0 ? 1.0 : -1.0;
-      chunk[static_cast<std::size_t>(k)] = sim.simulate(first + k / signs, s * options.g1, s * options.g2, *workspaces.local());
-      STAMPEDE_TSAN_RELEASE(&chunk);  // libtbb's join orders each cell before the writes below
+      chunk[static_cast<std::size_t>(k)] =
+          sim.simulate(first + static_cast<int>(k / signs), s * options.g1, s * options.g2, *l.workspace);
     });
-    STAMPEDE_TSAN_ACQUIRE(&chunk);
     for (int k = 0; k < count * signs; ++k) {
       const SimCell& cell = chunk[static_cast<std::size_t>(k)];
       const int sign = k % signs;
