@@ -1,11 +1,14 @@
 // Metadetection test cells on disk; see cell_simulation.hpp.
 #include "app/cell_simulation.hpp"
 
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
-#include <mutex>
 #include <stdexcept>
 
 #include "engine/common/parallel_indices.hpp"
@@ -130,36 +133,11 @@ void write_cell_simulation(const CellSimOptions& options, const CellOutputOption
                                             io::MedsCutoutType::kBmask, io::MedsCutoutType::kNoise}));
   }
 
-  // Each parallel step's workers lease a workspace (its FFT plans) and return it, so the plans are
-  // made once per concurrent worker, not per step.
-  std::vector<std::unique_ptr<CellSimulator::Workspace>> idle;
-  std::mutex idle_mutex;
-  struct Lease {
-    Lease(std::vector<std::unique_ptr<CellSimulator::Workspace>>* pool, std::mutex* m,
-          std::unique_ptr<CellSimulator::Workspace> w)
-        : idle(pool), mutex(m), workspace(std::move(w)) {}
-    Lease(Lease&&) = default;
-    ~Lease() {
-      if (!workspace) return;
-      std::lock_guard<std::mutex> lock(*mutex);
-      idle->push_back(std::move(workspace));
-    }
-    std::vector<std::unique_ptr<CellSimulator::Workspace>>* idle;
-    std::mutex* mutex;
-    std::unique_ptr<CellSimulator::Workspace> workspace;
-  };
-  const auto lease = [&] {
-    std::unique_ptr<CellSimulator::Workspace> w;
-    {
-      std::lock_guard<std::mutex> lock(idle_mutex);
-      if (!idle.empty()) {
-        w = std::move(idle.back());
-        idle.pop_back();
-      }
-    }
-    if (!w) w = sim.make_workspace();
-    return Lease(&idle, &idle_mutex, std::move(w));
-  };
+  // A workspace (its FFT plans) per concurrent worker, kept across the parallel steps: each step's
+  // workers (at most the arena's concurrency, as parallel_indices starts) take slots 0, 1, ...
+  std::vector<std::unique_ptr<CellSimulator::Workspace>> workspaces(
+      static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency())));
+  std::atomic<int> next_slot{0};
   const std::size_t npix = static_cast<std::size_t>(options.size) * options.size;
   const std::vector<double> zeros(npix, 0.0);
   std::vector<double> weight(npix);
@@ -168,11 +146,14 @@ void write_cell_simulation(const CellSimOptions& options, const CellOutputOption
   for (int first = 0; first < out.cells; first += kChunk) {
     const int count = std::min(kChunk, out.cells - first);
     chunk.assign(static_cast<std::size_t>(count * signs), SimCell{});
-    parallel_indices(count * signs, 1, lease, [&](Lease& l, long long k) {
+    next_slot = 0;
+    parallel_indices(count * signs, 1, [&] { return next_slot++; }, [&](int slot, long long k) {
+      std::unique_ptr<CellSimulator::Workspace>& ws = workspaces[static_cast<std::size_t>(slot)];
+      if (!ws) ws = sim.make_workspace();
       const int sign = static_cast<int>(k % signs);
       const double s = sign == 0 ? 1.0 : -1.0;
       chunk[static_cast<std::size_t>(k)] =
-          sim.simulate(first + static_cast<int>(k / signs), s * options.g1, s * options.g2, *l.workspace);
+          sim.simulate(first + static_cast<int>(k / signs), s * options.g1, s * options.g2, *ws);
     });
     for (int k = 0; k < count * signs; ++k) {
       const SimCell& cell = chunk[static_cast<std::size_t>(k)];

@@ -89,9 +89,10 @@ struct RunProgress {
 // factory the pipeline uses instead of `local` (each measurement here or on a worker), the
 // pipeline's thread count (measurements in flight) and what ends the workers' part of the run.
 // Called once per run, before its first batch. A batch carries everything its measurement needs (a
-// grid's stamps, a survey object's cutouts and PSFs, a cell's bands and planes).
+// grid's stamps, a survey object's cutouts and PSFs). Only the fit distributes today: a
+// metadetection's ranks read and measure shards of their own (docs/run_harness.md, "MPI").
 struct WorkerRecipe {
-  std::string kind;  // "fit", "metadetect"
+  std::string kind;  // "fit"
   std::vector<std::pair<std::string, std::string>> lines;
   int batch_size = 1;
 };

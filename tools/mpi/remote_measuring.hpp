@@ -1,12 +1,12 @@
-// The MPI driver's two roles, one mode for every run that writes a table (fit, metadetect). Rank 0
-// runs the whole command as a single process does (its inputs, the one output table, resume) and
-// measures batches itself on T threads; its pipeline also hands batches to the other ranks, a
-// batch at a time to whichever rank has a free slot, so that ranks stay busy although costs vary
-// several-fold (the pipeline keeps T + (R-1) x S batches in flight, and restores input order
-// before writing). Every other rank is a worker: for each run rank 0 distributes (an input list's
-// files are runs one after another) it receives the run's recipe (app/worker_recipe), makes the
-// run's measurer, and measures the batches it is sent on S = T threads, returning their results.
-// Same recipe, same measurer: the table equals a single process's, whatever R and T.
+// The MPI driver's two roles in `stampede-mpi fit` (metadetect's ranks measure shards of their
+// own: tools/mpi/mpi_main.cpp). Rank 0 runs the whole command as a single process does (its
+// inputs, the one output table, resume) and fits batches itself on T threads; its pipeline also
+// hands batches to the other ranks, a batch at a time to whichever rank has a free slot, so that
+// ranks stay busy although fit costs vary several-fold (the pipeline keeps T + (R-1) x S batches in
+// flight, and restores input order before writing). Every other rank is a worker: when rank 0's run
+// distributes, it receives the run's recipe (app/worker_recipe), makes the run's fitter, and fits
+// the batches it is sent on S = T threads, returning their results. Same recipe, same fitter: the
+// table equals a single process's, whatever R and T.
 //
 // Needs MPI_THREAD_MULTIPLE (several of rank 0's pipeline threads talk to workers at once).
 #pragma once
